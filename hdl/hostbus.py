@@ -1,0 +1,381 @@
+"""The chips' 8-bit host interface and their register maps, defined once.
+
+Every chip of the set (K3701, K3702, the feed path) talks to the 8085 through the same
+8-bit bus and the same register semantics, implemented here once:
+
+* multi-byte registers are little-endian, byte 0 at the register's base address;
+* a write **commits on its last byte** (the most significant one): the lower bytes wait in a
+  shadow register, so the chip never sees half a new value;
+* a read **snapshots on its first byte** (the least significant one): the whole value is
+  latched and the higher bytes are read from the latch, so a counter that keeps running can
+  never be read torn.
+
+A :class:`RegisterMap` is the single source of truth for a chip's registers: the gateware
+(:class:`RegisterBank`), the firmware model's constants and ``docs/registers.md`` all come
+from it.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+
+from amaranth.hdl import Cat, Module, Signal
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
+
+__all__ = [
+    "Access",
+    "Field",
+    "HostBus",
+    "Register",
+    "RegisterBank",
+    "RegisterMap",
+    "RegisterPort",
+]
+
+
+class HostBus(wiring.Signature):
+    """The host (initiator) side of the 8-bit chip bus, sampled on the rising system clock.
+
+    Members
+    -------
+    addr : Out(addr_width)
+        Byte address inside the chip; meaningful while ``w_stb`` or ``r_stb`` is high.
+    w_stb : Out(1)
+        Write strobe: the byte on ``w_data`` is taken at the clock edge that ends the cycle.
+    w_data : Out(8)
+        Write data.
+    r_stb : Out(1)
+        Read strobe: the byte addressed in cycle *t* appears on ``r_data`` in cycle *t* + 1
+        and stays there until the next read.
+    r_data : In(8)
+        Read data, driven by the chip.
+    """
+
+    def __init__(self, addr_width: int):
+        if not isinstance(addr_width, int) or addr_width < 1:
+            raise TypeError(f"addr_width must be a positive integer, not {addr_width!r}")
+        self.addr_width = addr_width
+        super().__init__({
+            "addr": Out(addr_width),
+            "w_stb": Out(1),
+            "w_data": Out(8),
+            "r_stb": Out(1),
+            "r_data": In(8),
+        })
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, HostBus) and other.addr_width == self.addr_width
+
+    def __hash__(self) -> int:
+        return hash(("HostBus", self.addr_width))
+
+    def __repr__(self) -> str:
+        return f"HostBus({self.addr_width})"
+
+
+class Access(enum.Enum):
+    """Who may do what with a register."""
+
+    #: Read only; writes are refused by the host driver and ignored by the chip.
+    R = "r"
+    #: Write only; reads return 0.
+    W = "w"
+    #: Read and write; what a read returns is documented per register (it may differ from
+    #: what was written, e.g. the K3701's X register reads back the remaining distance).
+    RW = "rw"
+
+    @property
+    def readable(self) -> bool:
+        return self is not Access.W
+
+    @property
+    def writable(self) -> bool:
+        return self is not Access.R
+
+
+@dataclass(frozen=True)
+class Field:
+    """A named bit field of a register."""
+
+    name: str
+    offset: int
+    width: int = 1
+    doc: str = ""
+
+    @property
+    def mask(self) -> int:
+        return ((1 << self.width) - 1) << self.offset
+
+    def encode(self, value: int) -> int:
+        """Place ``value`` in this field's bits, refusing what does not fit."""
+        if not 0 <= value < (1 << self.width):
+            raise ValueError(f"field {self.name} is {self.width} bit(s) wide; {value} does not fit")
+        return value << self.offset
+
+    def decode(self, word: int) -> int:
+        """Extract this field from a register value."""
+        return (word >> self.offset) & ((1 << self.width) - 1)
+
+
+@dataclass(frozen=True)
+class Register:
+    """One register of a chip.
+
+    ``width`` is in bits (a multiple of 8). ``doc`` says what writing and reading mean;
+    ``signed`` marks two's complement values.
+    """
+
+    name: str
+    addr: int
+    width: int
+    access: Access
+    doc: str
+    fields: tuple[Field, ...] = ()
+    signed: bool = False
+
+    def __post_init__(self) -> None:
+        if self.width % 8 or not 8 <= self.width <= 32:
+            raise ValueError(f"register {self.name}: width must be 8, 16, 24 or 32 bits, "
+                             f"not {self.width}")
+        used = 0
+        for f in self.fields:
+            if f.offset + f.width > self.width or used & f.mask:
+                raise ValueError(f"register {self.name}: field {f.name} overlaps or overflows")
+            used |= f.mask
+
+    @property
+    def nbytes(self) -> int:
+        return self.width // 8
+
+    def field(self, name: str) -> Field:
+        for f in self.fields:
+            if f.name == name:
+                return f
+        raise KeyError(f"register {self.name} has no field {name!r}")
+
+    def encode(self, **values: int) -> int:
+        """Build a register value from field values: ``CTRL.encode(circular=1, quadrant=2)``."""
+        word = 0
+        for name, value in values.items():
+            word |= self.field(name).encode(value)
+        return word
+
+    def to_bytes(self, value: int) -> list[int]:
+        """The bytes a host writes, in bus order (LSB first, the committing MSB last)."""
+        lo = -(1 << (self.width - 1)) if self.signed else 0
+        hi = (1 << (self.width - 1)) - 1 if self.signed else (1 << self.width) - 1
+        if not lo <= value <= hi:
+            raise ValueError(f"register {self.name}: {value} is outside {lo}..{hi}")
+        raw = value & ((1 << self.width) - 1)
+        return [(raw >> (8 * i)) & 0xFF for i in range(self.nbytes)]
+
+    def from_bytes(self, data: Sequence[int]) -> int:
+        """The value of the bytes a host read, in bus order."""
+        raw = sum(b << (8 * i) for i, b in enumerate(data))
+        if self.signed and raw >> (self.width - 1):
+            raw -= 1 << self.width
+        return raw
+
+
+@dataclass(frozen=True)
+class RegisterMap:
+    """A chip's registers: names, addresses, widths, fields and meaning, in one table."""
+
+    chip: str
+    version: int
+    registers: tuple[Register, ...]
+    doc: str = ""
+    _by_name: dict[str, Register] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        by_name: dict[str, Register] = {}
+        taken: dict[int, str] = {}
+        for reg in self.registers:
+            if reg.name in by_name:
+                raise ValueError(f"{self.chip}: register {reg.name} is defined twice")
+            by_name[reg.name] = reg
+            for a in range(reg.addr, reg.addr + reg.nbytes):
+                if a in taken:
+                    raise ValueError(f"{self.chip}: {reg.name} overlaps {taken[a]} at {a:#x}")
+                taken[a] = reg.name
+        object.__setattr__(self, "_by_name", by_name)
+
+    def __getitem__(self, name: str) -> Register:
+        try:
+            return self._by_name[name]
+        except KeyError:
+            raise KeyError(f"{self.chip} has no register {name!r}") from None
+
+    def __iter__(self):
+        return iter(self.registers)
+
+    @property
+    def size(self) -> int:
+        """Number of byte addresses the map spans."""
+        return max(r.addr + r.nbytes for r in self.registers)
+
+    @property
+    def addr_width(self) -> int:
+        return max(1, (self.size - 1).bit_length())
+
+    def at(self, addr: int) -> tuple[Register, int] | None:
+        """The register and byte index at a byte address, or None where nothing is mapped."""
+        for reg in self.registers:
+            if reg.addr <= addr < reg.addr + reg.nbytes:
+                return reg, addr - reg.addr
+        return None
+
+    def markdown(self) -> str:
+        """The map as a Markdown section (the generator of ``docs/registers.md``)."""
+        lines = [f"## {self.chip} (register map version {self.version})", ""]
+        if self.doc:
+            lines += [self.doc, ""]
+        lines += ["| addr | name | bits | access | meaning |", "|---|---|---|---|---|"]
+        for reg in self.registers:
+            addrs = (f"{reg.addr:#04x}" if reg.nbytes == 1
+                     else f"{reg.addr:#04x}-{reg.addr + reg.nbytes - 1:#04x}")
+            kind = f"{reg.width}{' signed' if reg.signed else ''}"
+            lines.append(f"| {addrs} | {reg.name} | {kind} | {reg.access.value} | {reg.doc} |")
+        for reg in self.registers:
+            if reg.fields:
+                lines += ["", f"### {self.chip} {reg.name} fields", "",
+                          "| bits | field | meaning |", "|---|---|---|"]
+                for f in reg.fields:
+                    bits = (str(f.offset) if f.width == 1
+                            else f"{f.offset + f.width - 1}:{f.offset}")
+                    lines.append(f"| {bits} | {f.name} | {f.doc} |")
+        return "\n".join(lines) + "\n"
+
+
+class RegisterPort(wiring.Signature):
+    """The chip-facing side of one register in a :class:`RegisterBank` (the bank's view).
+
+    Members
+    -------
+    w_data : Out(width), writable registers only
+        The last committed value; holds between writes.
+    w_stb : Out(1), writable registers only
+        High for the one cycle after the committing byte was written (when ``w_data`` first
+        shows the new value).
+    r_data : In(width), readable registers only
+        The value the chip presents; sampled whole when the host reads byte 0.
+    r_stb : Out(1), readable registers only
+        High in the cycle in which the host reads byte 0 (the snapshot cycle).
+    """
+
+    def __init__(self, width: int, access: Access):
+        self.width = width
+        self.access = access
+        members: dict[str, wiring.Member] = {}
+        if access.writable:
+            members |= {"w_data": Out(width), "w_stb": Out(1)}
+        if access.readable:
+            members |= {"r_data": In(width), "r_stb": Out(1)}
+        super().__init__(members)
+
+    def __eq__(self, other: object) -> bool:
+        return (isinstance(other, RegisterPort) and other.width == self.width
+                and other.access == self.access)
+
+    def __hash__(self) -> int:
+        return hash(("RegisterPort", self.width, self.access))
+
+    def __repr__(self) -> str:
+        return f"RegisterPort({self.width}, {self.access})"
+
+
+def _port_name(reg: Register) -> str:
+    return reg.name.lower()
+
+
+class RegisterBank(wiring.Component):
+    """The bus side of a chip: decodes :class:`HostBus` accesses into its registers.
+
+    Writes: byte *k* < n-1 of an n-byte register goes to a shadow byte at the edge that ends
+    the write cycle *t*; the last byte commits the whole value, visible on the register's
+    ``w_data`` with ``w_stb`` high in cycle *t* + 1. Reads: ``r_data`` of cycle *t* + 1 holds
+    the byte addressed in cycle *t*; reading byte 0 latches the register's whole ``r_data``
+    (``r_stb`` high in cycle *t*), bytes 1.. come from that latch. Unmapped addresses and
+    writes to read-only registers are ignored (the host driver refuses them first); reads of
+    write-only registers and unmapped addresses return 0.
+
+    Members
+    -------
+    bus : In(HostBus(regmap.addr_width))
+        The host bus.
+    <register name in lower case> : Out(RegisterPort(width, access))
+        One port per register of the map.
+    """
+
+    def __init__(self, regmap: RegisterMap):
+        self.regmap = regmap
+        members: dict[str, wiring.Member] = {"bus": In(HostBus(regmap.addr_width))}
+        for reg in regmap:
+            members[_port_name(reg)] = Out(RegisterPort(reg.width, reg.access))
+        super().__init__(members)
+
+    def elaborate(self, platform) -> Module:
+        m = Module()
+        bus = self.bus
+        r_data = Signal(8)
+        m.d.comb += bus.r_data.eq(r_data)
+
+        shadows: dict[str, Signal] = {}
+        latches: dict[str, Signal] = {}
+        values: dict[str, Signal] = {}
+        for reg in self.regmap:
+            name = _port_name(reg)
+            port = getattr(self, name)
+            if reg.access.writable:
+                values[name] = Signal(reg.width, name=f"{name}_value")
+                m.d.comb += port.w_data.eq(values[name])
+                m.d.sync += port.w_stb.eq(0)
+                if reg.nbytes > 1:
+                    shadows[name] = Signal(reg.width - 8, name=f"{name}_shadow")
+            if reg.access.readable and reg.nbytes > 1:
+                latches[name] = Signal(reg.width - 8, name=f"{name}_latch")
+
+        with m.Switch(bus.addr):
+            for reg in self.regmap:
+                name = _port_name(reg)
+                port = getattr(self, name)
+                for k in range(reg.nbytes):
+                    with m.Case(reg.addr + k):
+                        if reg.access.writable:
+                            with m.If(bus.w_stb):
+                                if k < reg.nbytes - 1:
+                                    m.d.sync += shadows[name].word_select(k, 8).eq(bus.w_data)
+                                elif name in shadows:
+                                    m.d.sync += [values[name].eq(Cat(shadows[name], bus.w_data)),
+                                                 port.w_stb.eq(1)]
+                                else:
+                                    m.d.sync += [values[name].eq(bus.w_data), port.w_stb.eq(1)]
+                        with m.If(bus.r_stb):
+                            if not reg.access.readable:
+                                m.d.sync += r_data.eq(0)
+                            elif k == 0:
+                                m.d.comb += port.r_stb.eq(1)
+                                m.d.sync += r_data.eq(port.r_data[:8])
+                                if name in latches:
+                                    m.d.sync += latches[name].eq(port.r_data[8:])
+                            else:
+                                m.d.sync += r_data.eq(latches[name].word_select(k - 1, 8))
+            with m.Default():
+                with m.If(bus.r_stb):
+                    m.d.sync += r_data.eq(0)
+        return m
+
+
+def registers_markdown(maps: Iterable[RegisterMap]) -> str:
+    """All chips' register maps as one Markdown document."""
+    parts = ["# K37 register maps", "",
+             "Generated by `k37 registers` from the register tables in `hdl/` "
+             "(do not edit by hand).", "",
+             "Multi-byte registers are little-endian. A write takes effect when its last "
+             "(most significant) byte is written; reading byte 0 (the least significant) "
+             "snapshots the whole register, so read it first.", ""]
+    parts += [rm.markdown() for rm in maps]
+    return "\n".join(parts)

@@ -1,0 +1,78 @@
+"""Amaranth-simulator helpers shared by the tests: running a bench, host-bus accesses.
+
+Waveforms are written only when ``K37_VCD_DIR`` names a folder (one VCD per simulation,
+named after the bench), so a test run leaves nothing behind by default.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Awaitable, Callable
+from pathlib import Path
+from typing import Any
+
+from amaranth.lib import wiring
+from amaranth.sim import Simulator
+
+from hdl.hostbus import Register
+
+__all__ = ["CLOCK_PERIOD", "bus_read", "bus_write", "read_reg", "simulate", "write_reg"]
+
+#: The paper's system clock, 1 MHz.
+CLOCK_PERIOD = 1e-6
+
+Bench = Callable[[Any], Awaitable[None]]
+
+
+def simulate(dut: wiring.Component, *benches: Bench, background: tuple[Bench, ...] = (),
+             name: str | None = None) -> None:
+    """Run ``benches`` (async testbenches) against ``dut`` on a 1 MHz clock until they end.
+
+    ``background`` benches (stimulus sources, plant models) run alongside and are dropped when
+    the foreground benches finish.
+    """
+    sim = Simulator(dut)
+    sim.add_clock(CLOCK_PERIOD)
+    for bench in benches:
+        sim.add_testbench(bench)
+    for bench in background:
+        sim.add_testbench(bench, background=True)
+    vcd_dir = os.environ.get("K37_VCD_DIR")
+    if vcd_dir:
+        label = name or (benches[0].__name__ if benches else type(dut).__name__)
+        path = Path(vcd_dir) / f"{label}.vcd"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with sim.write_vcd(str(path)):
+            sim.run()
+    else:
+        sim.run()
+
+
+async def bus_write(ctx, bus, addr: int, data: int) -> None:
+    """One host write cycle: ``data`` is taken at the edge that ends it."""
+    ctx.set(bus.addr, addr)
+    ctx.set(bus.w_data, data)
+    ctx.set(bus.w_stb, 1)
+    await ctx.tick()
+    ctx.set(bus.w_stb, 0)
+
+
+async def bus_read(ctx, bus, addr: int) -> int:
+    """One host read cycle; returns the byte the chip presents in the following cycle."""
+    ctx.set(bus.addr, addr)
+    ctx.set(bus.r_stb, 1)
+    await ctx.tick()
+    ctx.set(bus.r_stb, 0)
+    return ctx.get(bus.r_data)
+
+
+async def write_reg(ctx, bus, reg: Register, value: int) -> None:
+    """Write a whole register, LSB first (the MSB commits it)."""
+    for k, byte in enumerate(reg.to_bytes(value)):
+        await bus_write(ctx, bus, reg.addr + k, byte)
+
+
+async def read_reg(ctx, bus, reg: Register) -> int:
+    """Read a whole register, LSB first (the LSB snapshots it)."""
+    data = [await bus_read(ctx, bus, reg.addr + k) for k in range(reg.nbytes)]
+    return reg.from_bytes(data)
