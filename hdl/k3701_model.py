@@ -1,0 +1,476 @@
+"""Reference model of the KM3701 interpolator (SPEC section 3), in plain Python.
+
+Two layers:
+
+* :class:`LinearPath` and :class:`CircularPath` state the interpolation algorithms step by
+  step, with no notion of time. :func:`plan` runs a whole block through them and is the
+  exact FP-count calculator the firmware model uses.
+* :class:`K3701Model` adds the chip's timing, cycle by cycle: BUSY, the step latency, the FP
+  credit in half-FP units, the one-FP hold and the overrun bit. The gateware
+  (:mod:`hdl.k3701`) is tested against it cycle by cycle.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+__all__ = [
+    "CIRCLE_SETUP_CYCLES",
+    "COORD_MAX",
+    "LATENCY_CIRCULAR",
+    "LATENCY_LINEAR",
+    "MAX_RADIUS_SQUARED",
+    "Block",
+    "BlockError",
+    "CircularPath",
+    "K3701Model",
+    "K3701Outputs",
+    "Kind",
+    "LinearPath",
+    "Plan",
+    "Step",
+    "make_path",
+    "plan",
+    "quadrant_of",
+    "walk",
+]
+
+#: Largest coordinate magnitude: 2^23 - 1 LSB (-2^23 is invalid).
+COORD_MAX = (1 << 23) - 1
+#: Cycles from the FP that completes a step's credit to the step's output pulses.
+LATENCY_LINEAR = 11
+LATENCY_CIRCULAR = 21
+#: Cycles a circular block spends checking its radius (a serial squarer) before it takes FP.
+CIRCLE_SETUP_CYCLES = 25
+#: Largest valid I^2 + J^2: the digital circle then stays within +-(2^23 - 1).
+MAX_RADIUS_SQUARED = (1 << 46) - (1 << 23)
+
+
+class Kind(enum.IntEnum):
+    """Interpolation type (the control word's TYPE field)."""
+
+    LINEAR = 0
+    CIRCULAR = 1
+
+
+class BlockError(ValueError):
+    """A block the chip refuses (it would set its ERROR status bit and not start)."""
+
+
+@dataclass(frozen=True)
+class Step:
+    """One interpolation step: the moves on each axis (-1, 0, +1)."""
+
+    dx: int
+    dy: int
+
+    @property
+    def diagonal(self) -> bool:
+        return self.dx != 0 and self.dy != 0
+
+
+# Motion signs (dx, dy) inside each quadrant, for CCW and CW.
+_SIGNS = {
+    False: {1: (-1, 1), 2: (-1, -1), 3: (1, -1), 4: (1, 1)},
+    True: {1: (1, -1), 2: (1, 1), 3: (-1, 1), 4: (-1, -1)},
+}
+
+
+def quadrant_of(x: int, y: int, cw: bool) -> int:
+    """Quadrant (1-4) of a point relative to the centre, for motion in direction ``cw``.
+
+    A point on an axis belongs to the quadrant the motion is entering: for CCW, (R, 0) is in
+    quadrant 1 and (0, R) in quadrant 2; for CW, (R, 0) is in quadrant 4 and (0, R) in 1.
+    """
+    if x == 0 and y == 0:
+        raise BlockError("a point at the centre has no quadrant")
+    if not cw:
+        if x > 0 and y >= 0:
+            return 1
+        if x <= 0 and y > 0:
+            return 2
+        if x < 0 and y <= 0:
+            return 3
+        return 4
+    if x >= 0 and y > 0:
+        return 1
+    if x < 0 and y >= 0:
+        return 2
+    if x <= 0 and y < 0:
+        return 3
+    return 4
+
+
+@dataclass(frozen=True)
+class Block:
+    """The data of one block as the host loads it.
+
+    ``xe, ye``: end point relative to the start. ``i, j``: centre relative to the start
+    (circular only). ``quadrant``: the control word's end-point quadrant (circular only).
+    """
+
+    kind: Kind
+    xe: int
+    ye: int
+    i: int = 0
+    j: int = 0
+    cw: bool = False
+    sqrt2: bool = False
+    quadrant: int = 1
+
+    @classmethod
+    def line(cls, xe: int, ye: int, *, sqrt2: bool = False) -> Block:
+        return cls(Kind.LINEAR, xe, ye, sqrt2=sqrt2)
+
+    @classmethod
+    def arc(cls, xe: int, ye: int, i: int, j: int, *, cw: bool = False,
+            sqrt2: bool = False) -> Block:
+        """An arc with its end-point quadrant computed from the end point (as the host does)."""
+        return cls(Kind.CIRCULAR, xe, ye, i, j, cw, sqrt2, quadrant_of(xe - i, ye - j, cw))
+
+    @property
+    def latency(self) -> int:
+        return LATENCY_LINEAR if self.kind is Kind.LINEAR else LATENCY_CIRCULAR
+
+
+def _check_coord(name: str, value: int) -> None:
+    if not -COORD_MAX <= value <= COORD_MAX:
+        raise BlockError(f"{name} = {value} is outside -(2^23-1)..2^23-1")
+
+
+class LinearPath:
+    """Bresenham/DDA on the long axis (the larger |component|, ties to X).
+
+    The short axis moves when the accumulator, started at half the long count, reaches the
+    long count: the short moves fall where the true line crosses a half-LSB, and the block
+    ends exactly at (xe, ye).
+    """
+
+    def __init__(self, xe: int, ye: int):
+        _check_coord("Xe", xe)
+        _check_coord("Ye", ye)
+        self.long_is_x = abs(xe) >= abs(ye)
+        self.n_long = max(abs(xe), abs(ye))
+        self.n_short = min(abs(xe), abs(ye))
+        self.sx = (xe > 0) - (xe < 0)
+        self.sy = (ye > 0) - (ye < 0)
+        self.acc = self.n_long // 2
+        self.left = self.n_long
+
+    @property
+    def done(self) -> bool:
+        return self.left == 0
+
+    def peek(self) -> Step:
+        """The next step (the path must not be done)."""
+        short = self.acc + self.n_short >= self.n_long
+        if self.long_is_x:
+            return Step(self.sx, self.sy if short else 0)
+        return Step(self.sx if short else 0, self.sy)
+
+    def advance(self) -> tuple[Step, bool, bool]:
+        """Take the next step; returns (step, final, error)."""
+        step = self.peek()
+        self.acc += self.n_short
+        if self.acc >= self.n_long:
+            self.acc -= self.n_long
+        self.left -= 1
+        return step, self.left == 0, False
+
+
+class CircularPath:
+    """The incremental circle of SPEC section 3, with D = x^2 + y^2 - R0^2 kept exactly.
+
+    Each step moves the long axis (X where |y| >= |x|, Y where |x| > |y|) one LSB in the
+    direction of motion and also the short axis when that makes |D| strictly smaller. The arc
+    ends when, inside the armed end quadrant, the end point's long-axis coordinate is reached;
+    leaving the armed quadrant without reaching it stops the arc with an error.
+    """
+
+    def __init__(self, xe: int, ye: int, i: int, j: int, cw: bool, quadrant: int):
+        for name, v in (("Xe", xe), ("Ye", ye), ("I", i), ("J", j)):
+            _check_coord(name, v)
+        if i == 0 and j == 0:
+            raise BlockError("the centre equals the start point (radius 0)")
+        if i * i + j * j > MAX_RADIUS_SQUARED:
+            raise BlockError(f"the circle of radius {(i * i + j * j) ** 0.5:.1f} leaves the "
+                             f"24-bit coordinate range")
+        if quadrant not in (1, 2, 3, 4):
+            raise BlockError(f"end-point quadrant must be 1..4, not {quadrant}")
+        self.cw = cw
+        self.x, self.y = -i, -j
+        self.ex, self.ey = xe - i, ye - j
+        if self.ex == 0 and self.ey == 0:
+            raise BlockError("the end point is the centre")
+        if quadrant_of(self.ex, self.ey, cw) != quadrant:
+            raise BlockError(f"end point ({xe}, {ye}) is not in end-point quadrant {quadrant}")
+        self.d = 0
+        self.q = quadrant_of(self.x, self.y, cw)
+        self.end_q = quadrant
+        # The end check looks at the end point's long-axis coordinate.
+        self.end_on_x = abs(self.ey) >= abs(self.ex)
+        self.armed = self.q == self.end_q and self._ahead()
+        self.done = False
+
+    def _ahead(self) -> bool:
+        sx, sy = _SIGNS[self.cw][self.q]
+        if self.end_on_x:
+            return (self.ex - self.x) * sx > 0
+        return (self.ey - self.y) * sy > 0
+
+    def _decide(self) -> tuple[Step, int]:
+        """The next step and the D it leads to."""
+        x, y, d = self.x, self.y, self.d
+        sx, sy = _SIGNS[self.cw][self.q]
+        if abs(y) >= abs(x):
+            d1 = d + 2 * x * sx + 1
+            d2 = d1 + 2 * y * sy + 1
+            return (Step(sx, sy), d2) if abs(d2) < abs(d1) else (Step(sx, 0), d1)
+        d1 = d + 2 * y * sy + 1
+        d2 = d1 + 2 * x * sx + 1
+        return (Step(sx, sy), d2) if abs(d2) < abs(d1) else (Step(0, sy), d1)
+
+    def peek(self) -> Step:
+        """The next step (the path must not be done)."""
+        return self._decide()[0]
+
+    def advance(self) -> tuple[Step, bool, bool]:
+        """Take the next step; returns (step, final, error)."""
+        step, self.d = self._decide()
+        self.x += step.dx
+        self.y += step.dy
+        q = quadrant_of(self.x, self.y, self.cw)
+        if not self.armed and q == self.end_q and q != self.q:
+            self.armed = True
+        self.q = q
+        if self.armed:
+            if q != self.end_q:
+                self.done = True
+                return step, True, True
+            if (self.x == self.ex) if self.end_on_x else (self.y == self.ey):
+                self.done = True
+                return step, True, False
+        return step, False, False
+
+
+def make_path(block: Block) -> LinearPath | CircularPath:
+    """The algorithm for a block; raises :class:`BlockError` for data the chip refuses."""
+    if block.kind is Kind.LINEAR:
+        return LinearPath(block.xe, block.ye)
+    return CircularPath(block.xe, block.ye, block.i, block.j, block.cw, block.quadrant)
+
+
+def walk(block: Block) -> Iterator[Step]:
+    """Every step of a block, in order (an arc that errors out stops at its error)."""
+    path = make_path(block)
+    if isinstance(path, LinearPath):
+        while not path.done:
+            yield path.advance()[0]
+        return
+    final = False
+    while not final:
+        step, final, _ = path.advance()
+        yield step
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What a block does: its step counts, the FP it needs and where it ends."""
+
+    steps: int
+    diagonal: int
+    fp: int
+    end: tuple[int, int]
+    error: bool
+    pulses: dict[str, int]
+
+
+def plan(block: Block) -> Plan:
+    """Run a block through the algorithm: the exact FP count and final point.
+
+    ``fp`` = N_long + ceil(N_diag / 2) with sqrt(2) control, N_long without it. Raises
+    :class:`BlockError` for data the chip refuses; an arc whose end is not on its path comes
+    back with ``error`` set (the chip would stop it with its ERROR bit).
+    """
+    path = make_path(block)
+    if isinstance(path, LinearPath):
+        n, diag, error = path.n_long, path.n_short, False
+        end = (block.xe, block.ye)
+        xp, xn = max(block.xe, 0), max(-block.xe, 0)
+        yp, yn = max(block.ye, 0), max(-block.ye, 0)
+    else:
+        n = diag = xp = xn = yp = yn = 0
+        x0, y0 = path.x, path.y
+        final = error = False
+        while not final:
+            step, final, error = path.advance()
+            n += 1
+            diag += step.dx != 0 and step.dy != 0
+            xp += step.dx > 0
+            xn += step.dx < 0
+            yp += step.dy > 0
+            yn += step.dy < 0
+        end = (path.x - x0, path.y - y0)
+    fp = n + (diag + 1) // 2 if block.sqrt2 else n
+    return Plan(n, diag, fp, end, error, {"x+": xp, "x-": xn, "y+": yp, "y-": yn})
+
+
+@dataclass
+class K3701Outputs:
+    """The chip's outputs in one cycle."""
+
+    x_pos: int = 0
+    x_neg: int = 0
+    y_pos: int = 0
+    y_neg: int = 0
+    busy: int = 0
+    irq: int = 0
+    error: int = 0
+    overrun: int = 0
+    xm: int = 0
+    ym: int = 0
+
+
+class _Phase(enum.Enum):
+    IDLE = 0
+    SETUP = 1
+    RUN = 2
+
+
+class K3701Model:
+    """The K3701 cycle by cycle, from the cycle its START command is seen.
+
+    Call :meth:`cycle` once per clock cycle with that cycle's inputs; it returns the outputs
+    of that cycle (all registered: they depend on earlier cycles only) and advances the state
+    to the next cycle. ``start`` is the block whose START command the chip sees in this cycle
+    (the cycle after the host's last write of the command byte).
+
+    Timing, with S the start cycle:
+
+    * linear: BUSY from S+1, FP taken from S+1; invalid data sets ERROR and the interrupt at
+      S+1 and nothing starts; a zero-length line raises the interrupt at S+1 without BUSY.
+    * circular: BUSY from S+1; the radius is checked by a serial squarer for
+      ``CIRCLE_SETUP_CYCLES`` cycles and the first FP is taken at S+1+CIRCLE_SETUP_CYCLES;
+      invalid data ends the block there with ERROR and the interrupt.
+    * an FP taken in cycle t adds 2 half-FP credits; when the credit reaches the next step's
+      cost (2, or 3 for a diagonal step with sqrt(2) control) the step's pulses come out in
+      cycle t + L and the engine takes its next FP from that cycle on. Before that, one FP is
+      held and a further one sets OVERRUN and is lost.
+    * the final step's pulses, BUSY falling and the interrupt rising share one cycle.
+    """
+
+    def __init__(self, latency_linear: int = LATENCY_LINEAR,
+                 latency_circular: int = LATENCY_CIRCULAR,
+                 circle_setup: int = CIRCLE_SETUP_CYCLES):
+        self.latency = {Kind.LINEAR: latency_linear, Kind.CIRCULAR: latency_circular}
+        self.circle_setup = circle_setup
+        self.out = K3701Outputs()
+        self.phase = _Phase.IDLE
+        self.path: LinearPath | CircularPath | None = None
+        self.block: Block | None = None
+        self.setup_left = 0
+        self.count = 0
+        self.held = False
+        self.credit = 0
+        self.pending: Step | None = None
+
+    def _finish(self, nxt: K3701Outputs, error: bool) -> None:
+        self.phase = _Phase.IDLE
+        self.path = None
+        self.held = False
+        self.count = 0
+        nxt.busy = 0
+        nxt.irq = 1
+        nxt.error |= error
+
+    def _cost(self) -> int:
+        return 3 if self.block.sqrt2 and self.path.peek().diagonal else 2
+
+    def cycle(self, fp: bool = False, start: Block | None = None, ack: bool = False,
+              clear: bool = False) -> K3701Outputs:
+        out = self.out
+        nxt = K3701Outputs(busy=out.busy, irq=out.irq, error=out.error, overrun=out.overrun,
+                           xm=out.xm, ym=out.ym)
+        if ack:
+            nxt.irq = 0
+        if clear:
+            nxt.error = nxt.overrun = 0
+
+        was_idle = self.phase is _Phase.IDLE
+        if self.phase is _Phase.SETUP:
+            if fp:
+                self._hold(nxt)
+            self.setup_left -= 1
+            if self.setup_left == 0:
+                try:
+                    self.path = make_path(self.block)
+                except BlockError:
+                    self._finish(nxt, error=True)
+                else:
+                    self.phase = _Phase.RUN
+        elif self.phase is _Phase.RUN:
+            self._run(fp, nxt)
+
+        if start is not None:
+            if not was_idle:
+                nxt.error = 1
+            else:
+                self._start(start, nxt)
+        self.out = nxt
+        return out
+
+    def _hold(self, nxt: K3701Outputs) -> None:
+        if self.held:
+            nxt.overrun = 1
+        else:
+            self.held = True
+
+    def _start(self, block: Block, nxt: K3701Outputs) -> None:
+        self.block = block
+        self.credit = 0
+        self.held = False
+        self.count = 0
+        nxt.xm, nxt.ym = block.xe, block.ye
+        if block.kind is Kind.CIRCULAR:
+            self.phase = _Phase.SETUP
+            self.setup_left = self.circle_setup
+            nxt.busy = 1
+            return
+        try:
+            self.path = LinearPath(block.xe, block.ye)
+        except BlockError:
+            nxt.irq = nxt.error = 1
+            return
+        if self.path.done:
+            nxt.irq = 1
+            return
+        self.phase = _Phase.RUN
+        nxt.busy = 1
+
+    def _run(self, fp: bool, nxt: K3701Outputs) -> None:
+        if self.count:
+            if fp:
+                self._hold(nxt)
+            self.count -= 1
+            if self.count == 0:
+                step, final, error = self.path.advance()
+                nxt.x_pos, nxt.x_neg = int(step.dx > 0), int(step.dx < 0)
+                nxt.y_pos, nxt.y_neg = int(step.dy > 0), int(step.dy < 0)
+                nxt.xm -= step.dx
+                nxt.ym -= step.dy
+                if final:
+                    self._finish(nxt, error)
+            return
+        if self.held:
+            take = True
+            self.held = fp
+        else:
+            take = fp
+        if take:
+            self.credit += 2
+            cost = self._cost()
+            if self.credit >= cost:
+                self.credit -= cost
+                self.count = self.latency[self.block.kind] - 1
