@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 import random
 
@@ -46,13 +47,13 @@ def fp_source(kind: str, seed: int):
     """An FP stream: cycle -> 0/1."""
     rng = random.Random(seed)
     if kind == "saturated":
-        return lambda t: 1
+        return lambda _t: 1
     if kind == "periodic":
         period = rng.randint(2, 40)
         return lambda t: int(t % period == 0)
     if kind == "random":
         p = rng.uniform(0.02, 0.9)
-        return lambda t: int(rng.random() < p)
+        return lambda _t: int(rng.random() < p)
     bursts = {}
 
     def burst(t: int) -> int:
@@ -236,7 +237,7 @@ def test_saturated_fp_gives_one_step_per_latency(block, latency):
         flags["overrun"] = ctx.get(dut.overrun)
 
     simulate(dut, bench)
-    gaps = {b - a for a, b in zip(steps, steps[1:], strict=False)}
+    gaps = {b - a for a, b in itertools.pairwise(steps)}
     assert gaps == {latency}
     assert 1e6 / gaps.pop() == pytest.approx(1e6 / latency)
     assert flags["overrun"], "saturated FP must overrun the one-FP hold (never silently)"
