@@ -1,0 +1,152 @@
+"""Servo amplifier, motor and encoder of one axis (SPEC section 9), as a simulation model.
+
+The plant is written in Amaranth so that it runs inside the simulated design, identically on
+every backend (Amaranth's simulator, CXXRTL, Verilator), with integer fixed-point arithmetic
+and no per-cycle Python. It is not part of the synthesised chipset.
+
+Fixed point: positions are counts (1 count = 1 LSB = one quadrature state) with
+``FRAC_BITS`` fraction bits; velocities are counts per cycle with the same fraction.
+"""
+
+
+from dataclasses import dataclass
+
+from amaranth.hdl import Module, Mux, Signal, signed
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
+
+__all__ = ["ALPHA_BITS", "FRAC_BITS", "PlantParams", "ServoPlant"]
+
+#: Fraction bits of position and velocity.
+FRAC_BITS = 32
+#: Fraction bits of the velocity-lag coefficient alpha = dt / Tm.
+ALPHA_BITS = 24
+#: Full-scale D/A voltage.
+DAC_VOLTS = 10.0
+
+
+@dataclass(frozen=True)
+class PlantParams:
+    """One axis's servo drive, in physical units, and its fixed-point encoding.
+
+    ``kp``: position-loop gain (1/s); the amplifier's Kv = kp * 2^(N-1) / 10 V follows
+    from it (SPEC section 9). ``tm``: velocity-loop time constant (s, 0 for none).
+    ``max_speed``: speed limit (counts/s, None for none). ``clock_hz``: system clock.
+    """
+
+    kp: float
+    tm: float
+    max_speed: float | None = None
+    clock_hz: float = 1e6
+
+    def __post_init__(self) -> None:
+        if not self.kp > 0:
+            raise ValueError(f"servo kp must be > 0 1/s, not {self.kp!r}")
+        if self.tm < 0:
+            raise ValueError(f"servo tm must be >= 0 s, not {self.tm!r}")
+        if self.max_speed is not None and not self.max_speed > 0:
+            raise ValueError(f"servo max_speed must be > 0 counts/s, not {self.max_speed!r}")
+
+    @property
+    def gain(self) -> int:
+        """Velocity command per count of error, in counts/cycle << FRAC_BITS."""
+        return round(self.kp / self.clock_hz * (1 << FRAC_BITS))
+
+    @property
+    def alpha(self) -> int:
+        """dt / Tm << ALPHA_BITS (1.0 when Tm is shorter than a cycle)."""
+        if self.tm * self.clock_hz <= 1:
+            return 1 << ALPHA_BITS
+        return round((1 << ALPHA_BITS) / (self.tm * self.clock_hz))
+
+    @property
+    def vmax(self) -> int:
+        """Speed limit in counts/cycle << FRAC_BITS (0: none)."""
+        if self.max_speed is None:
+            return 0
+        return max(1, round(self.max_speed / self.clock_hz * (1 << FRAC_BITS)))
+
+    def kv(self, dac_bits: int) -> float:
+        """The amplifier's velocity gain, counts/s per volt."""
+        return self.kp * (1 << (dac_bits - 1)) / DAC_VOLTS
+
+
+class ServoPlant(wiring.Component):
+    """Servo amplifier + motor (first-order velocity lag) + incremental encoder.
+
+    Every cycle: e = dac - 2^(N-1); vc = clamp(e * gain, +-vmax);
+    v += round((vc - v) * alpha / 2^ALPHA_BITS) (0 while stalled); p += v; the encoder count is
+    floor(p) and A/B are its Gray code (count 0: A=0 B=0, 1: 1 0, 2: 1 1, 3: 0 1), so
+    positive motion has A leading B (CCW, normal). All outputs are registered: they show the
+    state after the cycle's update, one cycle after the ``dac`` they follow.
+
+    Members
+    -------
+    dac : In(16)
+        D/A code from the K3702, offset binary, N bits right-aligned.
+    dac_bits : In(5)
+        N, the converter's width (8..16).
+    gain, alpha, vmax : In(32), In(ALPHA_BITS + 1), In(48)
+        Fixed-point parameters, see :class:`PlantParams`.
+    stall : In(1)
+        Fault: the axis is blocked (velocity held at 0).
+    glitch_a, glitch_b : In(1)
+        Fault: invert A (or B) and its complement in this cycle (a noise spike).
+    break_a : In(1)
+        Fault: the /A line is broken (reads as A, not its complement).
+    a, a_n, b, b_n : Out(1)
+        Encoder lines.
+    count : Out(signed(32))
+        The encoder count (floor of the position).
+    velocity : Out(signed(48))
+        Motor velocity, counts/cycle << FRAC_BITS.
+    """
+
+    dac: In(16)
+    dac_bits: In(5)
+    gain: In(32)
+    alpha: In(ALPHA_BITS + 1)
+    vmax: In(48)
+    stall: In(1)
+    glitch_a: In(1)
+    glitch_b: In(1)
+    break_a: In(1)
+    a: Out(1)
+    a_n: Out(1)
+    b: Out(1)
+    b_n: Out(1)
+    count: Out(signed(32))
+    velocity: Out(signed(48))
+
+    def elaborate(self, platform) -> Module:
+        m = Module()
+        position = Signal(signed(32 + FRAC_BITS))
+        err = Signal(signed(18))
+        m.d.comb += err.eq(self.dac - (1 << (self.dac_bits - 1).as_unsigned()))
+        vc_raw = Signal(signed(52))
+        m.d.comb += vc_raw.eq(err * self.gain)
+        vmax = Signal(signed(49))
+        m.d.comb += vmax.eq(self.vmax)
+        limited = self.vmax != 0
+        vc = Signal(signed(52))
+        m.d.comb += vc.eq(Mux(limited & (vc_raw > vmax), vmax,
+                              Mux(limited & (vc_raw < -vmax), -vmax, vc_raw)))
+        delta = Signal(signed(80))
+        m.d.comb += delta.eq((vc - self.velocity) * self.alpha + (1 << (ALPHA_BITS - 1)))
+        v_next = Signal(signed(48))
+        m.d.comb += v_next.eq(Mux(self.stall, 0, self.velocity + (delta >> ALPHA_BITS)))
+        p_next = Signal(signed(32 + FRAC_BITS))
+        m.d.comb += p_next.eq(position + v_next)
+        count = p_next[FRAC_BITS:].as_signed()
+        a = count[0] ^ count[1]
+        b = count[1]
+        m.d.sync += [
+            self.velocity.eq(v_next),
+            position.eq(p_next),
+            self.count.eq(count),
+            self.a.eq(a ^ self.glitch_a),
+            self.a_n.eq(Mux(self.break_a, a ^ self.glitch_a, ~(a ^ self.glitch_a))),
+            self.b.eq(b ^ self.glitch_b),
+            self.b_n.eq(~(b ^ self.glitch_b)),
+        ]
+        return m

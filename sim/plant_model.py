@@ -1,0 +1,44 @@
+"""Reference model of :class:`sim.plant.ServoPlant`: the same fixed-point update, in Python."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from sim.plant import ALPHA_BITS, FRAC_BITS
+
+__all__ = ["ServoPlantModel"]
+
+
+def _wrap(value: int, bits: int) -> int:
+    value &= (1 << bits) - 1
+    return value - (1 << bits) if value >> (bits - 1) else value
+
+
+@dataclass
+class ServoPlantModel:
+    """One axis, advanced one cycle per :meth:`cycle` call; fields are the registered outputs."""
+
+    gain: int
+    alpha: int
+    vmax: int = 0
+    dac_bits: int = 12
+    position: int = 0
+    velocity: int = 0
+
+    @property
+    def count(self) -> int:
+        return _wrap(self.position >> FRAC_BITS, 32)
+
+    def quadrature(self) -> tuple[int, int]:
+        """(A, B) of the current count."""
+        c = self.count
+        return (c ^ (c >> 1)) & 1, (c >> 1) & 1
+
+    def cycle(self, dac: int, stall: bool = False) -> None:
+        err = dac - (1 << (self.dac_bits - 1))
+        vc = err * self.gain
+        if self.vmax:
+            vc = max(-self.vmax, min(self.vmax, vc))
+        delta = (vc - self.velocity) * self.alpha + (1 << (ALPHA_BITS - 1))
+        self.velocity = 0 if stall else _wrap(self.velocity + (delta >> ALPHA_BITS), 48)
+        self.position = _wrap(self.position + self.velocity, 32 + FRAC_BITS)

@@ -1,0 +1,82 @@
+"""The servo plant: gateware equals its fixed-point model; the model obeys the physics."""
+
+import math
+import random
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from sim.plant import FRAC_BITS, PlantParams, ServoPlant
+from sim.plant_model import ServoPlantModel
+from sim.testbench import simulate
+
+
+@settings(max_examples=8, deadline=None, derandomize=True)
+@given(kp=st.floats(5, 200), tm=st.floats(0, 0.002), vmax=st.sampled_from([None, 2e4, 3e5]),
+       dac_bits=st.integers(8, 16), seed=st.integers(0, 2**32))
+def test_plant_gateware_equals_model_cycle_by_cycle(kp, tm, vmax, dac_bits, seed):
+    params = PlantParams(kp=kp, tm=tm, max_speed=vmax)
+    rng = random.Random(seed)
+    dut = ServoPlant()
+    model = ServoPlantModel(params.gain, params.alpha, params.vmax, dac_bits)
+
+    async def bench(ctx):
+        ctx.set(dut.gain, params.gain)
+        ctx.set(dut.alpha, params.alpha)
+        ctx.set(dut.vmax, params.vmax)
+        ctx.set(dut.dac_bits, dac_bits)
+        dac = 1 << (dac_bits - 1)
+        for t in range(400):
+            if t % 37 == 0:
+                dac = rng.randrange(1 << dac_bits)
+            stall = rng.random() < 0.05
+            ctx.set(dut.dac, dac)
+            ctx.set(dut.stall, stall)
+            await ctx.tick()
+            model.cycle(dac, stall)
+            assert ctx.get(dut.velocity) == model.velocity, t
+            assert ctx.get(dut.count) == model.count, t
+            a, b = model.quadrature()
+            assert (ctx.get(dut.a), ctx.get(dut.b)) == (a, b)
+            assert (ctx.get(dut.a_n), ctx.get(dut.b_n)) == (1 - a, 1 - b)
+
+    simulate(dut, bench)
+
+
+def test_velocity_follows_kp_times_error_with_first_order_lag_tm():
+    params = PlantParams(kp=30.0, tm=0.01)
+    model = ServoPlantModel(params.gain, params.alpha, dac_bits=12)
+    error = 500
+    final = params.kp * error  # counts/s
+    speeds = []
+    for _ in range(50_000):  # 5 Tm
+        model.cycle(2048 + error)
+        speeds.append(model.velocity / (1 << FRAC_BITS) * 1e6)
+    at_tm = speeds[10_000 - 1]
+    assert at_tm / final == pytest.approx(1 - math.exp(-1), abs=2e-3)
+    assert speeds[-1] / final == pytest.approx(1 - math.exp(-5), abs=2e-3)
+
+
+def test_speed_limit_clamps_the_velocity_command():
+    params = PlantParams(kp=30.0, tm=0.0, max_speed=10_000.0)
+    model = ServoPlantModel(params.gain, params.alpha, params.vmax, dac_bits=16)
+    for _ in range(100):
+        model.cycle((1 << 15) + 20_000)
+    assert model.velocity / (1 << FRAC_BITS) * 1e6 == pytest.approx(10_000, rel=1e-6)
+
+
+def test_positive_motion_has_a_leading_b():
+    model = ServoPlantModel(PlantParams(kp=100.0, tm=0.0).gain, 1 << 24, dac_bits=12)
+    states = []
+    for _ in range(20_000):
+        model.cycle(2048 + 1000)  # 1e5 counts/s: a count every 10 cycles
+        if not states or states[-1] != model.quadrature():
+            states.append(model.quadrature())
+    assert states[:5] == [(0, 0), (1, 0), (1, 1), (0, 1), (0, 0)]
+
+
+def test_kv_follows_from_kp_and_the_dac_width():
+    assert PlantParams(kp=30.0, tm=0.01).kv(12) == pytest.approx(30 * 2048 / 10)
+    with pytest.raises(ValueError, match="kp must be > 0"):
+        PlantParams(kp=0, tm=0.01)
