@@ -15,12 +15,15 @@ from amaranth.hdl import Module, Mux, Signal, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-__all__ = ["ALPHA_BITS", "FRAC_BITS", "PlantParams", "ServoPlant"]
+__all__ = ["ALPHA_BITS", "FRAC_BITS", "VC_MAX", "PlantParams", "ServoPlant"]
 
 #: Fraction bits of position and velocity.
 FRAC_BITS = 32
 #: Fraction bits of the velocity-lag coefficient alpha = dt / Tm.
 ALPHA_BITS = 24
+#: Velocity command bound: 2^38 = 64 counts per cycle (keeps every product within 64 bits).
+VC_BITS = 38
+VC_MAX = (1 << VC_BITS) - 1
 #: Full-scale D/A voltage.
 DAC_VOLTS = 10.0
 
@@ -74,7 +77,7 @@ class PlantParams:
 class ServoPlant(wiring.Component):
     """Servo amplifier + motor (first-order velocity lag) + incremental encoder.
 
-    Every cycle: e = dac - 2^(N-1); vc = clamp(e * gain, +-vmax);
+    Every cycle: e = dac - 2^(N-1); vc = clamp(e * gain, +-vmax) (vmax 0: 2^38);
     v += round((vc - v) * alpha / 2^ALPHA_BITS) (0 while stalled); p += v; the encoder count is
     floor(p) and A/B are its Gray code (count 0: A=0 B=0, 1: 1 0, 2: 1 1, 3: 0 1), so
     positive motion has A leading B (CCW, normal). All outputs are registered: they show the
@@ -98,7 +101,7 @@ class ServoPlant(wiring.Component):
         Encoder lines.
     count : Out(signed(32))
         The encoder count (floor of the position).
-    velocity : Out(signed(48))
+    velocity : Out(signed(VC_BITS + 1))
         Motor velocity, counts/cycle << FRAC_BITS.
     """
 
@@ -116,24 +119,24 @@ class ServoPlant(wiring.Component):
     b: Out(1)
     b_n: Out(1)
     count: Out(signed(32))
-    velocity: Out(signed(48))
+    velocity: Out(signed(VC_BITS + 1))
 
     def elaborate(self, platform) -> Module:
         m = Module()
         position = Signal(signed(32 + FRAC_BITS))
         err = Signal(signed(18))
         m.d.comb += err.eq(self.dac - (1 << (self.dac_bits - 1).as_unsigned()))
-        vc_raw = Signal(signed(52))
+        # Every product stays within 64 bits (CXXRTL and Verilator then multiply natively):
+        # |vc| <= 2^VC_BITS (64 counts/cycle, far beyond any drive) and alpha <= 2^24.
+        vc_raw = Signal(signed(18 + 32))
         m.d.comb += vc_raw.eq(err * self.gain)
-        vmax = Signal(signed(49))
-        m.d.comb += vmax.eq(self.vmax)
-        limited = self.vmax != 0
-        vc = Signal(signed(52))
-        m.d.comb += vc.eq(Mux(limited & (vc_raw > vmax), vmax,
-                              Mux(limited & (vc_raw < -vmax), -vmax, vc_raw)))
-        delta = Signal(signed(80))
+        vmax = Signal(signed(VC_BITS + 1))
+        m.d.comb += vmax.eq(Mux((self.vmax == 0) | (self.vmax > VC_MAX), VC_MAX, self.vmax))
+        vc = Signal(signed(VC_BITS + 1))
+        m.d.comb += vc.eq(Mux(vc_raw > vmax, vmax, Mux(vc_raw < -vmax, -vmax, vc_raw)))
+        delta = Signal(signed(64))
         m.d.comb += delta.eq((vc - self.velocity) * self.alpha + (1 << (ALPHA_BITS - 1)))
-        v_next = Signal(signed(48))
+        v_next = Signal(signed(VC_BITS + 1))
         m.d.comb += v_next.eq(Mux(self.stall, 0, self.velocity + (delta >> ALPHA_BITS)))
         p_next = Signal(signed(32 + FRAC_BITS))
         m.d.comb += p_next.eq(position + v_next)

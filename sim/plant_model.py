@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sim.plant import ALPHA_BITS, FRAC_BITS
+from sim.plant import ALPHA_BITS, FRAC_BITS, VC_BITS, VC_MAX
 
 __all__ = ["ServoPlantModel"]
 
@@ -36,9 +36,8 @@ class ServoPlantModel:
 
     def cycle(self, dac: int, stall: bool = False) -> None:
         err = dac - (1 << (self.dac_bits - 1))
-        vc = err * self.gain
-        if self.vmax:
-            vc = max(-self.vmax, min(self.vmax, vc))
-        delta = (vc - self.velocity) * self.alpha + (1 << (ALPHA_BITS - 1))
-        self.velocity = 0 if stall else _wrap(self.velocity + (delta >> ALPHA_BITS), 48)
+        vmax = VC_MAX if not self.vmax or self.vmax > VC_MAX else self.vmax
+        vc = max(-vmax, min(vmax, err * self.gain))
+        delta = _wrap((vc - self.velocity) * self.alpha + (1 << (ALPHA_BITS - 1)), 64)
+        self.velocity = 0 if stall else _wrap(self.velocity + (delta >> ALPHA_BITS), VC_BITS + 1)
         self.position = _wrap(self.position + self.velocity, 32 + FRAC_BITS)

@@ -1,0 +1,207 @@
+"""The two-axis chipset (SPEC section 1): every chip on one 8-bit host bus.
+
+Signal flow, with the accel/decel circuit in one of three places::
+
+    FEED (rate multiplier) -> DECEL (FP budget) -> [pre: AccelDecel] -> FP -> K3701
+    K3701 +-X -> [post: AccelDecel] -> K3702 X -> DAC X      encoder X -> +-FB -> K3702 X
+    K3701 +-Y -> [post: AccelDecel] -> K3702 Y -> DAC Y      encoder Y -> +-FB -> K3702 Y
+
+Host bus: an 8085 I/O port address is ``chip select << 5 | register address``; the chip
+selects are :data:`CHIP_SELECTS`, the registers each chip's own map. :func:`port` turns a
+(chip, register) pair into the port address, for the firmware and the docs alike.
+"""
+
+import enum
+
+from amaranth.hdl import Array, Module, Signal, signed
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
+
+from hdl.accel_decel import AccelDecel
+from hdl.decel_control import DECEL_MAP, DecelControl
+from hdl.encoder import ENCODER_MAP, EncoderInterface
+from hdl.feed_rate import FEED_MAP, FeedRate
+from hdl.hostbus import HostBus, RegisterMap
+from hdl.k3701 import K3701, K3701_MAP
+from hdl.k3702 import COUNTER_WIDTH, K3702, K3702_MAP
+
+__all__ = ["AXES", "CHIP_SELECTS", "Accel", "AxisPins", "Chipset", "port"]
+
+#: Address bits of a register inside a chip; the chip select is above them.
+REG_BITS = 5
+AXES = ("x", "y")
+
+
+class Accel(enum.Enum):
+    """Where the exponential accel/decel circuit sits."""
+
+    #: Before the interpolator, on FP ("FP control", the paper's choice).
+    PRE = "pre"
+    #: After the interpolator, one per axis between the K3701 and the K3702.
+    POST = "post"
+    #: No accel/decel circuit.
+    NONE = "none"
+
+
+#: Chip select of each chip instance, and the register map it answers with.
+CHIP_SELECTS: dict[str, tuple[int, RegisterMap]] = {
+    "K3701": (0, K3701_MAP),
+    "K3702_X": (1, K3702_MAP),
+    "K3702_Y": (2, K3702_MAP),
+    "ENCODER_X": (3, ENCODER_MAP),
+    "ENCODER_Y": (4, ENCODER_MAP),
+    "FEED": (5, FEED_MAP),
+    "DECEL": (6, DECEL_MAP),
+}
+
+
+def port(chip: str, register: str, byte: int = 0) -> int:
+    """The 8085 I/O port address of byte ``byte`` of ``register`` of ``chip``."""
+    try:
+        cs, regmap = CHIP_SELECTS[chip]
+    except KeyError:
+        raise KeyError(f"no chip {chip!r}; chips are {', '.join(CHIP_SELECTS)}") from None
+    reg = regmap[register]
+    if not 0 <= byte < reg.nbytes:
+        raise ValueError(f"{chip} {register} has {reg.nbytes} byte(s), not byte {byte}")
+    return cs << REG_BITS | (reg.addr + byte)
+
+
+class AxisPins(wiring.Signature):
+    """One axis's pins towards its servo drive and encoder (the chipset's view).
+
+    Members
+    -------
+    dac : Out(16)
+        D/A word (offset binary, N bits right-aligned).
+    alarm_n : Out(1)
+        ALARM, active low.
+    a, a_n, b, b_n : In(1)
+        Encoder lines.
+    com_pos, com_neg, fb_pos, fb_neg : Out(1)
+        Observation: the command and feedback pulses the K3702 counts.
+    command, error : Out(signed(24))
+        Observation: the K3702's counters.
+    """
+
+    def __init__(self):
+        super().__init__({
+            "dac": Out(16), "alarm_n": Out(1),
+            "a": In(1), "a_n": In(1), "b": In(1), "b_n": In(1),
+            "com_pos": Out(1), "com_neg": Out(1), "fb_pos": Out(1), "fb_neg": Out(1),
+            "command": Out(signed(COUNTER_WIDTH)), "error": Out(signed(COUNTER_WIDTH)),
+        })
+
+
+class Chipset(wiring.Component):
+    """K3701, two K3702, two encoder interfaces and the feed path on one host bus.
+
+    Parameters
+    ----------
+    accel : Accel or str
+        Placement of the accel/decel circuit (``"pre"``, ``"post"`` or ``"none"``).
+    accel_bits : int
+        Accumulator width n of the accel/decel circuit(s) (tau = 2^n / fa).
+
+    Members
+    -------
+    bus : In(HostBus(8))
+        Host bus; address = chip select (3 bits) and register (5 bits). A read's data
+        appears in the following cycle, from the chip that was read.
+    irq_interp : Out(1)
+        K3701 data request (the 8085's RST 7.5 in the firmware model).
+    irq_alarm : Out(1)
+        Either K3702's alarm interrupt (RST 6.5).
+    fp : Out(1)
+        Observation: the feed pulses the K3701 receives.
+    step_x_pos, step_x_neg, step_y_pos, step_y_neg : Out(1)
+        Observation: the K3701's step pulses.
+    x, y : Out(AxisPins())
+        The two axes.
+    """
+
+    def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15):
+        try:
+            self.accel = Accel(accel)
+        except ValueError:
+            raise ValueError(f"accel must be one of pre, post, none, not {accel!r}") from None
+        if not isinstance(accel_bits, int) or not 4 <= accel_bits <= 24:
+            raise ValueError(f"accel_bits must be an integer in 4..24, not {accel_bits!r}")
+        self.accel_bits = accel_bits
+        super().__init__({
+            "bus": In(HostBus(8)),
+            "irq_interp": Out(1), "irq_alarm": Out(1), "fp": Out(1),
+            "step_x_pos": Out(1), "step_x_neg": Out(1),
+            "step_y_pos": Out(1), "step_y_neg": Out(1),
+            "x": Out(AxisPins()), "y": Out(AxisPins()),
+        })
+
+    def elaborate(self, platform) -> Module:
+        m = Module()
+        chips = {
+            "K3701": K3701(),
+            "K3702_X": K3702(), "K3702_Y": K3702(),
+            "ENCODER_X": EncoderInterface(), "ENCODER_Y": EncoderInterface(),
+            "FEED": FeedRate(), "DECEL": DecelControl(),
+        }
+        for name, chip in chips.items():
+            m.submodules[name.lower()] = chip
+        self._decode_bus(m, chips)
+        interp, feed, decel = chips["K3701"], chips["FEED"], chips["DECEL"]
+
+        m.d.comb += decel.inp.eq(feed.out)
+        if self.accel is Accel.PRE:
+            m.submodules.accel = accel = AccelDecel(n=self.accel_bits)
+            m.d.comb += [accel.inp.eq(decel.out), accel.add.eq(feed.fa),
+                         interp.fp.eq(accel.out)]
+        else:
+            m.d.comb += interp.fp.eq(decel.out)
+        m.d.comb += [
+            self.fp.eq(interp.fp),
+            self.step_x_pos.eq(interp.x_pos), self.step_x_neg.eq(interp.x_neg),
+            self.step_y_pos.eq(interp.y_pos), self.step_y_neg.eq(interp.y_neg),
+            self.irq_interp.eq(interp.irq),
+            self.irq_alarm.eq(chips["K3702_X"].irq | chips["K3702_Y"].irq),
+        ]
+
+        for axis in AXES:
+            pins = getattr(self, axis)
+            ctrl = chips[f"K3702_{axis.upper()}"]
+            enc = chips[f"ENCODER_{axis.upper()}"]
+            step_pos, step_neg = getattr(interp, f"{axis}_pos"), getattr(interp, f"{axis}_neg")
+            if self.accel is Accel.POST:
+                post = AccelDecel(n=self.accel_bits, bidirectional=True)
+                m.submodules[f"accel_{axis}"] = post
+                m.d.comb += [post.inp_pos.eq(step_pos), post.inp_neg.eq(step_neg),
+                             post.add.eq(feed.fa)]
+                step_pos, step_neg = post.out_pos, post.out_neg
+            m.d.comb += [
+                ctrl.com_pos.eq(step_pos), ctrl.com_neg.eq(step_neg),
+                enc.a.eq(pins.a), enc.a_n.eq(pins.a_n), enc.b.eq(pins.b), enc.b_n.eq(pins.b_n),
+                ctrl.fb_pos.eq(enc.fb_pos), ctrl.fb_neg.eq(enc.fb_neg),
+                pins.dac.eq(ctrl.dac), pins.alarm_n.eq(ctrl.alarm_n),
+                pins.com_pos.eq(step_pos), pins.com_neg.eq(step_neg),
+                pins.fb_pos.eq(enc.fb_pos), pins.fb_neg.eq(enc.fb_neg),
+                pins.command.eq(ctrl.command), pins.error.eq(ctrl.error),
+            ]
+        return m
+
+    def _decode_bus(self, m: Module, chips: dict) -> None:
+        """Chip selects from the top address bits; read data from the chip last read."""
+        cs = self.bus.addr[REG_BITS:]
+        read_cs = Signal.like(cs)
+        with m.If(self.bus.r_stb):
+            m.d.sync += read_cs.eq(cs)
+        r_data = Array(Signal(8, name=f"r_data_{k}") for k in range(1 << len(cs)))
+        for name, chip in chips.items():
+            select = CHIP_SELECTS[name][0]
+            width = len(chip.bus.addr)
+            hit = (cs == select) & (self.bus.addr[width:REG_BITS] == 0)
+            m.d.comb += [
+                chip.bus.addr.eq(self.bus.addr[:width]),
+                chip.bus.w_data.eq(self.bus.w_data),
+                chip.bus.w_stb.eq(self.bus.w_stb & hit),
+                chip.bus.r_stb.eq(self.bus.r_stb & hit),
+                r_data[select].eq(chip.bus.r_data),
+            ]
+        m.d.comb += self.bus.r_data.eq(r_data[read_cs])

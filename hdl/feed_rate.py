@@ -1,0 +1,72 @@
+"""Feed-rate generator: the rate multiplier, its input-clock divider and the fa divider.
+
+The host sets the feed word and the two dividers through :data:`FEED_MAP`; the blocks inside
+are :class:`hdl.rate_multiplier.RateMultiplier` and :class:`hdl.divider.PhaseDivider`, each
+tested against its own reference model.
+"""
+
+from amaranth.hdl import Module
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out, connect, flipped
+
+from hdl.divider import PhaseDivider
+from hdl.divider_model import FA_INCREMENT
+from hdl.hostbus import Access, HostBus, Register, RegisterBank, RegisterMap
+from hdl.rate_multiplier import RateMultiplier
+
+__all__ = ["DIVIDER_WIDTH", "FEED_MAP", "FeedRate"]
+
+#: Width of both phase-accumulator dividers: f = f_clk * increment / 2^24.
+DIVIDER_WIDTH = 24
+#: Rate multiplier stages: an 18-bit feed word.
+FEED_STAGES = 3
+
+FEED_MAP = RegisterMap("FEED", 1, (
+    Register("FEED", 0x00, 24, Access.RW,
+             f"feed word W: the rate multiplier passes W of every 2^{6 * FEED_STAGES} input "
+             f"clocks", valid=(0, (1 << (6 * FEED_STAGES)) - 1)),
+    Register("RM_INC", 0x03, 24, Access.RW,
+             "rate-multiplier input clock: f_in = f_clk * RM_INC / 2^24 (0 stops the feed)"),
+    Register("FA_INC", 0x06, 24, Access.RW,
+             "accel/decel addition clock: fa = f_clk * FA_INC / 2^24 (reset value: the "
+             "paper's 109.227 kHz at 1 MHz)", init=FA_INCREMENT),
+), doc="Feed-rate generator: an SN7497-style rate multiplier cascade and two phase dividers.")
+
+
+class FeedRate(wiring.Component):
+    """Feed pulses at ``f_clk * RM_INC / 2^24 * FEED / 2^18`` and the fa clock enable.
+
+    Members
+    -------
+    bus : In(HostBus(FEED_MAP.addr_width))
+        Host interface; a register write takes effect from the cycle after its last byte.
+    out : Out(1)
+        Feed pulses (rate multiplier output), one cycle each; the BRM input clock is the
+        RM_INC divider's registered strobe, and the BRM output follows it combinationally.
+    fa : Out(1)
+        Accel/decel addition clock enable (registered).
+    """
+
+    bus: In(HostBus(FEED_MAP.addr_width))
+    out: Out(1)
+    fa: Out(1)
+
+    def elaborate(self, platform) -> Module:
+        m = Module()
+        m.submodules.regs = regs = RegisterBank(FEED_MAP)
+        m.submodules.rm_clock = rm_clock = PhaseDivider(DIVIDER_WIDTH)
+        m.submodules.fa_clock = fa_clock = PhaseDivider(DIVIDER_WIDTH)
+        m.submodules.rate = rate = RateMultiplier(FEED_STAGES)
+        connect(m, flipped(self.bus), regs.bus)
+        m.d.comb += [
+            regs.feed.r_data.eq(regs.feed.w_data),
+            regs.rm_inc.r_data.eq(regs.rm_inc.w_data),
+            regs.fa_inc.r_data.eq(regs.fa_inc.w_data),
+            rm_clock.increment.eq(regs.rm_inc.w_data),
+            fa_clock.increment.eq(regs.fa_inc.w_data),
+            rate.word.eq(regs.feed.w_data),
+            rate.clk_en.eq(rm_clock.stb),
+            self.out.eq(rate.out),
+            self.fa.eq(fa_clock.stb),
+        ]
+        return m

@@ -1,0 +1,111 @@
+"""The simulated machine: the chipset, one servo plant per axis, and observation counters.
+
+This is the design every simulation backend runs. The chipset is the synthesisable part;
+the plants and counters are simulation models. Plant parameters and fault injections are
+input ports, so one compiled model serves every job.
+"""
+
+from amaranth.hdl import Module, Mux, signed
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
+
+from hdl.chipset import AXES, Accel, Chipset
+from hdl.hostbus import HostBus
+from sim.plant import ALPHA_BITS, ServoPlant
+
+__all__ = ["AxisProbe", "System"]
+
+
+class AxisProbe(wiring.Signature):
+    """One axis's plant settings, fault inputs and observations (the system's view).
+
+    Members
+    -------
+    gain, alpha, vmax, dac_bits : In
+        Plant parameters (:class:`sim.plant.PlantParams`).
+    stall, glitch_a, glitch_b, break_a : In(1)
+        Fault injection (see :class:`sim.plant.ServoPlant`).
+    command, error : Out(signed(24))
+        The K3702's counters.
+    count : Out(signed(32))
+        The plant's encoder count (the true position in LSB).
+    dac : Out(16)
+        The D/A word.
+    max_abs_error : Out(24)
+        The largest |error| seen since reset, updated every cycle.
+    pulses_pos, pulses_neg : Out(32)
+        K3701 step pulses on this axis since reset.
+    alarm_n : Out(1)
+        The K3702's ALARM pin.
+    """
+
+    def __init__(self):
+        super().__init__({
+            "gain": In(32), "alpha": In(ALPHA_BITS + 1), "vmax": In(48), "dac_bits": In(5),
+            "stall": In(1), "glitch_a": In(1), "glitch_b": In(1), "break_a": In(1),
+            "command": Out(signed(24)), "error": Out(signed(24)), "count": Out(signed(32)),
+            "dac": Out(16), "max_abs_error": Out(24),
+            "pulses_pos": Out(32), "pulses_neg": Out(32), "alarm_n": Out(1),
+        })
+
+
+class System(wiring.Component):
+    """Chipset + plants. See :class:`hdl.chipset.Chipset` for ``accel`` and ``accel_bits``.
+
+    Members
+    -------
+    bus : In(HostBus(8))
+        The 8085's I/O bus.
+    irq : Out(1)
+        Any interrupt (data request or alarm).
+    irq_interp, irq_alarm : Out(1)
+        The two interrupt lines.
+    fp_total : Out(32)
+        Feed pulses the K3701 received since reset.
+    x, y : Out(AxisProbe())
+        Per-axis plant settings, faults and observations.
+    """
+
+    def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15):
+        self.accel = Accel(accel)
+        self.accel_bits = accel_bits
+        super().__init__({
+            "bus": In(HostBus(8)), "irq": Out(1), "irq_interp": Out(1), "irq_alarm": Out(1),
+            "fp_total": Out(32), "x": Out(AxisProbe()), "y": Out(AxisProbe()),
+        })
+
+    def elaborate(self, platform) -> Module:
+        m = Module()
+        m.submodules.chipset = chip = Chipset(accel=self.accel, accel_bits=self.accel_bits)
+        wiring.connect(m, wiring.flipped(self.bus), chip.bus)
+        m.d.comb += [
+            self.irq_interp.eq(chip.irq_interp), self.irq_alarm.eq(chip.irq_alarm),
+            self.irq.eq(chip.irq_interp | chip.irq_alarm),
+        ]
+        with m.If(chip.fp):
+            m.d.sync += self.fp_total.eq(self.fp_total + 1)
+        for axis in AXES:
+            probe, pins = getattr(self, axis), getattr(chip, axis)
+            plant = m.submodules[f"plant_{axis}"] = ServoPlant()
+            m.d.comb += [
+                plant.dac.eq(pins.dac), plant.dac_bits.eq(probe.dac_bits),
+                plant.gain.eq(probe.gain), plant.alpha.eq(probe.alpha),
+                plant.vmax.eq(probe.vmax), plant.stall.eq(probe.stall),
+                plant.glitch_a.eq(probe.glitch_a), plant.glitch_b.eq(probe.glitch_b),
+                plant.break_a.eq(probe.break_a),
+                pins.a.eq(plant.a), pins.a_n.eq(plant.a_n),
+                pins.b.eq(plant.b), pins.b_n.eq(plant.b_n),
+                probe.command.eq(pins.command), probe.error.eq(pins.error),
+                probe.count.eq(plant.count), probe.dac.eq(pins.dac),
+                probe.alarm_n.eq(pins.alarm_n),
+            ]
+            magnitude = Mux(pins.error < 0, -pins.error, pins.error)
+            with m.If(magnitude > probe.max_abs_error):
+                m.d.sync += probe.max_abs_error.eq(magnitude)
+            step_pos = getattr(chip, f"step_{axis}_pos")
+            step_neg = getattr(chip, f"step_{axis}_neg")
+            with m.If(step_pos):
+                m.d.sync += probe.pulses_pos.eq(probe.pulses_pos + 1)
+            with m.If(step_neg):
+                m.d.sync += probe.pulses_neg.eq(probe.pulses_neg + 1)
+        return m
