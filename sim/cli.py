@@ -21,10 +21,68 @@ def _cmd_registers(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_run(args: argparse.Namespace) -> int:
+    from firmware_model.firmware import FirmwareError
+    from firmware_model.gcode import GcodeError
+    from firmware_model.job import JobError, load_job
+    from sim.output import write_outputs
+    from sim.run import RunOptions, run_job
+
+    try:
+        job = load_job(args.job)
+        faults = {axis: {"stall": 1} for axis in args.stall}
+        for axis in args.break_line:
+            faults.setdefault(axis, {})["break_a"] = 1
+        options = RunOptions(backend=args.backend, max_cycles=args.max_cycles,
+                             sample_every=args.sample_every, vcd=args.vcd,
+                             vcd_start=args.vcd_start, vcd_stop=args.vcd_stop,
+                             progress=sys.stderr.isatty() and not args.quiet, faults=faults)
+        result = run_job(job, options)
+    except (JobError, GcodeError, FirmwareError) as e:
+        print(f"k37: error: {e}", file=sys.stderr)
+        return 2
+    write_outputs(result, json_path=args.json, trace=args.trace, plot=args.plot,
+                  gtkw=args.gtkw, vcd=args.vcd, quiet=args.quiet)
+    return 0 if result.ok else 1
+
+
+def _positive_int(text: str) -> int:
+    value = int(text.replace("_", ""))
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, not {text}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="k37", description="Cycle-accurate emulator of the TOKO KM3701/KM3702 NC chipset.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("run", help="run a job (TOML or G-code); no job: the built-in demo")
+    p.add_argument("job", nargs="?", help="job file: .toml, or G-code run on the default machine")
+    p.add_argument("--backend", choices=["auto", "pysim", "cxxrtl"], default="auto",
+                   help="simulation backend (auto: compiled when a C++ compiler exists)")
+    p.add_argument("--max-cycles", type=_positive_int, default=10**9,
+                   help="stop after this many clock cycles (default 1e9)")
+    p.add_argument("--sample-every", type=_positive_int, default=1000,
+                   help="sample the machine every N cycles for trace, plot and path error")
+    p.add_argument("--json", metavar="PATH", help="write the JSON report ('-': stdout)")
+    p.add_argument("--trace", metavar="PATH.csv", type=Path, help="write the samples as CSV")
+    p.add_argument("--plot", metavar="PATH.png", type=Path,
+                   help="plot path, radial error, axis speeds and DAC volts")
+    p.add_argument("--vcd", metavar="PATH", type=Path, help="write a VCD waveform")
+    p.add_argument("--vcd-start", type=int, default=0, metavar="CYCLE",
+                   help="first cycle of the VCD window")
+    p.add_argument("--vcd-stop", type=int, default=None, metavar="CYCLE",
+                   help="end of the VCD window (exclusive; default: the end of the run)")
+    p.add_argument("--gtkw", metavar="PATH", type=Path,
+                   help="write a GTKWave save file for the VCD (needs --vcd)")
+    p.add_argument("--stall", action="append", default=[], choices=["x", "y"],
+                   help="fault: block this axis's motor")
+    p.add_argument("--break-line", action="append", default=[], choices=["x", "y"],
+                   help="fault: break this axis's /A encoder line")
+    p.add_argument("-q", "--quiet", action="store_true", help="no summary, no progress bar")
+    p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("registers", help="print the register maps of every chip (Markdown)")
     p.add_argument("-o", "--output", help="write to this file instead of standard output")

@@ -1,0 +1,296 @@
+"""The 8085 host firmware, following the paper's flow chart (Fig. 10).
+
+Main line: clear all status, set the mode, initialise the interpolator and the position
+controllers, then for each block: take it, load it, start it and wait. The interrupt routine
+serves the K3701's data request (the block ended: next block) and the K3702's alarm (stop
+the feed, report). All chip access goes through :class:`firmware_model.host.Host8085`, so
+every register access costs the 8085's T-states and the firmware runs unchanged on every
+simulation backend.
+
+Before anything is loaded, :func:`check_program` refuses what the hardware cannot do: a feed
+above the interpolator's step rate or below the rate multiplier's resolution, an FP budget
+beyond 24 bits.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from firmware_model.gcode import Arc, Dwell, Item, Line, Program
+from firmware_model.host import Host8085
+from firmware_model.job import AXES, Job, MachineConfig
+from hdl.decel_control import BUDGET_WIDTH
+from hdl.divider_model import increment_for
+from hdl.feed_rate import DIVIDER_WIDTH, FEED_STAGES
+from hdl.k3701 import K3701_MAP
+from hdl.k3701_model import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
+
+__all__ = ["AlarmEvent", "BlockRecord", "Firmware", "FirmwareError", "check_program",
+           "feed_word", "max_feed_mm_min"]
+
+#: Rate-multiplier input clock: one input clock per linear step time, so the FP stream into
+#: the K3701 never has two pulses closer than the linear step latency.
+RM_CLOCK_DIVISOR = LATENCY_LINEAR
+FEED_BITS = 6 * FEED_STAGES
+
+
+class FirmwareError(ValueError):
+    """A program the hardware cannot run; one line naming the block and the problem."""
+
+
+@dataclass
+class BlockRecord:
+    """What one block did (filled in as it runs)."""
+
+    index: int
+    line: int
+    kind: str
+    start_cycle: int
+    fp_budget: int
+    feed_word: int
+    end_cycle: int | None = None
+    fp_pulses: int = 0
+    steps: dict[str, int] = field(default_factory=dict)
+    end_command: tuple[int, int] | None = None
+
+
+@dataclass
+class AlarmEvent:
+    """An alarm or fault the firmware saw."""
+
+    axis: str | None
+    cycle: int
+    kind: str
+
+
+def rm_clock_hz(machine: MachineConfig) -> float:
+    """The rate multiplier's input clock."""
+    return machine.clock_hz / RM_CLOCK_DIVISOR
+
+
+def max_feed_mm_min(machine: MachineConfig, kind: Kind) -> float:
+    """The highest feed the K3701 follows: one FP per step latency (SPEC section 3)."""
+    latency = LATENCY_LINEAR if kind is Kind.LINEAR else LATENCY_CIRCULAR
+    return machine.clock_hz / latency * machine.lsb_mm * 60
+
+
+def feed_word(machine: MachineConfig, feed_mm_min: float) -> int:
+    """The 18-bit rate-multiplier word for a feed: FP/s = f_in * W / 2^18."""
+    fp_per_s = feed_mm_min / 60 / machine.lsb_mm
+    return round(fp_per_s / rm_clock_hz(machine) * (1 << FEED_BITS))
+
+
+def _where(item: Item, program: Program) -> str:
+    return f"{program.source}:{item.line_no}"
+
+
+def _feed_of(item: Line | Arc, machine: MachineConfig) -> float:
+    if isinstance(item, Line) and item.rapid:
+        return machine.rapid_mm_min
+    assert item.feed_mm_min is not None
+    return item.feed_mm_min
+
+
+def check_program(job: Job) -> None:
+    """Refuse, before anything is loaded, every block the hardware cannot run."""
+    machine, program = job.machine, job.program
+    for item in program.items:
+        if isinstance(item, Dwell):
+            continue
+        feed = _feed_of(item, machine)
+        limit = max_feed_mm_min(machine, item.block.kind)
+        if feed > limit:
+            what = "a line" if item.block.kind is Kind.LINEAR else "an arc"
+            raise FirmwareError(
+                f"{_where(item, program)}: feed {feed:g} mm/min is above the K3701's maximum "
+                f"for {what}, {limit:.0f} mm/min (one step per {item.block.latency} cycles "
+                f"at {machine.clock_hz / 1e6:g} MHz)")
+        if feed_word(machine, feed) < 1:
+            lowest = rm_clock_hz(machine) / (1 << FEED_BITS) * machine.lsb_mm * 60
+            raise FirmwareError(f"{_where(item, program)}: feed {feed:g} mm/min is below the "
+                                f"rate multiplier's resolution, {lowest:.3g} mm/min")
+        if item.plan.fp >= 1 << BUDGET_WIDTH:
+            raise FirmwareError(f"{_where(item, program)}: the block needs {item.plan.fp} FP, "
+                                f"more than the 24-bit budget register holds")
+
+
+class Firmware:
+    """The host program of Fig. 10, run against the chipset through ``host``.
+
+    :meth:`run` executes a whole program and returns when it ended, an alarm stopped it, or
+    ``max_cycles`` ran out; ``blocks`` and ``alarms`` say what happened.
+    """
+
+    def __init__(self, host: Host8085, job: Job):
+        check_program(job)
+        self.host = host
+        self.job = job
+        self.blocks: list[BlockRecord] = []
+        self.alarms: list[AlarmEvent] = []
+        self.stopped = False
+        self.timed_out = False
+        self._fp_mark = 0
+        self._pulse_mark: dict[str, int] = {}
+
+    # -- initialisation ----------------------------------------------------------------------
+
+    def initialise(self) -> None:
+        """Clear all status, set the mode, initialise the interpolator and controllers."""
+        host, machine = self.host, self.job.machine
+        host.command("K3701", ack=1, clear=1)
+        host.write("DECEL", "CTRL", 0)
+        host.write("FEED", "FEED", 0)
+        host.write("FEED", "RM_INC", increment_for(rm_clock_hz(machine), width=DIVIDER_WIDTH,
+                                                   f_clk=machine.clock_hz))
+        host.write("FEED", "FA_INC", increment_for(machine.accel_fa_hz, width=DIVIDER_WIDTH,
+                                                   f_clk=machine.clock_hz))
+        for axis in AXES:
+            ctrl, enc = f"K3702_{axis.upper()}", f"ENCODER_{axis.upper()}"
+            host.write(enc, "FILTER", machine.encoder_filter)
+            host.command(enc, clear=1)
+            host.write(ctrl, "DAC_BITS", machine.dac_bits)
+            host.write(ctrl, "POSITION_ZONE", machine.in_position)
+            host.write(ctrl, "ALARM_ZONE", machine.alarm_limit)
+            host.command(ctrl, clear_command=1, clear_error=1, ack=1, clear=1)
+
+    # -- the main line -----------------------------------------------------------------------
+
+    def run(self, max_cycles: int) -> None:
+        """Initialise, then execute every block of the program (Fig. 10's main loop)."""
+        self.limit = max_cycles
+        self.initialise()
+        for item in self.job.program.items:
+            if self.stopped or self.host.cycle >= self.limit:
+                break
+            if isinstance(item, Dwell):
+                self._dwell(item)
+            else:
+                self._block(item)
+        if not self.stopped and self.host.cycle < self.limit:
+            self._settle()
+        self.timed_out = self.host.cycle >= self.limit and not self.stopped
+
+    def _dwell(self, item: Dwell) -> None:
+        # A delay loop on the 8085: the chipset runs on, nothing is accessed.
+        t_states = round(item.seconds * self.host_hz)
+        self.host.work(t_states)
+
+    @property
+    def host_hz(self) -> float:
+        return self.job.machine.clock_hz / self.host.cycles_per_t
+
+    def _block(self, item: Line | Arc) -> None:
+        host, machine = self.host, self.job.machine
+        host.work(host.timing.block_setup)
+        block = item.block
+        word = feed_word(machine, _feed_of(item, machine))
+        record = BlockRecord(item.index, item.line_no, block.kind.name.lower(),
+                             host.cycle, item.plan.fp, word)
+        self.blocks.append(record)
+        self._fp_mark = host.backend.get("fp_total")
+        self._pulse_mark = self._pulses()
+        # Load the interpolator, start it, then open the feed with the exact FP budget.
+        host.write("K3701", "X", block.xe)
+        host.write("K3701", "Y", block.ye)
+        if block.kind is Kind.CIRCULAR:
+            host.write("K3701", "I", block.i)
+            host.write("K3701", "J", block.j)
+        host.write("K3701", "CTRL", _ctrl_word(block.kind, block.cw, block.sqrt2,
+                                               block.quadrant))
+        host.command("K3701", start=1, ack=1)
+        host.write("FEED", "FEED", word)
+        host.write("DECEL", "BUDGET", item.plan.fp)
+        self._wait_block_end(record)
+
+    def _wait_block_end(self, record: BlockRecord) -> None:
+        """Wait for interrupts; serve them until the K3701's data request ends the block."""
+        host = self.host
+        while record.end_cycle is None and not self.stopped:
+            left = self.limit - host.cycle
+            if left <= 0:
+                return
+            host.backend.run_until("irq", left)
+            if host.backend.get("irq"):
+                self._interrupt(record)
+
+    def _interrupt(self, record: BlockRecord | None) -> None:
+        """The interrupt routine: alarm first (stop the feed), then the data request."""
+        host = self.host
+        host.work(host.timing.isr_entry)
+        for axis in AXES:
+            chip = f"K3702_{axis.upper()}"
+            if host.status(chip)["irq"]:
+                host.write("DECEL", "CTRL", 1)          # stop feed at once
+                host.command(chip, ack=1)
+                self.alarms.append(AlarmEvent(axis, host.cycle, "alarm"))
+                self.stopped = True
+        status = host.status("K3701")
+        if status["irq"]:
+            host.command("K3701", ack=1)
+            if record is not None:
+                self._close(record, status)
+        host.work(host.timing.isr_exit)
+
+    def _close(self, record: BlockRecord, status: dict[str, int]) -> None:
+        host = self.host
+        record.end_cycle = host.cycle
+        record.fp_pulses = host.backend.get("fp_total") - self._fp_mark
+        now = self._pulses()
+        record.steps = {k: now[k] - self._pulse_mark[k] for k in now}
+        record.end_command = (now["x+"] - now["x-"], now["y+"] - now["y-"])
+        if status["error"]:
+            self.alarms.append(AlarmEvent(None, host.cycle, "interpolator_error"))
+            self.stopped = True
+        if status["overrun"]:
+            self.alarms.append(AlarmEvent(None, host.cycle, "fp_overrun"))
+            host.command("K3701", clear=1)
+        self._check_encoders()
+
+    def _check_encoders(self) -> None:
+        host = self.host
+        for axis in AXES:
+            chip = f"ENCODER_{axis.upper()}"
+            status = host.status(chip)
+            for flag in ("line_fault_a", "line_fault_b", "quad_error"):
+                if status[flag]:
+                    self.alarms.append(AlarmEvent(axis, host.cycle, f"encoder_{flag}"))
+            if any(status[f] for f in ("line_fault_a", "line_fault_b", "quad_error")):
+                host.command(chip, clear=1)
+
+    def _pulses(self) -> dict[str, int]:
+        b = self.host.backend
+        return {"x+": b.get("x__pulses_pos"), "x-": b.get("x__pulses_neg"),
+                "y+": b.get("y__pulses_pos"), "y-": b.get("y__pulses_neg")}
+
+    def _settle(self) -> None:
+        """After the last block: poll until both axes hold the programmed end, in position."""
+        host = self.host
+        target = self.job.program.final_position
+        deadline = host.cycle + round(SETTLE_SECONDS * self.job.machine.clock_hz)
+        while host.cycle < min(deadline, self.limit):
+            if self.host.backend.get("irq_alarm"):
+                self._interrupt(None)
+                return
+            done = True
+            for axis, goal in zip(AXES, target, strict=True):
+                chip = f"K3702_{axis.upper()}"
+                if not host.status(chip)["in_position"] or host.read(chip, "COMMAND") != goal:
+                    done = False
+                    break
+            if done:
+                self._check_encoders()
+                return
+            host.work(SETTLE_POLL_T_STATES)
+        if host.cycle < self.limit:
+            self.alarms.append(AlarmEvent(None, host.cycle, "settle_timeout"))
+
+
+#: How long the firmware waits for the axes to come into position after the last block.
+SETTLE_SECONDS = 5.0
+#: The settle loop's delay between polls (about 1 ms at 3.072 MHz).
+SETTLE_POLL_T_STATES = 3072
+
+
+def _ctrl_word(kind: Kind, cw: bool, sqrt2: bool, quadrant: int) -> int:
+    return K3701_MAP["CTRL"].encode(circular=int(kind), cw=int(cw), sqrt2=int(sqrt2),
+                                    quadrant=quadrant - 1)

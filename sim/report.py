@@ -1,0 +1,142 @@
+"""The JSON output of ``k37 run``: its schema, defined once, and a checker for it.
+
+:data:`RUN_SCHEMA` is a JSON Schema (draft 2020-12 subset: type, properties, required, items,
+enum, description). :func:`validate` checks a report against it; ``docs/run-json.md`` is
+generated from it by :func:`schema_markdown`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = ["RUN_SCHEMA", "SCHEMA_VERSION", "schema_markdown", "validate"]
+
+SCHEMA_VERSION = 1
+
+
+def _obj(description: str, props: dict[str, dict], required: list[str] | None = None) -> dict:
+    return {"type": "object", "description": description, "properties": props,
+            "required": list(props) if required is None else required}
+
+
+def _num(description: str, kind: str = "number") -> dict:
+    return {"type": kind, "description": description}
+
+
+def _int(description: str) -> dict:
+    return _num(description, "integer")
+
+
+def _xy(description: str) -> dict:
+    return {"type": "array", "description": description, "items": {"type": "integer"}}
+
+
+_STEPS = _obj("step pulses the K3701 emitted in the block, per axis and direction",
+              {k: _int(f"{k} pulses") for k in ("x+", "x-", "y+", "y-")})
+
+_AXIS = _obj("one axis at the end of the run", {
+    "command": _int("K3702 command counter (LSB)"),
+    "error": _int("K3702 error counter (LSB)"),
+    "actual": _int("plant encoder count, the true position (LSB)"),
+    "max_abs_error": _int("largest |error| at any cycle of the run (LSB)"),
+    "flags": _obj("K3702 STATUS fields", {
+        k: _int(k) for k in ("in_position", "negative", "sat_pos", "sat_neg", "alarm", "irq",
+                             "bad_config")}, required=[]),
+})
+
+RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
+    "schema_version": _int(f"version of this schema ({SCHEMA_VERSION})"),
+    "job": {"type": "object", "description": "the job's configuration as run"},
+    "status": {"type": "string", "enum": ["ok", "alarm", "fault", "timeout"],
+               "description": "ok; alarm: a K3702 alarm stopped the feed; fault: an "
+                              "interpolator error, FP overrun, encoder fault or settle "
+                              "timeout; timeout: max_cycles ran out"},
+    "backend": {"type": "string", "description": "simulation backend used"},
+    "cycles": _int("system clock cycles simulated"),
+    "clock_hz": _num("system clock (Hz)"),
+    "machine_seconds": _num("simulated time, cycles / clock_hz (s)"),
+    "wall_seconds": _num("wall-clock time of the simulation (s; build excluded)"),
+    "cycles_per_second": _num("cycles / wall_seconds"),
+    "blocks": {"type": "array", "description": "one entry per motion block run",
+               "items": _obj("a block", {
+                   "index": _int("position in the program (0-based, dwells counted)"),
+                   "line": _int("G-code line number"),
+                   "kind": {"type": "string", "enum": ["linear", "circular"],
+                            "description": "interpolation type"},
+                   "start_cycle": _int("cycle the firmware began loading it"),
+                   "end_cycle": {"type": ["integer", "null"],
+                                 "description": "cycle its data-request interrupt was served "
+                                                "(null: it did not end)"},
+                   "fp_budget": _int("FP loaded into the decel control"),
+                   "fp_pulses": _int("FP the K3701 received during the block"),
+                   "feed_word": _int("18-bit rate multiplier word"),
+                   "steps": _STEPS,
+                   "end_command": {"type": ["array", "null"], "items": {"type": "integer"},
+                                   "description": "interpolated position at the block's end "
+                                                  "(LSB, from the step pulses)"},
+               })},
+    "axes": _obj("per-axis state", {"x": _AXIS, "y": _AXIS}),
+    "path": _obj("contour error: distance from each actual sample to the programmed path", {
+        "max_contour_error": _num("largest (LSB)"),
+        "rms_contour_error": _num("root mean square (LSB)"),
+        "samples": _int("samples taken"),
+    }),
+    "alarms": {"type": "array", "description": "alarms and faults, in order",
+               "items": _obj("an alarm or fault", {
+                   "axis": {"type": ["string", "null"], "description": "x, y or null"},
+                   "cycle": _int("cycle the firmware saw it"),
+                   "kind": {"type": "string", "description": "alarm, interpolator_error, "
+                            "fp_overrun, encoder_line_fault_a, encoder_line_fault_b, "
+                            "encoder_quad_error, settle_timeout"},
+               })},
+})
+
+_TYPES = {"object": dict, "array": list, "string": str, "integer": int, "number": (int, float),
+          "null": type(None)}
+
+
+def validate(value: Any, schema: dict = RUN_SCHEMA, where: str = "$") -> None:
+    """Raise ValueError naming the first place where ``value`` breaks ``schema``."""
+    kinds = schema.get("type")
+    if kinds is not None:
+        kinds = [kinds] if isinstance(kinds, str) else kinds
+        ok = any(isinstance(value, _TYPES[k]) and not (k in ("integer", "number")
+                                                      and isinstance(value, bool))
+                 for k in kinds)
+        if not ok:
+            raise ValueError(f"{where}: expected {' or '.join(kinds)}, got {value!r}")
+    if "enum" in schema and value not in schema["enum"]:
+        raise ValueError(f"{where}: {value!r} is not one of {schema['enum']}")
+    if isinstance(value, dict) and "properties" in schema:
+        for key in schema.get("required", []):
+            if key not in value:
+                raise ValueError(f"{where}: missing key {key!r}")
+        for key, sub in schema["properties"].items():
+            if key in value:
+                validate(value[key], sub, f"{where}.{key}")
+    if isinstance(value, list) and "items" in schema:
+        for k, item in enumerate(value):
+            validate(item, schema["items"], f"{where}[{k}]")
+
+
+def schema_markdown() -> str:
+    """``docs/run-json.md``: every key of the report with its type and meaning."""
+    lines = ["# `k37 run --json` output", "",
+             f"Generated from `sim/report.py` (schema version {SCHEMA_VERSION}; do not edit "
+             "by hand).", "", "| key | type | meaning |", "|---|---|---|"]
+
+    def walk(schema: dict, path: str) -> None:
+        kinds = schema.get("type", "")
+        kinds = kinds if isinstance(kinds, str) else " or ".join(kinds)
+        desc = schema.get("description", "")
+        if "enum" in schema:
+            desc += f" ({', '.join(map(str, schema['enum']))})"
+        if path:
+            lines.append(f"| `{path}` | {kinds} | {desc} |")
+        for key, sub in schema.get("properties", {}).items():
+            walk(sub, f"{path}.{key}" if path else key)
+        if "items" in schema and "properties" in schema["items"]:
+            walk(schema["items"], f"{path}[]")
+
+    walk(RUN_SCHEMA, "")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,351 @@
+"""G-code front end: words, modes, units, arcs and their K3701 check, and every error kind."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from firmware_model.gcode import Arc, Dwell, GcodeError, Line, parse
+from hdl.k3701_model import COORD_MAX, Block, Kind, plan, quadrant_of
+
+
+def moves(text: str, **kwargs) -> list[tuple[int, int]]:
+    """The (xe, ye) of every move of a program."""
+    return [(it.xe, it.ye) for it in parse(text, **kwargs).items if not isinstance(it, Dwell)]
+
+
+def error_of(text: str, **kwargs) -> str:
+    with pytest.raises(GcodeError) as info:
+        parse(text, source="t.ngc", **kwargs)
+    return str(info.value)
+
+
+# --- lines, modes and units -------------------------------------------------------------------
+
+def test_absolute_lines_are_loaded_relative_to_their_start():
+    prog = parse("G90 G01 X10 Y5 F100\nX4 Y-2")
+    assert moves("G90 G01 X10 Y5 F100\nX4 Y-2") == [(10_000, 5_000), (-6_000, -7_000)]
+    assert [it.start for it in prog.items] == [(0, 0), (10_000, 5_000)]
+    assert prog.final_position == (4_000, -2_000)
+
+
+def test_incremental_lines_add_to_the_position():
+    prog = parse("G91 G01 X10 Y5 F100\nX4 Y-2\nG90 X0 Y0")
+    assert [(it.xe, it.ye) for it in prog.items] == [(10_000, 5_000), (4_000, -2_000),
+                                                     (-14_000, -3_000)]
+    assert prog.final_position == (0, 0)
+
+
+def test_arc_centres_are_relative_to_the_start_in_both_distance_modes():
+    for mode in ("G90 G01 X1 F1\nG03 X2 Y1", "G91 G01 X1 F1\nG03 X1 Y1"):
+        _, arc = parse(mode + " I0 J1").items
+        assert (arc.xe, arc.ye, arc.i, arc.j, arc.start) == (1_000, 1_000, 0, 1_000, (1_000, 0))
+        assert arc.end == (2_000, 1_000)
+
+
+def test_inch_mode_scales_coordinates_and_feed_by_25_4():
+    prog = parse("G20 G01 X1 Y-0.5 F10\nG21 X0 Y10")
+    first, second = prog.items
+    assert (first.xe, first.ye) == (25_400, -12_700)
+    assert first.feed_mm_min == pytest.approx(254.0)
+    assert (second.xe, second.ye) == (-25_400, 22_700)
+    assert second.feed_mm_min == pytest.approx(254.0)  # F keeps the value it was given
+    (arc,) = parse("G20 G02 X0.1 I0.05 F1").items
+    assert (arc.xe, arc.ye, arc.i, arc.j) == (2_540, 0, 1_270, 0)
+
+
+def test_unit_and_distance_modes_apply_to_their_whole_block():
+    assert moves("G01 X1 F1 G20") == [(25_400, 0)]
+    assert moves("G01 X1 F1\nX1 G91") == [(1_000, 0), (1_000, 0)]
+
+
+def test_lsb_mm_sets_the_resolution():
+    assert moves("G01 X1.23 Y-4 F1", lsb_mm=0.01) == [(123, -400)]
+    assert moves("G01 X1 F1", lsb_mm=0.0005) == [(2_000, 0)]
+
+
+def test_coordinates_round_to_the_nearest_lsb_halves_away_from_zero():
+    assert moves("G91 G01 X0.0015 Y-0.0015 F1\nX0.0014 Y-0.0014\nX0.0025 Y.0005") == [
+        (2, -2), (1, -1), (3, 1)]
+
+
+def test_absolute_coordinates_are_rounded_each_so_errors_never_accumulate():
+    # Ten moves of 0.0004 mm each in absolute terms: the sum of rounded moves is the rounded
+    # end, not ten roundings.
+    text = "G01 F1\n" + "\n".join(f"X{k * 0.0004:.4f}" for k in range(1, 11))
+    prog = parse(text)
+    assert sum(it.xe for it in prog.items) == 4
+    assert prog.final_position == (4, 0)
+
+
+def test_motion_mode_is_modal():
+    prog = parse("G01 X1 F100\nY1\nG00 X0\nY0\nG02 X1 Y1 I1 J0\nX2 Y0 I0 J-1")
+    kinds = [(type(it).__name__, getattr(it, "rapid", None)) for it in prog.items]
+    assert kinds == [("Line", False), ("Line", False), ("Line", True), ("Line", True),
+                     ("Arc", None), ("Arc", None)]
+    assert all(it.cw for it in prog.items[4:])
+
+
+def test_feed_is_modal_in_units_per_minute():
+    prog = parse("G01 X1 F250\nX2\nF125 X3\nG00 X0\nG01 X1")
+    assert [it.feed_mm_min for it in prog.items] == [250.0, 250.0, 125.0, None, 125.0]
+
+
+def test_rapid_moves_are_flagged_and_need_no_feed():
+    (line,) = parse("G00 X3 Y4").items
+    assert line.rapid
+    assert line.feed_mm_min is None
+    assert line.block == Block.line(3_000, 4_000, sqrt2=True)
+
+
+def test_a_motion_word_alone_sets_the_mode_without_moving():
+    prog = parse("G01 F100\nG02\nX2 Y0 I1 J0")
+    assert len(prog.items) == 1
+    assert isinstance(prog.items[0], Arc)
+
+
+def test_dwell_takes_seconds_and_keeps_the_motion_mode():
+    prog = parse("G01 X1 F60\nG04 P1.25\nX2")
+    assert prog.items[1] == Dwell(1, 2, 1.25)
+    assert isinstance(prog.items[2], Line)
+    assert [it.index for it in prog.items] == [0, 1, 2]
+    assert [it.line_no for it in prog.items] == [1, 2, 3]
+
+
+def test_comments_sequence_numbers_and_tape_markers_are_skipped():
+    text = "%\n(header) ; more\nN10 G01 (inline) X1 F100 ; tail\n\n  n20 x 2 y-1.5\n%\n"
+    assert moves(text) == [(1_000, 0), (1_000, -1_500)]
+
+
+def test_words_are_case_insensitive_and_may_hold_spaces():
+    assert moves("g01 x1 f100\nG 1 X - 2\n\tY\t+.5") == [(1_000, 0), (-3_000, 0), (0, 500)]
+
+
+def test_line_numbers_count_crlf_lines():
+    assert error_of("G17\r\nG21\r\nG01 X1") == "t.ngc:3:1: G01 without a feed rate: program F first"
+
+
+@pytest.mark.parametrize(("text", "end"), [("G01 X1 F1\nM02", True), ("G01 X1 F1 M30", True),
+                                           ("G01 X1 F1", False)])
+def test_m02_and_m30_end_the_program(text, end):
+    prog = parse(text)
+    assert prog.end is end
+    assert len(prog.items) == 1
+
+
+def test_sqrt2_setting_decides_the_fp_counts():
+    on, = parse("G01 X10 Y3 F1", lsb_mm=1.0).items
+    off, = parse("G01 X10 Y3 F1", lsb_mm=1.0, sqrt2=False).items
+    assert on.plan.fp == 10 + 2  # N_long + ceil(N_diag / 2)
+    assert off.plan.fp == 10
+    assert on.block.sqrt2 and not off.block.sqrt2
+
+
+def test_a_zero_length_move_is_kept_and_does_nothing():
+    (line,) = parse("G01 X0 Y0 F100").items
+    assert (line.xe, line.ye, line.plan.steps, line.plan.fp) == (0, 0, 0, 0)
+
+
+# --- arcs -------------------------------------------------------------------------------------
+
+def test_a_full_circle_is_an_arc_back_to_its_start():
+    (arc,) = parse("G02 I5 J0 F100").items
+    assert (arc.xe, arc.ye, arc.i, arc.j, arc.cw) == (0, 0, 5_000, 0, True)
+    assert arc.plan.end == (0, 0)
+    assert not arc.plan.error
+    assert arc.plan.pulses["x+"] == arc.plan.pulses["x-"] == 10_000
+    assert arc.plan.pulses["y+"] == arc.plan.pulses["y-"] == 10_000
+    assert arc.plan == plan(arc.block)
+
+
+# Quarter arcs of radius 1 mm around (0, 0), one for each quadrant and direction; the arc
+# starts on an axis (quadrant q's first axis point in the direction of motion).
+QUARTERS = [(q, cw) for q in (1, 2, 3, 4) for cw in (False, True)]
+
+
+@pytest.mark.parametrize(("quadrant", "cw"), QUARTERS)
+def test_arcs_run_in_every_quadrant_and_direction(quadrant, cw):
+    step = -1 if cw else 1
+    a0 = (quadrant - 1) * 90 if not cw else quadrant * 90 % 360
+    a1 = a0 + 90 * step
+    p0 = (round(math.cos(math.radians(a0))), round(math.sin(math.radians(a0))))
+    p1 = (round(math.cos(math.radians(a1))), round(math.sin(math.radians(a1))))
+    text = (f"G00 X{p0[0]} Y{p0[1]}\nG0{2 if cw else 3} X{p1[0]} Y{p1[1]} "
+            f"I{-p0[0]} J{-p0[1]} F100")
+    _, arc = parse(text).items
+    xe, ye = (p1[0] - p0[0]) * 1000, (p1[1] - p0[1]) * 1000
+    assert (arc.xe, arc.ye, arc.i, arc.j, arc.cw) == (xe, ye, -p0[0] * 1000, -p0[1] * 1000, cw)
+    assert quadrant_of(-arc.i, -arc.j, cw) == quadrant  # it runs through quadrant q only
+    assert arc.block == Block(Kind.CIRCULAR, xe, ye, arc.i, arc.j, cw, True,
+                              quadrant_of(xe - arc.i, ye - arc.j, cw))
+    assert arc.plan.end == (xe, ye)
+    assert arc.end == (p1[0] * 1000, p1[1] * 1000)
+
+
+@pytest.mark.parametrize("cw", [False, True])
+def test_arcs_cross_quadrants(cw):
+    # Three quarters of a circle from (1, 0) mm around the origin.
+    end = "X0 Y-1" if not cw else "X0 Y1"
+    _, arc = parse(f"G00 X1\nG0{2 if cw else 3} {end} I-1 J0 F100").items
+    assert arc.plan.end == (arc.xe, arc.ye)
+    assert sum(arc.plan.pulses.values()) > 3 * 1000  # more than a quarter
+
+
+def test_arc_end_within_the_tolerance_is_accepted():
+    # The end is 1.5 LSB outside the circle: accepted, and the machine stops on the digital
+    # path near it.
+    (arc,) = parse("G03 X-0.014 Y-0.012 I-0.006 J-0.006 F100").items
+    assert math.hypot(arc.xe - arc.i, arc.ye - arc.j) - math.hypot(arc.i, arc.j) == (
+        pytest.approx(1.51, abs=0.01))
+    assert not arc.plan.error
+    assert arc.plan.end != (arc.xe, arc.ye)
+    assert arc.plan.end == (-12, -12)
+
+
+def test_arc_end_beyond_the_tolerance_is_an_error():
+    assert error_of("G01 F100\nG03 X-0.014 Y-0.012 I-0.006 J-0.006", arc_tolerance=1.0) == (
+        "t.ngc:2:1: the arc's end is not on its circle: radius 0.008 mm at the start, 0.010 mm "
+        "at the end (they differ by 1.5 LSB; tolerance 1 LSB)")
+    assert error_of("G02 X10 I3 F100") == (
+        "t.ngc:1:1: the arc's end is not on its circle: radius 3.000 mm at the start, 7.000 mm "
+        "at the end (they differ by 4000.0 LSB; tolerance 2 LSB)")
+
+
+def test_the_machine_position_follows_where_an_arc_really_stops():
+    prog = parse("G03 X-0.014 Y-0.012 I-0.006 J-0.006 F100\nG01 X0.010 Y0.010")
+    arc, line = prog.items
+    assert line.start == arc.end
+    assert line.end == (10, 10)  # the programmed target, whatever the arc's error
+    # A full circle after it stays a full circle around the programmed centre.
+    prog = parse("G03 X-0.014 Y-0.012 I-0.006 J-0.006 F100\nG02 I0.003")
+    arc, circle = prog.items
+    assert circle.start == arc.end == (-12, -12)
+    assert (circle.xe, circle.ye) == (0, 0)
+    assert (circle.start[0] + circle.i, circle.start[1] + circle.j) == (-14 + 3, -12)
+
+
+def test_an_arc_the_k3701_cannot_finish_is_an_error():
+    # Radius 1 LSB: (0, 1) is within the tolerance but not on the digital path, and the chip
+    # would leave the end quadrant without reaching it.
+    assert error_of("G02 X0 Y0.001 I-0.001 J0 F100") == (
+        "t.ngc:1:1: the K3701 would not reach this arc's end point (0, 1) LSB relative to the "
+        "start: it leaves the end quadrant first and stops with ERROR")
+
+
+def test_an_arc_of_radius_zero_is_an_error():
+    assert error_of("G01 F1\nX1 G02 I0 J0") == (
+        "t.ngc:2:4: the arc's centre is its start point (radius 0)")
+
+
+def test_an_arc_whose_circle_is_too_big_for_the_k3701_is_an_error():
+    assert error_of("G03 I6000 J-6000 F1") == (
+        "t.ngc:1:1: the K3701 refuses this arc: the circle of radius 8485281.4 leaves the 24-bit "
+        "coordinate range")
+
+
+def test_an_arc_bulging_out_of_the_coordinate_range_is_an_error():
+    # Centre at X838500 Y0 (0.1 mm LSB: the range is +-838860.7 mm), start at its left, end
+    # at its top: the short CW way stays in range, the long CCW way reaches X839000.
+    text = "G00 X838000\nG0{} X838500 Y500 I500 J0 F100"
+    (_, arc) = parse(text.format(2), lsb_mm=0.1).items
+    assert arc.end == (8_385_000, 5_000)
+    assert error_of(text.format(3), lsb_mm=0.1) == (
+        "t.ngc:2:1: the arc leaves the coordinate range on X: it reaches 8390000 LSB, beyond "
+        "+-(2^23-1) LSB (+-838860.7 mm)")
+
+
+# --- errors -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("G01 X8388.607 F1", None),
+    ("G01 X8388.608 F1", "1:5: X8388.608: the position 8388608 LSB is outside "
+                         "-(2^23-1)..2^23-1 LSB (+-8388.607 mm)"),
+    ("G91 G00 X8000\nY1 X400", "2:4: X400: the position 8400000 LSB is outside "
+                               "-(2^23-1)..2^23-1 LSB (+-8388.607 mm)"),
+    ("G00 X-5000\nX5000", "2:1: X5000: the move 10000000 LSB is outside "
+                          "-(2^23-1)..2^23-1 LSB (+-8388.607 mm)"),
+    ("G00 Y-5000\nG02 Y-4000 J8388.608 F1", "2:12: J8388.608: the centre offset 8388608 LSB is "
+                                            "outside -(2^23-1)..2^23-1 LSB (+-8388.607 mm)"),
+])
+def test_out_of_range_coordinates_are_errors(text, message):
+    if message is None:
+        assert moves(text) == [(COORD_MAX, 0)]
+    else:
+        assert error_of(text) == f"t.ngc:{message}"
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("G01 X1", "1:1: G01 without a feed rate: program F first"),
+    ("G00 X1\nG01 F0 X2", "2:5: F0: the feed must be positive"),
+    ("G00 X1\nG02 X2 I0.5", "2:1: G02 without a feed rate: program F first"),
+    ("G01 F1\nG03 X1 Y1", "2:1: G03 needs I and/or J (the centre offsets)"),
+    ("G01 X1 I1 F1", "1:8: I1: I is only for arcs (G02/G03)"),
+    ("X5 Y1", "1:1: X5 without a motion mode (G00/G01/G02/G03)"),
+    ("G00 X1\n  J2", "2:3: J2: J is only for arcs (G02/G03)"),
+])
+def test_motion_errors_name_line_and_column(text, message):
+    assert error_of(text) == f"t.ngc:{message}"
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("G18", "1:1: G18 is unsupported: only the XY plane (G17)"),
+    ("G17 G19", "1:5: G19 is unsupported: only the XY plane (G17)"),
+    ("G28", "1:1: G28 is unsupported"),
+    ("G17.1", "1:1: G17.1 is unsupported"),
+    ("M03", "1:1: M03 is unsupported"),
+    ("G01 X1 Z5 F1", "1:8: unsupported word Z5 (K37 has two axes, X and Y)"),
+    ("G02 X1 R1 F1", "1:8: unsupported word R1 (arcs take I and J centre offsets)"),
+    ("G02 X1 K1 F1", "1:8: unsupported word K1 (only the XY plane, G17: arcs take I and J)"),
+    ("S1000", "1:1: unsupported word S1000 (no spindle control)"),
+    ("T1", "1:1: unsupported word T1 (no tool control)"),
+    ("G01 X1E3", "1:7: unsupported word E3"),
+    ("#1 = 2", "1:1: unexpected character '#'"),
+    ("/G01 X1", "1:1: unexpected character '/'"),
+    ("G01 X", "1:5: word X has no number"),
+    ("G01 X1 (open", "1:8: comment '(' is not closed on its line"),
+    ("G01 G00 X1", "1:5: G01 and G00 are in the same modal group (motion)"),
+    ("G20 G21", "1:5: G20 and G21 are in the same modal group (units)"),
+    ("G90 G91", "1:5: G90 and G91 are in the same modal group (distance)"),
+    ("G01 X1 X2 F1", "1:8: X appears twice in one block"),
+    ("M02 M30", "1:5: M appears twice in one block"),
+    ("N-1 G00 X1", "1:1: N-1: N must be a non-negative integer"),
+    ("N1.5 G00 X1", "1:1: N1.5: N must be a non-negative integer"),
+    ("G04", "1:1: G04 needs P (the dwell in seconds)"),
+    ("G04 P-1", "1:5: P-1: the dwell must not be negative"),
+    ("G04 P1 X2", "1:8: X2: G04 takes only P (seconds)"),
+    ("G01 X1 P2 F1", "1:8: P2: P is only for G04 (dwell)"),
+    ("G00 X1\nM30\n\n(trailing comment)\nG00 X0", "5:1: block after the program end (M02/M30)"),
+])
+def test_word_errors_name_line_and_column(text, message):
+    assert error_of(text) == f"t.ngc:{message}"
+
+
+def test_errors_are_one_line_with_their_position_as_attributes():
+    with pytest.raises(GcodeError) as info:
+        parse("G17\n\n   G01 X1", source="dir/part.nc")
+    e = info.value
+    assert (e.source, e.line, e.col) == ("dir/part.nc", 3, 4)
+    assert str(e) == f"dir/part.nc:3:4: {e.message}"
+    assert "\n" not in str(e)
+    assert isinstance(e, ValueError)
+
+
+def test_the_default_source_name_is_gcode():
+    with pytest.raises(GcodeError, match=r"^<gcode>:1:1: "):
+        parse("G28")
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"lsb_mm": 0}, "lsb_mm must be a positive number, not 0"),
+    ({"lsb_mm": "1"}, "lsb_mm must be a positive number, not '1'"),
+    ({"arc_tolerance": -1}, "arc_tolerance must be a non-negative number, not -1"),
+])
+def test_bad_parser_parameters_are_refused(kwargs, message):
+    with pytest.raises(ValueError, match=f"^{message}$"):
+        parse("", **kwargs)
+
+
+def test_an_empty_program_has_no_items():
+    prog = parse("")
+    assert (prog.items, prog.end, prog.final_position) == ((), False, (0, 0))
