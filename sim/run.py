@@ -161,8 +161,13 @@ def build_backend(job: Job, kind: str) -> Backend:
 
 def run_job(job: Job, options: RunOptions | None = None,
             backend: Backend | None = None) -> RunResult:
-    """Run ``job`` to its end (or an alarm, or ``max_cycles``) and report."""
+    """Run ``job`` to its end (or an alarm, or ``max_cycles``) and report.
+
+    A ``backend`` passed in must be freshly built for the job's machine
+    (:func:`build_backend`); it is left open, for the caller to look at afterwards.
+    """
     options = options or RunOptions()
+    owned = backend is None
     backend = backend or build_backend(job, options.backend)
     _configure_plants(backend, job, options.faults)
     if options.vcd is not None:
@@ -178,7 +183,8 @@ def run_job(job: Job, options: RunOptions | None = None,
         print(file=sys.stderr)
     report = _report(job, backend, firmware, sampler, wall)
     samples = np.array(sampler.rows, dtype=float).reshape(-1, len(TRACE_COLUMNS))
-    backend.close()
+    if owned:
+        backend.close()
     validate(report)
     return RunResult(report, samples, job)
 
