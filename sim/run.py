@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from firmware_model.firmware import Firmware
+from firmware_model.firmware import Firmware, check_program
 from firmware_model.gcode import Arc, Dwell, Line
 from firmware_model.host import Host8085
 from firmware_model.job import AXES, Job
@@ -167,6 +167,7 @@ def run_job(job: Job, options: RunOptions | None = None,
     (:func:`build_backend`); it is left open, for the caller to look at afterwards.
     """
     options = options or RunOptions()
+    check_program(job)  # refuse what the hardware cannot do before building anything
     owned = backend is None
     backend = backend or build_backend(job, options.backend)
     _configure_plants(backend, job, options.faults)

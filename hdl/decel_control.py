@@ -1,0 +1,83 @@
+"""Decel control: the host-loaded FP budget gate before the accel/decel circuit (SPEC 7).
+
+The reference model is :class:`hdl.decel_control_model.DecelControlModel`.
+"""
+
+from amaranth.hdl import Module, Mux, Signal
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out, connect, flipped
+
+from hdl.decel_control_model import BUDGET_WIDTH
+from hdl.hostbus import Access, Field, HostBus, Register, RegisterBank, RegisterMap
+
+__all__ = ["DECEL_MAP", "DecelControl"]
+
+DECEL_MAP = RegisterMap("DECEL", 1, (
+    Register("BUDGET", 0x00, BUDGET_WIDTH, Access.W,
+             "FP budget of the next block, 0..2^24-1; the committing (last) byte loads "
+             "REMAINING, effective in the cycle after it"),
+    Register("REMAINING", 0x03, BUDGET_WIDTH, Access.R,
+             "FP still to pass (snapshot when byte 0 is read)"),
+    Register("CTRL", 0x06, 8, Access.RW, "control (reads back)", fields=(
+        Field("hold", 0, 1, "1: close the gate at once (stop feed), keeping REMAINING; "
+                            "0: open it again"),
+    )),
+    Register("STATUS", 0x07, 8, Access.R, "status", fields=(
+        Field("spent", 0, 1, "REMAINING is 0: the whole budget has passed (also after reset)"),
+        Field("open", 1, 1, "input pulses pass now (not spent and not held)"),
+    )),
+), doc="Decel control: the FP budget gate between the rate multiplier and the accel/decel "
+       "circuit.")
+
+
+class DecelControl(wiring.Component):
+    """The FP budget gate: passes exactly the loaded number of input pulses, then closes.
+
+    The host writes BUDGET (the FP count the block needs, from the firmware model's exact
+    count); input pulses pass to ``out`` and count REMAINING down; when it reaches 0 the gate
+    is closed (``spent``) and the accel/decel circuit behind it drains, so the K3701 receives
+    exactly the budget and the axis decelerates into the end point. CTRL.hold closes the gate
+    at once (the alarm routine's stop feed) and keeps REMAINING for a later resume. After
+    reset REMAINING is 0: nothing passes until a budget is loaded.
+
+    Members
+    -------
+    bus : In(HostBus(DECEL_MAP.addr_width))
+        Host bus (register map ``DECEL_MAP``). A BUDGET or CTRL write takes effect in the
+        cycle after its committing byte (the bank's ``w_stb`` cycle); an input pulse in that
+        cycle already sees the new budget and hold bit.
+    inp : In(1)
+        Input feed pulses (from the rate multiplier); each cycle it is high is one pulse.
+    out : Out(1)
+        Passed pulse, combinational: ``inp`` while REMAINING > 0 and not held.
+    spent : Out(1)
+        REMAINING == 0; rises in the cycle after the last pulse passes (registered state).
+    remaining : Out(24)
+        Probe: the remaining budget (what REMAINING reads).
+    """
+
+    bus: In(HostBus(DECEL_MAP.addr_width))
+    inp: In(1)
+    out: Out(1)
+    spent: Out(1)
+    remaining: Out(BUDGET_WIDTH)
+
+    def elaborate(self, platform) -> Module:
+        m = Module()
+        m.submodules.regs = regs = RegisterBank(DECEL_MAP)
+        connect(m, flipped(self.bus), regs.bus)
+
+        hold = regs.ctrl.w_data[DECEL_MAP["CTRL"].field("hold").offset]
+        current = Signal(BUDGET_WIDTH)
+        m.d.comb += [
+            current.eq(Mux(regs.budget.w_stb, regs.budget.w_data, self.remaining)),
+            self.out.eq(self.inp & ~hold & (current != 0)),
+            self.spent.eq(self.remaining == 0),
+        ]
+        m.d.sync += self.remaining.eq(current - self.out)
+
+        m.d.comb += [regs.remaining.r_data.eq(self.remaining),
+                     regs.ctrl.r_data.eq(regs.ctrl.w_data)]
+        for name, value in (("spent", self.spent), ("open", ~self.spent & ~hold)):
+            m.d.comb += regs.status.r_data[DECEL_MAP["STATUS"].field(name).offset].eq(value)
+        return m

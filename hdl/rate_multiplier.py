@@ -1,0 +1,84 @@
+"""Cascaded SN7497-style binary rate multiplier: the feedrate generator (SPEC section 6).
+
+The reference model (and the 7497's decoding table) is :mod:`hdl.rate_multiplier_model`.
+"""
+
+from __future__ import annotations
+
+import operator
+from functools import reduce
+
+from amaranth.hdl import Module, Signal
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
+
+from hdl.divider_model import positive_int
+
+__all__ = ["RateMultiplier"]
+
+
+class RateMultiplier(wiring.Component):
+    """``stages`` cascaded 6-bit binary rate multipliers: ``W`` pulses per ``64**stages`` clocks.
+
+    Each stage behaves like an SN7497: a 6-bit counter advanced by its enable, and six
+    decoding gates that pass the input clock in disjoint counter states (rate bit 5 in 32 of
+    the 64 states, bit 4 in 16, ..., bit 0 in one, state 63 in none). Stage 0 runs on every
+    input clock and takes the most significant six bits of ``word``; stage *s* + 1 is enabled
+    once per 64 of stage *s*'s clocks, in the input clock in which stage *s* sits in its
+    silent state 63, as the datasheet's cascade wires enable-out to the next enable-in and
+    strobe. The stages' outputs are therefore disjoint and ORed, and over any
+    ``64**stages`` consecutive input clocks there are exactly ``word`` pulses. Equivalently
+    the stages' counters are the base-64 digits of one ``6 * stages``-bit counter.
+
+    Parameters
+    ----------
+    stages : int
+        Number of 7497 stages (default 3: an 18-bit feed word; 2 gives 12 bits).
+
+    Members
+    -------
+    word : In(6 * stages)
+        Feed word ``W``; sampled in every input clock (the 7497's rate inputs are live).
+    clk_en : In(1)
+        Input clock: each cycle it is high is one input clock pulse (e.g. a
+        :class:`hdl.divider.PhaseDivider` strobe).
+    out : Out(1)
+        Output pulse, combinational: high in the same cycle as the ``clk_en`` it gates, when
+        the counter state reached by that input clock selects it. Input clock *k* after reset
+        (*k* = 1, 2, ...) pulses iff the base-64 digits of ``k mod 64**stages`` select it.
+    enable_out : Out(1)
+        High in the input clock in which every stage sits in state 63 (the last stage's
+        enable output): once per ``64**stages`` input clocks, in a clock with no ``out``.
+    count : Out(6 * stages)
+        Probe: the cascade's counter (stage *s* in bits ``6s .. 6s+5``), i.e. the number of
+        input clocks since reset modulo ``64**stages``.
+    """
+
+    def __init__(self, stages: int = 3):
+        self.stages = positive_int("stages", stages)
+        bits = 6 * stages
+        super().__init__({"word": In(bits), "clk_en": In(1), "out": Out(1),
+                          "enable_out": Out(1), "count": Out(bits)})
+
+    def elaborate(self, platform) -> Module:
+        m = Module()
+        bits = 6 * self.stages
+        nxt = Signal(bits)
+        m.d.comb += nxt.eq(self.count + 1)
+        with m.If(self.clk_en):
+            m.d.sync += self.count.eq(nxt)
+
+        hits = []
+        upstream_at_63 = 1
+        for s in range(self.stages):
+            digit = nxt[6 * s:6 * s + 6]
+            rate = self.word[6 * (self.stages - 1 - s):6 * (self.stages - s)]
+            # Rate bit b passes the states whose low 5-b bits are 1 and whose next bit is 0.
+            for bit in range(6):
+                ones = 5 - bit
+                pattern = (1 << ones) - 1
+                hits.append(upstream_at_63 & rate[bit] & (digit[:ones + 1] == pattern))
+            upstream_at_63 = upstream_at_63 & (digit == 63)
+        m.d.comb += [self.out.eq(self.clk_en & reduce(operator.or_, hits)),
+                     self.enable_out.eq(self.clk_en & (nxt == (1 << bits) - 1))]
+        return m
