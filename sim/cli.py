@@ -10,14 +10,14 @@ from pathlib import Path
 __all__ = ["main"]
 
 
-def _cmd_registers(args: argparse.Namespace) -> int:
-    from sim.docs import registers_document
+def _cmd_docs(args: argparse.Namespace) -> int:
+    from sim.docs import documents
 
-    text = registers_document()
-    if args.output:
-        Path(args.output).write_text(text)
-    else:
-        sys.stdout.write(text)
+    out = Path(args.output)
+    out.mkdir(parents=True, exist_ok=True)
+    for name, text in documents().items():
+        (out / name).write_text(text)
+        print(f"k37 docs: wrote {out / name}")
     return 0
 
 
@@ -84,9 +84,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no summary, no progress bar")
     p.set_defaults(func=_cmd_run)
 
-    p = sub.add_parser("registers", help="print the register maps of every chip (Markdown)")
-    p.add_argument("-o", "--output", help="write to this file instead of standard output")
-    p.set_defaults(func=_cmd_registers)
+    p = sub.add_parser("docs", help="write the generated documentation (register maps, JSON "
+                                    "schema, job keys)")
+    p.add_argument("-o", "--output", default="docs", help="folder (default: docs)")
+    p.set_defaults(func=_cmd_docs)
     return parser
 
 
