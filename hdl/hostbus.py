@@ -125,7 +125,10 @@ class Register:
     """One register of a chip.
 
     ``width`` is in bits (a multiple of 8). ``doc`` says what writing and reading mean;
-    ``signed`` marks two's complement values.
+    ``signed`` marks two's complement values. ``init`` is the value a writable register
+    holds after reset. ``valid`` (inclusive bounds) limits the values the chip accepts: the
+    bank ignores a write outside them and pulses the port's ``w_err`` instead, and
+    :meth:`to_bytes` refuses them.
     """
 
     name: str
@@ -135,6 +138,8 @@ class Register:
     doc: str
     fields: tuple[Field, ...] = ()
     signed: bool = False
+    init: int = 0
+    valid: tuple[int, int] | None = None
 
     def __post_init__(self) -> None:
         if self.width % 8 or not 8 <= self.width <= 32:
@@ -145,6 +150,25 @@ class Register:
             if f.offset + f.width > self.width or used & f.mask:
                 raise ValueError(f"register {self.name}: field {f.name} overlaps or overflows")
             used |= f.mask
+        lo, hi = self.bounds
+        if self.valid is not None and not self.full_range[0] <= lo <= hi <= self.full_range[1]:
+            raise ValueError(f"register {self.name}: valid must be (low, high) inside the "
+                             f"register's range, not {self.valid!r}")
+        if not lo <= self.init <= hi:
+            raise ValueError(f"register {self.name}: init must be in {lo}..{hi}, "
+                             f"not {self.init!r}")
+
+    @property
+    def full_range(self) -> tuple[int, int]:
+        """The lowest and highest value the register's width holds."""
+        if self.signed:
+            return -(1 << (self.width - 1)), (1 << (self.width - 1)) - 1
+        return 0, (1 << self.width) - 1
+
+    @property
+    def bounds(self) -> tuple[int, int]:
+        """The lowest and highest value the chip accepts (``valid``, else the full range)."""
+        return self.full_range if self.valid is None else self.valid
 
     @property
     def nbytes(self) -> int:
@@ -165,8 +189,7 @@ class Register:
 
     def to_bytes(self, value: int) -> list[int]:
         """The bytes a host writes, in bus order (LSB first, the committing MSB last)."""
-        lo = -(1 << (self.width - 1)) if self.signed else 0
-        hi = (1 << (self.width - 1)) - 1 if self.signed else (1 << self.width) - 1
+        lo, hi = self.bounds
         if not lo <= value <= hi:
             raise ValueError(f"register {self.name}: {value} is outside {lo}..{hi}")
         raw = value & ((1 << self.width) - 1)
@@ -238,7 +261,12 @@ class RegisterMap:
             addrs = (f"{reg.addr:#04x}" if reg.nbytes == 1
                      else f"{reg.addr:#04x}-{reg.addr + reg.nbytes - 1:#04x}")
             kind = f"{reg.width}{' signed' if reg.signed else ''}"
-            lines.append(f"| {addrs} | {reg.name} | {kind} | {reg.access.value} | {reg.doc} |")
+            doc = reg.doc
+            if reg.init:
+                doc += f" Reset value {reg.init:#x}."
+            if reg.valid is not None:
+                doc += f" Valid {reg.valid[0]}..{reg.valid[1]}; other values are ignored."
+            lines.append(f"| {addrs} | {reg.name} | {kind} | {reg.access.value} | {doc} |")
         for reg in self.registers:
             if reg.fields:
                 lines += ["", f"### {self.chip} {reg.name} fields", "",
@@ -260,31 +288,37 @@ class RegisterPort(wiring.Signature):
     w_stb : Out(1), writable registers only
         High for the one cycle after the committing byte was written (when ``w_data`` first
         shows the new value).
+    w_err : Out(1), registers with a ``valid`` range only
+        High instead of ``w_stb`` when the committed value was outside the range; ``w_data``
+        keeps its previous value.
     r_data : In(width), readable registers only
         The value the chip presents; sampled whole when the host reads byte 0.
     r_stb : Out(1), readable registers only
         High in the cycle in which the host reads byte 0 (the snapshot cycle).
     """
 
-    def __init__(self, width: int, access: Access):
+    def __init__(self, width: int, access: Access, checked: bool = False):
         self.width = width
         self.access = access
+        self.checked = checked
         members: dict[str, wiring.Member] = {}
         if access.writable:
             members |= {"w_data": Out(width), "w_stb": Out(1)}
+        if checked:
+            members |= {"w_err": Out(1)}
         if access.readable:
             members |= {"r_data": In(width), "r_stb": Out(1)}
         super().__init__(members)
 
     def __eq__(self, other: object) -> bool:
         return (isinstance(other, RegisterPort) and other.width == self.width
-                and other.access == self.access)
+                and other.access == self.access and other.checked == self.checked)
 
     def __hash__(self) -> int:
-        return hash(("RegisterPort", self.width, self.access))
+        return hash(("RegisterPort", self.width, self.access, self.checked))
 
     def __repr__(self) -> str:
-        return f"RegisterPort({self.width}, {self.access})"
+        return f"RegisterPort({self.width}, {self.access}, checked={self.checked})"
 
 
 def _port_name(reg: Register) -> str:
@@ -298,9 +332,10 @@ class RegisterBank(wiring.Component):
     the write cycle *t*; the last byte commits the whole value, visible on the register's
     ``w_data`` with ``w_stb`` high in cycle *t* + 1. Reads: ``r_data`` of cycle *t* + 1 holds
     the byte addressed in cycle *t*; reading byte 0 latches the register's whole ``r_data``
-    (``r_stb`` high in cycle *t*), bytes 1.. come from that latch. Unmapped addresses and
-    writes to read-only registers are ignored (the host driver refuses them first); reads of
-    write-only registers and unmapped addresses return 0.
+    (``r_stb`` high in cycle *t*), bytes 1.. come from that latch. A committed value outside
+    the register's ``valid`` range is not taken: ``w_err`` pulses instead of ``w_stb``.
+    Unmapped addresses and writes to read-only registers are ignored (the host driver refuses
+    them first); reads of write-only registers and unmapped addresses return 0.
 
     Members
     -------
@@ -314,7 +349,8 @@ class RegisterBank(wiring.Component):
         self.regmap = regmap
         members: dict[str, wiring.Member] = {"bus": In(HostBus(regmap.addr_width))}
         for reg in regmap:
-            members[_port_name(reg)] = Out(RegisterPort(reg.width, reg.access))
+            members[_port_name(reg)] = Out(RegisterPort(reg.width, reg.access,
+                                                        checked=reg.valid is not None))
         super().__init__(members)
 
     def elaborate(self, platform) -> Module:
@@ -330,9 +366,12 @@ class RegisterBank(wiring.Component):
             name = _port_name(reg)
             port = getattr(self, name)
             if reg.access.writable:
-                values[name] = Signal(reg.width, name=f"{name}_value")
+                values[name] = Signal(reg.width, name=f"{name}_value",
+                                      init=reg.init & ((1 << reg.width) - 1))
                 m.d.comb += port.w_data.eq(values[name])
                 m.d.sync += port.w_stb.eq(0)
+                if reg.valid is not None:
+                    m.d.sync += port.w_err.eq(0)
                 if reg.nbytes > 1:
                     shadows[name] = Signal(reg.width - 8, name=f"{name}_shadow")
             if reg.access.readable and reg.nbytes > 1:
@@ -348,11 +387,10 @@ class RegisterBank(wiring.Component):
                             with m.If(bus.w_stb):
                                 if k < reg.nbytes - 1:
                                     m.d.sync += shadows[name].word_select(k, 8).eq(bus.w_data)
-                                elif name in shadows:
-                                    m.d.sync += [values[name].eq(Cat(shadows[name], bus.w_data)),
-                                                 port.w_stb.eq(1)]
                                 else:
-                                    m.d.sync += [values[name].eq(bus.w_data), port.w_stb.eq(1)]
+                                    new = (Cat(shadows[name], bus.w_data) if name in shadows
+                                           else bus.w_data)
+                                    _commit(m, reg, port, values[name], new)
                         with m.If(bus.r_stb):
                             if not reg.access.readable:
                                 m.d.sync += r_data.eq(0)
@@ -367,6 +405,18 @@ class RegisterBank(wiring.Component):
                 with m.If(bus.r_stb):
                     m.d.sync += r_data.eq(0)
         return m
+
+
+def _commit(m: Module, reg: Register, port, value: Signal, new) -> None:
+    """Take the completed value ``new`` of a writable register, unless it is out of range."""
+    if reg.valid is None:
+        m.d.sync += [value.eq(new), port.w_stb.eq(1)]
+        return
+    word = new.as_signed() if reg.signed else new
+    with m.If((word >= reg.valid[0]) & (word <= reg.valid[1])):
+        m.d.sync += [value.eq(new), port.w_stb.eq(1)]
+    with m.Else():
+        m.d.sync += port.w_err.eq(1)
 
 
 def registers_markdown(maps: Iterable[RegisterMap]) -> str:

@@ -9,14 +9,25 @@ from __future__ import annotations
 import os
 from collections.abc import Awaitable, Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from amaranth.lib import wiring
 from amaranth.sim import Simulator
 
 from hdl.hostbus import Register
 
-__all__ = ["CLOCK_PERIOD", "bus_read", "bus_write", "read_reg", "simulate", "write_reg"]
+__all__ = [
+    "CLOCK_PERIOD",
+    "BusOp",
+    "bus_read",
+    "bus_write",
+    "drive_bus",
+    "read_ops",
+    "read_reg",
+    "simulate",
+    "write_ops",
+    "write_reg",
+]
 
 #: The paper's system clock, 1 MHz.
 CLOCK_PERIOD = 1e-6
@@ -76,3 +87,40 @@ async def read_reg(ctx, bus, reg: Register) -> int:
     """Read a whole register, LSB first (the LSB snapshots it)."""
     data = [await bus_read(ctx, bus, reg.addr + k) for k in range(reg.nbytes)]
     return reg.from_bytes(data)
+
+
+class BusOp(NamedTuple):
+    """One host bus cycle: write ``data`` to ``addr``, or read ``addr`` when ``data`` is None.
+
+    For benches that drive the bus cycle by cycle alongside other inputs.
+    """
+
+    addr: int
+    data: int | None = None
+
+
+def write_ops(reg: Register, value: int, *, check: bool = True) -> list[BusOp]:
+    """The bus cycles writing a whole register, LSB first (the last one commits it).
+
+    ``check=False`` sends any value (also one outside ``reg.valid``), cut to the width.
+    """
+    data = (reg.to_bytes(value) if check
+            else [(value >> (8 * k)) & 0xFF for k in range(reg.nbytes)])
+    return [BusOp(reg.addr + k, byte) for k, byte in enumerate(data)]
+
+
+def read_ops(reg: Register) -> list[BusOp]:
+    """The bus cycles reading a whole register, LSB first (the first one snapshots it)."""
+    return [BusOp(reg.addr + k) for k in range(reg.nbytes)]
+
+
+def drive_bus(ctx, bus, op: BusOp | None) -> None:
+    """Present ``op``, or an idle bus, for the clock edge that ends the current cycle.
+
+    A read's byte is on ``bus.r_data`` after that edge.
+    """
+    ctx.set(bus.w_stb, op is not None and op.data is not None)
+    ctx.set(bus.r_stb, op is not None and op.data is None)
+    if op is not None:
+        ctx.set(bus.addr, op.addr)
+        ctx.set(bus.w_data, op.data or 0)
