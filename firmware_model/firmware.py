@@ -121,10 +121,13 @@ class Firmware:
     ``max_cycles`` ran out; ``blocks`` and ``alarms`` say what happened.
     """
 
-    def __init__(self, host: Host8085, job: Job):
+    def __init__(self, host: Host8085, job: Job, *, budget_offset: int = 0):
         check_program(job)
         self.host = host
         self.job = job
+        #: Added to every block's exact FP budget: the paper's hazard (SPEC section 7) made
+        #: reproducible. 0 for normal operation.
+        self.budget_offset = budget_offset
         self.blocks: list[BlockRecord] = []
         self.alarms: list[AlarmEvent] = []
         self.stopped = False
@@ -184,8 +187,9 @@ class Firmware:
         host.work(host.timing.block_setup)
         block = item.block
         word = feed_word(machine, _feed_of(item, machine))
+        budget = max(0, item.plan.fp + self.budget_offset)
         record = BlockRecord(item.index, item.line_no, block.kind.name.lower(),
-                             host.cycle, item.plan.fp, word)
+                             host.cycle, budget, word)
         self.blocks.append(record)
         self._fp_mark = host.backend.get("fp_total")
         self._pulse_mark = self._pulses()
@@ -199,7 +203,7 @@ class Firmware:
                                                block.quadrant))
         host.command("K3701", start=1, ack=1)
         host.write("FEED", "FEED", word)
-        host.write("DECEL", "BUDGET", item.plan.fp)
+        host.write("DECEL", "BUDGET", budget)
         self._wait_block_end(record)
 
     def _wait_block_end(self, record: BlockRecord) -> None:

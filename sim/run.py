@@ -45,6 +45,8 @@ class RunOptions:
     vcd_stop: int | None = None
     progress: bool = False
     faults: dict[str, dict[str, int]] = field(default_factory=dict)
+    #: Added to every block's FP budget (the SPEC section 7 hazard); 0 normally.
+    budget_offset: int = 0
 
 
 class Sampler:
@@ -176,7 +178,7 @@ def run_job(job: Job, options: RunOptions | None = None,
     sampler = Sampler(backend, options.sample_every, job.machine.dac_bits,
                       options.max_cycles if options.progress else 0)
     host = Host8085(sampler, clock_hz=job.machine.clock_hz)  # type: ignore[arg-type]
-    firmware = Firmware(host, job)
+    firmware = Firmware(host, job, budget_offset=options.budget_offset)
     start = time.perf_counter()
     firmware.run(options.max_cycles)
     wall = time.perf_counter() - start
