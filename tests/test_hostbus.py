@@ -113,3 +113,48 @@ def test_hostbus_signature_is_value_compared():
     assert HostBus(4) != HostBus(5)
     with pytest.raises(TypeError, match="positive integer"):
         HostBus(0)
+
+
+CHECKED = RegisterMap("CHECKED", 1, (
+    Register("N", 0x0, 8, Access.RW, "a width 8..16", init=12, valid=(8, 16)),
+))
+
+
+class Checked(wiring.Component):
+    """Exposes the N register's port."""
+
+    bus: In(HostBus(CHECKED.addr_width))
+    value: Out(8)
+    rejected: Out(8)
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.regs = regs = RegisterBank(CHECKED)
+        connect(m, flipped(self.bus), regs.bus)
+        m.d.comb += [self.value.eq(regs.n.w_data), regs.n.r_data.eq(regs.n.w_data)]
+        with m.If(regs.n.w_err):
+            m.d.sync += self.rejected.eq(self.rejected + 1)
+        return m
+
+
+def test_register_holds_its_reset_value_and_ignores_writes_outside_its_valid_range():
+    dut = Checked()
+    reg = CHECKED["N"]
+
+    async def bench(ctx):
+        assert ctx.get(dut.value) == 12
+        await bus_write(ctx, dut.bus, reg.addr, 17)   # out of range: ignored, w_err
+        await ctx.tick()
+        assert ctx.get(dut.value) == 12
+        assert ctx.get(dut.rejected) == 1
+        await write_reg(ctx, dut.bus, reg, 16)
+        await ctx.tick()
+        assert ctx.get(dut.value) == 16
+        assert ctx.get(dut.rejected) == 1
+        assert await read_reg(ctx, dut.bus, reg) == 16
+
+    simulate(dut, bench)
+    with pytest.raises(ValueError, match=r"register N: 7 is outside 8\.\.16"):
+        reg.to_bytes(7)
+    with pytest.raises(ValueError, match=r"init must be in 8\.\.16"):
+        Register("M", 0, 8, Access.RW, "", init=0, valid=(8, 16))
