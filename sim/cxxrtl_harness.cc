@@ -1,0 +1,403 @@
+// A C ABI over one CXXRTL model, for ctypes (see sim/cxxrtl.py).
+//
+// This file does not depend on the design, so it is compiled once per toolchain and linked
+// with each design's object, which defines k37_make_top() (the output of `write_cxxrtl` for
+// top module "top" plus a factory). Every named signal is reached through CXXRTL's debug items:
+// ports and probes are items, found by index.
+//
+// Clocking follows Amaranth's simulator with `add_clock`: the clock starts low, the first cycle
+// is a rising edge only, every later cycle is a falling edge then a rising edge (logic in a
+// local negedge domain clocked from `clk` runs on the falling edge). `rst` stays low. After a
+// cycle the design is settled on its post-edge values, as after `await ctx.tick()`.
+
+#include <cxxrtl/cxxrtl.h>
+#include <cxxrtl/cxxrtl_vcd.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+cxxrtl::module *k37_make_top();
+// Whether anything but rising edges of `clk` matters (falling-edge logic, derived clocks).
+bool k37_needs_falling_edge();
+
+namespace {
+
+using cxxrtl::chunk_t;
+constexpr size_t CHUNK_BITS = 8 * sizeof(chunk_t);
+
+struct Part {
+	chunk_t *curr;
+	chunk_t *next;
+	size_t width;
+	size_t lsb;
+	cxxrtl::debug_outline *outline;
+};
+
+struct Item {
+	std::string name;
+	std::vector<Part> parts;
+	size_t width;
+	uint32_t flags;
+};
+
+struct Trace {
+	cxxrtl::debug_items items;
+	cxxrtl::vcd_writer writer;
+	FILE *file;
+	uint64_t start, stop, quarter_period;
+	bool started;  // the first sample (every value) is written
+};
+
+struct Model {
+	std::unique_ptr<cxxrtl::module> top{k37_make_top()};
+	const bool falling_edge = k37_needs_falling_edge();
+	std::vector<Item> items;
+	chunk_t *clk = nullptr;
+	uint64_t cycle = 0;
+	uint64_t skipped = 0;
+	bool inputs_written = true;  // since the last cycle
+	bool stale = true;           // combinational values may lag the state
+	std::unique_ptr<Trace> trace;
+};
+
+// One clock edge, as CXXRTL's module::step(): evaluate and commit until converged; true if any
+// state (wire, memory) changed. Combinational values computed from committed state are not
+// recomputed, so they may lag until the next evaluation.
+inline bool edge(Model &m) {
+	bool changed = false;
+	for (;;) {
+		bool converged = m.top->eval();
+		bool committed = m.top->commit();
+		changed |= committed;
+		if (!committed || converged)
+			return changed;
+	}
+}
+
+// Evaluate until nothing changes, so that every combinational value follows the state.
+inline void settle(Model &m) {
+	if (m.stale) {
+		do
+			m.top->eval();
+		while (m.top->commit());
+		m.stale = false;
+	}
+}
+
+void flush_trace(Trace &t) {
+	fwrite(t.writer.buffer.data(), 1, t.writer.buffer.size(), t.file);
+	t.writer.buffer.clear();
+}
+
+// Waveform timestamps, in quarter clock periods, match Amaranth's `add_clock(period)`: the
+// rising edge of cycle k at 4k + 2, the falling edge before it at 4k; inputs written after c
+// cycles are stamped between a rising edge and the next falling edge, as PysimBackend does.
+uint64_t rise_time(uint64_t k) { return 4 * k + 2; }
+uint64_t fall_time(uint64_t k) { return 4 * k; }
+uint64_t input_time(uint64_t c) { return c == 0 ? 1 : 4 * c - 1; }
+
+void sample(Trace &t, uint64_t quarters) {
+	t.started = true;
+	t.writer.sample(quarters * t.quarter_period);
+	if (t.writer.buffer.size() > (1u << 20))
+		flush_trace(t);
+}
+
+bool tracing(const Model &m) {
+	return m.trace && m.cycle >= m.trace->start && m.cycle < m.trace->stop;
+}
+
+// One clock cycle; true if any state changed during it. `Traced` samples the VCD per edge.
+template<bool Traced>
+inline bool cycle(Model &m) {
+	bool changed = false;
+	if (Traced && !m.trace->started) {
+		settle(m);
+		sample(*m.trace, input_time(m.cycle));
+	}
+	if (*m.clk) {
+		*m.clk = 0;
+		// Without falling-edge logic, only the edge detector needs to see the low level; the
+		// rising edge evaluates everything from the committed state anyway.
+		changed = m.falling_edge || Traced ? edge(m) : m.top->commit();
+		if (Traced) {
+			m.stale = true;
+			settle(m);
+			sample(*m.trace, fall_time(m.cycle));
+		}
+	}
+	*m.clk = 1;
+	changed |= edge(m);
+	m.stale = true;
+	if (Traced) {
+		settle(m);
+		sample(*m.trace, rise_time(m.cycle));
+	}
+	m.cycle++;
+	return changed;
+}
+
+// Settle input writes before the clock moves (a combinational wire that needs several delta
+// cycles must not race the edge), and stamp them in an active trace.
+void prepare(Model &m) {
+	if (!m.inputs_written)
+		return;
+	settle(m);
+	m.inputs_written = false;
+	if (tracing(m))
+		sample(*m.trace, input_time(m.cycle));
+}
+
+// Run up to n untraced cycles; with skip_idle, a full cycle that changes no state proves a fixed
+// point (inputs cannot change inside this call), so the rest are counted without evaluation.
+uint64_t run_fast(Model &m, uint64_t n, bool skip_idle) {
+	for (uint64_t i = 0; i < n; i++) {
+		bool full = *m.clk != 0;
+		if (!cycle<false>(m) && full && skip_idle) {
+			uint64_t rest = n - i - 1;
+			m.cycle += rest;
+			m.skipped += rest;
+			return n;
+		}
+	}
+	return n;
+}
+
+// Whether an item's committed value is up to date without settling (a register's output).
+bool is_state(const Item &item) {
+	for (const Part &p : item.parts)
+		if (p.outline || !p.next || p.next == p.curr)  // a wire has its own next value
+			return false;
+	using cxxrtl::debug_item;
+	return (item.flags & (debug_item::DRIVEN_SYNC | debug_item::DRIVEN_COMB |
+	                      debug_item::UNDRIVEN)) == debug_item::DRIVEN_SYNC;
+}
+
+bool nonzero(Model &m, const Item &item, bool settled) {
+	if (!settled)
+		settle(m);
+	for (const Part &p : item.parts)
+		for (size_t c = 0; c < (p.width + CHUNK_BITS - 1) / CHUNK_BITS; c++)
+			if (p.curr[c])
+				return true;
+	return false;
+}
+
+void close_trace(Model &m) {
+	if (m.trace) {
+		flush_trace(*m.trace);
+		fclose(m.trace->file);
+		m.trace.reset();
+	}
+}
+
+// Cycles before the trace window's next boundary (or n if no window lies ahead).
+uint64_t until_boundary(const Model &m, uint64_t n) {
+	if (!m.trace || m.cycle >= m.trace->stop)
+		return n;
+	uint64_t boundary = m.cycle < m.trace->start ? m.trace->start : m.trace->stop;
+	return std::min(n, boundary - m.cycle);
+}
+
+void advance(Model &m, uint64_t n, bool skip_idle) {
+	while (n) {
+		uint64_t k = until_boundary(m, n);
+		if (tracing(m))
+			for (uint64_t i = 0; i < k; i++)
+				cycle<true>(m);
+		else
+			run_fast(m, k, skip_idle);
+		n -= k;
+		if (m.trace && m.cycle >= m.trace->stop)
+			close_trace(m);
+	}
+}
+
+}  // namespace
+
+extern "C" {
+
+void *k37_create() {
+	Model *m = new Model;
+	cxxrtl::debug_items items;
+	m->top->debug_info(&items, nullptr, "");
+	for (auto &entry : items.table) {
+		if (entry.second.front().type == cxxrtl::debug_item::MEMORY)
+			continue;
+		Item item{entry.first, {}, 0, entry.second.front().flags};
+		for (const cxxrtl::debug_item &d : entry.second) {
+			item.parts.push_back(Part{d.curr, d.next, d.width, d.lsb_at, d.outline});
+			item.width = std::max(item.width, d.lsb_at + d.width);
+		}
+		if (entry.first == "clk")
+			m->clk = item.parts.front().curr;
+		m->items.push_back(std::move(item));
+	}
+	return m;
+}
+
+void k37_destroy(void *handle) {
+	Model *m = static_cast<Model *>(handle);
+	close_trace(*m);
+	delete m;
+}
+
+size_t k37_count(void *handle) {
+	return static_cast<Model *>(handle)->items.size();
+}
+
+const char *k37_name(void *handle, size_t index) {
+	return static_cast<Model *>(handle)->items[index].name.c_str();
+}
+
+size_t k37_width(void *handle, size_t index) {
+	return static_cast<Model *>(handle)->items[index].width;
+}
+
+// Read an item into `out` (ceil(width / 32) little-endian 32-bit words, zeroed by the caller).
+void k37_read(void *handle, size_t index, uint32_t *out) {
+	Model &m = *static_cast<Model *>(handle);
+	settle(m);
+	for (const Part &p : m.items[index].parts) {
+		if (p.outline)
+			p.outline->eval();
+		for (size_t bit = 0; bit < p.width; bit++)
+			if (p.curr[bit / CHUNK_BITS] >> (bit % CHUNK_BITS) & 1) {
+				size_t at = p.lsb + bit;
+				out[at / 32] |= uint32_t(1) << (at % 32);
+			}
+	}
+}
+
+// Write an item from `data` (same layout as k37_read); for inputs, takes effect at once.
+void k37_write(void *handle, size_t index, const uint32_t *data) {
+	Model &m = *static_cast<Model *>(handle);
+	for (const Part &p : m.items[index].parts) {
+		for (size_t c = 0; c < (p.width + CHUNK_BITS - 1) / CHUNK_BITS; c++)
+			p.next[c] = 0;
+		for (size_t bit = 0; bit < p.width; bit++) {
+			size_t at = p.lsb + bit;
+			if (data[at / 32] >> (at % 32) & 1)
+				p.next[bit / CHUNK_BITS] |= chunk_t(1) << (bit % CHUNK_BITS);
+		}
+	}
+	m.inputs_written = m.stale = true;
+}
+
+// Fast paths for items of at most 64 bits and one part (every port).
+uint64_t k37_get(void *handle, size_t index) {
+	Model &m = *static_cast<Model *>(handle);
+	settle(m);
+	const Part &p = m.items[index].parts.front();
+	if (p.outline)
+		p.outline->eval();
+	return p.width > 32 ? uint64_t(p.curr[1]) << 32 | p.curr[0] : p.curr[0];
+}
+
+void k37_set(void *handle, size_t index, uint64_t value) {
+	Model &m = *static_cast<Model *>(handle);
+	const Part &p = m.items[index].parts.front();
+	if (p.width < 64)
+		value &= (uint64_t(1) << p.width) - 1;  // CXXRTL values keep their unused bits zero
+	p.next[0] = chunk_t(value);
+	if (p.width > 32)
+		p.next[1] = chunk_t(value >> 32);
+	m.inputs_written = m.stale = true;
+}
+
+void k37_step(void *handle, uint64_t n, int skip_idle) {
+	Model &m = *static_cast<Model *>(handle);
+	prepare(m);
+	advance(m, n, skip_idle != 0);
+}
+
+// Step until item `index` reads non-zero after a rising edge, or `limit` cycles; returns the
+// cycles stepped. With skip_idle, a full cycle without any state change (so the item stays
+// zero for ever) ends the wait at the limit at once.
+uint64_t k37_run_until(void *handle, size_t index, uint64_t limit, int skip_idle) {
+	Model &m = *static_cast<Model *>(handle);
+	prepare(m);
+	const Item &item = m.items[index];
+	const bool state = is_state(item);
+	for (uint64_t i = 0; i < limit; i++) {
+		if (tracing(m)) {
+			cycle<true>(m);
+			if (m.cycle >= m.trace->stop)
+				close_trace(m);
+		} else {
+			bool full = *m.clk != 0;
+			bool changed = cycle<false>(m);
+			if (!changed && full && skip_idle && !nonzero(m, item, state)) {
+				uint64_t rest = limit - i - 1;
+				uint64_t k = until_boundary(m, rest);
+				m.cycle += k;
+				m.skipped += k;
+				i += k;
+				continue;
+			}
+		}
+		if (nonzero(m, item, state))
+			return i + 1;
+	}
+	return limit;
+}
+
+// One host bus write cycle (sim/testbench.py bus_write): the byte is taken at the edge.
+void k37_bus_write(void *handle, size_t addr, size_t w_data, size_t w_stb, uint64_t address,
+                   uint64_t data) {
+	k37_set(handle, addr, address);
+	k37_set(handle, w_data, data);
+	k37_set(handle, w_stb, 1);
+	k37_step(handle, 1, 0);
+	k37_set(handle, w_stb, 0);
+}
+
+// One host bus read cycle (sim/testbench.py bus_read); returns the byte of the next cycle.
+uint64_t k37_bus_read(void *handle, size_t addr, size_t r_stb, size_t r_data, uint64_t address) {
+	k37_set(handle, addr, address);
+	k37_set(handle, r_stb, 1);
+	k37_step(handle, 1, 0);
+	k37_set(handle, r_stb, 0);
+	return k37_get(handle, r_data);
+}
+
+int k37_falling_edge(void *handle) {
+	return static_cast<Model *>(handle)->falling_edge;
+}
+
+uint64_t k37_cycle(void *handle) {
+	return static_cast<Model *>(handle)->cycle;
+}
+
+uint64_t k37_skipped(void *handle) {
+	return static_cast<Model *>(handle)->skipped;
+}
+
+// Record a VCD of cycles [start, stop) to `path`, scopes prefixed by `scope` ("bench top ").
+int k37_trace(void *handle, const char *path, const char *scope, uint64_t start, uint64_t stop,
+              uint64_t quarter_period_fs) {
+	Model &m = *static_cast<Model *>(handle);
+	close_trace(m);
+	FILE *file = fopen(path, "wb");
+	if (!file)
+		return -1;
+	m.trace.reset(new Trace{{}, {}, file, start, stop, quarter_period_fs, false});
+	m.top->debug_info(&m.trace->items, nullptr, scope);
+	m.trace->writer.timescale(1, "fs");
+	m.trace->writer.add_without_memories(m.trace->items);
+	settle(m);
+	m.inputs_written = false;
+	if (tracing(m))
+		sample(*m.trace, input_time(m.cycle));
+	return 0;
+}
+
+void k37_trace_close(void *handle) {
+	close_trace(*static_cast<Model *>(handle));
+}
+
+}  // extern "C"
