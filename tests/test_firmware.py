@@ -1,0 +1,90 @@
+"""Firmware model: 8085 I/O timing, feed words, and what it refuses before loading."""
+
+from __future__ import annotations
+
+import pytest
+
+from firmware_model.firmware import FirmwareError, check_program, feed_word, max_feed_mm_min
+from firmware_model.gcode import parse
+from firmware_model.host import T_STATES, Host8085
+from firmware_model.job import AXES, Job, MachineConfig, ServoConfig
+from hdl.chipset import port
+from hdl.k3701_model import Kind
+
+
+class FakeBackend:
+    """Records the cycle of every bus access; reads return a fixed byte."""
+
+    def __init__(self):
+        self.cycle = 0
+        self.writes: list[tuple[int, int, int]] = []
+
+    def step(self, n: int = 1) -> None:
+        self.cycle += n
+
+    def bus_write(self, addr: int, data: int) -> None:
+        self.writes.append((self.cycle, addr, data))
+        self.cycle += 1
+
+    def bus_read(self, addr: int) -> int:
+        self.cycle += 1
+        return 0x5A
+
+
+def test_out_instructions_take_17_t_states_at_the_host_clock():
+    backend = FakeBackend()
+    host = Host8085(backend, host_hz=3.072e6, clock_hz=1e6)
+    for k in range(300):
+        host.out(0x10, k & 0xFF)
+    assert host.t_states == 300 * T_STATES.out_byte
+    # 300 x 17 T-states at 3.072 MHz = 1660.16 us: the 300th write ends in cycle 1660.
+    assert backend.cycle == int(300 * 17 / 3.072)
+    gaps = {b[0] - a[0] for a, b in zip(backend.writes, backend.writes[1:], strict=False)}
+    assert gaps <= {5, 6}
+
+
+def test_register_writes_go_lsb_first_to_the_chip_select_ports():
+    backend = FakeBackend()
+    host = Host8085(backend)
+    host.write("K3701", "X", -2)
+    assert [(a, d) for _, a, d in backend.writes] == [
+        (port("K3701", "X", 0), 0xFE), (port("K3701", "X", 1), 0xFF),
+        (port("K3701", "X", 2), 0xFF)]
+    with pytest.raises(ValueError, match="K3701 STATUS is read-only"):
+        host.write("K3701", "STATUS", 1)
+    with pytest.raises(ValueError, match="register X: 8388608 is outside"):
+        host.write("K3701", "X", 1 << 23)
+    assert host.read("K3701", "X") == 0x5A5A5A
+
+
+def test_feed_word_gives_the_programmed_feed_from_the_rate_multiplier():
+    machine = MachineConfig()
+    # 600 mm/min = 1e4 LSB/s; the rate multiplier's input clock is 1 MHz / 11.
+    word = feed_word(machine, 600.0)
+    assert word == round(1e4 / (1e6 / 11) * 2**18)
+    assert word * (1e6 / 11) / 2**18 == pytest.approx(1e4, rel=1e-4)
+
+
+def test_maximum_feeds_follow_the_step_latencies():
+    machine = MachineConfig()
+    assert max_feed_mm_min(machine, Kind.LINEAR) == pytest.approx(1e6 / 11 * 0.06)
+    assert max_feed_mm_min(machine, Kind.CIRCULAR) == pytest.approx(1e6 / 21 * 0.06)
+
+
+def job_of(gcode: str) -> Job:
+    machine = MachineConfig()
+    return Job("t", machine, dict.fromkeys(AXES, ServoConfig()),
+               parse(gcode, source="t.ngc", sqrt2=machine.sqrt2))
+
+
+@pytest.mark.parametrize(("gcode", "message"), [
+    ("G01 X1 F6000", r"t.ngc:1: feed 6000 mm/min is above the K3701's maximum for a line, 5455"),
+    ("G01 X1 F0.01", r"t.ngc:1: feed 0.01 mm/min is below the rate multiplier's resolution"),
+])
+def test_impossible_feeds_are_refused_with_the_line(gcode, message):
+    with pytest.raises(FirmwareError, match=message):
+        check_program(job_of(gcode))
+
+
+def test_rapid_moves_use_the_machine_rapid_feed():
+    check_program(job_of("G00 X5 Y5"))  # 3000 mm/min: inside the linear maximum
