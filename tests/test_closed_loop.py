@@ -87,7 +87,7 @@ def test_actual_position_is_command_minus_error_at_every_sample(tmp_path):
     moved = s[:, COL["x_command"]] - s[:, COL["x_error"]]
     count = s[:, COL["x_actual"]]
     assert np.ptp(count) > 100, "the axis must actually move"
-    lags = [lag for lag in range(0, 12)
+    lags = [lag for lag in range(12)
             if np.array_equal(moved[lag:], count[:len(count) - lag])]
     assert lags, "command - error never matched the encoder count at a fixed latency"
     lag = lags[0]
