@@ -46,6 +46,24 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 0 if result.ok else 1
 
 
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from sim.reproduce import reproduce
+
+    def progress(message: str) -> None:
+        if not args.quiet:
+            print(f"k37 reproduce: {message}", file=sys.stderr, flush=True)
+
+    out = Path(args.out)
+    result = reproduce(out, quick=args.quick, progress=progress)
+    failed = [row for row in result.rows if not row.passed]
+    print(f"k37 reproduce: {len(result.rows) - len(failed)} of {len(result.rows)} rows pass "
+          f"({result.seconds:.0f} s); wrote {out / 'report.md'} and "
+          f"{sum(1 for s in result.sections if s.figure)} figures")
+    for row in failed:
+        print(f"  FAIL: {row.what}: {row.emulator} (tolerance: {row.tolerance})")
+    return 0 if not failed else 1
+
+
 def _positive_int(text: str) -> int:
     value = int(text.replace("_", ""))
     if value < 1:
@@ -88,6 +106,15 @@ def build_parser() -> argparse.ArgumentParser:
                                     "schema, job keys)")
     p.add_argument("-o", "--output", default="docs", help="folder (default: docs)")
     p.set_defaults(func=_cmd_docs)
+
+    p = sub.add_parser("reproduce", help="run the paper's experiments; write figures and "
+                                         "report.md (paper vs emulator, pass/fail per row)")
+    p.add_argument("--out", default="docs/reproduce", metavar="DIR",
+                   help="folder for report.md and the PNG figures (default: docs/reproduce)")
+    p.add_argument("--quick", action="store_true",
+                   help="smaller runs (the scale CI checks); the report says what shrank")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    p.set_defaults(func=_cmd_reproduce)
     return parser
 
 

@@ -25,6 +25,7 @@ from hdl.k3701_model import (
     quadrant_of,
     walk,
 )
+from sim.reproduce import table1
 from sim.testbench import bus_write, read_reg, simulate, write_reg
 
 OUTPUTS = ("x_pos", "x_neg", "y_pos", "y_neg", "busy", "irq", "error", "overrun")
@@ -403,21 +404,6 @@ def fp_to_finish(block: Block) -> int:
         if out.irq:
             return fed
     raise AssertionError("block never ended")
-
-
-def table1(r: float, theta: float, sqrt2: bool) -> float:
-    """The corrected Table 1 of the SPEC: FP for an arc from the x axis through ``theta``."""
-    deg = math.degrees(theta)
-    s2 = math.sqrt(2)
-    if math.isclose(deg, 45):
-        return r * (0.5 + s2 / 4) if sqrt2 else r * s2 / 2
-    if math.isclose(deg, 90):
-        return r * (1 + s2 / 2) if sqrt2 else r * s2
-    if deg < 45:
-        return r * (math.sin(theta) + (1 - math.cos(theta)) / 2) if sqrt2 else r * math.sin(theta)
-    if sqrt2:
-        return r * (0.5 + s2 / 2 + math.sin(theta) / 2 - math.cos(theta))
-    return r * (s2 - math.cos(theta))
 
 
 @pytest.mark.parametrize("r", [10, 100, 1000, 10000])
