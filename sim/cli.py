@@ -64,6 +64,30 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     return 0 if not failed else 1
 
 
+def _cmd_export_verilog(args: argparse.Namespace) -> int:
+    from sim.export import export_verilog
+
+    for path in export_verilog(args.block or None, Path(args.output)):
+        print(f"k37 export-verilog: wrote {path}")
+    return 0
+
+
+def _cmd_synth(args: argparse.Namespace) -> int:
+    from sim.synth import synthesize
+
+    try:
+        report = synthesize(args.device, args.block or None,
+                            work_dir=Path(args.work_dir) if args.work_dir else None)
+    except (ImportError, FileNotFoundError) as e:
+        print(f"k37: error: synthesis needs the fpga extra (pip install -e '.[fpga]'): {e}",
+              file=sys.stderr)
+        return 2
+    print(report.format_table())
+    for failure in report.failures:
+        print(f"k37 synth: {failure}", file=sys.stderr)
+    return 0 if report.ok else 1
+
+
 def _positive_int(text: str) -> int:
     value = int(text.replace("_", ""))
     if value < 1:
@@ -101,6 +125,23 @@ def build_parser() -> argparse.ArgumentParser:
                    help="fault: break this axis's /A encoder line")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary, no progress bar")
     p.set_defaults(func=_cmd_run)
+
+    from sim.export import BLOCKS
+    from sim.synth import DEVICES
+
+    names = [b.name for b in BLOCKS]
+    p = sub.add_parser("export-verilog", help="write one Verilog file per chip and the top")
+    p.add_argument("--block", action="append", choices=[*names, "all"],
+                   help="block to export (repeatable; default: all)")
+    p.add_argument("-o", "--output", required=True, help="output folder")
+    p.set_defaults(func=_cmd_export_verilog)
+
+    p = sub.add_parser("synth", help="synthesise and place on an iCE40 (needs the fpga extra)")
+    p.add_argument("--device", choices=list(DEVICES), default="ice40-hx8k")
+    p.add_argument("--block", action="append", choices=names,
+                   help="block to synthesise (repeatable; default: every block and the top)")
+    p.add_argument("--work-dir", help="keep netlists, logs and reports here")
+    p.set_defaults(func=_cmd_synth)
 
     p = sub.add_parser("docs", help="write the generated documentation (register maps, JSON "
                                     "schema, job keys)")
