@@ -55,13 +55,14 @@ ENCODER_MAP = RegisterMap("ENCODER", 1, (
 ), doc="Encoder interface: differential receiver, glitch filter and quadrature decoder.")
 
 
-def _streak(m: Module, cond: Value, k: Value, name: str) -> Value:
+def _streak(m: Module, cond: Value, k: Value, name: str) -> Signal:
     """High in the sample that completes ``k`` consecutive samples with ``cond`` high.
 
     The count then starts afresh; it restarts whenever ``cond`` is low.
     """
     count = Signal(8, name=f"{name}_count")
-    done = cond & (count + 1 >= k)
+    done = Signal(name=f"{name}_done")
+    m.d.comb += done.eq(cond & (count + 1 >= k))
     m.d.sync += count.eq(Mux(cond & ~done, count + 1, 0))
     return done
 
@@ -125,9 +126,12 @@ class EncoderInterface(wiring.Component):
         change: dict[str, Value] = {}  # the filter accepts a new level in this sample
         new: dict[str, Value] = {}     # the accepted level after this sample
         for name, line, line_n in (("a", self.a, self.a_n), ("b", self.b, self.b_n)):
+            # Values used several times are signals: computed once per evaluation by
+            # compiled simulators, rather than once per use.
             complementary = line != line_n
             held = Signal(name=f"{name}_rx")
-            received = Mux(complementary, line, held)
+            received = Signal(name=f"{name}_received")
+            m.d.comb += received.eq(Mux(complementary, line, held))
             m.d.sync += held.eq(received)
 
             fault = Signal(name=f"line_fault_{name}")
@@ -136,7 +140,8 @@ class EncoderInterface(wiring.Component):
 
             level = Signal(name=f"{name}_level")
             change[name] = _streak(m, started & (received != level), k, f"{name}_filter")
-            new[name] = Mux(change[name] | ~started, received, level)
+            new[name] = Signal(name=f"{name}_new")
+            m.d.comb += new[name].eq(Mux(change[name] | ~started, received, level))
             m.d.sync += level.eq(new[name])
             flags |= {f"line_fault_{name}": fault, name: level}
 

@@ -21,7 +21,7 @@ import enum
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
-from amaranth.hdl import Cat, Module, Signal
+from amaranth.hdl import Cat, Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
@@ -362,61 +362,107 @@ class RegisterBank(wiring.Component):
         shadows: dict[str, Signal] = {}
         latches: dict[str, Signal] = {}
         values: dict[str, Signal] = {}
+        # Which register committed (1, 2, ...; 0: none) or was refused in the last cycle: one
+        # register each instead of a strobe per register, cheaper to simulate.
+        writable = [reg for reg in self.regmap if reg.access.writable]
+        checked = [reg for reg in writable if reg.valid is not None]
+        strobes = _Strobes(_code_register(m, "committed", len(writable)),
+                           _code_register(m, "refused", len(checked)),
+                           {reg.name: k + 1 for k, reg in enumerate(writable)},
+                           {reg.name: k + 1 for k, reg in enumerate(checked)})
         for reg in self.regmap:
             name = _port_name(reg)
             port = getattr(self, name)
             if reg.access.writable:
                 values[name] = Signal(reg.width, name=f"{name}_value",
                                       init=reg.init & ((1 << reg.width) - 1))
-                m.d.comb += port.w_data.eq(values[name])
-                m.d.sync += port.w_stb.eq(0)
+                m.d.comb += [port.w_data.eq(values[name]),
+                             port.w_stb.eq(strobes.committed == strobes.commit_code[reg.name])]
                 if reg.valid is not None:
-                    m.d.sync += port.w_err.eq(0)
+                    m.d.comb += port.w_err.eq(strobes.refused == strobes.refuse_code[reg.name])
                 if reg.nbytes > 1:
                     shadows[name] = Signal(reg.width - 8, name=f"{name}_shadow")
             if reg.access.readable and reg.nbytes > 1:
                 latches[name] = Signal(reg.width - 8, name=f"{name}_latch")
 
-        with m.Switch(bus.addr):
-            for reg in self.regmap:
-                name = _port_name(reg)
-                port = getattr(self, name)
-                for k in range(reg.nbytes):
-                    with m.Case(reg.addr + k):
-                        if reg.access.writable:
-                            with m.If(bus.w_stb):
-                                if k < reg.nbytes - 1:
-                                    m.d.sync += shadows[name].word_select(k, 8).eq(bus.w_data)
+        # Only a bus access changes anything: one test per register when the bus is idle.
+        with m.If(bus.w_stb | bus.r_stb):
+            with m.Switch(bus.addr):
+                for reg in self.regmap:
+                    name = _port_name(reg)
+                    port = getattr(self, name)
+                    for k in range(reg.nbytes):
+                        with m.Case(reg.addr + k):
+                            if reg.access.writable:
+                                with m.If(bus.w_stb):
+                                    if k < reg.nbytes - 1:
+                                        m.d.sync += shadows[name].eq(
+                                            _with_byte(shadows[name], k, bus.w_data))
+                                    else:
+                                        new = (Cat(shadows[name], bus.w_data) if name in shadows
+                                               else bus.w_data)
+                                        _commit(m, reg, strobes, values[name], new)
+                            with m.If(bus.r_stb):
+                                if not reg.access.readable:
+                                    m.d.sync += r_data.eq(0)
+                                elif k == 0:
+                                    m.d.comb += port.r_stb.eq(1)
+                                    m.d.sync += r_data.eq(port.r_data[:8])
+                                    if name in latches:
+                                        m.d.sync += latches[name].eq(port.r_data[8:])
                                 else:
-                                    new = (Cat(shadows[name], bus.w_data) if name in shadows
-                                           else bus.w_data)
-                                    _commit(m, reg, port, values[name], new)
-                        with m.If(bus.r_stb):
-                            if not reg.access.readable:
-                                m.d.sync += r_data.eq(0)
-                            elif k == 0:
-                                m.d.comb += port.r_stb.eq(1)
-                                m.d.sync += r_data.eq(port.r_data[:8])
-                                if name in latches:
-                                    m.d.sync += latches[name].eq(port.r_data[8:])
-                            else:
-                                m.d.sync += r_data.eq(latches[name].word_select(k - 1, 8))
-            with m.Default():
-                with m.If(bus.r_stb):
-                    m.d.sync += r_data.eq(0)
+                                    m.d.sync += r_data.eq(latches[name].word_select(k - 1, 8))
+                with m.Default():
+                    with m.If(bus.r_stb):
+                        m.d.sync += r_data.eq(0)
         return m
 
 
-def _commit(m: Module, reg: Register, port, value: Signal, new) -> None:
+def _with_byte(word: Signal, k: int, byte: Signal):
+    """``word`` with its byte ``k`` replaced by ``byte``.
+
+    A whole-register assignment (rather than ``word_select(k, 8).eq``) keeps each shadow one
+    multiplexer that compiled simulators evaluate only on a bus write.
+    """
+    return Cat(word[:8 * k], byte, word[8 * (k + 1):])
+
+
+@dataclass(frozen=True)
+class _Strobes:
+    """A bank's write strobes: the code of the register committed or refused last cycle."""
+
+    committed: Signal | None  # None if there is no such register
+    refused: Signal | None
+    commit_code: dict[str, int]
+    refuse_code: dict[str, int]
+
+
+def _code_register(m: Module, name: str, count: int) -> Signal | None:
+    """A register holding 1..``count`` for one cycle after an event, else 0 (None if no
+    events)."""
+    if not count:
+        return None
+    code = Signal(range(count + 1), name=name)
+    m.d.sync += code.eq(0)
+    return code
+
+
+def _commit(m: Module, reg: Register, strobes: _Strobes, value: Signal, new) -> None:
     """Take the completed value ``new`` of a writable register, unless it is out of range."""
+    code = strobes.commit_code[reg.name]
     if reg.valid is None:
-        m.d.sync += [value.eq(new), port.w_stb.eq(1)]
+        m.d.sync += [value.eq(new), strobes.committed.eq(code)]
         return
-    word = new.as_signed() if reg.signed else new
-    with m.If((word >= reg.valid[0]) & (word <= reg.valid[1])):
-        m.d.sync += [value.eq(new), port.w_stb.eq(1)]
-    with m.Else():
-        m.d.sync += port.w_err.eq(1)
+
+    def ok():
+        # A fresh expression per use: each register's logic then stands alone, and compiled
+        # simulators evaluate the range check only on a write.
+        word = new.as_signed() if reg.signed else new
+        return (word >= reg.valid[0]) & (word <= reg.valid[1])
+
+    m.d.sync += [value.eq(Mux(ok(), new, value)),
+                 strobes.committed.eq(Mux(ok(), code, 0)),
+                 strobes.refused.eq(Mux(ok(), 0, strobes.refuse_code[reg.name]))]
 
 
 def registers_markdown(maps: Iterable[RegisterMap]) -> str:

@@ -60,6 +60,15 @@ class _Phase(enum.Enum, shape=2):
     RUN = 2
 
 
+#: Cycles of a circular step's latency in which its successor is decided (see ``K3701``).
+_CIRCLE_STAGES = 4
+
+
+def _field(word, field):
+    """The bits of ``field`` in ``word`` (a slice: cheaper to simulate than Field.decode)."""
+    return word[field.offset:field.offset + field.width]
+
+
 def _abs(v):
     return Mux(v < 0, -v, v)
 
@@ -95,10 +104,17 @@ class K3701(wiring.Component):
       one FP arriving meanwhile is held, a further one sets OVERRUN and is lost;
     * BUSY falls and ``irq`` rises in the cycle of the final step's pulses.
 
+    Inside, each step is decided before its FP can come: a line's next step in the cycle the
+    current one is output, a circle's first step during the radius check and each following
+    one in four pipelined cycles of the current step's latency. The logic thus works only
+    when there is something to decide, which keeps compiled simulation fast; it needs a
+    circular latency of at least 6 cycles.
+
     Parameters
     ----------
     latency_linear, latency_circular : int
-        Cycles from the credit-completing FP to the step pulses (paper: 11 and 21 at 1 MHz).
+        Cycles from the credit-completing FP to the step pulses (paper: 11 and 21 at 1 MHz);
+        2..32 linear, 6..32 circular.
     circle_setup : int
         Cycles of the circular radius check; must equal 25 (24 squarer cycles plus the check).
 
@@ -132,10 +148,10 @@ class K3701(wiring.Component):
     def __init__(self, *, latency_linear: int = LATENCY_LINEAR,
                  latency_circular: int = LATENCY_CIRCULAR,
                  circle_setup: int = CIRCLE_SETUP_CYCLES):
-        for name, value in (("latency_linear", latency_linear),
-                            ("latency_circular", latency_circular)):
-            if not isinstance(value, int) or not 2 <= value <= 32:
-                raise ValueError(f"{name} must be an integer in 2..32, not {value!r}")
+        for name, value, low in (("latency_linear", latency_linear, 2),
+                                 ("latency_circular", latency_circular, 2 + _CIRCLE_STAGES)):
+            if not isinstance(value, int) or not low <= value <= 32:
+                raise ValueError(f"{name} must be an integer in {low}..32, not {value!r}")
         if circle_setup != CIRCLE_SETUP_CYCLES:
             raise ValueError(f"circle_setup must be {CIRCLE_SETUP_CYCLES} (24 squarer cycles "
                              f"and the check), not {circle_setup!r}")
@@ -145,6 +161,10 @@ class K3701(wiring.Component):
         super().__init__()
 
     def elaborate(self, platform) -> Module:
+        # Written for compiled simulation (CXXRTL evaluates an expression only when the
+        # conditions around it select it, if it feeds one register and no intermediate value
+        # is used twice or sign-extended): the heavy logic sits under rare conditions, and
+        # multi-use values are registers.
         m = Module()
         m.submodules.regs = regs = RegisterBank(K3701_MAP)
         connect(m, flipped(self.bus), regs.bus)
@@ -158,9 +178,13 @@ class K3701(wiring.Component):
         end_q = Signal(2)
         xm = Signal(signed(24))
         ym = Signal(signed(24))
-        bad = Signal()          # a coordinate of the block was -2^23
+        # The current step, decided before its FP can come: it moves the long axis (X if
+        # long_x), and the other one too if diag; final (and final_error) by its output.
+        long_x = Signal()
+        diag = Signal()
+        final = Signal()
+        final_error = Signal()
         # Linear working registers.
-        long_is_x = Signal()
         n_long = Signal(24)
         n_short = Signal(24)
         acc = Signal(25)
@@ -170,14 +194,22 @@ class K3701(wiring.Component):
         # Circular working registers (position and end point relative to the centre).
         x = Signal(signed(25))
         y = Signal(signed(25))
-        ex = Signal(signed(26))
-        ey = Signal(signed(26))
-        d = Signal(signed(28))
+        ex = Signal(signed(25))
+        ey = Signal(signed(25))
         q = Signal(2)
         armed = Signal()
+        d_after = Signal(signed(28))  # D = x^2 + y^2 - R0^2 after the current step
         end_on_x = Signal()
+        bad = Signal()          # the circle is invalid (complete at the end of the check)
         sq = Signal(48)
         sq_k = Signal(range(25))
+        # The circle's next step, decided in stages (see below).
+        next_q = Signal(2)
+        next_long_x = Signal()
+        next_diag = Signal()
+        next_armed = Signal()
+        d1 = Signal(signed(28))  # D after the next step: first if single-axis, then chosen
+        d2 = Signal(signed(28))  # D after the next step if diagonal
         # Feed intake.
         count = Signal(range(max(self.latency_linear, self.latency_circular)))
         held = Signal()
@@ -190,47 +222,21 @@ class K3701(wiring.Component):
             regs.status.r_data.eq(Cat(self.busy, self.irq, self.error, self.overrun)),
         ]
 
-        # --- the next step, decided combinationally from the working registers ---
-        lin_diag = (acc + n_short) >= n_long
-        lin_x_move = long_is_x | lin_diag
-        lin_y_move = ~long_is_x | lin_diag
-
+        # The current step's moves.
         sx_neg, sy_neg = _signs_negative(q, cw)
-        circ_long_x = _abs(y) >= _abs(x)
-        two_x = Mux(sx_neg, -(x << 1), x << 1)
-        two_y = Mux(sy_neg, -(y << 1), y << 1)
-        d1 = Signal(signed(28))
-        d2 = Signal(signed(28))
-        m.d.comb += [d1.eq(d + Mux(circ_long_x, two_x, two_y) + 1),
-                     d2.eq(d1 + Mux(circ_long_x, two_y, two_x) + 1)]
-        circ_diag = _abs(d2) < _abs(d1)
-        circ_x_move = circ_long_x | circ_diag
-        circ_y_move = ~circ_long_x | circ_diag
-
-        step_diag = Mux(circular, circ_diag, lin_diag)
-        x_move = Mux(circular, circ_x_move, lin_x_move)
-        y_move = Mux(circular, circ_y_move, lin_y_move)
+        x_move = long_x | diag
+        y_move = ~long_x | diag
         x_neg = Mux(circular, sx_neg, lx_neg)
         y_neg = Mux(circular, sy_neg, ly_neg)
         dx = Mux(x_move, Mux(x_neg, -1, 1), 0)
         dy = Mux(y_move, Mux(y_neg, -1, 1), 0)
-
-        x_next = Signal(signed(25))
-        y_next = Signal(signed(25))
-        q_next = Signal(2)
-        m.d.comb += [x_next.eq(x + dx), y_next.eq(y + dy), q_next.eq(_quadrant(x_next, y_next, cw))]
-        arming = armed | ((q_next == end_q) & (q_next != q))
-        circ_left = arming & (q_next != end_q)
-        circ_reached = arming & (q_next == end_q) & Mux(end_on_x, x_next == ex, y_next == ey)
-        final = Mux(circular, circ_left | circ_reached, left == 1)
-        final_error = circular & circ_left
 
         # --- feed intake: hold one FP while the engine is busy, lose (and flag) a second ---
         latency_m1 = Mux(circular, self.latency_circular - 1, self.latency_linear - 1)
         engine_busy = (phase == _Phase.SETUP) | ((phase == _Phase.RUN) & (count != 0))
 
         m.d.sync += [self.x_pos.eq(0), self.x_neg.eq(0), self.y_pos.eq(0), self.y_neg.eq(0)]
-        start = regs.cmd.w_stb & cmd.field("start").decode(regs.cmd.w_data)
+        start = regs.cmd.w_stb & regs.cmd.w_data[cmd.field("start").offset]
         with m.If(regs.cmd.w_stb & regs.cmd.w_data[cmd.field("ack").offset]):
             m.d.sync += self.irq.eq(0)
         with m.If(regs.cmd.w_stb & regs.cmd.w_data[cmd.field("clear").offset]):
@@ -254,37 +260,43 @@ class K3701(wiring.Component):
                     xe, ye = regs.x.w_data.as_signed(), regs.y.w_data.as_signed()
                     i, j = regs.i.w_data.as_signed(), regs.j.w_data.as_signed()
                     word = regs.ctrl.w_data
-                    is_circ = ctrl.field("circular").decode(word)
+                    is_circ = word[ctrl.field("circular").offset]
                     min_coord = -(1 << 23)
-                    lin_bad = (xe == min_coord) | (ye == min_coord)
-                    axe, aye = _abs(xe), _abs(ye)
+
+                    # Fresh expressions for each use, so that each is evaluated only here.
+                    def line_refused():
+                        return (xe == min_coord) | (ye == min_coord)
+
+                    def line_stops():
+                        return line_refused() | ((xe == 0) & (ye == 0))
+
+                    axe, aye = _abs(xe).as_unsigned(), _abs(ye).as_unsigned()
                     x_long = axe >= aye
                     nl = Mux(x_long, axe, aye)
+                    ns = Mux(x_long, aye, axe)
                     m.d.sync += [
                         circular.eq(is_circ),
                         cw.eq(word[ctrl.field("cw").offset]),
                         sqrt2.eq(word[ctrl.field("sqrt2").offset]),
-                        end_q.eq(ctrl.field("quadrant").decode(word)),
+                        end_q.eq(_field(word, ctrl.field("quadrant"))),
                         xm.eq(xe), ym.eq(ye),
                         credit.eq(0), held.eq(0), count.eq(0),
-                        # linear
-                        long_is_x.eq(x_long), n_long.eq(nl),
-                        n_short.eq(Mux(x_long, aye, axe)), acc.eq(nl >> 1),
+                        # linear, and its first step (a circle decides its own in SETUP)
+                        long_x.eq(x_long), n_long.eq(nl), n_short.eq(ns), acc.eq(nl[1:]),
+                        diag.eq(nl[1:] + ns >= nl), final.eq(nl == 1), final_error.eq(0),
                         left.eq(nl), lx_neg.eq(xe < 0), ly_neg.eq(ye < 0),
                         # circular
-                        x.eq(-i), y.eq(-j), ex.eq(xe - i), ey.eq(ye - j), d.eq(0),
-                        end_on_x.eq(_abs(ye - j) >= _abs(xe - i)),
-                        bad.eq(lin_bad | (i == min_coord) | (j == min_coord)),
+                        x.eq(-i), y.eq(-j), ex.eq(xe - i), ey.eq(ye - j), d_after.eq(0),
+                        bad.eq(line_refused() | (i == min_coord) | (j == min_coord)),
                         sq.eq(0), sq_k.eq(0),
+                        phase.eq(Mux(is_circ, _Phase.SETUP,
+                                     Mux(line_stops(), _Phase.IDLE, _Phase.RUN))),
+                        self.busy.eq(is_circ | ~line_stops()),
                     ]
-                    with m.If(is_circ):
-                        m.d.sync += [phase.eq(_Phase.SETUP), self.busy.eq(1)]
-                    with m.Elif(lin_bad):
-                        m.d.sync += [self.error.eq(1), self.irq.eq(1)]
-                    with m.Elif(nl == 0):
+                    with m.If(~is_circ & line_refused()):
+                        m.d.sync += self.error.eq(1)
+                    with m.If(~is_circ & line_stops()):
                         m.d.sync += self.irq.eq(1)
-                    with m.Else():
-                        m.d.sync += [phase.eq(_Phase.RUN), self.busy.eq(1)]
             with m.Case(_Phase.SETUP):
                 ax, ay = _abs(x), _abs(y)
                 bit = (23 - sq_k).as_unsigned()
@@ -294,24 +306,33 @@ class K3701(wiring.Component):
                               + Mux(ay.bit_select(bit, 1), ay, 0)),
                         sq_k.eq(sq_k + 1),
                     ]
+                    # Meanwhile, the checks that need no radius.
+                    with m.Switch(sq_k):
+                        with m.Case(0):
+                            m.d.sync += [
+                                end_on_x.eq(_abs(ey) >= _abs(ex)),
+                                bad.eq(bad | ((ex == 0) & (ey == 0))
+                                       | (_quadrant(ex, ey, cw) != end_q)),
+                            ]
+                        with m.Case(23):
+                            sq_final = (sq << 1) + Mux(ax[0], ax, 0) + Mux(ay[0], ay, 0)
+                            m.d.sync += bad.eq(bad | (sq_final == 0)
+                                               | (sq_final > MAX_RADIUS_SQUARED))
+                with m.Elif(bad):
+                    finish(Const(1))
                 with m.Else():
-                    q0 = _quadrant(x, y, cw)
-                    sx0_neg, sy0_neg = _signs_negative(q0, cw)
+                    sx0_neg, sy0_neg = _signs_negative(next_q, cw)
                     ahead = Mux(end_on_x, Mux(sx0_neg, ex < x, ex > x),
                                 Mux(sy0_neg, ey < y, ey > y))
-                    invalid = (bad | (sq == 0) | (sq > MAX_RADIUS_SQUARED)
-                               | ((ex == 0) & (ey == 0)) | (_quadrant(ex, ey, cw) != end_q))
-                    with m.If(invalid):
-                        finish(Const(1))
-                    with m.Else():
-                        m.d.sync += [phase.eq(_Phase.RUN), q.eq(q0),
-                                     armed.eq((q0 == end_q) & ahead)]
+                    m.d.sync += [phase.eq(_Phase.RUN), q.eq(next_q),
+                                 armed.eq((next_q == end_q) & ahead),
+                                 long_x.eq(next_long_x), diag.eq(next_diag), d_after.eq(d1)]
             with m.Case(_Phase.RUN):
                 with m.If(count == 0):
                     take = held | self.fp
                     m.d.sync += held.eq(held & self.fp)
                     credit2 = credit + 2
-                    cost = Mux(sqrt2 & step_diag, 3, 2)
+                    cost = Mux(sqrt2 & diag, 3, 2)
                     with m.If(take):
                         with m.If(credit2 >= cost):
                             m.d.sync += [credit.eq(credit2 - cost), count.eq(latency_m1)]
@@ -320,22 +341,55 @@ class K3701(wiring.Component):
                 with m.Else():
                     m.d.sync += count.eq(count - 1)
                     with m.If(count == 1):
+                        acc_next = Mux(diag, acc + n_short - n_long, acc + n_short)
                         m.d.sync += [
                             self.x_pos.eq(x_move & ~x_neg), self.x_neg.eq(x_move & x_neg),
                             self.y_pos.eq(y_move & ~y_neg), self.y_neg.eq(y_move & y_neg),
                             xm.eq(xm - dx), ym.eq(ym - dy),
-                            # linear
-                            acc.eq(Mux(lin_diag, acc + n_short - n_long, acc + n_short)),
-                            left.eq(left - 1),
-                            # circular
-                            x.eq(x_next), y.eq(y_next), q.eq(q_next), armed.eq(arming),
-                            d.eq(Mux(circ_diag, d2, d1)),
+                            # linear: the next step
+                            acc.eq(acc_next), left.eq(left - 1),
+                            # circular: the next step, as the stages decided it
+                            q.eq(next_q), armed.eq(next_armed), d_after.eq(d1),
+                            long_x.eq(Mux(circular, next_long_x, long_x)),
+                            diag.eq(Mux(circular, next_diag, acc_next + n_short >= n_long)),
                         ]
+                        with m.If(~circular):
+                            m.d.sync += final.eq(left == 2)
                         with m.If(final):
                             finish(final_error)
+
+        # A circle's step is decided in four stages, each from registers: the position moves,
+        # then its quadrant and long axis, then the two candidate D values (and whether the
+        # step ends the arc), then the choice. For a block's first step the last three run in
+        # the radius check's first cycles (from the start point, D = 0); for each next step
+        # all four run in the current step's latency, so that it is decided before the
+        # current step's output, when the next FP may already come. (Written after the
+        # phase switch, so that no register's hold value is shared between its branches.)
+        in_setup = phase == _Phase.SETUP
+        in_circle_run = (phase == _Phase.RUN) & circular
+        stage = [in_circle_run & (count == self.latency_circular - k)
+                 for k in range(1, _CIRCLE_STAGES + 1)]
+        with m.If(stage[0]):
+            m.d.sync += [x.eq(x + dx), y.eq(y + dy)]
+        with m.If((in_setup & (sq_k == 0)) | stage[1]):
+            m.d.sync += [next_q.eq(_quadrant(x, y, cw)), next_long_x.eq(_abs(y) >= _abs(x))]
+        with m.If((in_setup & (sq_k == 1)) | stage[2]):
+            nx_neg, ny_neg = _signs_negative(next_q, cw)
+            two_x = Mux(nx_neg, -x, x) << 1
+            two_y = Mux(ny_neg, -y, y) << 1
+            m.d.sync += [d1.eq(d_after + Mux(next_long_x, two_x, two_y) + 1),
+                         d2.eq(d_after + two_x + two_y + 2)]
+        with m.If(stage[2]):
+            arming = armed | ((next_q == end_q) & (next_q != q))
+            m.d.sync += [next_armed.eq(arming),
+                         final.eq(arming & ((next_q != end_q) | Mux(end_on_x, x == ex, y == ey))),
+                         final_error.eq(arming & (next_q != end_q))]
+        with m.If((in_setup & (sq_k == 2)) | stage[3]):
+            # The short axis moves too if that makes |D| smaller.
+            m.d.sync += [next_diag.eq(_abs(d2) < _abs(d1)),
+                         d1.eq(Mux(_abs(d2) < _abs(d1), d2, d1))]
 
         # START while a block runs is refused (and flagged), never obeyed.
         with m.If(start & (phase != _Phase.IDLE)):
             m.d.sync += self.error.eq(1)
         return m
-

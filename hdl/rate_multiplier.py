@@ -5,10 +5,7 @@ The reference model (and the 7497's decoding table) is :mod:`hdl.rate_multiplier
 
 from __future__ import annotations
 
-import operator
-from functools import reduce
-
-from amaranth.hdl import Module, Signal
+from amaranth.hdl import Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
@@ -63,22 +60,32 @@ class RateMultiplier(wiring.Component):
     def elaborate(self, platform) -> Module:
         m = Module()
         bits = 6 * self.stages
-        nxt = Signal(bits)
-        m.d.comb += nxt.eq(self.count + 1)
+        # The gates pass the clock in state k iff the word bit they select is set, and they
+        # select bit (bits - 1 - t) where t is the number of trailing ones of k (stage
+        # s = t // 6 is the first one not in state 63, and its gate for rate bit 5 - t % 6
+        # is open); no bit when k is all ones. ``select`` holds that bit index for the state
+        # the next input clock reaches (the sentinel ``bits`` for none), updated only when the
+        # counter moves, so each cycle costs one shift.
+        select = Signal(range(bits + 1), init=_selected(1, bits))
         with m.If(self.clk_en):
-            m.d.sync += self.count.eq(nxt)
-
-        hits = []
-        upstream_at_63 = 1
-        for s in range(self.stages):
-            digit = nxt[6 * s:6 * s + 6]
-            rate = self.word[6 * (self.stages - 1 - s):6 * (self.stages - s)]
-            # Rate bit b passes the states whose low 5-b bits are 1 and whose next bit is 0.
-            for bit in range(6):
-                ones = 5 - bit
-                pattern = (1 << ones) - 1
-                hits.append(upstream_at_63 & rate[bit] & (digit[:ones + 1] == pattern))
-            upstream_at_63 = upstream_at_63 & (digit == 63)
-        m.d.comb += [self.out.eq(self.clk_en & reduce(operator.or_, hits)),
-                     self.enable_out.eq(self.clk_en & (nxt == (1 << bits) - 1))]
+            m.d.sync += [self.count.eq(self.count + 1),
+                         select.eq(_select_expr(self.count + 2, bits))]
+        m.d.comb += [self.out.eq(self.clk_en & (self.word >> select)[0]),
+                     self.enable_out.eq(self.clk_en & (select == bits))]
         return m
+
+
+def _selected(state: int, bits: int) -> int:
+    """The word bit that counter state ``state`` selects (``bits``: none)."""
+    t = 0
+    while t < bits and (state >> t) & 1:
+        t += 1
+    return bits - 1 - t if t < bits else bits
+
+
+def _select_expr(state, bits: int):
+    """:func:`_selected` of the Amaranth value ``state`` (taken modulo ``2**bits``)."""
+    result = bits
+    for t in reversed(range(bits)):
+        result = Mux(state[t], result, bits - 1 - t)
+    return result

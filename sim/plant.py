@@ -15,17 +15,22 @@ from amaranth.hdl import Module, Mux, Signal, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-__all__ = ["ALPHA_BITS", "FRAC_BITS", "VC_MAX", "PlantParams", "ServoPlant"]
+__all__ = ["ALPHA_BITS", "FRAC_BITS", "VC_MAX", "PlantParams", "ServoPlant", "dac_zero"]
 
 #: Fraction bits of position and velocity.
 FRAC_BITS = 32
-#: Fraction bits of the velocity-lag coefficient alpha = dt / Tm.
+#: Fraction bits of the velocity-lag coefficient alpha = dt / Tm (alpha < 2^ALPHA_BITS).
 ALPHA_BITS = 24
-#: Velocity command bound: 2^38 = 64 counts per cycle (keeps every product within 64 bits).
-VC_BITS = 38
+#: Velocity bound: 2^37 = 32 counts per cycle (keeps every product within 64 bits).
+VC_BITS = 37
 VC_MAX = (1 << VC_BITS) - 1
 #: Full-scale D/A voltage.
 DAC_VOLTS = 10.0
+
+
+def dac_zero(dac_bits: int) -> int:
+    """The D/A code of 0 V for an N-bit offset-binary converter: 2^(N-1)."""
+    return 1 << (dac_bits - 1)
 
 
 @dataclass(frozen=True)
@@ -57,10 +62,14 @@ class PlantParams:
 
     @property
     def alpha(self) -> int:
-        """dt / Tm << ALPHA_BITS (1.0 when Tm is shorter than a cycle)."""
+        """dt / Tm << ALPHA_BITS, at most 2^ALPHA_BITS - 1.
+
+        A Tm of a cycle or less gives the largest alpha, 1 - 2^-24: the velocity then follows
+        the command within one cycle, short of it by a 2^-24 fraction of the step.
+        """
         if self.tm * self.clock_hz <= 1:
-            return 1 << ALPHA_BITS
-        return round((1 << ALPHA_BITS) / (self.tm * self.clock_hz))
+            return (1 << ALPHA_BITS) - 1
+        return min(round((1 << ALPHA_BITS) / (self.tm * self.clock_hz)), (1 << ALPHA_BITS) - 1)
 
     @property
     def vmax(self) -> int:
@@ -71,25 +80,27 @@ class PlantParams:
 
     def kv(self, dac_bits: int) -> float:
         """The amplifier's velocity gain, counts/s per volt."""
-        return self.kp * (1 << (dac_bits - 1)) / DAC_VOLTS
+        return self.kp * dac_zero(dac_bits) / DAC_VOLTS
 
 
 class ServoPlant(wiring.Component):
     """Servo amplifier + motor (first-order velocity lag) + incremental encoder.
 
-    Every cycle: e = dac - 2^(N-1); vc = clamp(e * gain, +-vmax) (vmax 0: 2^38);
+    Every cycle: e = dac - dac_zero; vc = clamp(e * gain, +-vmax) (vmax 0: 2^37 - 1);
     v += round((vc - v) * alpha / 2^ALPHA_BITS) (0 while stalled); p += v; the encoder count is
     floor(p) and A/B are its Gray code (count 0: A=0 B=0, 1: 1 0, 2: 1 1, 3: 0 1), so
-    positive motion has A leading B (CCW, normal). All outputs are registered: they show the
-    state after the cycle's update, one cycle after the ``dac`` they follow.
+    positive motion has A leading B (CCW, normal). Every output follows registered state
+    only: it shows the state after the cycle's update, one cycle after the ``dac`` (and the
+    fault inputs) it follows.
 
     Members
     -------
     dac : In(16)
         D/A code from the K3702, offset binary, N bits right-aligned.
-    dac_bits : In(5)
-        N, the converter's width (8..16).
-    gain, alpha, vmax : In(32), In(ALPHA_BITS + 1), In(48)
+    dac_zero : In(16)
+        The code of 0 V, 2^(N-1) for an N-bit converter (:func:`dac_zero`); given as a
+        number rather than N, so that the model needs no shifter.
+    gain, alpha, vmax : In(32), In(ALPHA_BITS), In(48)
         Fixed-point parameters, see :class:`PlantParams`.
     stall : In(1)
         Fault: the axis is blocked (velocity held at 0).
@@ -106,9 +117,9 @@ class ServoPlant(wiring.Component):
     """
 
     dac: In(16)
-    dac_bits: In(5)
+    dac_zero: In(16)
     gain: In(32)
-    alpha: In(ALPHA_BITS + 1)
+    alpha: In(ALPHA_BITS)
     vmax: In(48)
     stall: In(1)
     glitch_a: In(1)
@@ -123,33 +134,42 @@ class ServoPlant(wiring.Component):
 
     def elaborate(self, platform) -> Module:
         m = Module()
-        position = Signal(signed(32 + FRAC_BITS))
-        err = Signal(signed(18))
-        m.d.comb += err.eq(self.dac - (1 << (self.dac_bits - 1).as_unsigned()))
-        # Every product stays within 64 bits (CXXRTL and Verilator then multiply natively):
-        # |vc| <= 2^VC_BITS (64 counts/cycle, far beyond any drive) and alpha <= 2^24.
-        vc_raw = Signal(signed(18 + 32))
+        err = Signal(signed(17))
+        m.d.comb += err.eq(self.dac - self.dac_zero)
+        # Every value fits in 64 bits, so that compiled simulators compute it in at most two
+        # machine words: |vc|, |v| < 2^VC_BITS and alpha < 2^ALPHA_BITS, so
+        # |(vc - v) * alpha| < 2^62.
+        vc_raw = Signal(signed(17 + 33))
         m.d.comb += vc_raw.eq(err * self.gain)
-        vmax = Signal(signed(VC_BITS + 1))
+        vmax = Signal(VC_BITS)
         m.d.comb += vmax.eq(Mux((self.vmax == 0) | (self.vmax > VC_MAX), VC_MAX, self.vmax))
         vc = Signal(signed(VC_BITS + 1))
         m.d.comb += vc.eq(Mux(vc_raw > vmax, vmax, Mux(vc_raw < -vmax, -vmax, vc_raw)))
         delta = Signal(signed(64))
         m.d.comb += delta.eq((vc - self.velocity) * self.alpha + (1 << (ALPHA_BITS - 1)))
-        v_next = Signal(signed(VC_BITS + 1))
-        m.d.comb += v_next.eq(Mux(self.stall, 0, self.velocity + (delta >> ALPHA_BITS)))
-        p_next = Signal(signed(32 + FRAC_BITS))
-        m.d.comb += p_next.eq(position + v_next)
-        count = p_next[FRAC_BITS:].as_signed()
-        a = count[0] ^ count[1]
-        b = count[1]
-        m.d.sync += [
-            self.velocity.eq(v_next),
-            position.eq(p_next),
+        # p += v_next is kept as before = p - v (so before += v): each register's next value
+        # is then one expression, which compiled simulators evaluate only at the clock edge.
+        m.d.sync += self.velocity.eq(
+            Mux(self.stall, 0, self.velocity + delta.shift_right(ALPHA_BITS)))
+        before = Signal(signed(32 + FRAC_BITS))
+        m.d.sync += before.eq(before + self.velocity)
+        position = Signal(signed(32 + FRAC_BITS))
+        m.d.comb += position.eq(before + self.velocity)
+        # The encoder lines follow the position; a fault input acts one cycle later, as if
+        # it were registered with the lines.
+        glitch_a = Signal()
+        glitch_b = Signal()
+        break_a = Signal()
+        m.d.sync += [glitch_a.eq(self.glitch_a), glitch_b.eq(self.glitch_b),
+                     break_a.eq(self.break_a)]
+        count = position[FRAC_BITS:].as_signed()
+        a = count[0] ^ count[1] ^ glitch_a
+        b = count[1] ^ glitch_b
+        m.d.comb += [
             self.count.eq(count),
-            self.a.eq(a ^ self.glitch_a),
-            self.a_n.eq(Mux(self.break_a, a ^ self.glitch_a, ~(a ^ self.glitch_a))),
-            self.b.eq(b ^ self.glitch_b),
-            self.b_n.eq(~(b ^ self.glitch_b)),
+            self.a.eq(a),
+            self.a_n.eq(Mux(break_a, a, ~a)),
+            self.b.eq(b),
+            self.b_n.eq(~b),
         ]
         return m

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sim.plant import ALPHA_BITS, FRAC_BITS, VC_BITS, VC_MAX
+from sim.plant import ALPHA_BITS, FRAC_BITS, VC_BITS, VC_MAX, dac_zero
 
 __all__ = ["ServoPlantModel"]
 
@@ -35,7 +35,7 @@ class ServoPlantModel:
         return (c ^ (c >> 1)) & 1, (c >> 1) & 1
 
     def cycle(self, dac: int, stall: bool = False) -> None:
-        err = dac - (1 << (self.dac_bits - 1))
+        err = dac - dac_zero(self.dac_bits)
         vmax = VC_MAX if not self.vmax or self.vmax > VC_MAX else self.vmax
         vc = max(-vmax, min(vmax, err * self.gain))
         delta = _wrap((vc - self.velocity) * self.alpha + (1 << (ALPHA_BITS - 1)), 64)

@@ -22,7 +22,7 @@ from firmware_model.host import Host8085
 from firmware_model.job import AXES, Job
 from hdl.chipset import CHIP_SELECTS, port
 from sim.backend import Backend, make_backend
-from sim.plant import DAC_VOLTS, PlantParams
+from sim.plant import DAC_VOLTS, PlantParams, dac_zero
 from sim.report import SCHEMA_VERSION, validate
 from sim.system import System
 
@@ -150,7 +150,7 @@ def _configure_plants(backend: Backend, job: Job, faults: dict[str, dict[str, in
         backend.set(f"{axis}__gain", params.gain)
         backend.set(f"{axis}__alpha", params.alpha)
         backend.set(f"{axis}__vmax", params.vmax)
-        backend.set(f"{axis}__dac_bits", machine.dac_bits)
+        backend.set(f"{axis}__dac_zero", dac_zero(machine.dac_bits))
         for name, value in faults.get(axis, {}).items():
             backend.set(f"{axis}__{name}", value)
 

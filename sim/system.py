@@ -21,8 +21,9 @@ class AxisProbe(wiring.Signature):
 
     Members
     -------
-    gain, alpha, vmax, dac_bits : In
-        Plant parameters (:class:`sim.plant.PlantParams`).
+    gain, alpha, vmax, dac_zero : In
+        Plant parameters (:class:`sim.plant.PlantParams`; ``dac_zero`` from
+        :func:`sim.plant.dac_zero` of the K3702's DAC_BITS).
     stall, glitch_a, glitch_b, break_a : In(1)
         Fault injection (see :class:`sim.plant.ServoPlant`).
     command, error : Out(signed(24))
@@ -41,7 +42,7 @@ class AxisProbe(wiring.Signature):
 
     def __init__(self):
         super().__init__({
-            "gain": In(32), "alpha": In(ALPHA_BITS + 1), "vmax": In(48), "dac_bits": In(5),
+            "gain": In(32), "alpha": In(ALPHA_BITS), "vmax": In(48), "dac_zero": In(16),
             "stall": In(1), "glitch_a": In(1), "glitch_b": In(1), "break_a": In(1),
             "command": Out(signed(24)), "error": Out(signed(24)), "count": Out(signed(32)),
             "dac": Out(16), "max_abs_error": Out(24),
@@ -88,7 +89,7 @@ class System(wiring.Component):
             probe, pins = getattr(self, axis), getattr(chip, axis)
             plant = m.submodules[f"plant_{axis}"] = ServoPlant()
             m.d.comb += [
-                plant.dac.eq(pins.dac), plant.dac_bits.eq(probe.dac_bits),
+                plant.dac.eq(pins.dac), plant.dac_zero.eq(probe.dac_zero),
                 plant.gain.eq(probe.gain), plant.alpha.eq(probe.alpha),
                 plant.vmax.eq(probe.vmax), plant.stall.eq(probe.stall),
                 plant.glitch_a.eq(probe.glitch_a), plant.glitch_b.eq(probe.glitch_b),

@@ -72,25 +72,38 @@ def compare_with_model(block: Block, fp, max_cycles: int,
 
     Returns the model, the cycles run and the X/Y registers read back at the end.
     """
+    return compare_sequence([block], fp, max_cycles, model)
+
+
+def compare_sequence(blocks: list[Block], fp, max_cycles: int,
+                     model: K3701Model | None = None) -> tuple[K3701Model, int, list[int]]:
+    """:func:`compare_with_model` for blocks run one after another on one chip.
+
+    Each block is loaded and started (with ``ack`` and ``clear``) once the previous one
+    requested data.
+    Returns the model, the last block's cycles and the X/Y registers read back at the end.
+    """
     dut = K3701()
     model = model or K3701Model()
     result: dict = {}
 
     async def bench(ctx):
-        await load(ctx, dut, block)
-        await bus_write(ctx, dut.bus, CMD.addr, CMD.encode(start=1))
-        for t in range(max_cycles):
-            f = fp(t)
-            ctx.set(dut.fp, f)
-            got = {name: ctx.get(getattr(dut, name)) for name in OUTPUTS}
-            out = model.cycle(fp=bool(f), start=block if t == 0 else None)
-            want = {name: getattr(out, name) for name in OUTPUTS}
-            assert got == want, f"cycle {t}: gateware {got} != model {want}"
-            await ctx.tick()
-            if t > 0 and out.irq:
-                break
-        ctx.set(dut.fp, 0)
-        result["cycles"] = t
+        for block in blocks:
+            await load(ctx, dut, block)
+            await bus_write(ctx, dut.bus, CMD.addr, CMD.encode(start=1, ack=1, clear=1))
+            for t in range(max_cycles):
+                f = fp(t)
+                ctx.set(dut.fp, f)
+                got = {name: ctx.get(getattr(dut, name)) for name in OUTPUTS}
+                out = model.cycle(fp=bool(f), start=block if t == 0 else None,
+                                  ack=t == 0, clear=t == 0)
+                want = {name: getattr(out, name) for name in OUTPUTS}
+                assert got == want, f"{block} cycle {t}: gateware {got} != model {want}"
+                await ctx.tick()
+                if t > 0 and out.irq:
+                    break
+            ctx.set(dut.fp, 0)
+            result["cycles"] = t
         result["xy"] = [await read_reg(ctx, dut.bus, K3701_MAP[n]) for n in ("X", "Y")]
 
     simulate(dut, bench)
@@ -370,6 +383,27 @@ def test_arc_whose_end_is_off_its_circle_stops_with_error_instead_of_circling():
     p = plan(Block(Kind.CIRCULAR, 10, 15, -10, 0, quadrant=1))
     assert p.error
     assert p.end == (-10, 10)
+
+
+def test_a_line_after_an_arc_that_ended_in_error_ends_without_error():
+    # The arc stops with ERROR on leaving quadrant 1 (its end is off the circle); the
+    # line's START clears it, and the line's own end must not raise it again.
+    arc = Block(Kind.CIRCULAR, 10, 15, -10, 0, quadrant=1)
+    line = Block.line(-9, 6)
+    model, _, xy = compare_sequence([arc, line], fp_source("saturated", 0), 5000)
+    assert not model.out.error
+    assert xy == [0, 0]
+
+
+@settings(max_examples=30, derandomize=True, deadline=None)
+@given(blocks=st.lists(st.one_of(
+    st.builds(Block.line, st.integers(-40, 40), st.integers(-40, 40)),
+    st.builds(lambda i, j, k, cw: Block.arc(i + k, j - k, i, j, cw=cw),
+              st.integers(-20, 20), st.integers(-20, 20), st.integers(-30, 30).filter(bool),
+              st.booleans())),
+    min_size=2, max_size=4), seed=st.integers(0, 1000))
+def test_gateware_equals_model_on_block_sequences(blocks, seed):
+    compare_sequence(blocks, fp_source("random", seed), 20000)
 
 
 @settings(max_examples=100, derandomize=True, deadline=None)

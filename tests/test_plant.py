@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim.plant import FRAC_BITS, PlantParams, ServoPlant
+from sim.plant import FRAC_BITS, PlantParams, ServoPlant, dac_zero
 from sim.plant_model import ServoPlantModel
 from sim.testbench import simulate
 
@@ -25,7 +25,7 @@ def test_plant_gateware_equals_model_cycle_by_cycle(kp, tm, vmax, dac_bits, seed
         ctx.set(dut.gain, params.gain)
         ctx.set(dut.alpha, params.alpha)
         ctx.set(dut.vmax, params.vmax)
-        ctx.set(dut.dac_bits, dac_bits)
+        ctx.set(dut.dac_zero, dac_zero(dac_bits))
         dac = 1 << (dac_bits - 1)
         for t in range(400):
             if t % 37 == 0:
