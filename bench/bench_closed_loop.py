@@ -4,23 +4,42 @@ Run with ``pytest bench/bench_closed_loop.py --benchmark-only -s``. The compiled
 the whole demo (the paper's circle, about 6e6 cycles); Amaranth's simulator runs its first
 ``PYSIM_CYCLES`` cycles (the whole demo would take hours). Both include the firmware model,
 the sampling and the report; builds are excluded (the compiled model is built before timing).
+
+The second benchmark runs a dwell-heavy job (:data:`DWELL_GCODE`: short moves, 8 s of dwell)
+on the compiled backend with and without idle skipping and prints the speed-up.
 """
 
 from __future__ import annotations
 
 import pytest
 
-from firmware_model.job import demo_job
+from firmware_model.job import Job, demo_job, gcode_job
 from sim.run import RunOptions, build_backend, run_job
 
 PYSIM_CYCLES = 20_000
 SPEEDS: dict[str, float] = {}
 
+#: Four short moves, each followed by a 2 s dwell (a spot-drilling cycle's shape).
+DWELL_GCODE = """G21 G91 F1200
+G01 X2.0
+G04 P2
+G01 Y2.0
+G04 P2
+G01 X-2.0
+G04 P2
+G01 Y-2.0
+G04 P2
+M30
+"""
+DWELL_SPEEDS: dict[bool, float] = {}
 
-def _run(backend_kind: str, max_cycles: int) -> dict:
-    job = demo_job()
+
+def _run(backend_kind: str, max_cycles: int, job: Job | None = None,
+         skip_idle: bool = True) -> dict:
+    job = job or demo_job()
     backend = build_backend(job, backend_kind)  # built (or loaded) outside the timing
-    report = run_job(job, RunOptions(max_cycles=max_cycles), backend).report
+    report = run_job(job, RunOptions(max_cycles=max_cycles, skip_idle=skip_idle),
+                     backend).report
     backend.close()
     return report
 
@@ -33,3 +52,16 @@ def test_closed_loop_demo_speed(benchmark, kind, cycles):
           f"{SPEEDS[kind]:,.0f} cycles/s ({SPEEDS[kind] / 1e6:.3f}x real time at 1 MHz)")
     if len(SPEEDS) == 2:
         print(f"cxxrtl / pysim = {SPEEDS['cxxrtl'] / SPEEDS['pysim']:.0f}x")
+
+
+@pytest.mark.parametrize("skip_idle", [False, True])
+def test_dwell_heavy_job_speed_with_and_without_idle_skipping(benchmark, skip_idle):
+    job = gcode_job("dwell-heavy", DWELL_GCODE, "<dwell-heavy>")
+    report = benchmark.pedantic(_run, args=("cxxrtl", 10**9, job, skip_idle), rounds=1,
+                                iterations=1)
+    DWELL_SPEEDS[skip_idle] = report["cycles_per_second"]
+    print(f"\ndwell-heavy, skip_idle={skip_idle}: {report['cycles']:,} cycles "
+          f"({report['skipped_cycles']:,} skipped) in {report['wall_seconds']:.2f} s = "
+          f"{DWELL_SPEEDS[skip_idle]:,.0f} cycles/s")
+    if len(DWELL_SPEEDS) == 2:
+        print(f"idle skipping speed-up: {DWELL_SPEEDS[True] / DWELL_SPEEDS[False]:.1f}x")

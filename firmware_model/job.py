@@ -43,7 +43,7 @@ from hdl.hostbus import Register
 from hdl.k3702 import K3702_MAP
 
 __all__ = ["AXES", "DEMO_GCODE", "Job", "JobError", "MachineConfig", "RunConfig",
-           "ServoConfig", "demo_job", "job_keys_markdown", "load_job"]
+           "ServoConfig", "demo_job", "gcode_job", "job_keys_markdown", "load_job"]
 
 #: The axes of the machine, in order.
 AXES = ("x", "y")
@@ -219,10 +219,11 @@ class Job:
 
 def demo_job() -> Job:
     """The built-in demo (:data:`DEMO_GCODE`) on the default machine."""
-    return _gcode_job("demo", DEMO_GCODE, "<demo>")
+    return gcode_job("demo", DEMO_GCODE, "<demo>")
 
 
-def _gcode_job(name: str, text: str, source: str) -> Job:
+def gcode_job(name: str, text: str, source: str) -> Job:
+    """G-code ``text`` (``source`` names it in errors) on the default machine and servos."""
     machine = MachineConfig()
     program = parse(text, source=source, lsb_mm=machine.lsb_mm, sqrt2=machine.sqrt2)
     return Job(name, machine, dict.fromkeys(AXES, ServoConfig()), program)
@@ -243,7 +244,7 @@ def load_job(path: str | PathLike[str] | None) -> Job:
     path = Path(path)
     text = _read(path, str(path))
     if path.suffix.lower() != ".toml":
-        return _gcode_job(path.stem, text, str(path))
+        return gcode_job(path.stem, text, str(path))
     return _TomlJob(path, text).job()
 
 

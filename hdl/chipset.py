@@ -13,7 +13,7 @@ selects are :data:`CHIP_SELECTS`, the registers each chip's own map. :func:`port
 
 import enum
 
-from amaranth.hdl import Array, Module, Signal, signed
+from amaranth.hdl import Array, Cat, Const, Module, Signal, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
@@ -114,6 +114,10 @@ class Chipset(wiring.Component):
         Either K3702's alarm interrupt (RST 6.5).
     fp : Out(1)
         Observation: the feed pulses the K3701 receives.
+    feed_quiet : Out(1)
+        Observation: no feed pulse can reach the K3701 or an axis in this cycle (the decel
+        gate is closed and every accel/decel circuit is drained), so the free-running
+        dividers and rate multiplier change nothing else; combinational.
     step_x_pos, step_x_neg, step_y_pos, step_y_neg : Out(1)
         Observation: the K3701's step pulses.
     x, y : Out(AxisPins())
@@ -130,7 +134,7 @@ class Chipset(wiring.Component):
         self.accel_bits = accel_bits
         super().__init__({
             "bus": In(HostBus(8)),
-            "irq_interp": Out(1), "irq_alarm": Out(1), "fp": Out(1),
+            "irq_interp": Out(1), "irq_alarm": Out(1), "fp": Out(1), "feed_quiet": Out(1),
             "step_x_pos": Out(1), "step_x_neg": Out(1),
             "step_y_pos": Out(1), "step_y_neg": Out(1),
             "x": Out(AxisPins()), "y": Out(AxisPins()),
@@ -150,10 +154,12 @@ class Chipset(wiring.Component):
         interp, feed, decel = chips["K3701"], chips["FEED"], chips["DECEL"]
 
         m.d.comb += decel.inp.eq(feed.out)
+        drained = []  # the accel/decel circuits' idle flags
         if self.accel is Accel.PRE:
             m.submodules.accel = accel = AccelDecel(n=self.accel_bits)
             m.d.comb += [accel.inp.eq(decel.out), accel.add.eq(feed.fa),
                          interp.fp.eq(accel.out)]
+            drained.append(accel.idle)
         else:
             m.d.comb += interp.fp.eq(decel.out)
         m.d.comb += [
@@ -175,6 +181,7 @@ class Chipset(wiring.Component):
                 m.d.comb += [post.inp_pos.eq(step_pos), post.inp_neg.eq(step_neg),
                              post.add.eq(feed.fa)]
                 step_pos, step_neg = post.out_pos, post.out_neg
+                drained.append(post.idle)
             m.d.comb += [
                 ctrl.com_pos.eq(step_pos), ctrl.com_neg.eq(step_neg),
                 enc.a.eq(pins.a), enc.a_n.eq(pins.a_n), enc.b.eq(pins.b), enc.b_n.eq(pins.b_n),
@@ -184,6 +191,7 @@ class Chipset(wiring.Component):
                 pins.fb_pos.eq(enc.fb_pos), pins.fb_neg.eq(enc.fb_neg),
                 pins.command.eq(ctrl.command), pins.error.eq(ctrl.error),
             ]
+        m.d.comb += self.feed_quiet.eq(~decel.gate_open & Cat(*drained, Const(1)).all())
         return m
 
     def _decode_bus(self, m: Module, chips: dict) -> None:

@@ -49,7 +49,10 @@ class DecelControl(wiring.Component):
     inp : In(1)
         Input feed pulses (from the rate multiplier); each cycle it is high is one pulse.
     out : Out(1)
-        Passed pulse, combinational: ``inp`` while REMAINING > 0 and not held.
+        Passed pulse, combinational: ``inp`` while the gate is open.
+    gate_open : Out(1)
+        The gate passes an input pulse in this cycle: not held and REMAINING > 0 (counting a
+        BUDGET that takes effect in this cycle); combinational.
     spent : Out(1)
         REMAINING == 0; rises in the cycle after the last pulse passes (registered state).
     remaining : Out(24)
@@ -59,6 +62,7 @@ class DecelControl(wiring.Component):
     bus: In(HostBus(DECEL_MAP.addr_width))
     inp: In(1)
     out: Out(1)
+    gate_open: Out(1)
     spent: Out(1)
     remaining: Out(BUDGET_WIDTH)
 
@@ -71,7 +75,8 @@ class DecelControl(wiring.Component):
         current = Signal(BUDGET_WIDTH)
         m.d.comb += [
             current.eq(Mux(regs.budget.w_stb, regs.budget.w_data, self.remaining)),
-            self.out.eq(self.inp & ~hold & (current != 0)),
+            self.gate_open.eq(~hold & (current != 0)),
+            self.out.eq(self.inp & self.gate_open),
             self.spent.eq(self.remaining == 0),
         ]
         m.d.sync += self.remaining.eq(current - self.out)

@@ -36,7 +36,42 @@ from amaranth.sim import Simulator
 
 from sim.testbench import CLOCK_PERIOD
 
-__all__ = ["Backend", "Port", "PysimBackend", "component_ports", "make_backend"]
+__all__ = ["Backend", "FreeRunning", "PhaseAccumulator", "Port", "PysimBackend",
+           "StrobeCounter", "component_ports", "make_backend"]
+
+
+@dataclass(frozen=True)
+class PhaseAccumulator:
+    """A :class:`hdl.divider.PhaseDivider` at probe path ``path`` (``phase``, ``increment``,
+    ``stb`` below it): it adds ``increment`` to ``phase`` at every edge, for ever."""
+
+    path: str
+    width: int
+
+
+@dataclass(frozen=True)
+class StrobeCounter:
+    """A :class:`hdl.rate_multiplier.RateMultiplier` at ``path`` (``count``, ``select``): it
+    counts the cycles in which accumulator number ``clock``'s ``stb`` is high."""
+
+    path: str
+    width: int
+    clock: int
+
+
+@dataclass(frozen=True)
+class FreeRunning:
+    """State of a design that runs on by itself, for exact idle skipping.
+
+    A component may declare it as its ``free_running`` attribute. When the probe ``quiet``
+    reads 1, this state must affect nothing else in the design; a backend that skips idle
+    cycles then proves a fixed point of the rest from one cycle and advances this state in
+    closed form (:meth:`Backend.step` with ``skip_idle``).
+    """
+
+    accumulators: tuple[PhaseAccumulator, ...]
+    counters: tuple[StrobeCounter, ...]
+    quiet: str
 
 
 @dataclass(frozen=True)
@@ -119,8 +154,9 @@ class Backend(abc.ABC):
         """Run ``n`` system-clock cycles.
 
         With ``skip_idle``, a backend may count cycles without evaluating them once the design
-        is provably at a fixed point (nothing changes and the inputs are held); the state is
-        exactly that of stepping.
+        is provably at a fixed point (nothing changes and the inputs are held, or only the
+        component's :class:`FreeRunning` state changes while it is quiet, which is then
+        advanced in closed form); the state is exactly that of stepping.
         """
 
     @abc.abstractmethod

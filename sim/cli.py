@@ -36,7 +36,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         options = RunOptions(backend=args.backend, max_cycles=args.max_cycles,
                              sample_every=args.sample_every, vcd=args.vcd,
                              vcd_start=args.vcd_start, vcd_stop=args.vcd_stop,
-                             progress=sys.stderr.isatty() and not args.quiet, faults=faults)
+                             progress=sys.stderr.isatty() and not args.quiet, faults=faults,
+                             skip_idle=not args.no_skip_idle)
         result = run_job(job, options)
     except (JobError, GcodeError, FirmwareError) as e:
         print(f"k37: error: {e}", file=sys.stderr)
@@ -108,6 +109,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="stop after this many clock cycles (default 1e9)")
     p.add_argument("--sample-every", type=_positive_int, default=1000,
                    help="sample the machine every N cycles for trace, plot and path error")
+    p.add_argument("--no-skip-idle", action="store_true",
+                   help="evaluate every cycle, even where the machine provably stands still "
+                        "(results are identical; for timing comparisons)")
     p.add_argument("--json", metavar="PATH", help="write the JSON report ('-': stdout)")
     p.add_argument("--trace", metavar="PATH.csv", type=Path, help="write the samples as CSV")
     p.add_argument("--plot", metavar="PATH.png", type=Path,

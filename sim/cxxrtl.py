@@ -40,6 +40,7 @@ from amaranth.lib import wiring
 
 from sim.backend import (
     Backend,
+    FreeRunning,
     Port,
     check_count,
     check_window,
@@ -221,6 +222,9 @@ def _load(path: Path) -> ctypes.CDLL:
         "k37_trace": (ctypes.c_int, [handle, ctypes.c_char_p, ctypes.c_char_p, u64, u64, u64]),
         "k37_trace_close": (None, [handle]),
         "k37_falling_edge": (ctypes.c_int, [handle]),
+        "k37_free_accumulator": (ctypes.c_int, [handle, size, size, size, ctypes.c_uint]),
+        "k37_free_counter": (ctypes.c_int, [handle, size, size, ctypes.c_uint, size]),
+        "k37_free_quiet": (None, [handle, size]),
     }
     for name, (restype, argtypes) in signatures.items():
         function = getattr(lib, name)
@@ -234,9 +238,12 @@ class CxxrtlBackend(Backend):
 
     Construction converts and builds the design (or loads it from the cache; ``model`` tells
     which). ``step(n, skip_idle=True)`` and ``run_until(..., skip_idle=True)`` stop evaluating
-    once a whole clock cycle changed no state: with the inputs held, that is a fixed point, so
-    the remaining cycles are only counted (``skipped_cycles``); the result is bit-identical to
-    stepping. A free-running counter anywhere in the design keeps it from firing.
+    once a whole clock cycle changed no state but the component's declared
+    :class:`sim.backend.FreeRunning` state, while its ``quiet`` probe reads 1: with the inputs
+    held, the rest is at a fixed point, so the remaining cycles are only counted
+    (``skipped_cycles``) and the free-running state is advanced in closed form; the result is
+    bit-identical to stepping. They try at the start of each call and every 256 cycles. An
+    undeclared free-running counter keeps skipping from firing.
 
     Probes are CXXRTL debug items; their names follow the Amaranth hierarchy, so they are the
     same as :class:`sim.backend.PysimBackend`'s wherever Yosys kept the signal.
@@ -272,6 +279,7 @@ class CxxrtlBackend(Backend):
         self._index = {name: self._items[name] for name in self.ports}
         self._k37_get, self._k37_set = lib.k37_get, lib.k37_set
         self._buses: dict[str, tuple[Port, Port, int, int, int, int, int]] = {}
+        self._free: FreeRunning | None = getattr(component, "free_running", None)
         self._set_inits()
 
     def reset(self) -> None:
@@ -279,7 +287,31 @@ class CxxrtlBackend(Backend):
         self._handle = self._lib.k37_create()
         self._set_inits()
 
+    def _declare_free_running(self, free: FreeRunning) -> None:
+        def item(path: str) -> int:
+            try:
+                return self._probes[path]
+            except KeyError:
+                raise KeyError(f"free-running state {path!r} is not in the compiled model") \
+                    from None
+
+        lib, handle = self._lib, self._handle
+        for acc in free.accumulators:
+            if lib.k37_free_accumulator(handle, item(f"{acc.path}.phase"),
+                                        item(f"{acc.path}.increment"), item(f"{acc.path}.stb"),
+                                        acc.width) < 0:
+                raise ValueError(f"{acc.path}: phase and stb must be registers of <= 64 bits")
+        for counter in free.counters:
+            if lib.k37_free_counter(handle, item(f"{counter.path}.count"),
+                                    item(f"{counter.path}.select"), counter.width,
+                                    counter.clock) < 0:
+                raise ValueError(f"{counter.path}: count and select must be registers of "
+                                 f"<= 64 bits, clocked by a declared accumulator")
+        lib.k37_free_quiet(handle, item(free.quiet))
+
     def _set_inits(self) -> None:
+        if self._free is not None:
+            self._declare_free_running(self._free)
         # CXXRTL starts inputs at zero; Amaranth at their init values.
         for port in self.ports.values():
             if port.is_input and port.init:

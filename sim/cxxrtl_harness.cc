@@ -52,6 +52,22 @@ struct Trace {
 	bool started;  // the first sample (every value) is written
 };
 
+// A phase accumulator that runs on by itself (hdl/divider.py): phase += increment at every
+// rising edge, stb holds the carry out of the last addition.
+struct Accumulator {
+	size_t phase, increment, stb;  // item indices
+	unsigned width;
+};
+
+// A counter (the rate multiplier's, hdl/rate_multiplier.py) that counts the cycles in which
+// accumulator `clock`'s stb is high; `select` is the gate selected by state count + 1: the
+// bit index width - 1 - (trailing ones of count + 1), or width when they are all ones.
+struct StrobeCounter {
+	size_t count, select;
+	unsigned width;
+	size_t clock;
+};
+
 struct Model {
 	std::unique_ptr<cxxrtl::module> top{k37_make_top()};
 	const bool falling_edge = k37_needs_falling_edge();
@@ -62,6 +78,13 @@ struct Model {
 	bool inputs_written = true;  // since the last cycle
 	bool stale = true;           // combinational values may lag the state
 	std::unique_ptr<Trace> trace;
+	// Idle skipping with free-running state (see try_skip).
+	std::vector<Accumulator> accumulators;
+	std::vector<StrobeCounter> counters;
+	size_t quiet = SIZE_MAX;             // item: the free-running state affects nothing else
+	std::vector<Part> rest;              // every other state item's parts (built on first use)
+	std::vector<chunk_t> snapshot;
+	bool rest_known = false;
 };
 
 // One clock edge, as CXXRTL's module::step(): evaluate and commit until converged; true if any
@@ -152,21 +175,6 @@ void prepare(Model &m) {
 		sample(*m.trace, input_time(m.cycle));
 }
 
-// Run up to n untraced cycles; with skip_idle, a full cycle that changes no state proves a fixed
-// point (inputs cannot change inside this call), so the rest are counted without evaluation.
-uint64_t run_fast(Model &m, uint64_t n, bool skip_idle) {
-	for (uint64_t i = 0; i < n; i++) {
-		bool full = *m.clk != 0;
-		if (!cycle<false>(m) && full && skip_idle) {
-			uint64_t rest = n - i - 1;
-			m.cycle += rest;
-			m.skipped += rest;
-			return n;
-		}
-	}
-	return n;
-}
-
 // Whether an item's committed value is up to date without settling (a register's output).
 bool is_state(const Item &item) {
 	for (const Part &p : item.parts)
@@ -185,6 +193,126 @@ bool nonzero(Model &m, const Item &item, bool settled) {
 			if (p.curr[c])
 				return true;
 	return false;
+}
+
+uint64_t read_u64(Model &m, size_t index) {
+	const Part &p = m.items[index].parts.front();
+	if (p.outline)
+		p.outline->eval();
+	return p.width > 32 ? uint64_t(p.curr[1]) << 32 | p.curr[0] : p.curr[0];
+}
+
+// Set a register (both its committed and its next value) to `value`.
+void write_state(Model &m, size_t index, uint64_t value) {
+	const Part &p = m.items[index].parts.front();
+	for (chunk_t *v : {p.curr, p.next}) {
+		v[0] = chunk_t(value);
+		if (p.width > 32)
+			v[1] = chunk_t(value >> 32);
+	}
+}
+
+bool is_free(const Model &m, size_t index) {
+	for (const Accumulator &a : m.accumulators)
+		if (index == a.phase || index == a.stb)
+			return true;
+	for (const StrobeCounter &c : m.counters)
+		if (index == c.count || index == c.select)
+			return true;
+	return false;
+}
+
+size_t chunks(const Part &p) {
+	return (p.width + CHUNK_BITS - 1) / CHUNK_BITS;
+}
+
+void take_snapshot(Model &m) {
+	if (!m.rest_known) {
+		for (size_t i = 0; i < m.items.size(); i++)
+			if (is_state(m.items[i]) && !is_free(m, i))
+				for (const Part &p : m.items[i].parts)
+					m.rest.push_back(p);
+		m.rest_known = true;
+	}
+	m.snapshot.clear();
+	for (const Part &p : m.rest)
+		m.snapshot.insert(m.snapshot.end(), p.curr, p.curr + chunks(p));
+}
+
+bool same_as_snapshot(const Model &m) {
+	const chunk_t *at = m.snapshot.data();
+	for (const Part &p : m.rest) {
+		if (!std::equal(p.curr, p.curr + chunks(p), at))
+			return false;
+		at += chunks(p);
+	}
+	return true;
+}
+
+// Advance the free-running state by k cycles (k >= 1) in closed form.
+void advance_free(Model &m, uint64_t k) {
+	std::vector<uint64_t> strobes(m.accumulators.size());  // stb highs seen in the k cycles
+	for (size_t a = 0; a < m.accumulators.size(); a++) {
+		const Accumulator &acc = m.accumulators[a];
+		using u128 = unsigned __int128;
+		u128 phase = read_u64(m, acc.phase), inc = read_u64(m, acc.increment);
+		u128 before_last = phase + u128(k - 1) * inc, total = before_last + inc;
+		strobes[a] = read_u64(m, acc.stb) + uint64_t(before_last >> acc.width);
+		write_state(m, acc.phase, uint64_t(total & ((u128(1) << acc.width) - 1)));
+		write_state(m, acc.stb, uint64_t((total >> acc.width) - (before_last >> acc.width)));
+	}
+	for (const StrobeCounter &c : m.counters) {
+		uint64_t mask = (uint64_t(1) << c.width) - 1;
+		uint64_t count = (read_u64(m, c.count) + strobes[c.clock]) & mask;
+		uint64_t ones = 0;
+		for (uint64_t next = (count + 1) & mask; ones < c.width && (next >> ones & 1); ones++)
+			;
+		write_state(m, c.count, count);
+		write_state(m, c.select, ones < c.width ? c.width - 1 - ones : c.width);
+	}
+}
+
+// Run one full cycle (the clock is high); if it changed no state but the free-running
+// state's, and the design's quiet item says that state affects nothing else, the design is
+// at a fixed point but for that state: the next `rest` cycles are skipped, the free-running
+// state advanced in closed form. Not if item `watch` (when given) reads non-zero. Returns the
+// cycles run or skipped (1 + rest, or 1).
+uint64_t try_skip(Model &m, uint64_t rest, const Item *watch = nullptr, bool watch_state = false) {
+	take_snapshot(m);
+	bool changed = cycle<false>(m);
+	if (!same_as_snapshot(m) || (watch && nonzero(m, *watch, watch_state)))
+		return 1;
+	if (changed) {
+		if (m.quiet == SIZE_MAX)
+			return 1;
+		settle(m);
+		if (!read_u64(m, m.quiet))
+			return 1;
+		if (rest)
+			advance_free(m, rest);
+	}
+	m.cycle += rest;
+	m.skipped += rest;
+	m.stale = true;
+	return 1 + rest;
+}
+
+// Cycles between attempts to skip while the design is busy.
+constexpr uint64_t SKIP_RETRY = 256;
+
+// Run n untraced cycles; with skip_idle, every SKIP_RETRY cycles try to skip the rest.
+void run_fast(Model &m, uint64_t n, bool skip_idle) {
+	uint64_t i = 0;
+	while (i < n) {
+		if (skip_idle && *m.clk) {
+			i += try_skip(m, n - i - 1);
+			for (uint64_t k = 0; k < SKIP_RETRY - 1 && i < n; k++, i++)
+				cycle<false>(m);
+		} else {
+			cycle<false>(m);
+			i++;
+		}
+	}
 }
 
 void close_trace(Model &m) {
@@ -323,25 +451,21 @@ uint64_t k37_run_until(void *handle, size_t index, uint64_t limit, int skip_idle
 	prepare(m);
 	const Item &item = m.items[index];
 	const bool state = is_state(item);
-	for (uint64_t i = 0; i < limit; i++) {
+	for (uint64_t i = 0; i < limit;) {
 		if (tracing(m)) {
 			cycle<true>(m);
+			i++;
 			if (m.cycle >= m.trace->stop)
 				close_trace(m);
+		} else if (skip_idle && *m.clk && i % SKIP_RETRY == 0) {
+			// A skip is taken only if the item reads zero: at a fixed point it stays so.
+			i += try_skip(m, until_boundary(m, limit - i - 1), &item, state);
 		} else {
-			bool full = *m.clk != 0;
-			bool changed = cycle<false>(m);
-			if (!changed && full && skip_idle && !nonzero(m, item, state)) {
-				uint64_t rest = limit - i - 1;
-				uint64_t k = until_boundary(m, rest);
-				m.cycle += k;
-				m.skipped += k;
-				i += k;
-				continue;
-			}
+			cycle<false>(m);
+			i++;
 		}
 		if (nonzero(m, item, state))
-			return i + 1;
+			return i;
 	}
 	return limit;
 }
@@ -363,6 +487,42 @@ uint64_t k37_bus_read(void *handle, size_t addr, size_t r_stb, size_t r_data, ui
 	k37_step(handle, 1, 0);
 	k37_set(handle, r_stb, 0);
 	return k37_get(handle, r_data);
+}
+
+// Declare a free-running phase accumulator (see Accumulator); returns its number, or -1 if
+// phase or stb is not a register of at most 64 bits.
+int k37_free_accumulator(void *handle, size_t phase, size_t increment, size_t stb,
+                         unsigned width) {
+	Model &m = *static_cast<Model *>(handle);
+	for (size_t index : {phase, stb})
+		if (!is_state(m.items[index]) || m.items[index].width > 64)
+			return -1;
+	if (width == 0 || width > 63 || m.items[increment].width > 64)
+		return -1;
+	m.accumulators.push_back(Accumulator{phase, increment, stb, width});
+	m.rest_known = false;
+	m.rest.clear();
+	return int(m.accumulators.size() - 1);
+}
+
+// Declare a counter of accumulator `clock`'s strobes (see StrobeCounter); 0, or -1 if the
+// items are not registers or `clock` is not declared.
+int k37_free_counter(void *handle, size_t count, size_t select, unsigned width, size_t clock) {
+	Model &m = *static_cast<Model *>(handle);
+	for (size_t index : {count, select})
+		if (!is_state(m.items[index]) || m.items[index].width > 64)
+			return -1;
+	if (width == 0 || width > 63 || clock >= m.accumulators.size())
+		return -1;
+	m.counters.push_back(StrobeCounter{count, select, width, clock});
+	m.rest_known = false;
+	m.rest.clear();
+	return 0;
+}
+
+// Declare the item that reads non-zero when the free-running state affects nothing else.
+void k37_free_quiet(void *handle, size_t index) {
+	static_cast<Model *>(handle)->quiet = index;
 }
 
 int k37_falling_edge(void *handle) {

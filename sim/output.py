@@ -21,7 +21,9 @@ def summary(result: RunResult) -> str:
     r = result.report
     lines = [f"k37 run {result.job.name}: {r['status']} after {r['cycles']:,} cycles "
              f"({r['machine_seconds']:.3f} s machine time, {r['wall_seconds']:.2f} s wall, "
-             f"{r['cycles_per_second']:,.0f} cycles/s on {r['backend']})",
+             f"{r['cycles_per_second']:,.0f} cycles/s on {r['backend']}"
+             + (f", {r['skipped_cycles']:,} idle cycles skipped" if r["skipped_cycles"] else "")
+             + ")",
              f"  blocks {len(r['blocks'])}, contour error max {r['path']['max_contour_error']:.2f}"
              f" LSB, rms {r['path']['rms_contour_error']:.2f} LSB"]
     for axis, a in r["axes"].items():

@@ -87,7 +87,8 @@ class ServoPlant(wiring.Component):
     """Servo amplifier + motor (first-order velocity lag) + incremental encoder.
 
     Every cycle: e = dac - dac_zero; vc = clamp(e * gain, +-vmax) (vmax 0: 2^37 - 1);
-    v += round((vc - v) * alpha / 2^ALPHA_BITS) (0 while stalled); p += v; the encoder count is
+    v += round((vc - v) * alpha / 2^ALPHA_BITS), or v = vc when that step rounds to 0 (v = 0
+    while stalled); p += v; the encoder count is
     floor(p) and A/B are its Gray code (count 0: A=0 B=0, 1: 1 0, 2: 1 1, 3: 0 1), so
     positive motion has A leading B (CCW, normal). Every output follows registered state
     only: it shows the state after the cycle's update, one cycle after the ``dac`` (and the
@@ -149,8 +150,12 @@ class ServoPlant(wiring.Component):
         m.d.comb += delta.eq((vc - self.velocity) * self.alpha + (1 << (ALPHA_BITS - 1)))
         # p += v_next is kept as before = p - v (so before += v): each register's next value
         # is then one expression, which compiled simulators evaluate only at the clock edge.
+        # An update that rounds to 0 lands on vc: the lag ends exactly, so an axis at rest
+        # has velocity 0 (no creep from a residue the rounding can never remove).
+        step = Signal(signed(64 - ALPHA_BITS))
+        m.d.comb += step.eq(delta.shift_right(ALPHA_BITS))
         m.d.sync += self.velocity.eq(
-            Mux(self.stall, 0, self.velocity + delta.shift_right(ALPHA_BITS)))
+            Mux(self.stall, 0, Mux(step == 0, vc, self.velocity + step)))
         before = Signal(signed(32 + FRAC_BITS))
         m.d.sync += before.eq(before + self.velocity)
         position = Signal(signed(32 + FRAC_BITS))

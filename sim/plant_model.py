@@ -39,5 +39,11 @@ class ServoPlantModel:
         vmax = VC_MAX if not self.vmax or self.vmax > VC_MAX else self.vmax
         vc = max(-vmax, min(vmax, err * self.gain))
         delta = _wrap((vc - self.velocity) * self.alpha + (1 << (ALPHA_BITS - 1)), 64)
-        self.velocity = 0 if stall else _wrap(self.velocity + (delta >> ALPHA_BITS), VC_BITS + 1)
+        step = delta >> ALPHA_BITS
+        if stall:
+            self.velocity = 0
+        elif step == 0:  # closer to vc than one update resolves: there
+            self.velocity = vc
+        else:
+            self.velocity = _wrap(self.velocity + step, VC_BITS + 1)
         self.position = _wrap(self.position + self.velocity, 32 + FRAC_BITS)

@@ -57,6 +57,8 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
     "machine_seconds": _num("simulated time, cycles / clock_hz (s)"),
     "wall_seconds": _num("wall-clock time of the simulation (s; build excluded)"),
     "cycles_per_second": _num("cycles / wall_seconds"),
+    "skipped_cycles": _int("cycles of `cycles` proved idle and advanced without evaluation "
+                           "(identical results; 0 on pysim or with --no-skip-idle)"),
     "blocks": {"type": "array", "description": "one entry per motion block run",
                "items": _obj("a block", {
                    "index": _int("position in the program (0-based, dwells counted)"),

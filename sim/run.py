@@ -47,6 +47,8 @@ class RunOptions:
     faults: dict[str, dict[str, int]] = field(default_factory=dict)
     #: Added to every block's FP budget (the SPEC section 7 hazard); 0 normally.
     budget_offset: int = 0
+    #: Let the backend skip provably idle cycles (bit-identical; see Backend.step).
+    skip_idle: bool = True
 
 
 class Sampler:
@@ -54,10 +56,12 @@ class Sampler:
 
     It offers the backend calls the firmware's host uses (``step``, ``run_until``, ``get``,
     ``bus_write``, ``bus_read``, ``cycle``), so samples fall on exact multiples of
-    ``every`` cycles whatever the firmware does, on every backend alike.
+    ``every`` cycles whatever the firmware does, on every backend alike. ``skip_idle`` is
+    passed on to the backend's ``step`` and ``run_until``.
     """
 
-    def __init__(self, backend: Backend, every: int, dac_bits: int, progress_total: int = 0):
+    def __init__(self, backend: Backend, every: int, dac_bits: int, progress_total: int = 0,
+                 *, skip_idle: bool = False):
         if every < 1:
             raise ValueError(f"sample_every must be >= 1 cycle, not {every}")
         self.backend = backend
@@ -66,6 +70,7 @@ class Sampler:
         self.rows: list[tuple] = []
         self.half = 1 << (dac_bits - 1)
         self.progress_total = progress_total
+        self.skip_idle = skip_idle
         self._progress_at = 0.0
 
     @property
@@ -102,7 +107,7 @@ class Sampler:
     def step(self, n: int = 1) -> None:
         while n > 0:
             k = min(n, self.next - self.cycle)
-            self.backend.step(k)
+            self.backend.step(k, skip_idle=self.skip_idle)
             n -= k
             self._after()
 
@@ -110,7 +115,7 @@ class Sampler:
         done = 0
         while done < max_cycles:
             k = min(max_cycles - done, self.next - self.cycle)
-            ran = self.backend.run_until(port_name, k)
+            ran = self.backend.run_until(port_name, k, skip_idle=self.skip_idle)
             done += ran
             self._after()
             if ran < k or self.backend.get(port_name):
@@ -176,7 +181,8 @@ def run_job(job: Job, options: RunOptions | None = None,
     if options.vcd is not None:
         backend.trace(str(options.vcd), options.vcd_start, options.vcd_stop)
     sampler = Sampler(backend, options.sample_every, job.machine.dac_bits,
-                      options.max_cycles if options.progress else 0)
+                      options.max_cycles if options.progress else 0,
+                      skip_idle=options.skip_idle)
     host = Host8085(sampler, clock_hz=job.machine.clock_hz)  # type: ignore[arg-type]
     firmware = Firmware(host, job, budget_offset=options.budget_offset)
     start = time.perf_counter()
@@ -228,6 +234,7 @@ def _report(job: Job, backend: Backend, firmware: Firmware, sampler: Sampler,
         "machine_seconds": cycles / clock,
         "wall_seconds": wall,
         "cycles_per_second": cycles / wall if wall > 0 else 0.0,
+        "skipped_cycles": backend.skipped_cycles,
         "blocks": [{
             "index": b.index, "line": b.line, "kind": b.kind, "start_cycle": b.start_cycle,
             "end_cycle": b.end_cycle, "fp_budget": b.fp_budget, "fp_pulses": b.fp_pulses,

@@ -10,10 +10,23 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from hdl.chipset import AXES, Accel, Chipset
+from hdl.feed_rate import DIVIDER_WIDTH, FEED_STAGES
 from hdl.hostbus import HostBus
+from sim.backend import FreeRunning, PhaseAccumulator, StrobeCounter
 from sim.plant import ALPHA_BITS, ServoPlant
 
-__all__ = ["AxisProbe", "System"]
+__all__ = ["FREE_RUNNING", "AxisProbe", "System"]
+
+#: What runs on while the machine stands still: the feed-rate generator's two dividers and
+#: its rate multiplier. The chipset's ``feed_quiet`` says when they affect nothing else (no
+#: feed pulse can pass the decel gate, every accel/decel circuit is drained); the compiled
+#: backend's idle skipping then advances them in closed form.
+FREE_RUNNING = FreeRunning(
+    accumulators=(PhaseAccumulator("chipset.feed.rm_clock", DIVIDER_WIDTH),
+                  PhaseAccumulator("chipset.feed.fa_clock", DIVIDER_WIDTH)),
+    counters=(StrobeCounter("chipset.feed.rate", 6 * FEED_STAGES, clock=0),),
+    quiet="feed_quiet",
+)
 
 
 class AxisProbe(wiring.Signature):
@@ -63,16 +76,22 @@ class System(wiring.Component):
         The two interrupt lines.
     fp_total : Out(32)
         Feed pulses the K3701 received since reset.
+    feed_quiet : Out(1)
+        The chipset's ``feed_quiet`` (:data:`FREE_RUNNING` may run on alone).
     x, y : Out(AxisProbe())
         Per-axis plant settings, faults and observations.
     """
+
+    #: See :data:`FREE_RUNNING`.
+    free_running = FREE_RUNNING
 
     def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15):
         self.accel = Accel(accel)
         self.accel_bits = accel_bits
         super().__init__({
             "bus": In(HostBus(8)), "irq": Out(1), "irq_interp": Out(1), "irq_alarm": Out(1),
-            "fp_total": Out(32), "x": Out(AxisProbe()), "y": Out(AxisProbe()),
+            "fp_total": Out(32), "feed_quiet": Out(1),
+            "x": Out(AxisProbe()), "y": Out(AxisProbe()),
         })
 
     def elaborate(self, platform) -> Module:
@@ -82,6 +101,7 @@ class System(wiring.Component):
         m.d.comb += [
             self.irq_interp.eq(chip.irq_interp), self.irq_alarm.eq(chip.irq_alarm),
             self.irq.eq(chip.irq_interp | chip.irq_alarm),
+            self.feed_quiet.eq(chip.feed_quiet),
         ]
         with m.If(chip.fp):
             m.d.sync += self.fp_total.eq(self.fp_total + 1)

@@ -17,7 +17,7 @@ from firmware_model.gcode import parse
 from firmware_model.job import AXES, Job, MachineConfig, ServoConfig
 from sim.run import RunOptions, run_job
 
-WALL_CLOCK = ("wall_seconds", "cycles_per_second", "backend")
+WALL_CLOCK = ("wall_seconds", "cycles_per_second", "backend", "skipped_cycles")
 
 
 def random_job(seed: int, accel: str) -> tuple[Job, dict]:

@@ -12,12 +12,9 @@ from sim.plant_model import ServoPlantModel
 from sim.testbench import simulate
 
 
-@settings(max_examples=8, deadline=None, derandomize=True)
-@given(kp=st.floats(5, 200), tm=st.floats(0, 0.002), vmax=st.sampled_from([None, 2e4, 3e5]),
-       dac_bits=st.integers(8, 16), seed=st.integers(0, 2**32))
-def test_plant_gateware_equals_model_cycle_by_cycle(kp, tm, vmax, dac_bits, seed):
-    params = PlantParams(kp=kp, tm=tm, max_speed=vmax)
-    rng = random.Random(seed)
+def compare_with_model(params: PlantParams, dac_bits: int,
+                       stimulus: list[tuple[int, bool]]) -> ServoPlantModel:
+    """Drive gateware and model with (dac, stall) per cycle, asserting equal outputs each cycle."""
     dut = ServoPlant()
     model = ServoPlantModel(params.gain, params.alpha, params.vmax, dac_bits)
 
@@ -26,11 +23,7 @@ def test_plant_gateware_equals_model_cycle_by_cycle(kp, tm, vmax, dac_bits, seed
         ctx.set(dut.alpha, params.alpha)
         ctx.set(dut.vmax, params.vmax)
         ctx.set(dut.dac_zero, dac_zero(dac_bits))
-        dac = 1 << (dac_bits - 1)
-        for t in range(400):
-            if t % 37 == 0:
-                dac = rng.randrange(1 << dac_bits)
-            stall = rng.random() < 0.05
+        for t, (dac, stall) in enumerate(stimulus):
             ctx.set(dut.dac, dac)
             ctx.set(dut.stall, stall)
             await ctx.tick()
@@ -42,6 +35,44 @@ def test_plant_gateware_equals_model_cycle_by_cycle(kp, tm, vmax, dac_bits, seed
             assert (ctx.get(dut.a_n), ctx.get(dut.b_n)) == (1 - a, 1 - b)
 
     simulate(dut, bench)
+    return model
+
+
+@settings(max_examples=8, deadline=None, derandomize=True)
+@given(kp=st.floats(5, 200), tm=st.floats(0, 0.002), vmax=st.sampled_from([None, 2e4, 3e5]),
+       dac_bits=st.integers(8, 16), seed=st.integers(0, 2**32))
+def test_plant_gateware_equals_model_cycle_by_cycle(kp, tm, vmax, dac_bits, seed):
+    rng = random.Random(seed)
+    stimulus = []
+    dac = 1 << (dac_bits - 1)
+    for t in range(400):
+        if t % 37 == 0:
+            dac = rng.randrange(1 << dac_bits)
+        stimulus.append((dac, rng.random() < 0.05))
+    compare_with_model(PlantParams(kp=kp, tm=tm, max_speed=vmax), dac_bits, stimulus)
+
+
+def test_velocity_lands_exactly_on_the_command_in_gateware_and_model():
+    # Tm = 20 cycles: the lag's residue falls below one update's resolution within
+    # 30 Tm, and the velocity then equals the command exactly (here 0: the axis stops).
+    zero = dac_zero(12)
+    stimulus = [(zero + 300, False)] * 600 + [(zero, False)] * 900
+    model = compare_with_model(PlantParams(kp=30.0, tm=20e-6), 12, stimulus)
+    assert model.velocity == 0
+
+
+def test_an_axis_at_rest_does_not_creep():
+    params = PlantParams(kp=30.0, tm=0.01)
+    model = ServoPlantModel(params.gain, params.alpha, dac_bits=12)
+    for _ in range(20_000):
+        model.cycle(2048 + 500)
+    for _ in range(200_000):  # 20 Tm with the D/A at 0 V
+        model.cycle(2048)
+    assert model.velocity == 0
+    rest = model.position
+    for _ in range(1_000):
+        model.cycle(2048)
+    assert model.position == rest
 
 
 def test_velocity_follows_kp_times_error_with_first_order_lag_tm():

@@ -1,0 +1,84 @@
+"""Exact idle skipping on the compiled backend: a skipped run equals the stepped run.
+
+While the machine stands still (a dwell, the host busy, the axes at rest) only the feed-rate
+generator's dividers and rate multiplier run on (``sim.system.FREE_RUNNING``); the compiled
+backend then skips ahead and advances them in closed form. Every signal of the design must
+end up as if each cycle had been evaluated.
+"""
+
+from __future__ import annotations
+
+import random
+
+import numpy as np
+import pytest
+
+from firmware_model.gcode import parse
+from firmware_model.job import AXES, Job, MachineConfig, ServoConfig
+from sim.run import RunOptions, build_backend, run_job
+
+#: Report fields that depend on how the run was computed, not on what it computed.
+HOW = ("wall_seconds", "cycles_per_second", "backend", "skipped_cycles")
+
+
+def dwell_job(seed: int, accel: str) -> tuple[Job, dict, float]:
+    """Short random moves, each followed by a dwell; returns the job, faults, dwell seconds."""
+    rng = random.Random(seed)
+    lines = [f"G21 G91 F{rng.choice((300, 1200, 2400))}"]
+    dwell = 0.0
+    for _ in range(3):
+        if rng.random() < 0.5:
+            x, y = rng.randint(-30, 30) / 1000, rng.randint(-30, 30) / 1000
+            lines.append(f"G01 X{x:.3f} Y{y:.3f}")
+        else:
+            lines.append(f"G0{rng.choice((2, 3))} I{rng.randint(5, 20) / 1000:.3f} J0")
+        seconds = rng.randint(50, 150) / 1000  # the axes settle in the first 10 to 40 ms
+        lines.append(f"G04 P{seconds}")
+        dwell += seconds
+    lines.append("M30")
+    machine = MachineConfig(accel=accel, accel_bits=rng.choice((4, 6, 8)),
+                            sqrt2=rng.random() < 0.5,
+                            accel_fa_hz=float(rng.randint(50_000, 400_000)),
+                            encoder_filter=rng.randint(1, 4))
+    servo = ServoConfig(kp=rng.uniform(100, 400), tm=rng.uniform(0.0002, 0.002))
+    program = parse("\n".join(lines), source=f"<dwell {seed}>", sqrt2=machine.sqrt2)
+    faults = {}
+    if rng.random() < 0.3:
+        faults[rng.choice(AXES)] = {"stall": 1}  # at rest, in alarm: skippable too
+    return Job(f"dwell-{seed}", machine, dict.fromkeys(AXES, servo), program), faults, dwell
+
+
+def run(job: Job, faults: dict, kind: str, skip: bool, sample_every: int,
+        max_cycles: int = 10**9):
+    """The run's report without the how-fields, its samples, and every signal at the end."""
+    backend = build_backend(job, kind)
+    result = run_job(job, RunOptions(sample_every=sample_every, faults=faults, skip_idle=skip,
+                                     max_cycles=max_cycles), backend)
+    signals = {name: backend.probe(name) for name in backend.probe_names()}
+    skipped = backend.skipped_cycles
+    backend.close()
+    report = {k: v for k, v in result.report.items() if k not in HOW}
+    return report, result.samples, signals, skipped
+
+
+@pytest.mark.parametrize("accel", ["pre", "post", "none"])
+@pytest.mark.parametrize(("seed", "sample_every"), [(1, 97), (2, 10_007)])
+def test_skipping_idle_cycles_changes_no_signal_of_the_machine(accel, seed, sample_every):
+    job, faults, dwell = dwell_job(seed * 10 + len(accel), accel)
+    stepped = run(job, faults, "cxxrtl", False, sample_every)
+    skipped = run(job, faults, "cxxrtl", True, sample_every)
+    assert stepped[3] == 0
+    assert skipped[0] == stepped[0]
+    assert np.array_equal(skipped[1], stepped[1])
+    assert skipped[2] == stepped[2]  # every register and wire, the free-running ones too
+    # Most of the dwells (the axes settle first) and the waits for the host are skipped.
+    assert skipped[3] > 0.5 * dwell * job.machine.clock_hz
+
+
+def test_a_skipping_compiled_run_equals_amaranths_simulator():
+    job, faults, _ = dwell_job(7, "pre")
+    compiled = run(job, faults, "cxxrtl", True, 50, max_cycles=30_000)
+    reference = run(job, faults, "pysim", True, 50, max_cycles=30_000)
+    assert compiled[3] > 5_000, "the run must include skipped cycles"
+    assert compiled[0] == reference[0]
+    assert np.array_equal(compiled[1], reference[1])
