@@ -5,7 +5,7 @@ the whole demo (the paper's circle, about 6e6 cycles); Amaranth's simulator runs
 ``PYSIM_CYCLES`` cycles (the whole demo would take hours). Both include the firmware model,
 the sampling and the report; builds are excluded (the compiled model is built before timing).
 
-The second benchmark runs a dwell-heavy job (:data:`DWELL_GCODE`: short moves, 8 s of dwell)
+The second benchmark runs a dwell-heavy job (:data:`DWELL_GCODE`: short moves, 20 s of dwell)
 on the compiled backend with and without idle skipping and prints the speed-up.
 """
 
@@ -19,16 +19,16 @@ from sim.run import RunOptions, build_backend, run_job
 PYSIM_CYCLES = 20_000
 SPEEDS: dict[str, float] = {}
 
-#: Four short moves, each followed by a 2 s dwell (a spot-drilling cycle's shape).
+#: Four short moves, each followed by a 5 s dwell (a spot-drilling cycle's shape).
 DWELL_GCODE = """G21 G91 F1200
 G01 X2.0
-G04 P2
+G04 P5
 G01 Y2.0
-G04 P2
+G04 P5
 G01 X-2.0
-G04 P2
+G04 P5
 G01 Y-2.0
-G04 P2
+G04 P5
 M30
 """
 DWELL_SPEEDS: dict[bool, float] = {}
