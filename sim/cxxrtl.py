@@ -5,8 +5,9 @@ a system Yosys per ``AMARANTH_USE_YOSYS``) writes it as CXXRTL C++, and g++ comp
 links it with a small C ABI harness (``cxxrtl_harness.cc``, compiled once per toolchain) into a
 shared library, loaded with ctypes. The library is cached under
 ``~/.cache/k37/cxxrtl/<sha256>/`` (or ``$K37_CACHE_DIR``), keyed by the RTLIL, the harness, the
-compiler flags and the versions of g++, Amaranth and Yosys, so an unchanged design is built
-once; a build reports its phases on stderr. Nothing is ever evicted from the cache.
+compiler flags, the versions of g++, Amaranth and Yosys and the code that generates the
+design's commits (:func:`edge_wires`), so an unchanged design is built once; a build reports
+its phases on stderr. Nothing is ever evicted from the cache.
 
 :class:`CxxrtlBackend` implements :class:`sim.backend.Backend` bit for bit like
 :class:`sim.backend.PysimBackend`. Hot paths (stepping, waiting for a port, host-bus cycles)
@@ -17,6 +18,7 @@ from __future__ import annotations
 
 import ctypes
 import hashlib
+import inspect
 import os
 import re
 import shutil
@@ -56,6 +58,18 @@ HARNESS = Path(__file__).with_name("cxxrtl_harness.cc")
 DESIGN_MAIN = """#include "design.cc"
 cxxrtl::module *k37_make_top() {{ return new cxxrtl_design::p_top; }}
 bool k37_needs_falling_edge() {{ return {falling}; }}
+bool k37_can_peek() {{ return {peek}; }}
+bool k37_commit_fall(cxxrtl::module *module) {{{commit_fall}}}
+bool k37_commit_rise(cxxrtl::module *module) {{{commit_rise}}}
+void k37_discard_fall(cxxrtl::module *module) {{{discard_fall}}}
+"""
+#: A commit of only some wires of the design (``top`` is the design, ``wires`` its wires).
+TOP = "\tauto &top = *static_cast<cxxrtl_design::p_top *>(module);\n"
+SPLIT_COMMIT = """
+""" + TOP + """	cxxrtl::observer observer;
+	bool changed = false;
+{wires}	top.prev_p_clk = top.p_clk;
+	return changed;
 """
 #: g++ flags of the model objects (part of the cache key); the library links with -shared.
 CXX_FLAGS = ("-std=c++17", "-O2", "-fPIC", "-w")
@@ -148,7 +162,9 @@ def build(rtlil_text: str, *, compiler: str | None = None) -> Model:
     tools = _toolchain(compiler)
     harness = HARNESS.read_text()
     runtime_key = _sha256(harness, DESIGN_MAIN, " ".join(CXX_FLAGS), tools.versions)
-    key = _sha256(rtlil_text, runtime_key)
+    # The design's translation unit is generated (design_main): its generator is in the key.
+    generator = (inspect.getsource(f) for f in (design_main, edge_wires, _clock_as_data))
+    key = _sha256(rtlil_text, runtime_key, SPLIT_COMMIT, *generator)
     root = cache_root()
     library = root / key / "model.so"
     if library.exists():
@@ -178,7 +194,7 @@ def build(rtlil_text: str, *, compiler: str | None = None) -> Model:
         # means that the falling edge of clk changes nothing.
         detectors = set(re.findall(r"\b(?:pos|neg)edge_p_\w+\(\)", cxx))
         falling = "false" if detectors <= {"posedge_p_clk()"} else "true"
-        (work / "design_main.cc").write_text(DESIGN_MAIN.format(falling=falling))
+        (work / "design_main.cc").write_text(design_main(cxx, falling))
         seconds["yosys"] = time.perf_counter() - start
         _progress(f"compiling the design ({len(cxx.splitlines())} lines of C++) with "
                   f"{Path(tools.compiler).name} {' '.join(CXX_FLAGS)} ...")
@@ -197,6 +213,112 @@ def build(rtlil_text: str, *, compiler: str | None = None) -> Model:
     _progress(f"built in {seconds['yosys']:.1f} s (Yosys) + {seconds['compile']:.1f} s (C++), "
               f"cached in {library.parent}")
     return Model(library, True, seconds)
+
+
+def design_main(cxx: str, falling: str) -> str:
+    """The design's translation unit for Yosys's C++ ``cxx`` (see :func:`edge_wires`)."""
+    split = edge_wires(cxx)
+    if split is None:
+        return DESIGN_MAIN.format(falling=falling, peek="false",
+                                  commit_fall=" return module->commit(); ",
+                                  commit_rise=" return module->commit(); ", discard_fall="")
+
+    def commit(names: list[str]) -> str:
+        return SPLIT_COMMIT.format(wires="".join(
+            f"\tif (top.{name}.commit(observer)) changed = true;\n" for name in names))
+
+    fall, rise, discard, peek = split
+    resets = "".join(f"\ttop.{name}.next = top.{name}.curr;\n" for name in discard)
+    return DESIGN_MAIN.format(
+        falling=falling, peek="true" if peek else "false", commit_fall=commit(fall),
+        commit_rise=commit(rise),
+        discard_fall=f"\n{TOP}{resets}" if resets else "")
+
+
+_CXX_NAME = r"[A-Za-z_]\w*"
+
+
+def edge_wires(cxx: str) -> tuple[list[str], list[str], list[str], bool] | None:
+    """Which wires each edge of ``clk`` can change, from CXXRTL's C++ of a design.
+
+    CXXRTL's ``commit()`` compares every wire (register) of the design with its next value,
+    although a falling edge of ``clk`` only writes the negedge domain's registers and a rising
+    edge only the posedge ones. Returns the wires to commit after a falling edge, after a
+    rising edge, the wires a falling edge's ``eval()`` writes (to discard them), and whether
+    the falling edge's ``eval()`` computes every combinational value as a settle with ``clk``
+    high would (no feedback, no memory, ``clk`` is not used as data), so that the harness may
+    read the outputs there. Wires written outside the edge blocks, or never written, are in
+    both commits. None if the C++ is not shaped as expected (one flat module, one clock): the
+    harness then commits everything.
+    """
+    if len(re.findall(r"^struct p_\w+ : public module \{$", cxx, re.M)) != 1:
+        return None
+    if "memory<" in cxx or re.search(r"\b(?:pos|neg)edge_p_(?!clk\b)\w+\(\)", cxx):
+        return None
+    commit = re.search(r"^\tbool commit\(ObserverT &observer\) \{\n(.*?)\n\t\treturn changed;\n"
+                       r"\t\}$", cxx, re.M | re.S)
+    body = re.search(r"^bool p_top::eval\(performer \*performer\) \{\n(.*?)^\}$", cxx,
+                     re.M | re.S)
+    if commit is None or body is None:
+        return None
+    wires = []
+    for line in commit.group(1).splitlines():
+        line = line.strip()
+        if line in ("bool changed = false;", "prev_p_clk = p_clk;"):
+            continue
+        match = re.fullmatch(rf"if \(({_CXX_NAME})\.commit\(observer\)\) changed = true;",
+                             line)
+        if match is None or not re.search(rf"^\t(?:/\*\w+\*/ )?wire<\d+> {match[1]};$", cxx,
+                                           re.M):
+            return None
+        wires.append(match[1])
+    written: dict[str, set[str]] = {"pos": set(), "neg": set(), "comb": set()}
+    edge = None
+    for line in body.group(1).splitlines():
+        start = re.fullmatch(r"\tif \((pos|neg)edge_p_clk\) \{", line)
+        if edge is None and start:
+            edge = start[1]
+        elif edge is not None and line == "\t}":
+            edge = None
+        else:
+            written[edge or "comb"].update(re.findall(rf"\b({_CXX_NAME})\.next\b", line))
+    fall = [w for w in wires if not (w in written["pos"] and w not in written["neg"] and
+                                     w not in written["comb"])]
+    rise = [w for w in wires if not (w in written["neg"] and w not in written["pos"] and
+                                     w not in written["comb"])]
+    discard = [w for w in wires if w in written["neg"]]
+    peek = (not written["comb"] and "converged = false" not in body.group(1) and
+            not _clock_as_data(body.group(1)))
+    return fall, rise, discard, peek
+
+
+def _clock_as_data(body: str) -> bool:
+    """Whether an ``eval()`` body reads ``p_clk`` other than through the edge detectors.
+
+    Yosys copies the clock into each submodule's ``clk`` (``p_sub_2e_clk = p_clk;``); such
+    copies, declared and never read but by further copies, are not data.
+    """
+    copies = {"p_clk"}
+    lines = body.splitlines()
+    grew = True
+    while grew:
+        grew = False
+        for line in lines:
+            match = re.fullmatch(rf"\t({_CXX_NAME}) = ({_CXX_NAME});", line)
+            if match and match[2] in copies and match[1] not in copies:
+                copies.add(match[1])
+                grew = True
+    for line in lines:
+        names = set(re.findall(rf"\b{_CXX_NAME}\b", line.split("//")[0])) & copies
+        if not names:
+            continue
+        copy = re.fullmatch(rf"\t({_CXX_NAME}) = ({_CXX_NAME});", line)
+        if copy and copy[2] in copies:
+            continue
+        if re.fullmatch(rf"\tvalue<1> {_CXX_NAME};", line):
+            continue
+        return True
+    return False
 
 
 def _load(path: Path) -> ctypes.CDLL:

@@ -23,6 +23,14 @@
 cxxrtl::module *k37_make_top();
 // Whether anything but rising edges of `clk` matters (falling-edge logic, derived clocks).
 bool k37_needs_falling_edge();
+// Commits after a falling or a rising edge of `clk`: of the wires that edge can change (and
+// those written outside any edge), or all wires (sim/cxxrtl.py, edge_wires).
+bool k37_commit_fall(cxxrtl::module *top);
+bool k37_commit_rise(cxxrtl::module *top);
+// Whether the eval() of a falling edge computes every combinational value as a settle would;
+// then k37_discard_fall() forgets the next values that eval() wrote, undoing the edge.
+bool k37_can_peek();
+void k37_discard_fall(cxxrtl::module *top);
 
 namespace {
 
@@ -71,6 +79,7 @@ struct StrobeCounter {
 struct Model {
 	std::unique_ptr<cxxrtl::module> top{k37_make_top()};
 	const bool falling_edge = k37_needs_falling_edge();
+	const bool can_peek = k37_can_peek();
 	std::vector<Item> items;
 	chunk_t *clk = nullptr;
 	uint64_t cycle = 0;
@@ -89,12 +98,14 @@ struct Model {
 
 // One clock edge, as CXXRTL's module::step(): evaluate and commit until converged; true if any
 // state (wire, memory) changed. Combinational values computed from committed state are not
-// recomputed, so they may lag until the next evaluation.
+// recomputed, so they may lag until the next evaluation. `Rising` tells which edge this is,
+// so that only the wires it can change are committed.
+template<bool Rising>
 inline bool edge(Model &m) {
 	bool changed = false;
 	for (;;) {
 		bool converged = m.top->eval();
-		bool committed = m.top->commit();
+		bool committed = Rising ? k37_commit_rise(m.top.get()) : k37_commit_fall(m.top.get());
 		changed |= committed;
 		if (!committed || converged)
 			return changed;
@@ -146,7 +157,7 @@ inline bool cycle(Model &m) {
 		*m.clk = 0;
 		// Without falling-edge logic, only the edge detector needs to see the low level; the
 		// rising edge evaluates everything from the committed state anyway.
-		changed = m.falling_edge || Traced ? edge(m) : m.top->commit();
+		changed = m.falling_edge || Traced ? edge<false>(m) : k37_commit_fall(m.top.get());
 		if (Traced) {
 			m.stale = true;
 			settle(m);
@@ -154,7 +165,7 @@ inline bool cycle(Model &m) {
 		}
 	}
 	*m.clk = 1;
-	changed |= edge(m);
+	changed |= edge<true>(m);
 	m.stale = true;
 	if (Traced) {
 		settle(m);
@@ -345,6 +356,30 @@ void advance(Model &m, uint64_t n, bool skip_idle) {
 	}
 }
 
+// run_until for a combinational item (settled only by an evaluation), untraced, from a high
+// clock: rather than settle after each rising edge and then evaluate the
+// falling edge, read the item after the falling edge's eval(), which computes the combinational
+// values of the state that the rising edge left (k37_can_peek). If it is set, the falling edge
+// is undone (its next values discarded, the clock high again) and the wait ends one cycle back.
+uint64_t run_until_peek(Model &m, const Item &item, uint64_t limit) {
+	for (uint64_t i = 0; i < limit; i++) {
+		*m.clk = 0;
+		m.top->eval();
+		if (i > 0 && nonzero(m, item, true)) {
+			*m.clk = 1;
+			k37_discard_fall(m.top.get());
+			m.stale = true;
+			return i;
+		}
+		k37_commit_fall(m.top.get());
+		*m.clk = 1;
+		edge<true>(m);
+		m.cycle++;
+	}
+	m.stale = true;
+	return limit;
+}
+
 }  // namespace
 
 extern "C" {
@@ -451,6 +486,22 @@ uint64_t k37_run_until(void *handle, size_t index, uint64_t limit, int skip_idle
 	prepare(m);
 	const Item &item = m.items[index];
 	const bool state = is_state(item);
+	if (m.can_peek && !state && *m.clk && !m.trace) {
+		// The peek path, between attempts to skip (every SKIP_RETRY cycles) if skip_idle.
+		for (uint64_t i = 0; i < limit;) {
+			if (skip_idle) {
+				i += try_skip(m, limit - i - 1, &item, state);
+				if (nonzero(m, item, state) || i >= limit)
+					return i;
+			}
+			uint64_t k = skip_idle ? std::min(SKIP_RETRY - 1, limit - i) : limit - i;
+			uint64_t ran = run_until_peek(m, item, k);
+			i += ran;
+			if (ran < k || nonzero(m, item, state))
+				return i;
+		}
+		return limit;
+	}
 	for (uint64_t i = 0; i < limit;) {
 		if (tracing(m)) {
 			cycle<true>(m);

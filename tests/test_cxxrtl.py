@@ -19,7 +19,8 @@ from hypothesis import strategies as st
 
 from hdl.hostbus import Access, HostBus, Register, RegisterBank, RegisterMap
 from sim.backend import Backend, PysimBackend, component_ports, make_backend
-from sim.cxxrtl import CxxrtlBackend
+from sim.cxxrtl import CxxrtlBackend, edge_wires
+from sim.system import System
 from sim.testbench import simulate
 
 MAP = RegisterMap("ZOO", 1, (
@@ -332,6 +333,20 @@ def simple():
     cxxrtl.close()
 
 
+#: With falling-edge logic but without the bit chain's feedback: a wait on a combinational
+#: output reads it after the next falling edge's evaluation, and undoes that edge if it is set.
+PEEKING = tuple(name for name in BLOCKS if name != "chain")
+
+
+@pytest.fixture(scope="module")
+def peeking():
+    """A third Zoo, on CXXRTL's fast path for waits (sim.cxxrtl.edge_wires)."""
+    pysim, cxxrtl = PysimBackend(Zoo(PEEKING)), CxxrtlBackend(Zoo(PEEKING))
+    yield pysim, cxxrtl
+    pysim.close()
+    cxxrtl.close()
+
+
 @pytest.fixture(params=["backends", "simple"])
 def pair_or_simple(request):
     """Each Zoo in turn, reset."""
@@ -346,7 +361,30 @@ def test_only_designs_with_falling_edge_logic_evaluate_the_falling_edge(backends
     assert not simple[1].needs_falling_edge
 
 
-@pytest.mark.parametrize("zoo", ["backends", "simple"])
+def _edge_wires(backend: CxxrtlBackend):
+    return edge_wires((backend.model.path.parent / "design.cc").read_text())
+
+
+def test_commits_are_split_by_edge_and_waits_peek_where_the_code_allows(backends, simple,
+                                                                       peeking):
+    for zoo in (backends, simple, peeking):
+        fall, rise, discard, _ = _edge_wires(zoo[1])
+        assert set(discard) <= set(fall)
+        assert set(fall) | set(rise) >= set(discard) and rise
+    assert not _edge_wires(backends[1])[3]  # the bit chain needs several evaluations
+    assert _edge_wires(simple[1])[3] and not _edge_wires(simple[1])[2]
+    fall, rise, discard, peek = _edge_wires(peeking[1])
+    assert peek and discard and not set(discard) & set(rise)
+
+
+def test_the_simulated_machine_splits_its_commits_and_peeks():
+    system = make_backend(System(), "cxxrtl")
+    fall, rise, discard, peek = _edge_wires(system)
+    assert peek and discard == fall and len(rise) > 5 * len(fall)
+    system.close()
+
+
+@pytest.mark.parametrize("zoo", ["backends", "simple", "peeking"])
 @settings(derandomize=True, max_examples=40, deadline=None)
 @given(data=st.data())
 def test_random_stimulus_gives_identical_outputs_every_cycle(request, zoo, data):
