@@ -55,6 +55,16 @@ __all__ = ["CXX_FLAGS", "CxxrtlBackend", "Model", "build", "build_dir", "find_co
 HARNESS = Path(__file__).with_name("cxxrtl_harness.cc")
 #: The design's translation unit: Yosys's C++ and what the harness asks of the design.
 DESIGN_MAIN = """#include "design.cc"
+// A wire's commit without branches (CXXRTL's compares first): whether it changed is `!= 0`.
+template<size_t Bits>
+inline cxxrtl::chunk_t k37_update(cxxrtl::wire<Bits> &wire) {{
+	cxxrtl::chunk_t diff = 0;
+	for (size_t i = 0; i < wire.curr.chunks; i++) {{
+		diff |= wire.curr.data[i] ^ wire.next.data[i];
+		wire.curr.data[i] = wire.next.data[i];
+	}}
+	return diff;
+}}
 cxxrtl::module *k37_make_top() {{ return new cxxrtl_design::p_top; }}
 bool k37_needs_falling_edge() {{ return {falling}; }}
 bool k37_can_peek() {{ return {peek}; }}
@@ -65,10 +75,9 @@ void k37_discard_fall(cxxrtl::module *module) {{{discard_fall}}}
 #: A commit of only some wires of the design (``top`` is the design, ``wires`` its wires).
 TOP = "\tauto &top = *static_cast<cxxrtl_design::p_top *>(module);\n"
 SPLIT_COMMIT = """
-""" + TOP + """	cxxrtl::observer observer;
-	bool changed = false;
+""" + TOP + """	cxxrtl::chunk_t diff = 0;
 {wires}	top.prev_p_clk = top.p_clk;
-	return changed;
+	return diff != 0;
 """
 #: g++ flags of the model objects (part of the cache key); the library links with -shared.
 CXX_FLAGS = ("-std=c++17", "-O2", "-fPIC", "-w")
@@ -224,7 +233,7 @@ def design_main(cxx: str, falling: str) -> str:
 
     def commit(names: list[str]) -> str:
         return SPLIT_COMMIT.format(wires="".join(
-            f"\tif (top.{name}.commit(observer)) changed = true;\n" for name in names))
+            f"\tdiff |= k37_update(top.{name});\n" for name in names))
 
     fall, rise, discard, peek = split
     resets = "".join(f"\ttop.{name}.next = top.{name}.curr;\n" for name in discard)
