@@ -56,7 +56,26 @@ __all__ = ["CXX_FLAGS", "CxxrtlBackend", "Model", "build", "build_dir", "find_co
 HARNESS = Path(__file__).with_name("cxxrtl_harness.cc")
 #: The design's translation unit: Yosys's C++ and what the harness asks of the design.
 DESIGN_MAIN = """#include "design.cc"
-cxxrtl::module *k37_make_top() {{ return new cxxrtl_design::p_top; }}
+// A wire's commit without branches (CXXRTL's compares first): whether it changed is `!= 0`.
+template<size_t Bits>
+inline cxxrtl::chunk_t k37_update(cxxrtl::wire<Bits> &wire) {{
+	cxxrtl::chunk_t diff = 0;
+	for (size_t i = 0; i < wire.curr.chunks; i++) {{
+		diff |= wire.curr.data[i] ^ wire.next.data[i];
+		wire.curr.data[i] = wire.next.data[i];
+	}}
+	return diff;
+}}
+namespace cxxrtl_design {{
+// The design with an eval() for falling edges that computes only what they need (fall_eval).
+struct k37_top : p_top {{
+	bool eval_fall(performer *performer = nullptr) {{{eval_fall}}}
+}};
+}}
+cxxrtl::module *k37_make_top() {{ return new cxxrtl_design::k37_top; }}
+bool k37_eval_fall(cxxrtl::module *module) {{
+	return static_cast<cxxrtl_design::k37_top *>(module)->eval_fall();
+}}
 bool k37_needs_falling_edge() {{ return {falling}; }}
 bool k37_can_peek() {{ return {peek}; }}
 bool k37_commit_fall(cxxrtl::module *module) {{{commit_fall}}}
@@ -66,10 +85,9 @@ void k37_discard_fall(cxxrtl::module *module) {{{discard_fall}}}
 #: A commit of only some wires of the design (``top`` is the design, ``wires`` its wires).
 TOP = "\tauto &top = *static_cast<cxxrtl_design::p_top *>(module);\n"
 SPLIT_COMMIT = """
-""" + TOP + """	cxxrtl::observer observer;
-	bool changed = false;
+""" + TOP + """	cxxrtl::chunk_t diff = 0;
 {wires}	top.prev_p_clk = top.p_clk;
-	return changed;
+	return diff != 0;
 """
 #: g++ flags of the model objects (part of the cache key); the library links with -shared.
 CXX_FLAGS = ("-std=c++17", "-O2", "-fPIC", "-w")
@@ -163,7 +181,8 @@ def build(rtlil_text: str, *, compiler: str | None = None) -> Model:
     harness = HARNESS.read_text()
     runtime_key = _sha256(harness, DESIGN_MAIN, " ".join(CXX_FLAGS), tools.versions)
     # The design's translation unit is generated (design_main): its generator is in the key.
-    generator = (inspect.getsource(f) for f in (design_main, edge_wires, _clock_as_data))
+    generator = (inspect.getsource(f)
+                 for f in (design_main, edge_wires, fall_eval, _clock_as_data))
     key = _sha256(rtlil_text, runtime_key, SPLIT_COMMIT, *generator)
     root = cache_root()
     library = root / key / "model.so"
@@ -218,24 +237,78 @@ def build(rtlil_text: str, *, compiler: str | None = None) -> Model:
 def design_main(cxx: str, falling: str) -> str:
     """The design's translation unit for Yosys's C++ ``cxx`` (see :func:`edge_wires`)."""
     split = edge_wires(cxx)
+    pruned = fall_eval(cxx) if split is not None else None
+    eval_fall = " return eval(performer); " if pruned is None else f"\n{pruned}\t"
     if split is None:
-        return DESIGN_MAIN.format(falling=falling, peek="false",
+        return DESIGN_MAIN.format(falling=falling, peek="false", eval_fall=eval_fall,
                                   commit_fall=" return module->commit(); ",
                                   commit_rise=" return module->commit(); ", discard_fall="")
 
     def commit(names: list[str]) -> str:
         return SPLIT_COMMIT.format(wires="".join(
-            f"\tif (top.{name}.commit(observer)) changed = true;\n" for name in names))
+            f"\tdiff |= k37_update(top.{name});\n" for name in names))
 
     fall, rise, discard, peek = split
     resets = "".join(f"\ttop.{name}.next = top.{name}.curr;\n" for name in discard)
     return DESIGN_MAIN.format(
-        falling=falling, peek="true" if peek else "false", commit_fall=commit(fall),
+        falling=falling, peek="true" if peek else "false", eval_fall=eval_fall,
+        commit_fall=commit(fall),
         commit_rise=commit(rise),
         discard_fall=f"\n{TOP}{resets}" if resets else "")
 
 
 _CXX_NAME = r"[A-Za-z_]\w*"
+
+
+def fall_eval(cxx: str) -> str | None:
+    """The body of an ``eval()`` for falling edges of ``clk`` only, from CXXRTL's C++.
+
+    CXXRTL's ``eval()`` computes every combinational value, although a falling edge needs only
+    those that the negedge registers' next values and the output ports depend on: the body
+    keeps the negedge blocks, the statements that compute an output port, and those they read,
+    transitively (statements are in dependency order). Other combinational values keep what
+    the last full ``eval()`` left, so the harness treats them as stale. None if the body holds
+    anything but declarations, assignments and edge blocks (then eval() serves).
+    """
+    body = re.search(r"^bool p_top::eval\(performer \*performer\) \{\n(.*?)^\}$", cxx,
+                     re.M | re.S)
+    if body is None:
+        return None
+    outputs = set(re.findall(rf"^\t/\*output\*/ value<\d+> ({_CXX_NAME});$", cxx, re.M))
+    head, units, block = [], [], None  # units: (kept always, names defined, text)
+    for line in body.group(1).splitlines(keepends=True):
+        if block is not None:
+            block.append(line)
+            if line == "\t}\n":
+                edge = block[0].startswith("\tif (neg")
+                units.append((edge, set(), "".join(block)) if edge else (False, {""}, ""))
+                block = None
+            elif not line.startswith("\t\t"):
+                return None
+        elif re.fullmatch(r"\tif \((pos|neg)edge_p_clk\) \{\n", line):
+            block = [line]
+        elif line.startswith("\t//"):
+            continue
+        elif (re.fullmatch(rf"\tvalue<\d+> {_CXX_NAME};\n", line) or line in (
+                "\tbool converged = true;\n", "\tbool posedge_p_clk = this->posedge_p_clk();\n",
+                "\tbool negedge_p_clk = this->negedge_p_clk();\n")):
+            head.append(line)
+        elif line == "\treturn converged;\n":
+            pass
+        else:
+            match = re.match(rf"\t({_CXX_NAME})(?:\.slice<[\d,]+>\(\))? = ", line)
+            if match is None or "performer" in line:
+                return None
+            units.append((match[1] in outputs, {match[1]}, line))
+    if block is not None:
+        return None
+    needed: set[str] = set()
+    kept = []
+    for always, defines, text in reversed(units):
+        if always or defines & needed:
+            kept.append(text)
+            needed |= set(re.findall(rf"\b{_CXX_NAME}\b", text))
+    return "".join(head) + "".join(reversed(kept)) + "\treturn converged;\n"
 
 
 def edge_wires(cxx: str) -> tuple[list[str], list[str], list[str], bool] | None:

@@ -30,6 +30,9 @@ bool k37_commit_rise(cxxrtl::module *top);
 // Whether the eval() of a falling edge computes every combinational value as a settle would;
 // then k37_discard_fall() forgets the next values that eval() wrote, undoing the edge.
 bool k37_can_peek();
+// eval() at a falling edge of `clk`: computes the negedge registers' next values and the output
+// ports, possibly nothing else (sim/cxxrtl.py, fall_eval); other combinational values are stale.
+bool k37_eval_fall(cxxrtl::module *top);
 void k37_discard_fall(cxxrtl::module *top);
 
 namespace {
@@ -104,7 +107,7 @@ template<bool Rising>
 inline bool edge(Model &m) {
 	bool changed = false;
 	for (;;) {
-		bool converged = m.top->eval();
+		bool converged = Rising ? m.top->eval() : k37_eval_fall(m.top.get());
 		bool committed = Rising ? k37_commit_rise(m.top.get()) : k37_commit_fall(m.top.get());
 		changed |= committed;
 		if (!committed || converged)
@@ -356,15 +359,15 @@ void advance(Model &m, uint64_t n, bool skip_idle) {
 	}
 }
 
-// run_until for a combinational item (settled only by an evaluation), untraced, from a high
-// clock: rather than settle after each rising edge and then evaluate the
-// falling edge, read the item after the falling edge's eval(), which computes the combinational
-// values of the state that the rising edge left (k37_can_peek). If it is set, the falling edge
+// run_until for a combinational port (settled only by an evaluation), untraced, from a high
+// clock: rather than settle after each rising edge and then evaluate the falling edge, read
+// the port after the falling edge's evaluation, which computes the output ports from the
+// state that the rising edge left (k37_can_peek, k37_eval_fall). If it is set, the falling edge
 // is undone (its next values discarded, the clock high again) and the wait ends one cycle back.
 uint64_t run_until_peek(Model &m, const Item &item, uint64_t limit) {
 	for (uint64_t i = 0; i < limit; i++) {
 		*m.clk = 0;
-		m.top->eval();
+		k37_eval_fall(m.top.get());
 		if (i > 0 && nonzero(m, item, true)) {
 			*m.clk = 1;
 			k37_discard_fall(m.top.get());
