@@ -276,13 +276,18 @@ class Combinational(wiring.Component):
         return m
 
 
-@pytest.fixture(scope="module")
-def backends():
-    """The Zoo on Amaranth's simulator and on CXXRTL (built once per machine, then cached)."""
-    pysim, cxxrtl = PysimBackend(Zoo()), CxxrtlBackend(Zoo())
+def zoo_pair(blocks: tuple[str, ...]):
+    """Both backends on a Zoo of ``blocks``, closed afterwards (for module fixtures)."""
+    pysim, cxxrtl = PysimBackend(Zoo(blocks)), CxxrtlBackend(Zoo(blocks))
     yield pysim, cxxrtl
     pysim.close()
     cxxrtl.close()
+
+
+@pytest.fixture(scope="module")
+def backends():
+    """The Zoo on Amaranth's simulator and on CXXRTL (built once per machine, then cached)."""
+    yield from zoo_pair(tuple(BLOCKS))
 
 
 @pytest.fixture
@@ -327,10 +332,7 @@ SIMPLE = tuple(name for name in BLOCKS if name not in ("negc", "chain"))
 @pytest.fixture(scope="module")
 def simple():
     """A second Zoo, on CXXRTL's fast paths."""
-    pysim, cxxrtl = PysimBackend(Zoo(SIMPLE)), CxxrtlBackend(Zoo(SIMPLE))
-    yield pysim, cxxrtl
-    pysim.close()
-    cxxrtl.close()
+    yield from zoo_pair(SIMPLE)
 
 
 #: With falling-edge logic but without the bit chain's feedback: a wait on a combinational
@@ -341,10 +343,7 @@ PEEKING = tuple(name for name in BLOCKS if name != "chain")
 @pytest.fixture(scope="module")
 def peeking():
     """A third Zoo, on CXXRTL's fast path for waits (sim.cxxrtl.edge_wires)."""
-    pysim, cxxrtl = PysimBackend(Zoo(PEEKING)), CxxrtlBackend(Zoo(PEEKING))
-    yield pysim, cxxrtl
-    pysim.close()
-    cxxrtl.close()
+    yield from zoo_pair(PEEKING)
 
 
 @pytest.fixture(params=["backends", "simple"])
