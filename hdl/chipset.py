@@ -13,7 +13,7 @@ selects are :data:`CHIP_SELECTS`, the registers each chip's own map. :func:`port
 
 import enum
 
-from amaranth.hdl import Array, Cat, Const, Module, Signal, signed
+from amaranth.hdl import Array, Cat, Module, Signal, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
@@ -115,9 +115,10 @@ class Chipset(wiring.Component):
     fp : Out(1)
         Observation: the feed pulses the K3701 receives.
     feed_quiet : Out(1)
-        Observation: no feed pulse can reach the K3701 or an axis in this cycle (the decel
-        gate is closed and every accel/decel circuit is drained), so the free-running
-        dividers and rate multiplier change nothing else; combinational.
+        Observation: no feed pulse can pass the decel gate and no accel/decel circuit has an
+        output pulse pending in this cycle, so the free-running dividers and rate multiplier,
+        and the accel/decel accumulators adding x at each fa, change nothing else until an
+        accumulator's next carry; combinational.
     step_x_pos, step_x_neg, step_y_pos, step_y_neg : Out(1)
         Observation: the K3701's step pulses.
     x, y : Out(AxisPins())
@@ -154,12 +155,12 @@ class Chipset(wiring.Component):
         interp, feed, decel = chips["K3701"], chips["FEED"], chips["DECEL"]
 
         m.d.comb += decel.inp.eq(feed.out)
-        drained = []  # the accel/decel circuits' idle flags
+        quiet = [~decel.gate_open]  # and no accel/decel output pulse pending
         if self.accel is Accel.PRE:
             m.submodules.accel = accel = AccelDecel(n=self.accel_bits)
             m.d.comb += [accel.inp.eq(decel.out), accel.add.eq(feed.fa),
                          interp.fp.eq(accel.out)]
-            drained.append(accel.idle)
+            quiet.append(accel.pending == 0)
         else:
             m.d.comb += interp.fp.eq(decel.out)
         m.d.comb += [
@@ -181,7 +182,7 @@ class Chipset(wiring.Component):
                 m.d.comb += [post.inp_pos.eq(step_pos), post.inp_neg.eq(step_neg),
                              post.add.eq(feed.fa)]
                 step_pos, step_neg = post.out_pos, post.out_neg
-                drained.append(post.idle)
+                quiet.append(post.pending == 0)
             m.d.comb += [
                 ctrl.com_pos.eq(step_pos), ctrl.com_neg.eq(step_neg),
                 enc.a.eq(pins.a), enc.a_n.eq(pins.a_n), enc.b.eq(pins.b), enc.b_n.eq(pins.b_n),
@@ -191,7 +192,7 @@ class Chipset(wiring.Component):
                 pins.fb_pos.eq(enc.fb_pos), pins.fb_neg.eq(enc.fb_neg),
                 pins.command.eq(ctrl.command), pins.error.eq(ctrl.error),
             ]
-        m.d.comb += self.feed_quiet.eq(~decel.gate_open & Cat(*drained, Const(1)).all())
+        m.d.comb += self.feed_quiet.eq(Cat(*quiet).all())
         return m
 
     def _decode_bus(self, m: Module, chips: dict) -> None:

@@ -36,8 +36,8 @@ from amaranth.sim import Simulator
 
 from sim.testbench import CLOCK_PERIOD
 
-__all__ = ["Backend", "FreeRunning", "PhaseAccumulator", "Port", "PysimBackend",
-           "StrobeCounter", "component_ports", "make_backend"]
+__all__ = ["Backend", "CarryAccumulator", "FreeRunning", "PhaseAccumulator", "Port",
+           "PysimBackend", "StrobeCounter", "component_ports", "make_backend"]
 
 
 @dataclass(frozen=True)
@@ -60,17 +60,31 @@ class StrobeCounter:
 
 
 @dataclass(frozen=True)
+class CarryAccumulator:
+    """An :class:`hdl.accel_decel.AccelDecel` at ``path`` (``y``, ``x``): at each cycle in
+    which accumulator number ``clock``'s ``stb`` is high, ``y += x`` in ``n`` bits; a carry out
+    of them changes ``x`` and sends a pulse, so a skip must stop before the next carry."""
+
+    path: str
+    n: int
+    signed: bool
+    clock: int
+
+
+@dataclass(frozen=True)
 class FreeRunning:
     """State of a design that runs on by itself, for exact idle skipping.
 
     A component may declare it as its ``free_running`` attribute. When the probe ``quiet``
-    reads 1, this state must affect nothing else in the design; a backend that skips idle
-    cycles then proves a fixed point of the rest from one cycle and advances this state in
-    closed form (:meth:`Backend.step` with ``skip_idle``).
+    reads 1, this state must affect nothing else in the design until a carry accumulator's
+    next carry; a backend that skips idle cycles then proves a fixed point of the rest from one
+    cycle and advances this state in closed form, up to that carry (:meth:`Backend.step` with
+    ``skip_idle``).
     """
 
     accumulators: tuple[PhaseAccumulator, ...]
     counters: tuple[StrobeCounter, ...]
+    carries: tuple[CarryAccumulator, ...]
     quiet: str
 
 

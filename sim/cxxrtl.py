@@ -419,6 +419,8 @@ def _load(path: Path) -> ctypes.CDLL:
         "k37_falling_edge": (ctypes.c_int, [handle]),
         "k37_free_accumulator": (ctypes.c_int, [handle, size, size, size, ctypes.c_uint]),
         "k37_free_counter": (ctypes.c_int, [handle, size, size, ctypes.c_uint, size]),
+        "k37_free_carry": (ctypes.c_int, [handle, size, size, ctypes.c_uint, ctypes.c_int,
+                                          size]),
         "k37_free_quiet": (None, [handle, size]),
     }
     for name, (restype, argtypes) in signatures.items():
@@ -502,6 +504,11 @@ class CxxrtlBackend(Backend):
                                     counter.clock) < 0:
                 raise ValueError(f"{counter.path}: count and select must be registers of "
                                  f"<= 64 bits, clocked by a declared accumulator")
+        for carry in free.carries:
+            if lib.k37_free_carry(handle, item(f"{carry.path}.y"), item(f"{carry.path}.x"),
+                                  carry.n, carry.signed, carry.clock) < 0:
+                raise ValueError(f"{carry.path}: y must be an n-bit register, x at most 63 bits, "
+                                 f"clocked by a declared accumulator")
         lib.k37_free_quiet(handle, item(free.quiet))
 
     def _set_inits(self) -> None:

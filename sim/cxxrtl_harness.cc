@@ -79,6 +79,16 @@ struct StrobeCounter {
 	size_t clock;
 };
 
+// An accel/decel accumulator (hdl/accel_decel.py): at each strobe of accumulator `clock`,
+// y += x, and a carry out of its n bits moves a count from x to its output. Skips stop before
+// its next carry; x (and everything the carry feeds) is ordinary state.
+struct CarryAccumulator {
+	size_t y, x;
+	unsigned n;
+	bool x_signed;
+	size_t clock;
+};
+
 struct Model {
 	std::unique_ptr<cxxrtl::module> top{k37_make_top()};
 	const bool falling_edge = k37_needs_falling_edge();
@@ -93,6 +103,7 @@ struct Model {
 	// Idle skipping with free-running state (see try_skip).
 	std::vector<Accumulator> accumulators;
 	std::vector<StrobeCounter> counters;
+	std::vector<CarryAccumulator> carries;
 	size_t quiet = SIZE_MAX;             // item: the free-running state affects nothing else
 	std::vector<Part> rest;              // every other state item's parts (built on first use)
 	std::vector<chunk_t> snapshot;
@@ -233,6 +244,9 @@ bool is_free(const Model &m, size_t index) {
 	for (const StrobeCounter &c : m.counters)
 		if (index == c.count || index == c.select)
 			return true;
+	for (const CarryAccumulator &c : m.carries)
+		if (index == c.y)
+			return true;
 	return false;
 }
 
@@ -263,12 +277,48 @@ bool same_as_snapshot(const Model &m) {
 	return true;
 }
 
-// Advance the free-running state by k cycles (k >= 1) in closed form.
+using u128 = unsigned __int128;
+
+// x of a carry accumulator, sign-extended if signed.
+int64_t read_x(Model &m, const CarryAccumulator &c) {
+	uint64_t raw = read_u64(m, c.x);
+	size_t width = m.items[c.x].width;
+	if (c.x_signed && width < 64 && (raw >> (width - 1) & 1))
+		raw |= ~uint64_t(0) << width;
+	return int64_t(raw);
+}
+
+// The most cycles that can run before any carry accumulator's next carry (UINT64_MAX: none
+// comes), from the current (settled) state.
+uint64_t carry_horizon(Model &m) {
+	uint64_t horizon = UINT64_MAX;
+	for (const CarryAccumulator &c : m.carries) {
+		int64_t x = read_x(m, c);
+		if (x == 0)
+			continue;
+		uint64_t y = read_u64(m, c.y), full = uint64_t(1) << c.n;
+		// Strobes that may come without a carry: y + s x stays in [0, 2^n).
+		uint64_t safe = x > 0 ? (full - 1 - y) / uint64_t(x) : y / uint64_t(-x);
+		const Accumulator &acc = m.accumulators[c.clock];
+		uint64_t s0 = read_u64(m, acc.stb), inc = read_u64(m, acc.increment);
+		if (s0 > safe)
+			return 0;
+		if (inc == 0)
+			continue;
+		// Strobes seen in k cycles: s0 + floor((phase + (k - 1) inc) / 2^w) <= safe.
+		u128 limit = (u128(safe - s0 + 1) << acc.width) - read_u64(m, acc.phase);
+		u128 cycles = (limit + inc - 1) / inc;
+		if (cycles < horizon)
+			horizon = uint64_t(cycles);
+	}
+	return horizon;
+}
+
+// Advance the free-running state by k cycles (k >= 1) in closed form (no carry on the way).
 void advance_free(Model &m, uint64_t k) {
 	std::vector<uint64_t> strobes(m.accumulators.size());  // stb highs seen in the k cycles
 	for (size_t a = 0; a < m.accumulators.size(); a++) {
 		const Accumulator &acc = m.accumulators[a];
-		using u128 = unsigned __int128;
 		u128 phase = read_u64(m, acc.phase), inc = read_u64(m, acc.increment);
 		u128 before_last = phase + u128(k - 1) * inc, total = before_last + inc;
 		strobes[a] = read_u64(m, acc.stb) + uint64_t(before_last >> acc.width);
@@ -283,6 +333,11 @@ void advance_free(Model &m, uint64_t k) {
 			;
 		write_state(m, c.count, count);
 		write_state(m, c.select, ones < c.width ? c.width - 1 - ones : c.width);
+	}
+	for (const CarryAccumulator &c : m.carries) {
+		int64_t x = read_x(m, c);
+		uint64_t y = read_u64(m, c.y) + uint64_t(int64_t(strobes[c.clock]) * x);
+		write_state(m, c.y, y & ((uint64_t(1) << c.n) - 1));
 	}
 }
 
@@ -302,6 +357,7 @@ uint64_t try_skip(Model &m, uint64_t rest, const Item *watch = nullptr, bool wat
 		settle(m);
 		if (!read_u64(m, m.quiet))
 			return 1;
+		rest = std::min(rest, carry_horizon(m));
 		if (rest)
 			advance_free(m, rest);
 	}
@@ -569,6 +625,19 @@ int k37_free_counter(void *handle, size_t count, size_t select, unsigned width, 
 	if (width == 0 || width > 63 || clock >= m.accumulators.size())
 		return -1;
 	m.counters.push_back(StrobeCounter{count, select, width, clock});
+	m.rest_known = false;
+	m.rest.clear();
+	return 0;
+}
+
+// Declare an accel/decel accumulator clocked by accumulator `clock` (see CarryAccumulator);
+// 0, or -1 if y is not a register of n <= 63 bits or `clock` is not declared.
+int k37_free_carry(void *handle, size_t y, size_t x, unsigned n, int x_signed, size_t clock) {
+	Model &m = *static_cast<Model *>(handle);
+	if (!is_state(m.items[y]) || m.items[y].width != n || n == 0 || n > 40 ||
+	    m.items[x].width > 63 || clock >= m.accumulators.size())
+		return -1;
+	m.carries.push_back(CarryAccumulator{y, x, n, x_signed != 0, clock});
 	m.rest_known = false;
 	m.rest.clear();
 	return 0;

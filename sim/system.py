@@ -12,21 +12,32 @@ from amaranth.lib.wiring import In, Out
 from hdl.chipset import AXES, Accel, Chipset
 from hdl.feed_rate import DIVIDER_WIDTH, FEED_STAGES
 from hdl.hostbus import HostBus
-from sim.backend import FreeRunning, PhaseAccumulator, StrobeCounter
+from sim.backend import CarryAccumulator, FreeRunning, PhaseAccumulator, StrobeCounter
 from sim.plant import ALPHA_BITS, ServoPlant
 
-__all__ = ["FREE_RUNNING", "AxisProbe", "System"]
+__all__ = ["AxisProbe", "System", "free_running"]
 
-#: What runs on while the machine stands still: the feed-rate generator's two dividers and
-#: its rate multiplier. The chipset's ``feed_quiet`` says when they affect nothing else (no
-#: feed pulse can pass the decel gate, every accel/decel circuit is drained); the compiled
-#: backend's idle skipping then advances them in closed form.
-FREE_RUNNING = FreeRunning(
-    accumulators=(PhaseAccumulator("chipset.feed.rm_clock", DIVIDER_WIDTH),
-                  PhaseAccumulator("chipset.feed.fa_clock", DIVIDER_WIDTH)),
-    counters=(StrobeCounter("chipset.feed.rate", 6 * FEED_STAGES, clock=0),),
-    quiet="feed_quiet",
-)
+
+def free_running(accel: Accel, accel_bits: int) -> FreeRunning:
+    """What runs on while the machine stands still, with the accel/decel circuit at ``accel``.
+
+    The feed-rate generator's two dividers and its rate multiplier, and the accumulator of each
+    accel/decel circuit (which adds x at every fa, for seconds at the end of a move, while the
+    axes stand still between its rare carries). The chipset's ``feed_quiet`` says when they
+    affect nothing else until an accumulator's next carry (no feed pulse can pass the decel
+    gate, no accel/decel output pulse is pending); the compiled backend's idle skipping then
+    advances them in closed form, up to that carry.
+    """
+    paths = {Accel.PRE: ("chipset.accel",), Accel.POST: ("chipset.accel_x", "chipset.accel_y"),
+             Accel.NONE: ()}[accel]
+    return FreeRunning(
+        accumulators=(PhaseAccumulator("chipset.feed.rm_clock", DIVIDER_WIDTH),
+                      PhaseAccumulator("chipset.feed.fa_clock", DIVIDER_WIDTH)),
+        counters=(StrobeCounter("chipset.feed.rate", 6 * FEED_STAGES, clock=0),),
+        carries=tuple(CarryAccumulator(path, accel_bits, accel is Accel.POST, clock=1)
+                      for path in paths),
+        quiet="feed_quiet",
+    )
 
 
 class AxisProbe(wiring.Signature):
@@ -77,17 +88,16 @@ class System(wiring.Component):
     fp_total : Out(32)
         Feed pulses the K3701 received since reset.
     feed_quiet : Out(1)
-        The chipset's ``feed_quiet`` (:data:`FREE_RUNNING` may run on alone).
+        The chipset's ``feed_quiet`` (:func:`free_running` may run on alone).
     x, y : Out(AxisProbe())
         Per-axis plant settings, faults and observations.
     """
 
-    #: See :data:`FREE_RUNNING`.
-    free_running = FREE_RUNNING
-
     def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15):
         self.accel = Accel(accel)
         self.accel_bits = accel_bits
+        #: See :func:`free_running`.
+        self.free_running = free_running(self.accel, accel_bits)
         super().__init__({
             "bus": In(HostBus(8)), "irq": Out(1), "irq_interp": Out(1), "irq_alarm": Out(1),
             "fp_total": Out(32), "feed_quiet": Out(1),

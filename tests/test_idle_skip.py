@@ -1,9 +1,10 @@
 """Exact idle skipping on the compiled backend: a skipped run equals the stepped run.
 
 While the machine stands still (a dwell, the host busy, the axes at rest) only the feed-rate
-generator's dividers and rate multiplier run on (``sim.system.FREE_RUNNING``); the compiled
-backend then skips ahead and advances them in closed form. Every signal of the design must
-end up as if each cycle had been evaluated.
+generator's dividers and rate multiplier, and the accel/decel accumulators between their
+carries, run on (``sim.system.free_running``); the compiled backend then skips ahead and
+advances them in closed form. Every signal of the design must end up as if each cycle had
+been evaluated.
 """
 
 from __future__ import annotations
@@ -82,3 +83,19 @@ def test_a_skipping_compiled_run_equals_amaranths_simulator():
     assert compiled[3] > 5_000, "the run must include skipped cycles"
     assert compiled[0] == reference[0]
     assert np.array_equal(compiled[1], reference[1])
+
+
+@pytest.mark.parametrize("accel", ["pre", "post"])
+def test_skipping_between_accel_decel_carries_changes_no_signal(accel):
+    # The paper's tau = 300 ms: after the move the circuit drains for seconds, its last
+    # carries 100 to 300 ms apart; a stiff servo (Kp 200/s, Tm 0.5 ms) rests in between.
+    machine = MachineConfig(accel=accel)
+    program = parse("G21 G91 F1200\nG01 X0.3 Y0.1\nM30", source="<tail>", sqrt2=machine.sqrt2)
+    servo = ServoConfig(kp=200.0, tm=0.0005)
+    job = Job("tail", machine, dict.fromkeys(AXES, servo), program)
+    stepped = run(job, {}, "cxxrtl", False, 1000)
+    skipped = run(job, {}, "cxxrtl", True, 1000)
+    assert skipped[0] == stepped[0]
+    assert np.array_equal(skipped[1], stepped[1])
+    assert skipped[2] == stepped[2]
+    assert skipped[3] > 0.3 * stepped[0]["cycles"]
