@@ -77,14 +77,17 @@ class FreeRunning:
 
     A component may declare it as its ``free_running`` attribute. When the probe ``quiet``
     reads 1, this state must affect nothing else in the design until a carry accumulator's
-    next carry; a backend that skips idle cycles then proves a fixed point of the rest from one
-    cycle and advances this state in closed form, up to that carry (:meth:`Backend.step` with
-    ``skip_idle``).
+    next carry or a plant's next count; a backend that skips idle cycles then proves a fixed
+    point of the rest from one cycle and advances this state, up to that event
+    (:meth:`Backend.step` with ``skip_idle``).
     """
 
     accumulators: tuple[PhaseAccumulator, ...]
     counters: tuple[StrobeCounter, ...]
     carries: tuple[CarryAccumulator, ...]
+    #: Paths of :class:`sim.plant.ServoPlant` instances: while the rest stands still, they
+    #: are stepped natively (bit for bit as their gateware) up to a change of their count.
+    plants: tuple[str, ...]
     quiet: str
 
 

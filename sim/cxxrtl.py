@@ -49,6 +49,7 @@ from sim.backend import (
     component_ports,
     signal_paths,
 )
+from sim.plant import ALPHA_BITS, FRAC_BITS, VC_BITS
 from sim.testbench import CLOCK_PERIOD
 
 __all__ = ["CXX_FLAGS", "CxxrtlBackend", "Model", "build", "build_dir", "find_compiler"]
@@ -421,6 +422,8 @@ def _load(path: Path) -> ctypes.CDLL:
         "k37_free_counter": (ctypes.c_int, [handle, size, size, ctypes.c_uint, size]),
         "k37_free_carry": (ctypes.c_int, [handle, size, size, ctypes.c_uint, ctypes.c_int,
                                           size]),
+        "k37_free_plant": (ctypes.c_int, [handle, ctypes.POINTER(size), ctypes.c_uint,
+                                          ctypes.c_uint, ctypes.c_uint]),
         "k37_free_quiet": (None, [handle, size]),
     }
     for name, (restype, argtypes) in signatures.items():
@@ -509,6 +512,11 @@ class CxxrtlBackend(Backend):
                                   carry.n, carry.signed, carry.clock) < 0:
                 raise ValueError(f"{carry.path}: y must be an n-bit register, x at most 63 bits, "
                                  f"clocked by a declared accumulator")
+        for plant in free.plants:
+            names = ("velocity", "before", "dac", "dac_zero", "gain", "alpha", "vmax", "stall")
+            items = (ctypes.c_size_t * len(names))(*(item(f"{plant}.{n}") for n in names))
+            if lib.k37_free_plant(handle, items, VC_BITS, ALPHA_BITS, FRAC_BITS) < 0:
+                raise ValueError(f"{plant}: velocity and position must be registers")
         lib.k37_free_quiet(handle, item(free.quiet))
 
     def _set_inits(self) -> None:

@@ -89,6 +89,14 @@ struct CarryAccumulator {
 	size_t clock;
 };
 
+// A servo plant (sim/plant.py), stepped natively while it moves within one encoder count:
+// v += round((vc - v) alpha / 2^alpha_bits), or v = vc if that rounds to 0 (0 if stalled);
+// before += v; the count is (before + v) >> frac_bits. Skips stop before a count changes.
+struct Plant {
+	size_t velocity, before, dac, dac_zero, gain, alpha, vmax, stall;  // item indices
+	unsigned vc_bits, alpha_bits, frac_bits;
+};
+
 struct Model {
 	std::unique_ptr<cxxrtl::module> top{k37_make_top()};
 	const bool falling_edge = k37_needs_falling_edge();
@@ -104,6 +112,7 @@ struct Model {
 	std::vector<Accumulator> accumulators;
 	std::vector<StrobeCounter> counters;
 	std::vector<CarryAccumulator> carries;
+	std::vector<Plant> plants;
 	size_t quiet = SIZE_MAX;             // item: the free-running state affects nothing else
 	std::vector<Part> rest;              // every other state item's parts (built on first use)
 	std::vector<chunk_t> snapshot;
@@ -247,6 +256,9 @@ bool is_free(const Model &m, size_t index) {
 	for (const CarryAccumulator &c : m.carries)
 		if (index == c.y)
 			return true;
+	for (const Plant &p : m.plants)
+		if (index == p.velocity || index == p.before)
+			return true;
 	return false;
 }
 
@@ -314,6 +326,83 @@ uint64_t carry_horizon(Model &m) {
 	return horizon;
 }
 
+int64_t sign_extend(uint64_t raw, size_t width) {
+	if (width < 64 && (raw >> (width - 1) & 1))
+		raw |= ~uint64_t(0) << width;
+	return int64_t(raw);
+}
+
+// One plant's registers and (constant) inputs, and its update, as sim/plant.py computes them.
+struct PlantState {
+	int64_t v, before, vc, alpha;
+	bool stall;
+	unsigned vc_bits, alpha_bits, frac_bits;
+
+	PlantState(Model &m, const Plant &p)
+	    : v(sign_extend(read_u64(m, p.velocity), p.vc_bits + 1)),
+	      before(int64_t(read_u64(m, p.before))), alpha(int64_t(read_u64(m, p.alpha))),
+	      stall(read_u64(m, p.stall) != 0), vc_bits(p.vc_bits), alpha_bits(p.alpha_bits),
+	      frac_bits(p.frac_bits) {
+		int64_t err = int64_t(read_u64(m, p.dac)) - int64_t(read_u64(m, p.dac_zero));
+		int64_t raw = err * int64_t(read_u64(m, p.gain));
+		int64_t top = (int64_t(1) << vc_bits) - 1;
+		uint64_t limit = read_u64(m, p.vmax);
+		int64_t vmax = limit == 0 || limit > uint64_t(top) ? top : int64_t(limit);
+		vc = raw > vmax ? vmax : raw < -vmax ? -vmax : raw;
+	}
+	uint32_t count() const {
+		return uint32_t((uint64_t(before) + uint64_t(v)) >> frac_bits);
+	}
+	void cycle() {
+		uint64_t delta = uint64_t(vc - v) * uint64_t(alpha) + (uint64_t(1) << (alpha_bits - 1));
+		int64_t step = int64_t(delta) >> alpha_bits;
+		int64_t next = stall ? 0 : step == 0 ? vc : v + step;
+		before = int64_t(uint64_t(before) + uint64_t(v));
+		v = sign_extend(uint64_t(next) & ((uint64_t(1) << (vc_bits + 1)) - 1), vc_bits + 1);
+	}
+};
+
+// The plants' counts from their registers (no evaluation needed).
+std::vector<uint32_t> plant_counts(Model &m) {
+	std::vector<uint32_t> counts;
+	for (const Plant &p : m.plants) {
+		int64_t v = sign_extend(read_u64(m, p.velocity), p.vc_bits + 1);
+		counts.push_back(uint32_t((read_u64(m, p.before) + uint64_t(v)) >> p.frac_bits));
+	}
+	return counts;
+}
+
+// Step the plants natively for up to `limit` cycles, stopping before any count would change;
+// writes their state and returns the cycles stepped.
+uint64_t advance_plants(Model &m, uint64_t limit) {
+	if (m.plants.empty() || limit == 0)
+		return limit;
+	std::vector<PlantState> states;
+	std::vector<uint32_t> counts;
+	for (const Plant &p : m.plants) {
+		states.emplace_back(m, p);
+		counts.push_back(states.back().count());
+	}
+	uint64_t k = 0;
+	for (; k < limit; k++) {
+		std::vector<PlantState> next = states;
+		bool moved = false;
+		for (size_t i = 0; i < next.size(); i++) {
+			next[i].cycle();
+			moved |= next[i].count() != counts[i];
+		}
+		if (moved)
+			break;
+		states = std::move(next);
+	}
+	for (size_t i = 0; i < states.size(); i++) {
+		write_state(m, m.plants[i].velocity,
+		            uint64_t(states[i].v) & ((uint64_t(1) << (m.plants[i].vc_bits + 1)) - 1));
+		write_state(m, m.plants[i].before, uint64_t(states[i].before));
+	}
+	return k;
+}
+
 // Advance the free-running state by k cycles (k >= 1) in closed form (no carry on the way).
 void advance_free(Model &m, uint64_t k) {
 	std::vector<uint64_t> strobes(m.accumulators.size());  // stb highs seen in the k cycles
@@ -348,8 +437,10 @@ void advance_free(Model &m, uint64_t k) {
 // cycles run or skipped (1 + rest, or 1).
 uint64_t try_skip(Model &m, uint64_t rest, const Item *watch = nullptr, bool watch_state = false) {
 	take_snapshot(m);
+	std::vector<uint32_t> counts = plant_counts(m);
 	bool changed = cycle<false>(m);
-	if (!same_as_snapshot(m) || (watch && nonzero(m, *watch, watch_state)))
+	if (!same_as_snapshot(m) || plant_counts(m) != counts ||
+	    (watch && nonzero(m, *watch, watch_state)))
 		return 1;
 	if (changed) {
 		if (m.quiet == SIZE_MAX)
@@ -357,7 +448,7 @@ uint64_t try_skip(Model &m, uint64_t rest, const Item *watch = nullptr, bool wat
 		settle(m);
 		if (!read_u64(m, m.quiet))
 			return 1;
-		rest = std::min(rest, carry_horizon(m));
+		rest = advance_plants(m, std::min(rest, carry_horizon(m)));
 		if (rest)
 			advance_free(m, rest);
 	}
@@ -638,6 +729,21 @@ int k37_free_carry(void *handle, size_t y, size_t x, unsigned n, int x_signed, s
 	    m.items[x].width > 63 || clock >= m.accumulators.size())
 		return -1;
 	m.carries.push_back(CarryAccumulator{y, x, n, x_signed != 0, clock});
+	m.rest_known = false;
+	m.rest.clear();
+	return 0;
+}
+
+// Declare a servo plant (see Plant); 0, or -1 if velocity or before is not a register.
+int k37_free_plant(void *handle, const size_t *items, unsigned vc_bits, unsigned alpha_bits,
+                   unsigned frac_bits) {
+	Model &m = *static_cast<Model *>(handle);
+	Plant p{items[0], items[1], items[2], items[3], items[4], items[5], items[6], items[7],
+	        vc_bits, alpha_bits, frac_bits};
+	if (!is_state(m.items[p.velocity]) || m.items[p.velocity].width != vc_bits + 1 ||
+	    !is_state(m.items[p.before]) || m.items[p.before].width != 64)
+		return -1;
+	m.plants.push_back(p);
 	m.rest_known = false;
 	m.rest.clear();
 	return 0;

@@ -21,12 +21,13 @@ __all__ = ["AxisProbe", "System", "free_running"]
 def free_running(accel: Accel, accel_bits: int) -> FreeRunning:
     """What runs on while the machine stands still, with the accel/decel circuit at ``accel``.
 
-    The feed-rate generator's two dividers and its rate multiplier, and the accumulator of each
-    accel/decel circuit (which adds x at every fa, for seconds at the end of a move, while the
-    axes stand still between its rare carries). The chipset's ``feed_quiet`` says when they
-    affect nothing else until an accumulator's next carry (no feed pulse can pass the decel
-    gate, no accel/decel output pulse is pending); the compiled backend's idle skipping then
-    advances them in closed form, up to that carry.
+    The feed-rate generator's two dividers and its rate multiplier, the accumulator of each
+    accel/decel circuit (which adds x at every fa, for seconds at the end of a move, between
+    its rare carries), and the plants while they settle within one encoder count. The
+    chipset's ``feed_quiet`` says when they affect nothing else until an accumulator's next
+    carry or a plant's next count (no feed pulse can pass the decel gate, no accel/decel output
+    pulse is pending); the compiled backend's idle skipping then advances them, up to that
+    event.
     """
     paths = {Accel.PRE: ("chipset.accel",), Accel.POST: ("chipset.accel_x", "chipset.accel_y"),
              Accel.NONE: ()}[accel]
@@ -36,6 +37,7 @@ def free_running(accel: Accel, accel_bits: int) -> FreeRunning:
         counters=(StrobeCounter("chipset.feed.rate", 6 * FEED_STAGES, clock=0),),
         carries=tuple(CarryAccumulator(path, accel_bits, accel is Accel.POST, clock=1)
                       for path in paths),
+        plants=tuple(f"plant_{axis}" for axis in AXES),
         quiet="feed_quiet",
     )
 
