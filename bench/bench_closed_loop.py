@@ -6,7 +6,8 @@ the whole demo (the paper's circle, about 6e6 cycles); Amaranth's simulator runs
 the sampling and the report; builds are excluded (the compiled model is built before timing).
 
 The second benchmark runs a dwell-heavy job (:data:`DWELL_GCODE`: short moves, 20 s of dwell)
-on the compiled backend with and without idle skipping and prints the speed-up.
+and the paper's low-feed circle (:data:`LOW_FEED_GCODE`) on the compiled backend with and
+without idle skipping and prints the speed-ups.
 """
 
 from __future__ import annotations
@@ -31,7 +32,10 @@ G01 Y-2.0
 G04 P5
 M30
 """
-DWELL_SPEEDS: dict[bool, float] = {}
+#: The paper's low feed (feed word 0x00FF, 88 FP/s = 5.3 mm/min) on a 1 mm circle.
+LOW_FEED_GCODE = "G21 G91 F5.3\nG03 X0 Y0 I0.5 J0\nM30\n"
+SKIP_JOBS = {"dwell-heavy": DWELL_GCODE, "low-feed circle": LOW_FEED_GCODE}
+SKIP_SPEEDS: dict[str, dict[bool, float]] = {}
 
 
 def _run(backend_kind: str, max_cycles: int, job: Job | None = None,
@@ -55,13 +59,15 @@ def test_closed_loop_demo_speed(benchmark, kind, cycles):
 
 
 @pytest.mark.parametrize("skip_idle", [False, True])
-def test_dwell_heavy_job_speed_with_and_without_idle_skipping(benchmark, skip_idle):
-    job = gcode_job("dwell-heavy", DWELL_GCODE, "<dwell-heavy>")
+@pytest.mark.parametrize("name", list(SKIP_JOBS))
+def test_idle_skipping_speed_up(benchmark, name, skip_idle):
+    job = gcode_job(name, SKIP_JOBS[name], f"<{name}>")
     report = benchmark.pedantic(_run, args=("cxxrtl", 10**9, job, skip_idle), rounds=1,
                                 iterations=1)
-    DWELL_SPEEDS[skip_idle] = report["cycles_per_second"]
-    print(f"\ndwell-heavy, skip_idle={skip_idle}: {report['cycles']:,} cycles "
+    speeds = SKIP_SPEEDS.setdefault(name, {})
+    speeds[skip_idle] = report["cycles_per_second"]
+    print(f"\n{name}, skip_idle={skip_idle}: {report['cycles']:,} cycles "
           f"({report['skipped_cycles']:,} skipped) in {report['wall_seconds']:.2f} s = "
-          f"{DWELL_SPEEDS[skip_idle]:,.0f} cycles/s")
-    if len(DWELL_SPEEDS) == 2:
-        print(f"idle skipping speed-up: {DWELL_SPEEDS[True] / DWELL_SPEEDS[False]:.1f}x")
+          f"{speeds[skip_idle]:,.0f} cycles/s ({speeds[skip_idle] / 1e6:.1f}x real time)")
+    if len(speeds) == 2:
+        print(f"{name}: idle skipping speed-up {speeds[True] / speeds[False]:.1f}x")

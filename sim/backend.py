@@ -51,12 +51,15 @@ class PhaseAccumulator:
 
 @dataclass(frozen=True)
 class StrobeCounter:
-    """A :class:`hdl.rate_multiplier.RateMultiplier` at ``path`` (``count``, ``select``): it
-    counts the cycles in which accumulator number ``clock``'s ``stb`` is high."""
+    """A :class:`hdl.rate_multiplier.RateMultiplier` at ``path`` (``count``, ``select``,
+    ``word``): it counts the cycles in which accumulator number ``clock``'s ``stb`` is high, and
+    pulses in those that select a set bit of ``word``. While the probe ``gate`` reads 1 its
+    pulses matter, so a skip must stop before the next one (None: they never matter)."""
 
     path: str
     width: int
     clock: int
+    gate: str | None = None
 
 
 @dataclass(frozen=True)
@@ -77,9 +80,9 @@ class FreeRunning:
 
     A component may declare it as its ``free_running`` attribute. When the probe ``quiet``
     reads 1, this state must affect nothing else in the design until a carry accumulator's
-    next carry or a plant's next count; a backend that skips idle cycles then proves a fixed
-    point of the rest from one cycle and advances this state, up to that event
-    (:meth:`Backend.step` with ``skip_idle``).
+    next carry, a strobe counter's next pulse through its open gate or a plant's next count;
+    a backend that skips idle cycles then proves a fixed point of the rest from one cycle and
+    advances this state, up to that event (:meth:`Backend.step` with ``skip_idle``).
     """
 
     accumulators: tuple[PhaseAccumulator, ...]

@@ -419,7 +419,8 @@ def _load(path: Path) -> ctypes.CDLL:
         "k37_trace_close": (None, [handle]),
         "k37_falling_edge": (ctypes.c_int, [handle]),
         "k37_free_accumulator": (ctypes.c_int, [handle, size, size, size, ctypes.c_uint]),
-        "k37_free_counter": (ctypes.c_int, [handle, size, size, ctypes.c_uint, size]),
+        "k37_free_counter": (ctypes.c_int, [handle, size, size, ctypes.c_uint, size, size,
+                                            size]),
         "k37_free_carry": (ctypes.c_int, [handle, size, size, ctypes.c_uint, ctypes.c_int,
                                           size]),
         "k37_free_plant": (ctypes.c_int, [handle, ctypes.POINTER(size), ctypes.c_uint,
@@ -502,9 +503,10 @@ class CxxrtlBackend(Backend):
                                         acc.width) < 0:
                 raise ValueError(f"{acc.path}: phase and stb must be registers of <= 64 bits")
         for counter in free.counters:
+            gate = ctypes.c_size_t(-1).value if counter.gate is None else item(counter.gate)
             if lib.k37_free_counter(handle, item(f"{counter.path}.count"),
                                     item(f"{counter.path}.select"), counter.width,
-                                    counter.clock) < 0:
+                                    counter.clock, item(f"{counter.path}.word"), gate) < 0:
                 raise ValueError(f"{counter.path}: count and select must be registers of "
                                  f"<= 64 bits, clocked by a declared accumulator")
         for carry in free.carries:

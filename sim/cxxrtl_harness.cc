@@ -77,6 +77,9 @@ struct StrobeCounter {
 	size_t count, select;
 	unsigned width;
 	size_t clock;
+	// Its output: a pulse in a strobe cycle iff the word bit selected is set. While `gate`
+	// reads non-zero, the pulses matter and skips stop before the next one.
+	size_t word, gate;
 };
 
 // An accel/decel accumulator (hdl/accel_decel.py): at each strobe of accumulator `clock`,
@@ -113,6 +116,7 @@ struct Model {
 	std::vector<StrobeCounter> counters;
 	std::vector<CarryAccumulator> carries;
 	std::vector<Plant> plants;
+	uint64_t retry = 256;                // cycles to the next attempt (SKIP_RETRY; try_skip)
 	size_t quiet = SIZE_MAX;             // item: the free-running state affects nothing else
 	std::vector<Part> rest;              // every other state item's parts (built on first use)
 	std::vector<chunk_t> snapshot;
@@ -300,9 +304,24 @@ int64_t read_x(Model &m, const CarryAccumulator &c) {
 	return int64_t(raw);
 }
 
-// The most cycles that can run before any carry accumulator's next carry (UINT64_MAX: none
-// comes), from the current (settled) state.
-uint64_t carry_horizon(Model &m) {
+// The most cycles that can run while accumulator `acc`'s strobe is seen at most `safe` times
+// (UINT64_MAX: no limit).
+uint64_t cycles_within(Model &m, const Accumulator &acc, uint64_t safe) {
+	uint64_t s0 = read_u64(m, acc.stb), inc = read_u64(m, acc.increment);
+	if (s0 > safe)
+		return 0;
+	if (inc == 0)
+		return UINT64_MAX;
+	// Strobes seen in k cycles: s0 + floor((phase + (k - 1) inc) / 2^w) <= safe.
+	u128 limit = (u128(safe - s0 + 1) << acc.width) - read_u64(m, acc.phase);
+	u128 cycles = (limit + inc - 1) / inc;
+	return cycles < UINT64_MAX ? uint64_t(cycles) : UINT64_MAX;
+}
+
+// The most cycles that can run before the next event of the free-running state: a carry
+// accumulator's carry, or a strobe counter's output pulse while its gate is open (UINT64_MAX:
+// none comes), from the current (settled) state.
+uint64_t event_horizon(Model &m) {
 	uint64_t horizon = UINT64_MAX;
 	for (const CarryAccumulator &c : m.carries) {
 		int64_t x = read_x(m, c);
@@ -311,17 +330,23 @@ uint64_t carry_horizon(Model &m) {
 		uint64_t y = read_u64(m, c.y), full = uint64_t(1) << c.n;
 		// Strobes that may come without a carry: y + s x stays in [0, 2^n).
 		uint64_t safe = x > 0 ? (full - 1 - y) / uint64_t(x) : y / uint64_t(-x);
-		const Accumulator &acc = m.accumulators[c.clock];
-		uint64_t s0 = read_u64(m, acc.stb), inc = read_u64(m, acc.increment);
-		if (s0 > safe)
-			return 0;
-		if (inc == 0)
+		horizon = std::min(horizon, cycles_within(m, m.accumulators[c.clock], safe));
+	}
+	for (const StrobeCounter &c : m.counters) {
+		if (c.gate == SIZE_MAX || !read_u64(m, c.gate))
 			continue;
-		// Strobes seen in k cycles: s0 + floor((phase + (k - 1) inc) / 2^w) <= safe.
-		u128 limit = (u128(safe - s0 + 1) << acc.width) - read_u64(m, acc.phase);
-		u128 cycles = (limit + inc - 1) / inc;
-		if (cycles < horizon)
-			horizon = uint64_t(cycles);
+		// Strobes before the first that selects a set word bit.
+		uint64_t word = read_u64(m, c.word), mask = (uint64_t(1) << c.width) - 1;
+		uint64_t state = read_u64(m, c.count);
+		for (uint64_t i = 0; i <= mask; i++) {
+			uint64_t next = (state + 1 + i) & mask, ones = 0;
+			while (ones < c.width && (next >> ones & 1))
+				ones++;
+			if (ones < c.width && (word >> (c.width - 1 - ones) & 1)) {
+				horizon = std::min(horizon, cycles_within(m, m.accumulators[c.clock], i));
+				break;
+			}
+		}
 	}
 	return horizon;
 }
@@ -430,6 +455,10 @@ void advance_free(Model &m, uint64_t k) {
 	}
 }
 
+// Cycles between attempts to skip: from SKIP_RETRY_MIN after a skip (the next event may end
+// soon) doubling up to SKIP_RETRY while the design is busy.
+constexpr uint64_t SKIP_RETRY_MIN = 8, SKIP_RETRY = 256;
+
 // Run one full cycle (the clock is high); if it changed no state but the free-running
 // state's, and the design's quiet item says that state affects nothing else, the design is
 // at a fixed point but for that state: the next `rest` cycles are skipped, the free-running
@@ -439,6 +468,7 @@ uint64_t try_skip(Model &m, uint64_t rest, const Item *watch = nullptr, bool wat
 	take_snapshot(m);
 	std::vector<uint32_t> counts = plant_counts(m);
 	bool changed = cycle<false>(m);
+	m.retry = std::min(2 * m.retry, SKIP_RETRY);
 	if (!same_as_snapshot(m) || plant_counts(m) != counts ||
 	    (watch && nonzero(m, *watch, watch_state)))
 		return 1;
@@ -448,26 +478,25 @@ uint64_t try_skip(Model &m, uint64_t rest, const Item *watch = nullptr, bool wat
 		settle(m);
 		if (!read_u64(m, m.quiet))
 			return 1;
-		rest = advance_plants(m, std::min(rest, carry_horizon(m)));
+		rest = advance_plants(m, std::min(rest, event_horizon(m)));
 		if (rest)
 			advance_free(m, rest);
 	}
+	if (rest)
+		m.retry = SKIP_RETRY_MIN;
 	m.cycle += rest;
 	m.skipped += rest;
 	m.stale = true;
 	return 1 + rest;
 }
 
-// Cycles between attempts to skip while the design is busy.
-constexpr uint64_t SKIP_RETRY = 256;
-
-// Run n untraced cycles; with skip_idle, every SKIP_RETRY cycles try to skip the rest.
+// Run n untraced cycles; with skip_idle, every m.retry cycles try to skip the rest.
 void run_fast(Model &m, uint64_t n, bool skip_idle) {
 	uint64_t i = 0;
 	while (i < n) {
 		if (skip_idle && *m.clk) {
 			i += try_skip(m, n - i - 1);
-			for (uint64_t k = 0; k < SKIP_RETRY - 1 && i < n; k++, i++)
+			for (uint64_t k = 0; k < m.retry - 1 && i < n; k++, i++)
 				cycle<false>(m);
 		} else {
 			cycle<false>(m);
@@ -637,14 +666,14 @@ uint64_t k37_run_until(void *handle, size_t index, uint64_t limit, int skip_idle
 	const Item &item = m.items[index];
 	const bool state = is_state(item);
 	if (m.can_peek && !state && *m.clk && !m.trace) {
-		// The peek path, between attempts to skip (every SKIP_RETRY cycles) if skip_idle.
+		// The peek path, between attempts to skip (every m.retry cycles) if skip_idle.
 		for (uint64_t i = 0; i < limit;) {
 			if (skip_idle) {
 				i += try_skip(m, limit - i - 1, &item, state);
 				if (nonzero(m, item, state) || i >= limit)
 					return i;
 			}
-			uint64_t k = skip_idle ? std::min(SKIP_RETRY - 1, limit - i) : limit - i;
+			uint64_t k = skip_idle ? std::min(m.retry - 1, limit - i) : limit - i;
 			uint64_t ran = run_until_peek(m, item, k);
 			i += ran;
 			if (ran < k || nonzero(m, item, state))
@@ -652,15 +681,16 @@ uint64_t k37_run_until(void *handle, size_t index, uint64_t limit, int skip_idle
 		}
 		return limit;
 	}
-	for (uint64_t i = 0; i < limit;) {
+	for (uint64_t i = 0, next_try = 0; i < limit;) {
 		if (tracing(m)) {
 			cycle<true>(m);
 			i++;
 			if (m.cycle >= m.trace->stop)
 				close_trace(m);
-		} else if (skip_idle && *m.clk && i % SKIP_RETRY == 0) {
+		} else if (skip_idle && *m.clk && i >= next_try) {
 			// A skip is taken only if the item reads zero: at a fixed point it stays so.
 			i += try_skip(m, until_boundary(m, limit - i - 1), &item, state);
+			next_try = i + m.retry - 1;
 		} else {
 			cycle<false>(m);
 			i++;
@@ -706,16 +736,17 @@ int k37_free_accumulator(void *handle, size_t phase, size_t increment, size_t st
 	return int(m.accumulators.size() - 1);
 }
 
-// Declare a counter of accumulator `clock`'s strobes (see StrobeCounter); 0, or -1 if the
-// items are not registers or `clock` is not declared.
-int k37_free_counter(void *handle, size_t count, size_t select, unsigned width, size_t clock) {
+// Declare a counter of accumulator `clock`'s strobes (see StrobeCounter; gate SIZE_MAX: its
+// pulses never matter); 0, or -1 if the items are not registers or `clock` is not declared.
+int k37_free_counter(void *handle, size_t count, size_t select, unsigned width, size_t clock,
+                     size_t word, size_t gate) {
 	Model &m = *static_cast<Model *>(handle);
 	for (size_t index : {count, select})
 		if (!is_state(m.items[index]) || m.items[index].width > 64)
 			return -1;
 	if (width == 0 || width > 63 || clock >= m.accumulators.size())
 		return -1;
-	m.counters.push_back(StrobeCounter{count, select, width, clock});
+	m.counters.push_back(StrobeCounter{count, select, width, clock, word, gate});
 	m.rest_known = false;
 	m.rest.clear();
 	return 0;

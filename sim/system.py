@@ -23,18 +23,19 @@ def free_running(accel: Accel, accel_bits: int) -> FreeRunning:
 
     The feed-rate generator's two dividers and its rate multiplier, the accumulator of each
     accel/decel circuit (which adds x at every fa, for seconds at the end of a move, between
-    its rare carries), and the plants while they settle within one encoder count. The
-    chipset's ``feed_quiet`` says when they affect nothing else until an accumulator's next
-    carry or a plant's next count (no feed pulse can pass the decel gate, no accel/decel output
+    its rare carries), and the plants while they move within one encoder count. The chipset's
+    ``feed_quiet`` says when they affect nothing else until the next feed pulse through the
+    open decel gate, an accumulator's next carry or a plant's next count (no accel/decel output
     pulse is pending); the compiled backend's idle skipping then advances them, up to that
-    event.
+    event: at a low feed, between the feed pulses and steps of a move too.
     """
     paths = {Accel.PRE: ("chipset.accel",), Accel.POST: ("chipset.accel_x", "chipset.accel_y"),
              Accel.NONE: ()}[accel]
     return FreeRunning(
         accumulators=(PhaseAccumulator("chipset.feed.rm_clock", DIVIDER_WIDTH),
                       PhaseAccumulator("chipset.feed.fa_clock", DIVIDER_WIDTH)),
-        counters=(StrobeCounter("chipset.feed.rate", 6 * FEED_STAGES, clock=0),),
+        counters=(StrobeCounter("chipset.feed.rate", 6 * FEED_STAGES, clock=0,
+                                gate="chipset.decel.gate_open"),),
         carries=tuple(CarryAccumulator(path, accel_bits, accel is Accel.POST, clock=1)
                       for path in paths),
         plants=tuple(f"plant_{axis}" for axis in AXES),

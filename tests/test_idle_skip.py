@@ -99,3 +99,19 @@ def test_skipping_between_accel_decel_carries_changes_no_signal(accel):
     assert np.array_equal(skipped[1], stepped[1])
     assert skipped[2] == stepped[2]
     assert skipped[3] > 0.3 * stepped[0]["cycles"]
+
+
+@pytest.mark.parametrize("accel", ["pre", "post", "none"])
+def test_skipping_between_the_feed_pulses_of_a_low_feed_arc_changes_no_signal(accel):
+    # The paper's low feed (word 0x00FF: 88 FP/s): between feed pulses, carries and encoder
+    # edges, thousands of cycles apart, only the free-running state and the plants move.
+    machine = MachineConfig(accel=accel)
+    program = parse("G21 G91 F5.3\nG03 X0 Y0 I0.04 J0\nM30", source="<low feed>",
+                    sqrt2=machine.sqrt2)
+    job = Job("low-feed", machine, dict.fromkeys(AXES, ServoConfig()), program)
+    stepped = run(job, {}, "cxxrtl", False, 1000)
+    skipped = run(job, {}, "cxxrtl", True, 1000)
+    assert skipped[0] == stepped[0]
+    assert np.array_equal(skipped[1], stepped[1])
+    assert skipped[2] == stepped[2]
+    assert skipped[3] > 0.5 * stepped[0]["cycles"]
