@@ -408,17 +408,18 @@ uint64_t advance_plants(Model &m, uint64_t limit) {
 		states.emplace_back(m, p);
 		counts.push_back(states.back().count());
 	}
+	std::vector<PlantState> next = states;
 	uint64_t k = 0;
 	for (; k < limit; k++) {
-		std::vector<PlantState> next = states;
 		bool moved = false;
 		for (size_t i = 0; i < next.size(); i++) {
+			next[i] = states[i];
 			next[i].cycle();
 			moved |= next[i].count() != counts[i];
 		}
 		if (moved)
 			break;
-		states = std::move(next);
+		states.swap(next);
 	}
 	for (size_t i = 0; i < states.size(); i++) {
 		write_state(m, m.plants[i].velocity,
