@@ -93,6 +93,13 @@ class FreeRunning:
     plants: tuple[str, ...]
     quiet: str
 
+    def registers(self) -> tuple[str, ...]:
+        """Probe paths of the registers that make up this state (all else is "the rest")."""
+        return (*(f"{a.path}.{name}" for a in self.accumulators for name in ("phase", "stb")),
+                *(f"{c.path}.{name}" for c in self.counters for name in ("count", "select")),
+                *(f"{c.path}.y" for c in self.carries),
+                *(f"{p}.{name}" for p in self.plants for name in ("velocity", "before")))
+
 
 @dataclass(frozen=True)
 class Port:
@@ -242,6 +249,10 @@ class Backend(abc.ABC):
         """The settled value of ``port_name`` (sign-extended if the port is signed)."""
         port = self.port(port_name)
         return port.decode(self._get_raw(port))
+
+    def get_many(self, port_names: tuple[str, ...]) -> list[int]:
+        """:meth:`get` of several ports (a compiled backend reads them in one call)."""
+        return [self.get(name) for name in port_names]
 
     def probe(self, path: str) -> int:
         """The value of the internal signal ``path`` (e.g. ``"regs.value_value"``)."""

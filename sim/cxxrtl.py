@@ -27,7 +27,7 @@ import sys
 import tempfile
 import time
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from importlib import metadata
@@ -79,17 +79,21 @@ bool k37_eval_fall(cxxrtl::module *module) {{
 }}
 bool k37_needs_falling_edge() {{ return {falling}; }}
 bool k37_can_peek() {{ return {peek}; }}
-bool k37_commit_fall(cxxrtl::module *module) {{{commit_fall}}}
-bool k37_commit_rise(cxxrtl::module *module) {{{commit_rise}}}
+unsigned k37_commit_fall(cxxrtl::module *module) {{{commit_fall}}}
+unsigned k37_commit_rise(cxxrtl::module *module) {{{commit_rise}}}
 void k37_discard_fall(cxxrtl::module *module) {{{discard_fall}}}
 """
-#: A commit of only some wires of the design (``top`` is the design, ``wires`` its wires).
+#: A commit of only some wires of the design (``top`` is the design, ``wires`` its wires,
+#: each adding its change to ``rest`` or, for the free-running state's, to ``free``). It
+#: returns the harness's flags: 1 if any wire changed, 2 if any but the free-running ones.
 TOP = "\tauto &top = *static_cast<cxxrtl_design::p_top *>(module);\n"
 SPLIT_COMMIT = """
-""" + TOP + """	cxxrtl::chunk_t diff = 0;
+""" + TOP + """	cxxrtl::chunk_t rest = 0, free = 0;
 {wires}	top.prev_p_clk = top.p_clk;
-	return diff != 0;
+	return unsigned(rest != 0) << 1 | unsigned((rest | free) != 0);
 """
+#: CXXRTL's own commit, in those flags (every change counts as a change of the rest).
+WHOLE_COMMIT = " return module->commit() ? 3 : 0; "
 #: g++ flags of the model objects (part of the cache key); the library links with -shared.
 CXX_FLAGS = ("-std=c++17", "-O2", "-fPIC", "-w")
 
@@ -172,11 +176,14 @@ def build_dir(root: Path, key: str) -> Iterator[Path]:
                 raise
 
 
-def build(rtlil_text: str, *, compiler: str | None = None) -> Model:
+def build(rtlil_text: str, *, free: Sequence[str] = (), compiler: str | None = None) -> Model:
     """Build (or find in the cache) the model library of a design's RTLIL (top module "top").
 
     The harness is compiled once per toolchain (``runtime-<sha256>.o``, in parallel with the
     first design that needs it); each design then costs a Yosys run, one compile and a link.
+    ``free``: probe paths of the registers of the design's free-running state
+    (:meth:`sim.backend.FreeRunning.registers`), which the commits tell apart from the rest
+    (:func:`design_main`).
     """
     tools = _toolchain(compiler)
     harness = HARNESS.read_text()
@@ -184,7 +191,8 @@ def build(rtlil_text: str, *, compiler: str | None = None) -> Model:
     # The design's translation unit is generated (design_main): its generator is in the key.
     generator = (inspect.getsource(f)
                  for f in (design_main, edge_wires, fall_eval, _clock_as_data))
-    key = _sha256(rtlil_text, runtime_key, SPLIT_COMMIT, *generator)
+    key = _sha256(rtlil_text, runtime_key, SPLIT_COMMIT, WHOLE_COMMIT, "\n".join(free),
+                  *generator)
     root = cache_root()
     library = root / key / "model.so"
     if library.exists():
@@ -214,7 +222,7 @@ def build(rtlil_text: str, *, compiler: str | None = None) -> Model:
         # means that the falling edge of clk changes nothing.
         detectors = set(re.findall(r"\b(?:pos|neg)edge_p_\w+\(\)", cxx))
         falling = "false" if detectors <= {"posedge_p_clk()"} else "true"
-        (work / "design_main.cc").write_text(design_main(cxx, falling))
+        (work / "design_main.cc").write_text(design_main(cxx, falling, free))
         seconds["yosys"] = time.perf_counter() - start
         _progress(f"compiling the design ({len(cxx.splitlines())} lines of C++) with "
                   f"{Path(tools.compiler).name} {' '.join(CXX_FLAGS)} ...")
@@ -235,19 +243,33 @@ def build(rtlil_text: str, *, compiler: str | None = None) -> Model:
     return Model(library, True, seconds)
 
 
-def design_main(cxx: str, falling: str) -> str:
-    """The design's translation unit for Yosys's C++ ``cxx`` (see :func:`edge_wires`)."""
+def design_main(cxx: str, falling: str, free: Sequence[str] = ()) -> str:
+    """The design's translation unit for Yosys's C++ ``cxx`` (see :func:`edge_wires`).
+
+    Its commits return whether any state changed and whether any but the registers ``free``
+    (probe paths) did: one cycle that changes only those proves the rest at a fixed point, at
+    no extra cost per cycle. Raises ValueError if one of them is not a wire of the model.
+    """
     split = edge_wires(cxx)
     pruned = fall_eval(cxx) if split is not None else None
     eval_fall = " return eval(performer); " if pruned is None else f"\n{pruned}\t"
     if split is None:
         return DESIGN_MAIN.format(falling=falling, peek="false", eval_fall=eval_fall,
-                                  commit_fall=" return module->commit(); ",
-                                  commit_rise=" return module->commit(); ", discard_fall="")
+                                  commit_fall=WHOLE_COMMIT, commit_rise=WHOLE_COMMIT,
+                                  discard_fall="")
+    members = dict(re.findall(rf'^\t\titems->add\(path, "([^"]*)", "[^"]*", ({_CXX_NAME}), ',
+                              cxx, re.M))
+    members = {name.replace(" ", "."): member for name, member in members.items()}
+    missing = [path for path in free if path not in members]
+    if missing:
+        raise ValueError(f"free-running registers {', '.join(missing)} are not in the "
+                         f"compiled model")
+    free_wires = {members[path] for path in free}
 
     def commit(names: list[str]) -> str:
         return SPLIT_COMMIT.format(wires="".join(
-            f"\tdiff |= k37_update(top.{name});\n" for name in names))
+            f"\t{'free' if name in free_wires else 'rest'} |= k37_update(top.{name});\n"
+            for name in names))
 
     fall, rise, discard, peek = split
     resets = "".join(f"\ttop.{name}.next = top.{name}.curr;\n" for name in discard)
@@ -409,6 +431,7 @@ def _load(path: Path) -> ctypes.CDLL:
         "k37_write": (None, [handle, size, words]),
         "k37_get": (u64, [handle, size]),
         "k37_set": (None, [handle, size, u64]),
+        "k37_get_many": (None, [handle, ctypes.POINTER(size), size, ctypes.POINTER(u64)]),
         "k37_step": (None, [handle, u64, ctypes.c_int]),
         "k37_run_until": (u64, [handle, size, u64, ctypes.c_int]),
         "k37_bus_write": (None, [handle, size, size, size, u64, u64]),
@@ -441,10 +464,11 @@ class CxxrtlBackend(Backend):
     which). ``step(n, skip_idle=True)`` and ``run_until(..., skip_idle=True)`` stop evaluating
     once a whole clock cycle changed no state but the component's declared
     :class:`sim.backend.FreeRunning` state, while its ``quiet`` probe reads 1: with the inputs
-    held, the rest is at a fixed point, so the remaining cycles are only counted
-    (``skipped_cycles``) and the free-running state is advanced in closed form; the result is
-    bit-identical to stepping. They try at the start of each call and every 256 cycles. An
-    undeclared free-running counter keeps skipping from firing.
+    held, the rest is at a fixed point, so the cycles up to the next event of the free-running
+    state are only counted (``skipped_cycles``) and that state is advanced in closed form; the
+    result is bit-identical to stepping. The commits tell after every cycle whether the rest
+    changed (:func:`design_main`), so a skip starts at the first quiet cycle. An undeclared
+    free-running counter keeps skipping from firing.
 
     Probes are CXXRTL debug items; their names follow the Amaranth hierarchy, so they are the
     same as :class:`sim.backend.PysimBackend`'s wherever Yosys kept the signal.
@@ -467,7 +491,9 @@ class CxxrtlBackend(Backend):
         rtlil_text, _ = rtlil.convert_fragment(design, name="top", emit_src=False)
         rtlil_seconds = time.perf_counter() - start
         self._check_inputs(_top_inputs(rtlil_text))
-        self.model = build(rtlil_text, compiler=compiler)
+        self._free: FreeRunning | None = getattr(component, "free_running", None)
+        free = self._free.registers() if self._free is not None else ()
+        self.model = build(rtlil_text, free=free, compiler=compiler)
         self.model.seconds["rtlil"] = rtlil_seconds
         self._lib = lib = _load(self.model.path)
         self._handle = lib.k37_create()
@@ -480,7 +506,7 @@ class CxxrtlBackend(Backend):
         self._index = {name: self._items[name] for name in self.ports}
         self._k37_get, self._k37_set = lib.k37_get, lib.k37_set
         self._buses: dict[str, tuple[Port, Port, int, int, int, int, int]] = {}
-        self._free: FreeRunning | None = getattr(component, "free_running", None)
+        self._batches: dict[tuple[str, ...], tuple[list[Port], ctypes.Array, ctypes.Array]] = {}
         self._set_inits()
 
     def reset(self) -> None:
@@ -543,6 +569,17 @@ class CxxrtlBackend(Backend):
         if port is None or port.width > 64:
             return super().get(port_name)
         return port.decode(self._k37_get(self._handle, self._index[port_name]))
+
+    def get_many(self, port_names: tuple[str, ...]) -> list[int]:
+        if port_names not in self._batches:
+            ports = [self.port(name) for name in port_names]
+            if any(port.width > 64 for port in ports):
+                return super().get_many(port_names)
+            indices = (ctypes.c_size_t * len(ports))(*(self._index[p.name] for p in ports))
+            self._batches[port_names] = (ports, indices, (ctypes.c_uint64 * len(ports))())
+        ports, indices, out = self._batches[port_names]
+        self._lib.k37_get_many(self._handle, indices, len(ports), out)
+        return [port.decode(raw) for port, raw in zip(ports, out, strict=True)]
 
     def _bus(self, bus: str) -> tuple[Port, Port, int, int, int, int, int]:
         if bus not in self._buses:

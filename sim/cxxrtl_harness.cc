@@ -24,9 +24,10 @@ cxxrtl::module *k37_make_top();
 // Whether anything but rising edges of `clk` matters (falling-edge logic, derived clocks).
 bool k37_needs_falling_edge();
 // Commits after a falling or a rising edge of `clk`: of the wires that edge can change (and
-// those written outside any edge), or all wires (sim/cxxrtl.py, edge_wires).
-bool k37_commit_fall(cxxrtl::module *top);
-bool k37_commit_rise(cxxrtl::module *top);
+// those written outside any edge), or all wires (sim/cxxrtl.py, edge_wires). They return
+// CHANGED if any wire changed, | REST_CHANGED if any but the free-running state's did.
+unsigned k37_commit_fall(cxxrtl::module *top);
+unsigned k37_commit_rise(cxxrtl::module *top);
 // Whether the eval() of a falling edge computes every combinational value as a settle would;
 // then k37_discard_fall() forgets the next values that eval() wrote, undoing the edge.
 bool k37_can_peek();
@@ -36,6 +37,8 @@ bool k37_eval_fall(cxxrtl::module *top);
 void k37_discard_fall(cxxrtl::module *top);
 
 namespace {
+
+constexpr unsigned CHANGED = 1, REST_CHANGED = 2;
 
 using cxxrtl::chunk_t;
 constexpr size_t CHUNK_BITS = 8 * sizeof(chunk_t);
@@ -110,29 +113,28 @@ struct Model {
 	uint64_t skipped = 0;
 	bool inputs_written = true;  // since the last cycle
 	bool stale = true;           // combinational values may lag the state
+	// The outline (CXXRTL's combinational values that only debug_eval computes) evaluated
+	// since the last settle, if any.
+	cxxrtl::debug_outline *outline_fresh = nullptr;
 	std::unique_ptr<Trace> trace;
 	// Idle skipping with free-running state (see try_skip).
 	std::vector<Accumulator> accumulators;
 	std::vector<StrobeCounter> counters;
 	std::vector<CarryAccumulator> carries;
 	std::vector<Plant> plants;
-	uint64_t retry = 256;                // cycles to the next attempt (SKIP_RETRY; try_skip)
-	size_t quiet = SIZE_MAX;             // item: the free-running state affects nothing else
-	std::vector<Part> rest;              // every other state item's parts (built on first use)
-	std::vector<chunk_t> snapshot;
-	bool rest_known = false;
+	size_t quiet = SIZE_MAX;  // item: the free-running state affects nothing else
 };
 
-// One clock edge, as CXXRTL's module::step(): evaluate and commit until converged; true if any
-// state (wire, memory) changed. Combinational values computed from committed state are not
+// One clock edge, as CXXRTL's module::step(): evaluate and commit until converged; returns
+// the commits' flags (CHANGED, REST_CHANGED). Combinational values computed from committed state are not
 // recomputed, so they may lag until the next evaluation. `Rising` tells which edge this is,
 // so that only the wires it can change are committed.
 template<bool Rising>
-inline bool edge(Model &m) {
-	bool changed = false;
+inline unsigned edge(Model &m) {
+	unsigned changed = 0;
 	for (;;) {
 		bool converged = Rising ? m.top->eval() : k37_eval_fall(m.top.get());
-		bool committed = Rising ? k37_commit_rise(m.top.get()) : k37_commit_fall(m.top.get());
+		unsigned committed = Rising ? k37_commit_rise(m.top.get()) : k37_commit_fall(m.top.get());
 		changed |= committed;
 		if (!committed || converged)
 			return changed;
@@ -146,6 +148,16 @@ inline void settle(Model &m) {
 			m.top->eval();
 		while (m.top->commit());
 		m.stale = false;
+		m.outline_fresh = nullptr;
+	}
+}
+
+// Compute a settled part's value if CXXRTL outlined it (once per settle: an outline computes
+// all its values).
+void eval_outline(Model &m, const Part &p) {
+	if (p.outline && p.outline != m.outline_fresh) {
+		p.outline->eval();
+		m.outline_fresh = p.outline;
 	}
 }
 
@@ -172,10 +184,10 @@ bool tracing(const Model &m) {
 	return m.trace && m.cycle >= m.trace->start && m.cycle < m.trace->stop;
 }
 
-// One clock cycle; true if any state changed during it. `Traced` samples the VCD per edge.
+// One clock cycle; returns the commits' flags. `Traced` samples the VCD per edge.
 template<bool Traced>
-inline bool cycle(Model &m) {
-	bool changed = false;
+inline unsigned cycle(Model &m) {
+	unsigned changed = 0;
 	if (Traced && !m.trace->started) {
 		settle(m);
 		sample(*m.trace, input_time(m.cycle));
@@ -235,8 +247,7 @@ bool nonzero(Model &m, const Item &item, bool settled) {
 
 uint64_t read_u64(Model &m, size_t index) {
 	const Part &p = m.items[index].parts.front();
-	if (p.outline)
-		p.outline->eval();
+	eval_outline(m, p);
 	return p.width > 32 ? uint64_t(p.curr[1]) << 32 | p.curr[0] : p.curr[0];
 }
 
@@ -248,49 +259,6 @@ void write_state(Model &m, size_t index, uint64_t value) {
 		if (p.width > 32)
 			v[1] = chunk_t(value >> 32);
 	}
-}
-
-bool is_free(const Model &m, size_t index) {
-	for (const Accumulator &a : m.accumulators)
-		if (index == a.phase || index == a.stb)
-			return true;
-	for (const StrobeCounter &c : m.counters)
-		if (index == c.count || index == c.select)
-			return true;
-	for (const CarryAccumulator &c : m.carries)
-		if (index == c.y)
-			return true;
-	for (const Plant &p : m.plants)
-		if (index == p.velocity || index == p.before)
-			return true;
-	return false;
-}
-
-size_t chunks(const Part &p) {
-	return (p.width + CHUNK_BITS - 1) / CHUNK_BITS;
-}
-
-void take_snapshot(Model &m) {
-	if (!m.rest_known) {
-		for (size_t i = 0; i < m.items.size(); i++)
-			if (is_state(m.items[i]) && !is_free(m, i))
-				for (const Part &p : m.items[i].parts)
-					m.rest.push_back(p);
-		m.rest_known = true;
-	}
-	m.snapshot.clear();
-	for (const Part &p : m.rest)
-		m.snapshot.insert(m.snapshot.end(), p.curr, p.curr + chunks(p));
-}
-
-bool same_as_snapshot(const Model &m) {
-	const chunk_t *at = m.snapshot.data();
-	for (const Part &p : m.rest) {
-		if (!std::equal(p.curr, p.curr + chunks(p), at))
-			return false;
-		at += chunks(p);
-	}
-	return true;
 }
 
 using u128 = unsigned __int128;
@@ -335,18 +303,17 @@ uint64_t event_horizon(Model &m) {
 	for (const StrobeCounter &c : m.counters) {
 		if (c.gate == SIZE_MAX || !read_u64(m, c.gate))
 			continue;
-		// Strobes before the first that selects a set word bit.
-		uint64_t word = read_u64(m, c.word), mask = (uint64_t(1) << c.width) - 1;
-		uint64_t state = read_u64(m, c.count);
-		for (uint64_t i = 0; i <= mask; i++) {
-			uint64_t next = (state + 1 + i) & mask, ones = 0;
-			while (ones < c.width && (next >> ones & 1))
-				ones++;
-			if (ones < c.width && (word >> (c.width - 1 - ones) & 1)) {
-				horizon = std::min(horizon, cycles_within(m, m.accumulators[c.clock], i));
-				break;
-			}
-		}
+		// Strobes before the first that selects a set word bit: strobe i selects bit
+		// width - 1 - t for the t trailing ones of state + 1 + i, and the states with t
+		// trailing ones are those equal to 2^t - 1 modulo 2^(t + 1).
+		uint64_t word = read_u64(m, c.word), first = read_u64(m, c.count) + 1;
+		uint64_t strobes = UINT64_MAX;
+		for (unsigned t = 0; t < c.width; t++)
+			if (word >> (c.width - 1 - t) & 1)
+				strobes = std::min(strobes, ((uint64_t(1) << t) - 1 - first) &
+				                                ((uint64_t(2) << t) - 1));
+		if (strobes != UINT64_MAX)
+			horizon = std::min(horizon, cycles_within(m, m.accumulators[c.clock], strobes));
 	}
 	return horizon;
 }
@@ -357,76 +324,109 @@ int64_t sign_extend(uint64_t raw, size_t width) {
 	return int64_t(raw);
 }
 
-// One plant's registers and (constant) inputs, and its update, as sim/plant.py computes them.
+// One plant's registers and (constant) inputs, and its update, as sim/plant.py computes them:
+// the position (before + v, what the count is taken from) and the velocity.
 struct PlantState {
-	int64_t v, before, vc, alpha;
+	int64_t v, vc, alpha;
+	uint64_t position, low;  // low: the first position of the current count
 	bool stall;
 	unsigned vc_bits, alpha_bits, frac_bits;
 
 	PlantState(Model &m, const Plant &p)
 	    : v(sign_extend(read_u64(m, p.velocity), p.vc_bits + 1)),
-	      before(int64_t(read_u64(m, p.before))), alpha(int64_t(read_u64(m, p.alpha))),
-	      stall(read_u64(m, p.stall) != 0), vc_bits(p.vc_bits), alpha_bits(p.alpha_bits),
-	      frac_bits(p.frac_bits) {
+	      alpha(int64_t(read_u64(m, p.alpha))), stall(read_u64(m, p.stall) != 0),
+	      vc_bits(p.vc_bits), alpha_bits(p.alpha_bits), frac_bits(p.frac_bits) {
 		int64_t err = int64_t(read_u64(m, p.dac)) - int64_t(read_u64(m, p.dac_zero));
 		int64_t raw = err * int64_t(read_u64(m, p.gain));
 		int64_t top = (int64_t(1) << vc_bits) - 1;
 		uint64_t limit = read_u64(m, p.vmax);
 		int64_t vmax = limit == 0 || limit > uint64_t(top) ? top : int64_t(limit);
 		vc = raw > vmax ? vmax : raw < -vmax ? -vmax : raw;
+		position = read_u64(m, p.before) + uint64_t(v);
+		low = position >> frac_bits << frac_bits;
 	}
-	uint32_t count() const {
-		return uint32_t((uint64_t(before) + uint64_t(v)) >> frac_bits);
-	}
-	void cycle() {
+	// The velocity after the next update (in range: |vc|, |v| <= 2^vc_bits - 1).
+	int64_t next_v() const {
 		uint64_t delta = uint64_t(vc - v) * uint64_t(alpha) + (uint64_t(1) << (alpha_bits - 1));
 		int64_t step = int64_t(delta) >> alpha_bits;
-		int64_t next = stall ? 0 : step == 0 ? vc : v + step;
-		before = int64_t(uint64_t(before) + uint64_t(v));
-		v = sign_extend(uint64_t(next) & ((uint64_t(1) << (vc_bits + 1)) - 1), vc_bits + 1);
+		return stall ? 0 : step == 0 ? vc : v + step;
+	}
+	// Whether a velocity of `next` keeps the count.
+	bool keeps_count(int64_t next) const {
+		return (position + uint64_t(next) - low) >> frac_bits == 0;
+	}
+	void take(int64_t next) {
+		v = next;
+		position += uint64_t(next);
+	}
+	// Whether the velocity stays as it is (then the position moves by v every cycle).
+	bool steady() const {
+		return v == (stall ? 0 : vc);
+	}
+	// At a steady velocity: how many cycles keep the count.
+	uint64_t steady_cycles() const {
+		uint64_t offset = position - low;
+		if (v == 0)
+			return UINT64_MAX;
+		return v > 0 ? ((uint64_t(1) << frac_bits) - 1 - offset) / uint64_t(v)
+		             : offset / uint64_t(-v);
 	}
 };
 
-// The plants' counts from their registers (no evaluation needed).
-std::vector<uint32_t> plant_counts(Model &m) {
-	std::vector<uint32_t> counts;
-	for (const Plant &p : m.plants) {
-		int64_t v = sign_extend(read_u64(m, p.velocity), p.vc_bits + 1);
-		counts.push_back(uint32_t((read_u64(m, p.before) + uint64_t(v)) >> p.frac_bits));
-	}
-	return counts;
-}
-
-// Step the plants natively for up to `limit` cycles, stopping before any count would change;
-// writes their state and returns the cycles stepped.
+// Step the plants natively for up to `limit` cycles, stopping before any count would change
+// (once every velocity is steady, in closed form); writes their state and returns the cycles
+// stepped.
 uint64_t advance_plants(Model &m, uint64_t limit) {
 	if (m.plants.empty() || limit == 0)
 		return limit;
 	std::vector<PlantState> states;
-	std::vector<uint32_t> counts;
-	for (const Plant &p : m.plants) {
+	for (const Plant &p : m.plants)
 		states.emplace_back(m, p);
-		counts.push_back(states.back().count());
-	}
-	std::vector<PlantState> next = states;
+	std::vector<int64_t> next(states.size());
 	uint64_t k = 0;
-	for (; k < limit; k++) {
-		bool moved = false;
-		for (size_t i = 0; i < next.size(); i++) {
-			next[i] = states[i];
-			next[i].cycle();
-			moved |= next[i].count() != counts[i];
-		}
-		if (moved)
+	while (k < limit) {
+		// (Whether the velocities have landed, once in a while: it is rare and need not be
+		// seen at once.)
+		if (k % 64 == 0 && std::all_of(states.begin(), states.end(), [](const PlantState &s) {
+			    return s.steady();
+		    })) {
+			uint64_t run = limit - k;
+			for (const PlantState &s : states)
+				run = std::min(run, s.steady_cycles());
+			for (PlantState &s : states)
+				s.position += uint64_t(s.v) * run;
+			k += run;
 			break;
-		states.swap(next);
+		}
+		bool keeps = true;
+		for (size_t i = 0; i < states.size(); i++) {
+			next[i] = states[i].next_v();
+			keeps &= states[i].keeps_count(next[i]);
+		}
+		if (!keeps)
+			break;
+		for (size_t i = 0; i < states.size(); i++)
+			states[i].take(next[i]);
+		k++;
 	}
 	for (size_t i = 0; i < states.size(); i++) {
-		write_state(m, m.plants[i].velocity,
-		            uint64_t(states[i].v) & ((uint64_t(1) << (m.plants[i].vc_bits + 1)) - 1));
-		write_state(m, m.plants[i].before, uint64_t(states[i].before));
+		const Plant &p = m.plants[i];
+		write_state(m, p.velocity, uint64_t(states[i].v) & ((uint64_t(1) << (p.vc_bits + 1)) - 1));
+		write_state(m, p.before, states[i].position - uint64_t(states[i].v));
 	}
 	return k;
+}
+
+// Whether a plant's count changed in the last cycle: its position before that cycle's update
+// is its `before` register now (before += v), its position now is before + v.
+bool plants_moved(Model &m) {
+	for (const Plant &p : m.plants) {
+		uint64_t before = read_u64(m, p.before);
+		uint64_t v = uint64_t(sign_extend(read_u64(m, p.velocity), p.vc_bits + 1));
+		if (uint32_t((before + v) >> p.frac_bits) != uint32_t(before >> p.frac_bits))
+			return true;
+	}
+	return false;
 }
 
 // Advance the free-running state by k cycles (k >= 1) in closed form (no carry on the way).
@@ -456,53 +456,41 @@ void advance_free(Model &m, uint64_t k) {
 	}
 }
 
-// Cycles between attempts to skip: from SKIP_RETRY_MIN after a skip (the next event may end
-// soon) doubling up to SKIP_RETRY while the design is busy.
-constexpr uint64_t SKIP_RETRY_MIN = 8, SKIP_RETRY = 256;
-
-// Run one full cycle (the clock is high); if it changed no state but the free-running
-// state's, and the design's quiet item says that state affects nothing else, the design is
-// at a fixed point but for that state: the next `rest` cycles are skipped, the free-running
-// state advanced in closed form. Not if item `watch` (when given) reads non-zero. Returns the
-// cycles run or skipped (1 + rest, or 1).
-uint64_t try_skip(Model &m, uint64_t rest, const Item *watch = nullptr, bool watch_state = false) {
-	take_snapshot(m);
-	std::vector<uint32_t> counts = plant_counts(m);
-	bool changed = cycle<false>(m);
-	m.retry = std::min(2 * m.retry, SKIP_RETRY);
-	if (!same_as_snapshot(m) || plant_counts(m) != counts ||
+// After a cycle whose commits returned `flags` (the clock high): if it changed no state but
+// the free-running state's, no plant's count, and the quiet item reads 1, the rest of the
+// design is at a fixed point until the next event of the free-running state; skip up to `rest`
+// cycles, to just before that event, advancing the free-running state exactly. Not if item
+// `watch` (when given) reads non-zero. Returns the cycles skipped.
+uint64_t try_skip(Model &m, unsigned flags, uint64_t rest, const Item *watch = nullptr,
+                  bool watch_state = false) {
+	if (flags & REST_CHANGED || rest == 0 || plants_moved(m) ||
 	    (watch && nonzero(m, *watch, watch_state)))
-		return 1;
-	if (changed) {
+		return 0;
+	if (flags & CHANGED) {
 		if (m.quiet == SIZE_MAX)
-			return 1;
+			return 0;
 		settle(m);
 		if (!read_u64(m, m.quiet))
-			return 1;
+			return 0;
 		rest = advance_plants(m, std::min(rest, event_horizon(m)));
-		if (rest)
-			advance_free(m, rest);
+		if (rest == 0)
+			return 0;
+		advance_free(m, rest);
+		m.stale = true;
 	}
-	if (rest)
-		m.retry = SKIP_RETRY_MIN;
 	m.cycle += rest;
 	m.skipped += rest;
-	m.stale = true;
-	return 1 + rest;
+	return rest;
 }
 
-// Run n untraced cycles; with skip_idle, every m.retry cycles try to skip the rest.
+// Run n untraced cycles; with skip_idle, skip ahead after each cycle that changed only the
+// free-running state.
 void run_fast(Model &m, uint64_t n, bool skip_idle) {
-	uint64_t i = 0;
-	while (i < n) {
-		if (skip_idle && *m.clk) {
-			i += try_skip(m, n - i - 1);
-			for (uint64_t k = 0; k < m.retry - 1 && i < n; k++, i++)
-				cycle<false>(m);
-		} else {
-			cycle<false>(m);
-			i++;
-		}
+	for (uint64_t i = 0; i < n;) {
+		unsigned flags = cycle<false>(m);
+		i++;
+		if (skip_idle)
+			i += try_skip(m, flags, n - i);
 	}
 }
 
@@ -541,8 +529,8 @@ void advance(Model &m, uint64_t n, bool skip_idle) {
 // the port after the falling edge's evaluation, which computes the output ports from the
 // state that the rising edge left (k37_can_peek, k37_eval_fall). If it is set, the falling edge
 // is undone (its next values discarded, the clock high again) and the wait ends one cycle back.
-uint64_t run_until_peek(Model &m, const Item &item, uint64_t limit) {
-	for (uint64_t i = 0; i < limit; i++) {
+uint64_t run_until_peek(Model &m, const Item &item, uint64_t limit, bool skip_idle) {
+	for (uint64_t i = 0; i < limit;) {
 		*m.clk = 0;
 		k37_eval_fall(m.top.get());
 		if (i > 0 && nonzero(m, item, true)) {
@@ -551,10 +539,14 @@ uint64_t run_until_peek(Model &m, const Item &item, uint64_t limit) {
 			m.stale = true;
 			return i;
 		}
-		k37_commit_fall(m.top.get());
+		unsigned flags = k37_commit_fall(m.top.get());
 		*m.clk = 1;
-		edge<true>(m);
+		flags |= edge<true>(m);
 		m.cycle++;
+		m.stale = true;
+		i++;
+		if (skip_idle)
+			i += try_skip(m, flags, limit - i, &item);
 	}
 	m.stale = true;
 	return limit;
@@ -606,8 +598,7 @@ void k37_read(void *handle, size_t index, uint32_t *out) {
 	Model &m = *static_cast<Model *>(handle);
 	settle(m);
 	for (const Part &p : m.items[index].parts) {
-		if (p.outline)
-			p.outline->eval();
+		eval_outline(m, p);
 		for (size_t bit = 0; bit < p.width; bit++)
 			if (p.curr[bit / CHUNK_BITS] >> (bit % CHUNK_BITS) & 1) {
 				size_t at = p.lsb + bit;
@@ -636,9 +627,14 @@ uint64_t k37_get(void *handle, size_t index) {
 	Model &m = *static_cast<Model *>(handle);
 	settle(m);
 	const Part &p = m.items[index].parts.front();
-	if (p.outline)
-		p.outline->eval();
+	eval_outline(m, p);
 	return p.width > 32 ? uint64_t(p.curr[1]) << 32 | p.curr[0] : p.curr[0];
+}
+
+// k37_get of n items into out[0 .. n).
+void k37_get_many(void *handle, const size_t *indices, size_t n, uint64_t *out) {
+	for (size_t i = 0; i < n; i++)
+		out[i] = k37_get(handle, indices[i]);
 }
 
 void k37_set(void *handle, size_t index, uint64_t value) {
@@ -666,35 +662,20 @@ uint64_t k37_run_until(void *handle, size_t index, uint64_t limit, int skip_idle
 	prepare(m);
 	const Item &item = m.items[index];
 	const bool state = is_state(item);
-	if (m.can_peek && !state && *m.clk && !m.trace) {
-		// The peek path, between attempts to skip (every m.retry cycles) if skip_idle.
-		for (uint64_t i = 0; i < limit;) {
-			if (skip_idle) {
-				i += try_skip(m, limit - i - 1, &item, state);
-				if (nonzero(m, item, state) || i >= limit)
-					return i;
-			}
-			uint64_t k = skip_idle ? std::min(m.retry - 1, limit - i) : limit - i;
-			uint64_t ran = run_until_peek(m, item, k);
-			i += ran;
-			if (ran < k || nonzero(m, item, state))
-				return i;
-		}
-		return limit;
-	}
-	for (uint64_t i = 0, next_try = 0; i < limit;) {
+	if (m.can_peek && !state && *m.clk && !m.trace)
+		return run_until_peek(m, item, limit, skip_idle != 0);
+	for (uint64_t i = 0; i < limit;) {
 		if (tracing(m)) {
 			cycle<true>(m);
 			i++;
 			if (m.cycle >= m.trace->stop)
 				close_trace(m);
-		} else if (skip_idle && *m.clk && i >= next_try) {
-			// A skip is taken only if the item reads zero: at a fixed point it stays so.
-			i += try_skip(m, until_boundary(m, limit - i - 1), &item, state);
-			next_try = i + m.retry - 1;
 		} else {
-			cycle<false>(m);
+			unsigned flags = cycle<false>(m);
 			i++;
+			// A skip is taken only if the item reads zero: at a fixed point it stays so.
+			if (skip_idle)
+				i += try_skip(m, flags, until_boundary(m, limit - i), &item, state);
 		}
 		if (nonzero(m, item, state))
 			return i;
@@ -732,8 +713,6 @@ int k37_free_accumulator(void *handle, size_t phase, size_t increment, size_t st
 	if (width == 0 || width > 63 || m.items[increment].width > 64)
 		return -1;
 	m.accumulators.push_back(Accumulator{phase, increment, stb, width});
-	m.rest_known = false;
-	m.rest.clear();
 	return int(m.accumulators.size() - 1);
 }
 
@@ -748,8 +727,6 @@ int k37_free_counter(void *handle, size_t count, size_t select, unsigned width, 
 	if (width == 0 || width > 63 || clock >= m.accumulators.size())
 		return -1;
 	m.counters.push_back(StrobeCounter{count, select, width, clock, word, gate});
-	m.rest_known = false;
-	m.rest.clear();
 	return 0;
 }
 
@@ -761,8 +738,6 @@ int k37_free_carry(void *handle, size_t y, size_t x, unsigned n, int x_signed, s
 	    m.items[x].width > 63 || clock >= m.accumulators.size())
 		return -1;
 	m.carries.push_back(CarryAccumulator{y, x, n, x_signed != 0, clock});
-	m.rest_known = false;
-	m.rest.clear();
 	return 0;
 }
 
@@ -776,8 +751,6 @@ int k37_free_plant(void *handle, const size_t *items, unsigned vc_bits, unsigned
 	    !is_state(m.items[p.before]) || m.items[p.before].width != 64)
 		return -1;
 	m.plants.push_back(p);
-	m.rest_known = false;
-	m.rest.clear();
 	return 0;
 }
 

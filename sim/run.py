@@ -31,6 +31,9 @@ __all__ = ["TRACE_COLUMNS", "RunOptions", "RunResult", "Sampler", "run_job"]
 #: Columns of the trace (CSV) and of :attr:`RunResult.samples`.
 TRACE_COLUMNS = ("cycle", "x_command", "y_command", "x_actual", "y_actual", "x_error",
                  "y_error", "x_dac_volts", "y_dac_volts", "fp_total")
+#: The ports behind those columns (after "cycle"; the D/A words become volts).
+SAMPLED_PORTS = ("x__command", "y__command", "x__count", "y__count", "x__error", "y__error",
+                 "x__dac", "y__dac", "fp_total")
 
 
 @dataclass
@@ -81,12 +84,10 @@ class Sampler:
         return self.backend.get(name)
 
     def _sample(self) -> None:
-        b = self.backend
-        dx, dy = b.get("x__dac"), b.get("y__dac")
-        self.rows.append((b.cycle, b.get("x__command"), b.get("y__command"), b.get("x__count"),
-                          b.get("y__count"), b.get("x__error"), b.get("y__error"),
+        xc, yc, xa, ya, xe, ye, dx, dy, fp = self.backend.get_many(SAMPLED_PORTS)
+        self.rows.append((self.cycle, xc, yc, xa, ya, xe, ye,
                           DAC_VOLTS * (dx - self.half) / self.half,
-                          DAC_VOLTS * (dy - self.half) / self.half, b.get("fp_total")))
+                          DAC_VOLTS * (dy - self.half) / self.half, fp))
         self.next += self.every
         if self.progress_total:
             self._progress()

@@ -18,7 +18,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hdl.hostbus import Access, HostBus, Register, RegisterBank, RegisterMap
-from sim.backend import Backend, PysimBackend, component_ports, make_backend
+from sim.backend import Backend, FreeRunning, PysimBackend, component_ports, make_backend
+from sim.backend import PhaseAccumulator as Divider
 from sim.cxxrtl import CxxrtlBackend, edge_wires, fall_eval
 from sim.system import System
 from sim.testbench import simulate
@@ -686,6 +687,27 @@ def test_bad_names_and_counts_are_refused(pair):
             backend.step(-1)
         with pytest.raises(ValueError, match="stop_cycle must be an integer after start_cycle"):
             backend.trace("unused.vcd", 5, 5)
+
+
+def test_get_many_reads_what_get_reads(pair):
+    names = tuple(sorted(pair[0].ports))  # with the ports wider than 64 bits
+    for backend in pair:
+        _busy_then_idle(backend, seed=11)
+        assert backend.get_many(names) == [backend.get(name) for name in names]
+        assert backend.get_many(names[:3]) == [backend.get(name) for name in names[:3]]
+
+
+class Undeclared(Zoo):
+    """A Zoo that declares a free-running register the design does not have."""
+
+    free_running = FreeRunning(accumulators=(Divider("phase.nowhere", 16),), counters=(),
+                               carries=(), plants=(), quiet="phase__pulse")
+
+
+def test_a_free_running_register_missing_from_the_model_is_refused():
+    with pytest.raises(ValueError, match=r"free-running registers phase\.nowhere\.phase, "
+                                         r"phase\.nowhere\.stb are not in the compiled model"):
+        CxxrtlBackend(Undeclared(("phase",)))
 
 
 def test_a_design_without_clock_is_refused_before_building():

@@ -13,9 +13,17 @@ import random
 
 import numpy as np
 import pytest
+from amaranth.hdl import Module, Mux
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from firmware_model.gcode import parse
 from firmware_model.job import AXES, Job, MachineConfig, ServoConfig
+from sim.backend import FreeRunning
+from sim.cxxrtl import CxxrtlBackend
+from sim.plant import ALPHA_BITS, ServoPlant
 from sim.run import RunOptions, build_backend, run_job
 
 #: Report fields that depend on how the run was computed, not on what it computed.
@@ -115,3 +123,85 @@ def test_skipping_between_the_feed_pulses_of_a_low_feed_arc_changes_no_signal(ac
     assert np.array_equal(skipped[1], stepped[1])
     assert skipped[2] == stepped[2]
     assert skipped[3] > 0.5 * stepped[0]["cycles"]
+
+
+@settings(derandomize=True, max_examples=12, deadline=None)
+@given(accel=st.sampled_from(["pre", "post", "none"]), feed=st.integers(1, 3000),
+       tm=st.sampled_from([1e-6, 0.0005, 0.01]), kp=st.floats(20, 300),
+       x=st.integers(-40, 40), y=st.integers(-40, 40), arc=st.booleans())
+def test_skipping_through_random_moves_changes_no_signal(accel, feed, tm, kp, x, y, arc):
+    # Feeds from 1 to 3000 mm/min give every shape of rate multiplier word (the skip stops
+    # before the next feed pulse through the open gate); Tm = 1 us lands the velocity at once, so
+    # the plants also move at a steady velocity (stepped in closed form up to the next count).
+    machine = MachineConfig(accel=accel, accel_fa_hz=400_000.0)
+    move = f"G03 X0 Y0 I{abs(x) / 1000 + 0.005:.3f} J0" if arc else \
+        f"G01 X{x / 1000:.3f} Y{y / 1000:.3f}"
+    program = parse(f"G21 G91 F{feed}\n{move}\nM30", source="<random>", sqrt2=machine.sqrt2)
+    job = Job("random", machine, dict.fromkeys(AXES, ServoConfig(kp=kp, tm=tm)), program)
+    stepped = run(job, {}, "cxxrtl", False, 997, max_cycles=2_000_000)
+    skipped = run(job, {}, "cxxrtl", True, 997, max_cycles=2_000_000)
+    assert skipped[0] == stepped[0]
+    assert np.array_equal(skipped[1], stepped[1])
+    assert skipped[2] == stepped[2]
+    assert skipped[3] > 0
+
+
+class LonePlant(wiring.Component):
+    """One servo plant with its inputs as ports, declared free-running: the skip then steps
+    it natively up to each change of its count (sim/cxxrtl_harness.cc, advance_plants), which
+    ``seen`` registers a cycle later (as an encoder interface would) and feeds back: on odd
+    counts the D/A code is one step further from 0 V, so a skip that ran past a count change
+    moves the plant differently."""
+
+    free_running = FreeRunning(accumulators=(), counters=(), carries=(), plants=("plant",),
+                               quiet="quiet")
+
+    def __init__(self):
+        super().__init__({"dac": In(16), "dac_zero": In(16), "gain": In(32),
+                          "alpha": In(ALPHA_BITS), "stall": In(1), "count": Out(32),
+                          "seen": Out(32), "quiet": Out(1)})
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.plant = plant = ServoPlant()
+        faster = Mux(self.dac < self.dac_zero, self.dac - 1, self.dac + 1)
+        m.d.comb += [plant.dac.eq(Mux(self.seen[0], faster, self.dac)),
+                     plant.dac_zero.eq(self.dac_zero),
+                     plant.gain.eq(self.gain), plant.alpha.eq(self.alpha),
+                     plant.stall.eq(self.stall), self.count.eq(plant.count), self.quiet.eq(1)]
+        m.d.sync += self.seen.eq(plant.count)
+        return m
+
+
+@pytest.fixture(scope="module")
+def lone_plants():
+    backends = CxxrtlBackend(LonePlant()), CxxrtlBackend(LonePlant())
+    yield backends
+    for backend in backends:
+        backend.close()
+
+
+@settings(derandomize=True, max_examples=30, deadline=None)
+@given(phases=st.lists(st.tuples(
+    st.integers(-3, 3), st.one_of(st.sampled_from([1 << 20, 3 << 18]), st.integers(0, 1 << 22)),
+    st.one_of(st.just((1 << ALPHA_BITS) - 1), st.integers(1, 1 << 16)), st.booleans(),
+    st.integers(1, 30_000)), min_size=1, max_size=4))
+def test_native_plant_steps_equal_the_plants_gateware(lone_plants, phases):
+    # Velocity 2^20 (or 3 * 2^18) counts/cycle << 32 lands the position exactly on count
+    # boundaries; alpha = 2^24 - 1 lands the velocity at once (then steady, in closed form),
+    # a small alpha keeps it in its lag (stepped one cycle at a time).
+    stepped, skipping = lone_plants
+    for backend in lone_plants:
+        backend.reset()
+        backend.set("dac_zero", 2048)
+    names = stepped.probe_names()
+    for offset, gain, alpha, stall, cycles in phases:
+        for backend in lone_plants:
+            for port, value in (("dac", 2048 + offset), ("gain", gain), ("alpha", alpha),
+                                ("stall", int(stall and offset == 0))):
+                backend.set(port, value)
+        stepped.step(cycles)
+        skipping.step(cycles, skip_idle=True)
+        assert {n: skipping.probe(n) for n in names} == {n: stepped.probe(n) for n in names}
+    assert stepped.skipped_cycles == 0
+    assert skipping.skipped_cycles > 0 or max(phase[-1] for phase in phases) < 1000
