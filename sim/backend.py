@@ -30,6 +30,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 from amaranth.hdl import Shape, Value, ValueCastable
 from amaranth.lib import wiring
 from amaranth.sim import Simulator
@@ -253,6 +254,19 @@ class Backend(abc.ABC):
     def get_many(self, port_names: tuple[str, ...]) -> list[int]:
         """:meth:`get` of several ports (a compiled backend reads them in one call)."""
         return [self.get(name) for name in port_names]
+
+    def record(self, port_names: tuple[str, ...], every: int) -> bool:
+        """Have the backend itself sample ``port_names`` (as :meth:`get_many` would) at every
+        later multiple of ``every`` cycles, as its stepping reaches it (:meth:`recorded`).
+
+        False if it cannot (then the caller samples between its calls): a compiled backend
+        records without a call per sample, and a skip ends at a sample.
+        """
+        return False
+
+    def recorded(self) -> np.ndarray:
+        """The samples :meth:`record` took: a row per sample, the cycle and the ports."""
+        raise NotImplementedError(f"{type(self).__name__} does not record samples")
 
     def probe(self, path: str) -> int:
         """The value of the internal signal ``path`` (e.g. ``"regs.value_value"``)."""

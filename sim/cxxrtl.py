@@ -34,6 +34,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import ClassVar
 
+import numpy as np
 from amaranth._toolchain.yosys import find_yosys
 from amaranth.back import rtlil
 from amaranth.hdl import Fragment, Shape
@@ -432,6 +433,8 @@ def _load(path: Path) -> ctypes.CDLL:
         "k37_get": (u64, [handle, size]),
         "k37_set": (None, [handle, size, u64]),
         "k37_get_many": (None, [handle, ctypes.POINTER(size), size, ctypes.POINTER(u64)]),
+        "k37_record": (None, [handle, ctypes.POINTER(size), size, u64]),
+        "k37_recorded": (size, [handle, ctypes.POINTER(u64), size]),
         "k37_step": (None, [handle, u64, ctypes.c_int]),
         "k37_run_until": (u64, [handle, size, u64, ctypes.c_int]),
         "k37_bus_write": (None, [handle, size, size, size, u64, u64]),
@@ -507,11 +510,13 @@ class CxxrtlBackend(Backend):
         self._k37_get, self._k37_set = lib.k37_get, lib.k37_set
         self._buses: dict[str, tuple[Port, Port, int, int, int, int, int]] = {}
         self._batches: dict[tuple[str, ...], tuple[list[Port], ctypes.Array, ctypes.Array]] = {}
+        self._recording: list[Port] | None = None  # the ports k37_record samples
         self._set_inits()
 
     def reset(self) -> None:
         self._lib.k37_destroy(self._handle)
         self._handle = self._lib.k37_create()
+        self._recording = None
         self._set_inits()
 
     def _declare_free_running(self, free: FreeRunning) -> None:
@@ -580,6 +585,31 @@ class CxxrtlBackend(Backend):
         ports, indices, out = self._batches[port_names]
         self._lib.k37_get_many(self._handle, indices, len(ports), out)
         return [port.decode(raw) for port, raw in zip(ports, out, strict=True)]
+
+    def record(self, port_names: tuple[str, ...], every: int) -> bool:
+        if not isinstance(every, int) or every < 1:
+            raise ValueError(f"every must be a positive number of cycles, not {every!r}")
+        ports = [self.port(name) for name in port_names]
+        if any(port.width > 63 for port in ports):
+            return False
+        indices = (ctypes.c_size_t * len(ports))(*(self._index[p.name] for p in ports))
+        self._lib.k37_record(self._handle, indices, len(ports), every)
+        self._recording = ports
+        return True
+
+    def recorded(self) -> np.ndarray:
+        if self._recording is None:
+            return super().recorded()
+        ports = self._recording
+        words = self._lib.k37_recorded(self._handle, None, 0)
+        raw = np.zeros(words, dtype=np.uint64)
+        self._lib.k37_recorded(self._handle, raw.ctypes.data_as(ctypes.POINTER(ctypes.c_uint64)),
+                               words)
+        rows = raw.astype(np.int64).reshape(-1, 1 + len(ports))
+        for column, port in enumerate(ports, start=1):
+            if port.signed:  # sign-extend
+                rows[:, column] -= (rows[:, column] >> (port.width - 1) & 1) << port.width
+        return rows
 
     def _bus(self, bus: str) -> tuple[Port, Port, int, int, int, int, int]:
         if bus not in self._buses:

@@ -103,6 +103,14 @@ struct Plant {
 	unsigned vc_bits, alpha_bits, frac_bits;
 };
 
+// Samples of some items (of at most 64 bits) at every multiple of `every` cycles, taken as
+// the clock reaches it, settled (k37_record).
+struct Recorder {
+	std::vector<size_t> items;
+	uint64_t every = 0, next = UINT64_MAX;
+	std::vector<uint64_t> rows;  // per sample: the cycle, then each item's value
+};
+
 struct Model {
 	std::unique_ptr<cxxrtl::module> top{k37_make_top()};
 	const bool falling_edge = k37_needs_falling_edge();
@@ -123,6 +131,7 @@ struct Model {
 	std::vector<CarryAccumulator> carries;
 	std::vector<Plant> plants;
 	size_t quiet = SIZE_MAX;  // item: the free-running state affects nothing else
+	Recorder recorder;
 };
 
 // One clock edge, as CXXRTL's module::step(): evaluate and commit until converged; returns
@@ -180,6 +189,8 @@ void sample(Trace &t, uint64_t quarters) {
 		flush_trace(t);
 }
 
+void record(Model &m);
+
 bool tracing(const Model &m) {
 	return m.trace && m.cycle >= m.trace->start && m.cycle < m.trace->stop;
 }
@@ -211,6 +222,8 @@ inline unsigned cycle(Model &m) {
 		sample(*m.trace, rise_time(m.cycle));
 	}
 	m.cycle++;
+	if (m.cycle == m.recorder.next)
+		record(m);
 	return changed;
 }
 
@@ -249,6 +262,16 @@ uint64_t read_u64(Model &m, size_t index) {
 	const Part &p = m.items[index].parts.front();
 	eval_outline(m, p);
 	return p.width > 32 ? uint64_t(p.curr[1]) << 32 | p.curr[0] : p.curr[0];
+}
+
+// Take the recorder's sample of this cycle.
+void record(Model &m) {
+	Recorder &r = m.recorder;
+	settle(m);
+	r.rows.push_back(m.cycle);
+	for (size_t index : r.items)
+		r.rows.push_back(read_u64(m, index));
+	r.next += r.every;
 }
 
 // Set a register (both its committed and its next value) to `value`.
@@ -463,6 +486,7 @@ void advance_free(Model &m, uint64_t k) {
 // `watch` (when given) reads non-zero. Returns the cycles skipped.
 uint64_t try_skip(Model &m, unsigned flags, uint64_t rest, const Item *watch = nullptr,
                   bool watch_state = false) {
+	rest = std::min(rest, m.recorder.next - m.cycle);  // a sample ends a skip
 	if (flags & REST_CHANGED || rest == 0 || plants_moved(m) ||
 	    (watch && nonzero(m, *watch, watch_state)))
 		return 0;
@@ -480,6 +504,8 @@ uint64_t try_skip(Model &m, unsigned flags, uint64_t rest, const Item *watch = n
 	}
 	m.cycle += rest;
 	m.skipped += rest;
+	if (m.cycle == m.recorder.next)
+		record(m);
 	return rest;
 }
 
@@ -544,6 +570,8 @@ uint64_t run_until_peek(Model &m, const Item &item, uint64_t limit, bool skip_id
 		flags |= edge<true>(m);
 		m.cycle++;
 		m.stale = true;
+		if (m.cycle == m.recorder.next)
+			record(m);
 		i++;
 		if (skip_idle)
 			i += try_skip(m, flags, limit - i, &item);
@@ -757,6 +785,22 @@ int k37_free_plant(void *handle, const size_t *items, unsigned vc_bits, unsigned
 // Declare the item that reads non-zero when the free-running state affects nothing else.
 void k37_free_quiet(void *handle, size_t index) {
 	static_cast<Model *>(handle)->quiet = index;
+}
+
+// Record items[0 .. n) (of at most 64 bits each) at every later multiple of `every` cycles
+// (every >= 1), as the clock reaches it, until the model is destroyed (k37_recorded).
+void k37_record(void *handle, const size_t *items, size_t n, uint64_t every) {
+	Model &m = *static_cast<Model *>(handle);
+	m.recorder = Recorder{std::vector<size_t>(items, items + n), every,
+	                      (m.cycle / every + 1) * every, {}};
+}
+
+// The samples recorded so far: rows of the cycle and each item's value; copies up to `size`
+// words into `out` and returns the number of words recorded.
+size_t k37_recorded(void *handle, uint64_t *out, size_t size) {
+	const std::vector<uint64_t> &rows = static_cast<Model *>(handle)->recorder.rows;
+	std::copy_n(rows.begin(), std::min(size, rows.size()), out);
+	return rows.size();
 }
 
 int k37_falling_edge(void *handle) {

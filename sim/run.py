@@ -54,13 +54,20 @@ class RunOptions:
     skip_idle: bool = True
 
 
+#: With a backend that records the samples itself, calls stop only for the progress bar.
+PROGRESS_CYCLES = 1_000_000
+NEVER = 1 << 63
+
+
 class Sampler:
-    """Wraps a backend: advances it in chunks that stop at every sample point.
+    """Wraps a backend so that it is sampled at every multiple of ``every`` cycles.
 
     It offers the backend calls the firmware's host uses (``step``, ``run_until``, ``get``,
-    ``bus_write``, ``bus_read``, ``cycle``), so samples fall on exact multiples of
-    ``every`` cycles whatever the firmware does, on every backend alike. ``skip_idle`` is
-    passed on to the backend's ``step`` and ``run_until``.
+    ``bus_write``, ``bus_read``, ``cycle``). A backend that records (:meth:`Backend.record`,
+    the compiled one) samples as it steps, without a call per sample; with another, the
+    sampler advances it in chunks that stop at every sample point and samples there. The
+    samples are the same either way, on every backend alike. ``skip_idle`` is passed on to
+    the backend's ``step`` and ``run_until``.
     """
 
     def __init__(self, backend: Backend, every: int, dac_bits: int, progress_total: int = 0,
@@ -68,13 +75,16 @@ class Sampler:
         if every < 1:
             raise ValueError(f"sample_every must be >= 1 cycle, not {every}")
         self.backend = backend
-        self.every = every
-        self.next = every
-        self.rows: list[tuple] = []
+        self.rows: list[list[int]] = []  # raw samples taken here: cycle and SAMPLED_PORTS
         self.half = 1 << (dac_bits - 1)
         self.progress_total = progress_total
         self.skip_idle = skip_idle
         self._progress_at = 0.0
+        self.native = backend.record(SAMPLED_PORTS, every)
+        # Where calls stop: at each sample, or for the progress bar.
+        self.stride = (every if not self.native else PROGRESS_CYCLES if progress_total
+                       else NEVER)
+        self.next = self.stride
 
     @property
     def cycle(self) -> int:
@@ -83,14 +93,14 @@ class Sampler:
     def get(self, name: str) -> int:
         return self.backend.get(name)
 
-    def _sample(self) -> None:
-        xc, yc, xa, ya, xe, ye, dx, dy, fp = self.backend.get_many(SAMPLED_PORTS)
-        self.rows.append((self.cycle, xc, yc, xa, ya, xe, ye,
-                          DAC_VOLTS * (dx - self.half) / self.half,
-                          DAC_VOLTS * (dy - self.half) / self.half, fp))
-        self.next += self.every
-        if self.progress_total:
-            self._progress()
+    def samples(self) -> np.ndarray:
+        """The samples, a row of :data:`TRACE_COLUMNS` each (the D/A words in volts)."""
+        raw = (self.backend.recorded() if self.native else
+               np.array(self.rows, dtype=np.int64).reshape(-1, 1 + len(SAMPLED_PORTS)))
+        data = raw.astype(float)
+        volts = slice(TRACE_COLUMNS.index("x_dac_volts"), TRACE_COLUMNS.index("y_dac_volts") + 1)
+        data[:, volts] = DAC_VOLTS * (data[:, volts] - self.half) / self.half
+        return data
 
     def _progress(self) -> None:
         now = time.monotonic()
@@ -103,7 +113,11 @@ class Sampler:
 
     def _after(self) -> None:
         if self.cycle >= self.next:
-            self._sample()
+            if not self.native:
+                self.rows.append([self.cycle, *self.backend.get_many(SAMPLED_PORTS)])
+            self.next += self.stride
+            if self.progress_total:
+                self._progress()
 
     def step(self, n: int = 1) -> None:
         while n > 0:
@@ -191,8 +205,8 @@ def run_job(job: Job, options: RunOptions | None = None,
     wall = time.perf_counter() - start
     if options.progress:
         print(file=sys.stderr)
-    report = _report(job, backend, firmware, sampler, wall)
-    samples = np.array(sampler.rows, dtype=float).reshape(-1, len(TRACE_COLUMNS))
+    samples = sampler.samples()
+    report = _report(job, backend, firmware, samples, wall)
     if owned:
         backend.close()
     validate(report)
@@ -220,11 +234,11 @@ def _axis_report(backend: Backend, axis: str) -> dict:
             "flags": {f.name: f.decode(word) for f in status.fields}}
 
 
-def _report(job: Job, backend: Backend, firmware: Firmware, sampler: Sampler,
+def _report(job: Job, backend: Backend, firmware: Firmware, samples: np.ndarray,
             wall: float) -> dict:
     cycles = backend.cycle
     clock = job.machine.clock_hz
-    contour = contour_errors(job, firmware, sampler.rows)
+    contour = contour_errors(job, firmware, samples)
     return {
         "schema_version": SCHEMA_VERSION,
         "job": job.to_dict(),
@@ -247,7 +261,7 @@ def _report(job: Job, backend: Backend, firmware: Firmware, sampler: Sampler,
         "path": {
             "max_contour_error": float(contour.max()) if contour.size else 0.0,
             "rms_contour_error": float(math.sqrt(np.mean(contour**2))) if contour.size else 0.0,
-            "samples": len(sampler.rows),
+            "samples": len(samples),
         },
         "alarms": [{"axis": a.axis, "cycle": a.cycle, "kind": a.kind} for a in firmware.alarms],
     }
@@ -280,17 +294,16 @@ def _arc_distance(p: np.ndarray, item: Arc) -> np.ndarray:
     return np.where(off <= sweep, on_arc, ends)
 
 
-def contour_errors(job: Job, firmware: Firmware, rows: list[tuple]) -> np.ndarray:
+def contour_errors(job: Job, firmware: Firmware, samples: np.ndarray) -> np.ndarray:
     """Distance of each sample's actual position to the programmed path (LSB).
 
     A sample is compared with the block running at its cycle and its neighbours (a lagging
     axis is still on the block before).
     """
     moves = [it for it in job.program.items if not isinstance(it, Dwell)]
-    if not rows or not moves or not firmware.blocks:
+    if not len(samples) or not moves or not firmware.blocks:
         return np.zeros(0)
-    data = np.array(rows, dtype=float)
-    cycles, pts = data[:, 0], data[:, 3:5]
+    cycles, pts = samples[:, 0], samples[:, 3:5]
     move_of = {it.index: k for k, it in enumerate(moves)}
     block_move = np.array([move_of[b.index] for b in firmware.blocks])
     running = np.searchsorted([b.start_cycle for b in firmware.blocks], cycles,

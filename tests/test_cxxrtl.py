@@ -697,6 +697,29 @@ def test_get_many_reads_what_get_reads(pair):
         assert backend.get_many(names[:3]) == [backend.get(name) for name in names[:3]]
 
 
+def test_recorded_samples_are_the_ports_at_every_multiple_of_the_period(pair):
+    pysim, cxxrtl = pair
+    names = tuple(n for n, p in sorted(pysim.ports.items()) if not p.is_input and p.width < 64)
+    assert not pysim.record(names, 7)
+    assert cxxrtl.record(names, 7)
+    rng = random.Random(3)
+    expected = []
+    for k in range(41):
+        for name, port in pysim.ports.items():
+            if port.is_input and port.width < 64 and (k == 40 or rng.random() < 0.3):
+                value = rng.getrandbits(port.width) if k < 40 else 0  # then idle: skipped
+                for backend in pair:
+                    backend.set(name, value)
+        cycles = rng.choice((1, 3, 20, 500)) if k < 40 else 3000
+        for _ in range(cycles):
+            pysim.step()
+            if pysim.cycle % 7 == 0:
+                expected.append([pysim.cycle, *pysim.get_many(names)])
+        cxxrtl.step(cycles, skip_idle=k == 40 or rng.random() < 0.5)
+    assert cxxrtl.recorded().tolist() == expected
+    assert cxxrtl.skipped_cycles > 0
+
+
 class Undeclared(Zoo):
     """A Zoo that declares a free-running register the design does not have."""
 
