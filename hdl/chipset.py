@@ -13,7 +13,7 @@ selects are :data:`CHIP_SELECTS`, the registers each chip's own map. :func:`port
 
 import enum
 
-from amaranth.hdl import Array, Cat, Const, Module, Signal, signed
+from amaranth.hdl import Array, Cat, Module, Signal, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
@@ -114,11 +114,12 @@ class Chipset(wiring.Component):
         Either K3702's alarm interrupt (RST 6.5).
     fp : Out(1)
         Observation: the feed pulses the K3701 receives.
-    feed_quiet : Out(1)
-        Observation: no accel/decel circuit has an output pulse pending in this cycle, so the
-        free-running dividers and rate multiplier, and the accel/decel accumulators adding x at
-        each fa, change nothing else until the next feed pulse through the open decel gate or
-        an accumulator's next carry; combinational.
+    quiet : Out(1)
+        Observation: no accel/decel circuit has an output pulse pending in this cycle and the
+        K3701's step latency count is ``quiet``, so the free-running dividers and rate
+        multiplier, the accel/decel accumulators adding x at each fa, and the K3701's latency
+        count going down, change nothing else until the next feed pulse through the open decel
+        gate, an accumulator's next carry or the count reaching 1; combinational.
     step_x_pos, step_x_neg, step_y_pos, step_y_neg : Out(1)
         Observation: the K3701's step pulses.
     x, y : Out(AxisPins())
@@ -135,7 +136,7 @@ class Chipset(wiring.Component):
         self.accel_bits = accel_bits
         super().__init__({
             "bus": In(HostBus(8)),
-            "irq_interp": Out(1), "irq_alarm": Out(1), "fp": Out(1), "feed_quiet": Out(1),
+            "irq_interp": Out(1), "irq_alarm": Out(1), "fp": Out(1), "quiet": Out(1),
             "step_x_pos": Out(1), "step_x_neg": Out(1),
             "step_y_pos": Out(1), "step_y_neg": Out(1),
             "x": Out(AxisPins()), "y": Out(AxisPins()),
@@ -155,7 +156,7 @@ class Chipset(wiring.Component):
         interp, feed, decel = chips["K3701"], chips["FEED"], chips["DECEL"]
 
         m.d.comb += decel.inp.eq(feed.out)
-        quiet = [Const(1)]  # and no accel/decel output pulse pending
+        quiet = [interp.quiet]  # and no accel/decel output pulse pending
         if self.accel is Accel.PRE:
             m.submodules.accel = accel = AccelDecel(n=self.accel_bits)
             m.d.comb += [accel.inp.eq(decel.out), accel.add.eq(feed.fa),
@@ -192,7 +193,7 @@ class Chipset(wiring.Component):
                 pins.fb_pos.eq(enc.fb_pos), pins.fb_neg.eq(enc.fb_neg),
                 pins.command.eq(ctrl.command), pins.error.eq(ctrl.error),
             ]
-        m.d.comb += self.feed_quiet.eq(Cat(*quiet).all())
+        m.d.comb += self.quiet.eq(Cat(*quiet).all())
         return m
 
     def _decode_bus(self, m: Module, chips: dict) -> None:

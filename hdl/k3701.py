@@ -132,6 +132,11 @@ class K3701(wiring.Component):
         Data-request interrupt; rises when a block ends (also with ERROR), held until CMD.ack.
     error, overrun : Out(1)
         The sticky STATUS bits.
+    quiet : Out(1)
+        Observation for simulation (idle skipping, :func:`sim.system.free_running`): while
+        no FP comes, the step latency count affects nothing but its own decrement each cycle
+        until it reaches 1. FP is low, and the count is 0 (waiting for FP) or at least 2 and,
+        in a circle, past the decision stages; combinational.
     """
 
     bus: In(HostBus(K3701_MAP.addr_width))
@@ -144,6 +149,7 @@ class K3701(wiring.Component):
     irq: Out(1)
     error: Out(1)
     overrun: Out(1)
+    quiet: Out(1)
 
     def __init__(self, *, latency_linear: int = LATENCY_LINEAR,
                  latency_circular: int = LATENCY_CIRCULAR,
@@ -388,6 +394,9 @@ class K3701(wiring.Component):
             # The short axis moves too if that makes |D| smaller.
             m.d.sync += [next_diag.eq(_abs(d2) < _abs(d1)),
                          d1.eq(Mux(_abs(d2) < _abs(d1), d2, d1))]
+
+        m.d.comb += self.quiet.eq(~self.fp & ((count == 0) | ((count >= 2) & (
+            ~circular | (count <= self.latency_circular - 1 - _CIRCLE_STAGES)))))
 
         # START while a block runs is refused (and flagged), never obeyed.
         with m.If(start & (phase != _Phase.IDLE)):

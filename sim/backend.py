@@ -37,7 +37,7 @@ from amaranth.sim import Simulator
 
 from sim.testbench import CLOCK_PERIOD
 
-__all__ = ["Backend", "CarryAccumulator", "FreeRunning", "PhaseAccumulator", "Port",
+__all__ = ["Backend", "CarryAccumulator", "Countdown", "FreeRunning", "PhaseAccumulator", "Port",
            "PysimBackend", "StrobeCounter", "component_ports", "make_backend"]
 
 
@@ -76,12 +76,23 @@ class CarryAccumulator:
 
 
 @dataclass(frozen=True)
+class Countdown:
+    """A register at probe path ``path`` that, while it is not 0, goes down by one each
+    cycle; reaching ``stop`` is an event, so a skip must stop before it (e.g. the K3701's step
+    latency count, whose step comes out at 1)."""
+
+    path: str
+    stop: int
+
+
+@dataclass(frozen=True)
 class FreeRunning:
     """State of a design that runs on by itself, for exact idle skipping.
 
     A component may declare it as its ``free_running`` attribute. When the probe ``quiet``
     reads 1, this state must affect nothing else in the design until a carry accumulator's
-    next carry, a strobe counter's next pulse through its open gate or a plant's next count;
+    next carry, a strobe counter's next pulse through its open gate, a plant's next count or a
+    countdown's stop;
     a backend that skips idle cycles then proves a fixed point of the rest from one cycle and
     advances this state, up to that event (:meth:`Backend.step` with ``skip_idle``).
     """
@@ -93,12 +104,14 @@ class FreeRunning:
     #: are stepped natively (bit for bit as their gateware) up to a change of their count.
     plants: tuple[str, ...]
     quiet: str
+    countdowns: tuple[Countdown, ...] = ()
 
     def registers(self) -> tuple[str, ...]:
         """Probe paths of the registers that make up this state (all else is "the rest")."""
         return (*(f"{a.path}.{name}" for a in self.accumulators for name in ("phase", "stb")),
                 *(f"{c.path}.{name}" for c in self.counters for name in ("count", "select")),
                 *(f"{c.path}.y" for c in self.carries),
+                *(c.path for c in self.countdowns),
                 *(f"{p}.{name}" for p in self.plants for name in ("velocity", "before")))
 
 

@@ -451,6 +451,7 @@ def _load(path: Path) -> ctypes.CDLL:
                                           size]),
         "k37_free_plant": (ctypes.c_int, [handle, ctypes.POINTER(size), ctypes.c_uint,
                                           ctypes.c_uint, ctypes.c_uint]),
+        "k37_free_countdown": (ctypes.c_int, [handle, size, u64]),
         "k37_free_quiet": (None, [handle, size]),
     }
     for name, (restype, argtypes) in signatures.items():
@@ -550,6 +551,9 @@ class CxxrtlBackend(Backend):
             items = (ctypes.c_size_t * len(names))(*(item(f"{plant}.{n}") for n in names))
             if lib.k37_free_plant(handle, items, VC_BITS, ALPHA_BITS, FRAC_BITS) < 0:
                 raise ValueError(f"{plant}: velocity and position must be registers")
+        for countdown in free.countdowns:
+            if lib.k37_free_countdown(handle, item(countdown.path), countdown.stop) < 0:
+                raise ValueError(f"{countdown.path}: must be a register of <= 64 bits")
         lib.k37_free_quiet(handle, item(free.quiet))
 
     def _set_inits(self) -> None:

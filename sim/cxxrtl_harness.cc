@@ -95,6 +95,13 @@ struct CarryAccumulator {
 	size_t clock;
 };
 
+// A register that goes down by one each cycle while it is not 0 (the K3701's step latency
+// count); skips stop before it reaches `stop`.
+struct Countdown {
+	size_t count;
+	uint64_t stop;
+};
+
 // A servo plant (sim/plant.py), stepped natively while it moves within one encoder count:
 // v += round((vc - v) alpha / 2^alpha_bits), or v = vc if that rounds to 0 (0 if stalled);
 // before += v; the count is (before + v) >> frac_bits. Skips stop before a count changes.
@@ -130,6 +137,7 @@ struct Model {
 	std::vector<StrobeCounter> counters;
 	std::vector<CarryAccumulator> carries;
 	std::vector<Plant> plants;
+	std::vector<Countdown> countdowns;
 	size_t quiet = SIZE_MAX;  // item: the free-running state affects nothing else
 	Recorder recorder;
 };
@@ -310,10 +318,15 @@ uint64_t cycles_within(Model &m, const Accumulator &acc, uint64_t safe) {
 }
 
 // The most cycles that can run before the next event of the free-running state: a carry
-// accumulator's carry, or a strobe counter's output pulse while its gate is open (UINT64_MAX:
-// none comes), from the current (settled) state.
+// accumulator's carry, a strobe counter's output pulse while its gate is open, or a countdown
+// reaching its stop (UINT64_MAX: none comes), from the current (settled) state.
 uint64_t event_horizon(Model &m) {
 	uint64_t horizon = UINT64_MAX;
+	for (const Countdown &c : m.countdowns) {
+		uint64_t count = read_u64(m, c.count);
+		if (count != 0)
+			horizon = std::min(horizon, count > c.stop ? count - c.stop : 0);
+	}
 	for (const CarryAccumulator &c : m.carries) {
 		int64_t x = read_x(m, c);
 		if (x == 0)
@@ -476,6 +489,11 @@ void advance_free(Model &m, uint64_t k) {
 		int64_t x = read_x(m, c);
 		uint64_t y = read_u64(m, c.y) + uint64_t(int64_t(strobes[c.clock]) * x);
 		write_state(m, c.y, y & ((uint64_t(1) << c.n) - 1));
+	}
+	for (const Countdown &c : m.countdowns) {
+		uint64_t count = read_u64(m, c.count);
+		if (count != 0)
+			write_state(m, c.count, count - k);
 	}
 }
 
@@ -779,6 +797,15 @@ int k37_free_plant(void *handle, const size_t *items, unsigned vc_bits, unsigned
 	    !is_state(m.items[p.before]) || m.items[p.before].width != 64)
 		return -1;
 	m.plants.push_back(p);
+	return 0;
+}
+
+// Declare a countdown (see Countdown); 0, or -1 if count is not a register of <= 64 bits.
+int k37_free_countdown(void *handle, size_t count, uint64_t stop) {
+	Model &m = *static_cast<Model *>(handle);
+	if (!is_state(m.items[count]) || m.items[count].width > 64)
+		return -1;
+	m.countdowns.push_back(Countdown{count, stop});
 	return 0;
 }
 

@@ -12,7 +12,7 @@ from amaranth.lib.wiring import In, Out
 from hdl.chipset import AXES, Accel, Chipset
 from hdl.feed_rate import DIVIDER_WIDTH, FEED_STAGES
 from hdl.hostbus import HostBus
-from sim.backend import CarryAccumulator, FreeRunning, PhaseAccumulator, StrobeCounter
+from sim.backend import CarryAccumulator, Countdown, FreeRunning, PhaseAccumulator, StrobeCounter
 from sim.plant import ALPHA_BITS, ServoPlant
 
 __all__ = ["AxisProbe", "System", "free_running"]
@@ -23,11 +23,11 @@ def free_running(accel: Accel, accel_bits: int) -> FreeRunning:
 
     The feed-rate generator's two dividers and its rate multiplier, the accumulator of each
     accel/decel circuit (which adds x at every fa, for seconds at the end of a move, between
-    its rare carries), and the plants while they move within one encoder count. The chipset's
-    ``feed_quiet`` says when they affect nothing else until the next feed pulse through the
-    open decel gate, an accumulator's next carry or a plant's next count (no accel/decel output
-    pulse is pending); the compiled backend's idle skipping then advances them, up to that
-    event: at a low feed, between the feed pulses and steps of a move too.
+    its rare carries), the K3701's step latency count going down, and the plants while they
+    move within one encoder count. The chipset's ``quiet`` says when they affect nothing else
+    until the next feed pulse through the open decel gate, an accumulator's next carry, the
+    latency count reaching 1 (the step) or a plant's next count; the compiled backend's idle
+    skipping then advances them, up to that event: between the events of a move too.
     """
     paths = {Accel.PRE: ("chipset.accel",), Accel.POST: ("chipset.accel_x", "chipset.accel_y"),
              Accel.NONE: ()}[accel]
@@ -39,7 +39,8 @@ def free_running(accel: Accel, accel_bits: int) -> FreeRunning:
         carries=tuple(CarryAccumulator(path, accel_bits, accel is Accel.POST, clock=1)
                       for path in paths),
         plants=tuple(f"plant_{axis}" for axis in AXES),
-        quiet="feed_quiet",
+        quiet="quiet",
+        countdowns=(Countdown("chipset.k3701.count", stop=1),),
     )
 
 
@@ -90,8 +91,8 @@ class System(wiring.Component):
         The two interrupt lines.
     fp_total : Out(32)
         Feed pulses the K3701 received since reset.
-    feed_quiet : Out(1)
-        The chipset's ``feed_quiet`` (:func:`free_running` may run on alone).
+    quiet : Out(1)
+        The chipset's ``quiet`` (:func:`free_running` may run on alone).
     x, y : Out(AxisProbe())
         Per-axis plant settings, faults and observations.
     """
@@ -103,7 +104,7 @@ class System(wiring.Component):
         self.free_running = free_running(self.accel, accel_bits)
         super().__init__({
             "bus": In(HostBus(8)), "irq": Out(1), "irq_interp": Out(1), "irq_alarm": Out(1),
-            "fp_total": Out(32), "feed_quiet": Out(1),
+            "fp_total": Out(32), "quiet": Out(1),
             "x": Out(AxisProbe()), "y": Out(AxisProbe()),
         })
 
@@ -114,7 +115,7 @@ class System(wiring.Component):
         m.d.comb += [
             self.irq_interp.eq(chip.irq_interp), self.irq_alarm.eq(chip.irq_alarm),
             self.irq.eq(chip.irq_interp | chip.irq_alarm),
-            self.feed_quiet.eq(chip.feed_quiet),
+            self.quiet.eq(chip.quiet),
         ]
         with m.If(chip.fp):
             m.d.sync += self.fp_total.eq(self.fp_total + 1)

@@ -21,7 +21,9 @@ from hypothesis import strategies as st
 
 from firmware_model.gcode import parse
 from firmware_model.job import AXES, Job, MachineConfig, ServoConfig
-from sim.backend import FreeRunning
+from hdl.k3701 import K3701, K3701_MAP
+from hdl.k3701_model import Block
+from sim.backend import Countdown, FreeRunning
 from sim.cxxrtl import CxxrtlBackend
 from sim.plant import ALPHA_BITS, ServoPlant
 from sim.run import RunOptions, build_backend, run_job
@@ -205,3 +207,50 @@ def test_native_plant_steps_equal_the_plants_gateware(lone_plants, phases):
         assert {n: skipping.probe(n) for n in names} == {n: stepped.probe(n) for n in names}
     assert stepped.skipped_cycles == 0
     assert skipping.skipped_cycles > 0 or max(phase[-1] for phase in phases) < 1000
+
+
+class FreeK3701(K3701):
+    """The K3701 alone, its step latency count declared free-running: between feed pulses
+    (an input here, changed only between calls), a skip runs the count down to its step."""
+
+    free_running = FreeRunning(accumulators=(), counters=(), carries=(), plants=(),
+                               quiet="quiet", countdowns=(Countdown("count", stop=1),))
+
+
+@pytest.fixture(scope="module")
+def lone_k3701s():
+    backends = CxxrtlBackend(FreeK3701()), CxxrtlBackend(FreeK3701())
+    yield backends
+    for backend in backends:
+        backend.close()
+
+
+@settings(derandomize=True, max_examples=20, deadline=None)
+@given(circle=st.booleans(), r=st.integers(3, 30), xe=st.integers(-30, 30),
+       ye=st.integers(-30, 30), cw=st.booleans(), sqrt2=st.booleans(),
+       fp=st.lists(st.tuples(st.booleans(), st.integers(1, 40)), min_size=5, max_size=60))
+def test_skipping_the_k3701_step_latency_changes_no_signal(lone_k3701s, circle, r, xe, ye,
+                                                          cw, sqrt2, fp):
+    # A whole circle (end = start) or a line; the FP stream as runs of high and low cycles.
+    block = Block.arc(0, 0, r, 0, cw=cw, sqrt2=sqrt2) if circle else \
+        Block.line(xe, ye, sqrt2=sqrt2)
+    stepped, skipping = lone_k3701s
+    names = stepped.probe_names()
+    ctrl = K3701_MAP["CTRL"].encode(circular=int(block.kind), cw=int(block.cw),
+                                    sqrt2=int(block.sqrt2), quadrant=block.quadrant - 1)
+    cmd = K3701_MAP["CMD"]
+    for backend in lone_k3701s:
+        backend.reset()
+        for name, value in (("X", block.xe), ("Y", block.ye), ("I", block.i), ("J", block.j),
+                            ("CTRL", ctrl)):
+            reg = K3701_MAP[name]
+            for k, byte in enumerate(reg.to_bytes(value)):
+                backend.bus_write(reg.addr + k, byte)
+        backend.bus_write(cmd.addr, cmd.encode(start=1, ack=1, clear=1))
+    for level, cycles in fp:
+        for backend in lone_k3701s:
+            backend.set("fp", int(level))
+        stepped.step(cycles)
+        skipping.step(cycles, skip_idle=True)
+        assert {n: skipping.probe(n) for n in names} == {n: stepped.probe(n) for n in names}
+    assert skipping.skipped_cycles > 0 or sum(c for level, c in fp if not level) < 100
