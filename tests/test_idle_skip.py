@@ -175,12 +175,27 @@ class LonePlant(wiring.Component):
         return m
 
 
-@pytest.fixture(scope="module")
-def lone_plants():
-    backends = CxxrtlBackend(LonePlant()), CxxrtlBackend(LonePlant())
+def stepped_and_skipping(component: type):
+    """Two compiled backends of ``component()``: one steps, one skips (closed afterwards)."""
+    backends = CxxrtlBackend(component()), CxxrtlBackend(component())
     yield backends
     for backend in backends:
         backend.close()
+
+
+def step_both(backends, cycles: int) -> None:
+    """Step the first of :func:`stepped_and_skipping`'s backends, let the second skip, and
+    compare every signal."""
+    stepped, skipping = backends
+    stepped.step(cycles)
+    skipping.step(cycles, skip_idle=True)
+    names = stepped.probe_names()
+    assert {n: skipping.probe(n) for n in names} == {n: stepped.probe(n) for n in names}
+
+
+@pytest.fixture(scope="module")
+def lone_plants():
+    yield from stepped_and_skipping(LonePlant)
 
 
 @settings(derandomize=True, max_examples=30, deadline=None)
@@ -196,15 +211,12 @@ def test_native_plant_steps_equal_the_plants_gateware(lone_plants, phases):
     for backend in lone_plants:
         backend.reset()
         backend.set("dac_zero", 2048)
-    names = stepped.probe_names()
     for offset, gain, alpha, stall, cycles in phases:
         for backend in lone_plants:
             for port, value in (("dac", 2048 + offset), ("gain", gain), ("alpha", alpha),
                                 ("stall", int(stall and offset == 0))):
                 backend.set(port, value)
-        stepped.step(cycles)
-        skipping.step(cycles, skip_idle=True)
-        assert {n: skipping.probe(n) for n in names} == {n: stepped.probe(n) for n in names}
+        step_both(lone_plants, cycles)
     assert stepped.skipped_cycles == 0
     assert skipping.skipped_cycles > 0 or max(phase[-1] for phase in phases) < 1000
 
@@ -219,10 +231,7 @@ class FreeK3701(K3701):
 
 @pytest.fixture(scope="module")
 def lone_k3701s():
-    backends = CxxrtlBackend(FreeK3701()), CxxrtlBackend(FreeK3701())
-    yield backends
-    for backend in backends:
-        backend.close()
+    yield from stepped_and_skipping(FreeK3701)
 
 
 @settings(derandomize=True, max_examples=20, deadline=None)
@@ -234,8 +243,6 @@ def test_skipping_the_k3701_step_latency_changes_no_signal(lone_k3701s, circle, 
     # A whole circle (end = start) or a line; the FP stream as runs of high and low cycles.
     block = Block.arc(0, 0, r, 0, cw=cw, sqrt2=sqrt2) if circle else \
         Block.line(xe, ye, sqrt2=sqrt2)
-    stepped, skipping = lone_k3701s
-    names = stepped.probe_names()
     ctrl = K3701_MAP["CTRL"].encode(circular=int(block.kind), cw=int(block.cw),
                                     sqrt2=int(block.sqrt2), quadrant=block.quadrant - 1)
     cmd = K3701_MAP["CMD"]
@@ -250,7 +257,5 @@ def test_skipping_the_k3701_step_latency_changes_no_signal(lone_k3701s, circle, 
     for level, cycles in fp:
         for backend in lone_k3701s:
             backend.set("fp", int(level))
-        stepped.step(cycles)
-        skipping.step(cycles, skip_idle=True)
-        assert {n: skipping.probe(n) for n in names} == {n: stepped.probe(n) for n in names}
-    assert skipping.skipped_cycles > 0 or sum(c for level, c in fp if not level) < 100
+        step_both(lone_k3701s, cycles)
+    assert lone_k3701s[1].skipped_cycles > 0 or sum(c for level, c in fp if not level) < 100
