@@ -548,7 +548,7 @@ class CxxrtlBackend(Backend):
                                  f"clocked by a declared accumulator")
         for plant in free.plants:
             names = ("velocity", "before", "dac", "dac_zero", "gain", "alpha", "vmax", "stall")
-            items = (ctypes.c_size_t * len(names))(*(item(f"{plant}.{n}") for n in names))
+            items = _sizes([item(f"{plant}.{n}") for n in names])
             if lib.k37_free_plant(handle, items, VC_BITS, ALPHA_BITS, FRAC_BITS) < 0:
                 raise ValueError(f"{plant}: velocity and position must be registers")
         for countdown in free.countdowns:
@@ -584,8 +584,8 @@ class CxxrtlBackend(Backend):
             ports = [self.port(name) for name in port_names]
             if any(port.width > 64 for port in ports):
                 return super().get_many(port_names)
-            indices = (ctypes.c_size_t * len(ports))(*(self._index[p.name] for p in ports))
-            self._batches[port_names] = (ports, indices, (ctypes.c_uint64 * len(ports))())
+            self._batches[port_names] = (ports, self._items_of(ports),
+                                         (ctypes.c_uint64 * len(ports))())
         ports, indices, out = self._batches[port_names]
         self._lib.k37_get_many(self._handle, indices, len(ports), out)
         return [port.decode(raw) for port, raw in zip(ports, out, strict=True)]
@@ -596,8 +596,7 @@ class CxxrtlBackend(Backend):
         ports = [self.port(name) for name in port_names]
         if any(port.width > 63 for port in ports):
             return False
-        indices = (ctypes.c_size_t * len(ports))(*(self._index[p.name] for p in ports))
-        self._lib.k37_record(self._handle, indices, len(ports), every)
+        self._lib.k37_record(self._handle, self._items_of(ports), len(ports), every)
         self._recording = ports
         return True
 
@@ -614,6 +613,10 @@ class CxxrtlBackend(Backend):
             if port.signed:  # sign-extend
                 rows[:, column] -= (rows[:, column] >> (port.width - 1) & 1) << port.width
         return rows
+
+    def _items_of(self, ports: list[Port]) -> ctypes.Array:
+        """The ports' item indices, as a C array."""
+        return _sizes([self._index[port.name] for port in ports])
 
     def _bus(self, bus: str) -> tuple[Port, Port, int, int, int, int, int]:
         if bus not in self._buses:
@@ -728,6 +731,11 @@ def _top_inputs(rtlil_text: str) -> set[str]:
     top = re.search(r"^attribute \\top 1\nmodule \\top\n(.*?)^end$", rtlil_text, re.M | re.S)
     assert top is not None, "Amaranth names the top module 'top'"
     return set(re.findall(r"^ *wire width \d+ input \d+ .*?\\(\S+)$", top.group(1), re.M))
+
+
+def _sizes(values: list[int]) -> ctypes.Array:
+    """``values`` as a C array of size_t."""
+    return (ctypes.c_size_t * len(values))(*values)
 
 
 def _words(raw: int, width: int) -> ctypes.Array:

@@ -197,7 +197,7 @@ void sample(Trace &t, uint64_t quarters) {
 		flush_trace(t);
 }
 
-void record(Model &m);
+void count_cycles(Model &m, uint64_t n);
 
 bool tracing(const Model &m) {
 	return m.trace && m.cycle >= m.trace->start && m.cycle < m.trace->stop;
@@ -229,9 +229,7 @@ inline unsigned cycle(Model &m) {
 		settle(m);
 		sample(*m.trace, rise_time(m.cycle));
 	}
-	m.cycle++;
-	if (m.cycle == m.recorder.next)
-		record(m);
+	count_cycles(m, 1);
 	return changed;
 }
 
@@ -282,6 +280,14 @@ void record(Model &m) {
 	r.next += r.every;
 }
 
+// Count n cycles run or skipped (a skip ends at the next sample at the latest), and take the
+// recorder's sample if one is due.
+void count_cycles(Model &m, uint64_t n) {
+	m.cycle += n;
+	if (m.cycle == m.recorder.next)
+		record(m);
+}
+
 // Set a register (both its committed and its next value) to `value`.
 void write_state(Model &m, size_t index, uint64_t value) {
 	const Part &p = m.items[index].parts.front();
@@ -294,13 +300,16 @@ void write_state(Model &m, size_t index, uint64_t value) {
 
 using u128 = unsigned __int128;
 
+int64_t sign_extend(uint64_t raw, size_t width) {
+	if (width < 64 && (raw >> (width - 1) & 1))
+		raw |= ~uint64_t(0) << width;
+	return int64_t(raw);
+}
+
 // x of a carry accumulator, sign-extended if signed.
 int64_t read_x(Model &m, const CarryAccumulator &c) {
 	uint64_t raw = read_u64(m, c.x);
-	size_t width = m.items[c.x].width;
-	if (c.x_signed && width < 64 && (raw >> (width - 1) & 1))
-		raw |= ~uint64_t(0) << width;
-	return int64_t(raw);
+	return c.x_signed ? sign_extend(raw, m.items[c.x].width) : int64_t(raw);
 }
 
 // The most cycles that can run while accumulator `acc`'s strobe is seen at most `safe` times
@@ -352,12 +361,6 @@ uint64_t event_horizon(Model &m) {
 			horizon = std::min(horizon, cycles_within(m, m.accumulators[c.clock], strobes));
 	}
 	return horizon;
-}
-
-int64_t sign_extend(uint64_t raw, size_t width) {
-	if (width < 64 && (raw >> (width - 1) & 1))
-		raw |= ~uint64_t(0) << width;
-	return int64_t(raw);
 }
 
 // One plant's registers and (constant) inputs, and its update, as sim/plant.py computes them:
@@ -520,10 +523,8 @@ uint64_t try_skip(Model &m, unsigned flags, uint64_t rest, const Item *watch = n
 		advance_free(m, rest);
 		m.stale = true;
 	}
-	m.cycle += rest;
 	m.skipped += rest;
-	if (m.cycle == m.recorder.next)
-		record(m);
+	count_cycles(m, rest);
 	return rest;
 }
 
@@ -586,10 +587,8 @@ uint64_t run_until_peek(Model &m, const Item &item, uint64_t limit, bool skip_id
 		unsigned flags = k37_commit_fall(m.top.get());
 		*m.clk = 1;
 		flags |= edge<true>(m);
-		m.cycle++;
 		m.stale = true;
-		if (m.cycle == m.recorder.next)
-			record(m);
+		count_cycles(m, 1);
 		i++;
 		if (skip_idle)
 			i += try_skip(m, flags, limit - i, &item);
@@ -672,9 +671,7 @@ void k37_write(void *handle, size_t index, const uint32_t *data) {
 uint64_t k37_get(void *handle, size_t index) {
 	Model &m = *static_cast<Model *>(handle);
 	settle(m);
-	const Part &p = m.items[index].parts.front();
-	eval_outline(m, p);
-	return p.width > 32 ? uint64_t(p.curr[1]) << 32 | p.curr[0] : p.curr[0];
+	return read_u64(m, index);
 }
 
 // k37_get of n items into out[0 .. n).

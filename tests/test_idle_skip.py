@@ -72,16 +72,24 @@ def run(job: Job, faults: dict, kind: str, skip: bool, sample_every: int,
     return report, result.samples, signals, skipped
 
 
+def skipped_equals_stepped(job: Job, faults: dict, sample_every: int,
+                           max_cycles: int = 10**9) -> tuple[tuple, tuple]:
+    """Run ``job`` on the compiled backend stepped and skipping, assert the same report,
+    samples and every signal at the end (free-running ones too), and return both runs."""
+    stepped = run(job, faults, "cxxrtl", False, sample_every, max_cycles)
+    skipped = run(job, faults, "cxxrtl", True, sample_every, max_cycles)
+    assert stepped[3] == 0
+    assert skipped[0] == stepped[0]
+    assert np.array_equal(skipped[1], stepped[1])
+    assert skipped[2] == stepped[2]
+    return stepped, skipped
+
+
 @pytest.mark.parametrize("accel", ["pre", "post", "none"])
 @pytest.mark.parametrize(("seed", "sample_every"), [(1, 97), (2, 10_007)])
 def test_skipping_idle_cycles_changes_no_signal_of_the_machine(accel, seed, sample_every):
     job, faults, dwell = dwell_job(seed * 10 + len(accel), accel)
-    stepped = run(job, faults, "cxxrtl", False, sample_every)
-    skipped = run(job, faults, "cxxrtl", True, sample_every)
-    assert stepped[3] == 0
-    assert skipped[0] == stepped[0]
-    assert np.array_equal(skipped[1], stepped[1])
-    assert skipped[2] == stepped[2]  # every register and wire, the free-running ones too
+    _, skipped = skipped_equals_stepped(job, faults, sample_every)
     # Most of the dwells (the axes settle first) and the waits for the host are skipped.
     assert skipped[3] > 0.5 * dwell * job.machine.clock_hz
 
@@ -103,11 +111,7 @@ def test_skipping_between_accel_decel_carries_changes_no_signal(accel):
     program = parse("G21 G91 F1200\nG01 X0.3 Y0.1\nM30", source="<tail>", sqrt2=machine.sqrt2)
     servo = ServoConfig(kp=200.0, tm=0.0005)
     job = Job("tail", machine, dict.fromkeys(AXES, servo), program)
-    stepped = run(job, {}, "cxxrtl", False, 1000)
-    skipped = run(job, {}, "cxxrtl", True, 1000)
-    assert skipped[0] == stepped[0]
-    assert np.array_equal(skipped[1], stepped[1])
-    assert skipped[2] == stepped[2]
+    stepped, skipped = skipped_equals_stepped(job, {}, 1000)
     assert skipped[3] > 0.3 * stepped[0]["cycles"]
 
 
@@ -119,11 +123,7 @@ def test_skipping_between_the_feed_pulses_of_a_low_feed_arc_changes_no_signal(ac
     program = parse("G21 G91 F5.3\nG03 X0 Y0 I0.04 J0\nM30", source="<low feed>",
                     sqrt2=machine.sqrt2)
     job = Job("low-feed", machine, dict.fromkeys(AXES, ServoConfig()), program)
-    stepped = run(job, {}, "cxxrtl", False, 1000)
-    skipped = run(job, {}, "cxxrtl", True, 1000)
-    assert skipped[0] == stepped[0]
-    assert np.array_equal(skipped[1], stepped[1])
-    assert skipped[2] == stepped[2]
+    stepped, skipped = skipped_equals_stepped(job, {}, 1000)
     assert skipped[3] > 0.5 * stepped[0]["cycles"]
 
 
@@ -140,11 +140,7 @@ def test_skipping_through_random_moves_changes_no_signal(accel, feed, tm, kp, x,
         f"G01 X{x / 1000:.3f} Y{y / 1000:.3f}"
     program = parse(f"G21 G91 F{feed}\n{move}\nM30", source="<random>", sqrt2=machine.sqrt2)
     job = Job("random", machine, dict.fromkeys(AXES, ServoConfig(kp=kp, tm=tm)), program)
-    stepped = run(job, {}, "cxxrtl", False, 997, max_cycles=2_000_000)
-    skipped = run(job, {}, "cxxrtl", True, 997, max_cycles=2_000_000)
-    assert skipped[0] == stepped[0]
-    assert np.array_equal(skipped[1], stepped[1])
-    assert skipped[2] == stepped[2]
+    _, skipped = skipped_equals_stepped(job, {}, 997, max_cycles=2_000_000)
     assert skipped[3] > 0
 
 
