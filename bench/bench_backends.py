@@ -15,8 +15,9 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out, connect, flipped
 
 from hdl.hostbus import Access, HostBus, Register, RegisterBank, RegisterMap
-from sim.backend import Backend, PysimBackend
-from sim.cxxrtl import CxxrtlBackend
+from sim.backends.contract import Backend
+from sim.backends.cxxrtl.backend import CxxrtlBackend
+from sim.backends.pysim import PysimBackend
 
 MAP = RegisterMap("BENCH", 1, (
     Register("DX", 0x00, 24, Access.W, "X distance of the next move", signed=True),

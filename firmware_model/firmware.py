@@ -14,7 +14,8 @@ beyond 24 bits.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Protocol
 
 from firmware_model.gcode import Arc, Dwell, Item, Line, Program
 from firmware_model.host import Host8085
@@ -22,11 +23,11 @@ from firmware_model.job import AXES, Job, MachineConfig
 from hdl.decel_control import BUDGET_WIDTH
 from hdl.divider_model import increment_for
 from hdl.feed_rate import DIVIDER_WIDTH, FEED_STAGES
-from hdl.k3701 import K3701_MAP
+from hdl.k3701 import block_registers
 from hdl.k3701_model import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
 
-__all__ = ["AlarmEvent", "BlockRecord", "Firmware", "FirmwareError", "check_program",
-           "feed_word", "max_feed_mm_min"]
+__all__ = ["AlarmEvent", "BlockObserver", "BlockRecord", "Firmware", "FirmwareError",
+           "check_program", "feed_word", "max_feed_mm_min"]
 
 #: Rate-multiplier input clock: one input clock per linear step time, so the FP stream into
 #: the K3701 never has two pulses closer than the linear step latency.
@@ -40,7 +41,7 @@ class FirmwareError(ValueError):
 
 @dataclass
 class BlockRecord:
-    """What one block did (filled in as it runs)."""
+    """What the firmware knows of one block (filled in as it runs)."""
 
     index: int
     line: int
@@ -49,9 +50,18 @@ class BlockRecord:
     fp_budget: int
     feed_word: int
     end_cycle: int | None = None
-    fp_pulses: int = 0
-    steps: dict[str, int] = field(default_factory=dict)
-    end_command: tuple[int, int] | None = None
+
+
+class BlockObserver(Protocol):
+    """Trace points of the firmware: where a logic analyser would trigger.
+
+    Called when a block is about to be loaded and when its data request has been read; what
+    an observer measures there (the simulation's pulse counters) never reaches the firmware.
+    """
+
+    def block_started(self, record: BlockRecord) -> None: ...
+
+    def block_ended(self, record: BlockRecord) -> None: ...
 
 
 @dataclass
@@ -121,10 +131,12 @@ class Firmware:
     ``max_cycles`` ran out; ``blocks`` and ``alarms`` say what happened.
     """
 
-    def __init__(self, host: Host8085, job: Job, *, budget_offset: int = 0):
+    def __init__(self, host: Host8085, job: Job, *, budget_offset: int = 0,
+                 observer: BlockObserver | None = None):
         check_program(job)
         self.host = host
         self.job = job
+        self.observer = observer
         #: Added to every block's exact FP budget: the paper's hazard (SPEC section 7) made
         #: reproducible. 0 for normal operation.
         self.budget_offset = budget_offset
@@ -132,8 +144,6 @@ class Firmware:
         self.alarms: list[AlarmEvent] = []
         self.stopped = False
         self.timed_out = False
-        self._fp_mark = 0
-        self._pulse_mark: dict[str, int] = {}
 
     # -- initialisation ----------------------------------------------------------------------
 
@@ -191,16 +201,11 @@ class Firmware:
         record = BlockRecord(item.index, item.line_no, block.kind.name.lower(),
                              host.cycle, budget, word)
         self.blocks.append(record)
-        self._fp_mark = host.backend.get("fp_total")
-        self._pulse_mark = self._pulses()
+        if self.observer is not None:
+            self.observer.block_started(record)
         # Load the interpolator, start it, then open the feed with the exact FP budget.
-        host.write("K3701", "X", block.xe)
-        host.write("K3701", "Y", block.ye)
-        if block.kind is Kind.CIRCULAR:
-            host.write("K3701", "I", block.i)
-            host.write("K3701", "J", block.j)
-        host.write("K3701", "CTRL", _ctrl_word(block.kind, block.cw, block.sqrt2,
-                                               block.quadrant))
+        for register, value in block_registers(block).items():
+            host.write("K3701", register, value)
         host.command("K3701", start=1, ack=1)
         host.write("FEED", "FEED", word)
         host.write("DECEL", "BUDGET", budget)
@@ -213,8 +218,8 @@ class Firmware:
             left = self.limit - host.cycle
             if left <= 0:
                 return
-            host.backend.run_until("irq", left)
-            if host.backend.get("irq"):
+            host.wait_interrupt(left)
+            if host.interrupts().any():
                 self._interrupt(record)
 
     def _interrupt(self, record: BlockRecord | None) -> None:
@@ -238,10 +243,8 @@ class Firmware:
     def _close(self, record: BlockRecord, status: dict[str, int]) -> None:
         host = self.host
         record.end_cycle = host.cycle
-        record.fp_pulses = host.backend.get("fp_total") - self._fp_mark
-        now = self._pulses()
-        record.steps = {k: now[k] - self._pulse_mark[k] for k in now}
-        record.end_command = (now["x+"] - now["x-"], now["y+"] - now["y-"])
+        if self.observer is not None:
+            self.observer.block_ended(record)
         if status["error"]:
             self.alarms.append(AlarmEvent(None, host.cycle, "interpolator_error"))
             self.stopped = True
@@ -261,18 +264,13 @@ class Firmware:
             if any(status[f] for f in ("line_fault_a", "line_fault_b", "quad_error")):
                 host.command(chip, clear=1)
 
-    def _pulses(self) -> dict[str, int]:
-        b = self.host.backend
-        return {"x+": b.get("x__pulses_pos"), "x-": b.get("x__pulses_neg"),
-                "y+": b.get("y__pulses_pos"), "y-": b.get("y__pulses_neg")}
-
     def _settle(self) -> None:
         """After the last block: poll until both axes hold the programmed end, in position."""
         host = self.host
         target = self.job.program.final_position
         deadline = host.cycle + round(SETTLE_SECONDS * self.job.machine.clock_hz)
         while host.cycle < min(deadline, self.limit):
-            if self.host.backend.get("irq_alarm"):
+            if host.interrupts().alarm:
                 self._interrupt(None)
                 return
             done = True
@@ -294,7 +292,3 @@ SETTLE_SECONDS = 5.0
 #: The settle loop's delay between polls (about 1 ms at 3.072 MHz).
 SETTLE_POLL_T_STATES = 3072
 
-
-def _ctrl_word(kind: Kind, cw: bool, sqrt2: bool, quadrant: int) -> int:
-    return K3701_MAP["CTRL"].encode(circular=int(kind), cw=int(cw), sqrt2=int(sqrt2),
-                                    quadrant=quadrant - 1)

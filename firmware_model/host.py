@@ -1,17 +1,18 @@
-"""The 8085 host's view of the chipset: I/O instructions with their T-state timing.
+"""The 8085 host: I/O instructions with their T-state timing, over a :class:`ChipsetLink`.
 
-The firmware model never touches the simulation directly: it issues ``OUT`` and ``IN``
-instructions and spends T-states, and :class:`Host8085` turns them into bus cycles and system
-clock cycles on whichever :class:`sim.backend.Backend` runs the design. The same firmware code
-therefore drives every backend, and the gaps between bus accesses are those of a real 8085.
+The firmware model never touches the simulation: it issues ``OUT`` and ``IN`` instructions,
+spends T-states and waits for interrupts, and :class:`Host8085` turns them into bus cycles
+and system clock cycles on a :class:`firmware_model.link.ChipsetLink`. The same firmware code
+therefore drives every implementation of the link, and the gaps between bus accesses are
+those of a real 8085.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from firmware_model.link import ChipsetLink, Interrupts
 from hdl.chipset import CHIP_SELECTS, port
-from sim.backend import Backend
 
 __all__ = ["T_STATES", "Host8085", "HostTiming"]
 
@@ -39,17 +40,17 @@ T_STATES = HostTiming()
 
 
 class Host8085:
-    """An 8085 at ``host_hz`` driving the chipset's bus through a backend at ``clock_hz``.
+    """An 8085 at ``host_hz`` driving the chipset through ``link`` at ``clock_hz``.
 
     Time is kept exactly: T-states convert to system cycles with the fraction carried over,
     and an I/O instruction's bus cycle is the last system cycle of the instruction.
     """
 
-    def __init__(self, backend: Backend, *, host_hz: float = 3.072e6, clock_hz: float = 1e6,
+    def __init__(self, link: ChipsetLink, *, host_hz: float = 3.072e6, clock_hz: float = 1e6,
                  timing: HostTiming = T_STATES):
         if not host_hz > 0:
             raise ValueError(f"host clock must be > 0 Hz, not {host_hz!r}")
-        self.backend = backend
+        self.link = link
         self.timing = timing
         self.cycles_per_t = clock_hz / host_hz
         self._owed = 0.0
@@ -67,26 +68,26 @@ class Host8085:
         """Spend ``t_states`` without bus activity (computation, loop overhead)."""
         cycles = self._advance(t_states)
         if cycles:
-            self.backend.step(cycles)
+            self.link.idle(cycles)
 
     def _io_cycles(self, t_states: int) -> None:
         # The instruction's bus cycle is its last system cycle; at a 3.072 MHz host and a
         # 1 MHz chipset clock every I/O instruction spans at least three system cycles.
         cycles = self._advance(t_states)
         if cycles > 1:
-            self.backend.step(cycles - 1)
+            self.link.idle(cycles - 1)
 
     def out(self, address: int, value: int) -> None:
         """``OUT address`` with ``value`` in A."""
         if not 0 <= value <= 0xFF:
             raise ValueError(f"OUT {address:#04x}: {value} is not a byte")
         self._io_cycles(self.timing.out_byte)
-        self.backend.bus_write(address, value)
+        self.link.write(address, value)
 
     def inp(self, address: int) -> int:
         """``IN address``: the byte read."""
         self._io_cycles(self.timing.in_byte)
-        return self.backend.bus_read(address)
+        return self.link.read(address)
 
     def write(self, chip: str, register: str, value: int) -> None:
         """Write a whole register, LSB first (its last byte commits it)."""
@@ -115,6 +116,15 @@ class Host8085:
         word = self.read(chip, register)
         return {f.name: f.decode(word) for f in reg.fields}
 
+    def wait_interrupt(self, max_cycles: int) -> int:
+        """Wait (interrupts enabled, the CPU halted) until an interrupt input goes high, at
+        most ``max_cycles`` system cycles; the cycles waited."""
+        return self.link.wait_interrupt(max_cycles)
+
+    def interrupts(self) -> Interrupts:
+        """RIM: the interrupt inputs' levels."""
+        return self.link.interrupts()
+
     @property
     def cycle(self) -> int:
-        return self.backend.cycle
+        return self.link.cycle

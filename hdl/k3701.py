@@ -13,9 +13,11 @@ from hdl.k3701_model import (
     LATENCY_CIRCULAR,
     LATENCY_LINEAR,
     MAX_RADIUS_SQUARED,
+    Block,
+    Kind,
 )
 
-__all__ = ["K3701", "K3701_MAP"]
+__all__ = ["K3701", "K3701_MAP", "block_registers"]
 
 _COORD = "24-bit two's complement, -(2^23-1)..2^23-1 LSB"
 
@@ -52,6 +54,18 @@ K3701_MAP = RegisterMap("K3701", 1, (
                                "(sticky until CMD.clear)"),
     )),
 ), doc="Interpolator: linear and circular interpolation of one block, step pulses out.")
+
+
+def block_registers(block: Block) -> dict[str, int]:
+    """The registers that load ``block``, in the order the host writes them (CTRL last; the
+    block then runs on CMD.start). Lines leave I and J as they are."""
+    values = {"X": block.xe, "Y": block.ye}
+    if block.kind is Kind.CIRCULAR:
+        values |= {"I": block.i, "J": block.j}
+    values["CTRL"] = K3701_MAP["CTRL"].encode(
+        circular=int(block.kind), cw=int(block.cw), sqrt2=int(block.sqrt2),
+        quadrant=block.quadrant - 1)
+    return values
 
 
 class _Phase(enum.Enum, shape=2):
@@ -133,7 +147,7 @@ class K3701(wiring.Component):
     error, overrun : Out(1)
         The sticky STATUS bits.
     quiet : Out(1)
-        Observation for simulation (idle skipping, :func:`sim.system.free_running`): while
+        Observation for simulation (idle skipping, :func:`sim.machine.system.free_running`): while
         no FP comes, the step latency count affects nothing but its own decrement each cycle
         until it reaches 1. FP is low, and the count is 0 (waiting for FP) or at least 2 and,
         in a circle, past the decision stages; combinational.

@@ -25,8 +25,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from firmware_model.firmware import FirmwareError
     from firmware_model.gcode import GcodeError
     from firmware_model.job import JobError, load_job
-    from sim.output import write_outputs
-    from sim.run import RunOptions, run_job
+    from sim.run.output import write_outputs
+    from sim.run.runner import RunOptions, run_job
 
     try:
         job = load_job(args.job)
@@ -48,7 +48,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    from sim.reproduce import reproduce
+    from sim.reproduce.experiments import reproduce
 
     def progress(message: str) -> None:
         if not args.quiet:
@@ -66,7 +66,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
 
 def _cmd_export_verilog(args: argparse.Namespace) -> int:
-    from sim.export import export_verilog
+    from sim.fpga.export import export_verilog
 
     for path in export_verilog(args.block or None, Path(args.output)):
         print(f"k37 export-verilog: wrote {path}")
@@ -74,7 +74,7 @@ def _cmd_export_verilog(args: argparse.Namespace) -> int:
 
 
 def _cmd_synth(args: argparse.Namespace) -> int:
-    from sim.synth import synthesize
+    from sim.fpga.synth import synthesize
 
     try:
         report = synthesize(args.device, args.block or None,
@@ -130,8 +130,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no summary, no progress bar")
     p.set_defaults(func=_cmd_run)
 
-    from sim.export import BLOCKS
-    from sim.synth import DEVICES
+    from sim.fpga.export import BLOCKS
+    from sim.fpga.synth import DEVICES
 
     names = [b.name for b in BLOCKS]
     p = sub.add_parser("export-verilog", help="write one Verilog file per chip and the top")

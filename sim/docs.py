@@ -32,7 +32,7 @@ def registers_document() -> str:
 def documents() -> dict[str, str]:
     """Every generated document under ``docs/``, by file name."""
     from firmware_model.job import job_keys_markdown
-    from sim.report import schema_markdown
+    from sim.run.report import schema_markdown
 
     return {"registers.md": registers_document(), "run-json.md": schema_markdown(),
             "job-keys.md": job_keys_markdown()}

@@ -15,7 +15,7 @@ import pytest
 
 from firmware_model.gcode import parse
 from firmware_model.job import AXES, Job, MachineConfig, ServoConfig
-from sim.run import RunOptions, run_job
+from sim.run.runner import RunOptions, run_job
 
 WALL_CLOCK = ("wall_seconds", "cycles_per_second", "backend", "skipped_cycles")
 

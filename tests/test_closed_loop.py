@@ -17,7 +17,8 @@ import pytest
 
 from firmware_model.firmware import FirmwareError, check_program
 from firmware_model.job import load_job
-from sim.run import TRACE_COLUMNS, RunOptions, build_backend, run_job
+from sim.run.runner import RunOptions, build_backend, run_job
+from sim.run.sampler import TRACE_COLUMNS
 
 ROOT = Path(__file__).resolve().parent.parent
 COL = {name: k for k, name in enumerate(TRACE_COLUMNS)}

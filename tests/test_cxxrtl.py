@@ -16,13 +16,16 @@ from amaranth.lib import data, wiring
 from amaranth.lib.wiring import In, Out, connect, flipped
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from testbench import simulate
 
 from hdl.hostbus import Access, HostBus, Register, RegisterBank, RegisterMap
-from sim.backend import Backend, FreeRunning, PysimBackend, component_ports, make_backend
-from sim.backend import PhaseAccumulator as Divider
-from sim.cxxrtl import CxxrtlBackend, edge_wires, fall_eval
-from sim.system import System
-from sim.testbench import simulate
+from sim.backends.contract import Backend, FreeRunning, component_ports
+from sim.backends.contract import PhaseAccumulator as Divider
+from sim.backends.cxxrtl.backend import CxxrtlBackend
+from sim.backends.cxxrtl.build import edge_wires, fall_eval
+from sim.backends.factory import make_backend
+from sim.backends.pysim import PysimBackend
+from sim.machine.system import System
 
 MAP = RegisterMap("ZOO", 1, (
     Register("VALUE", 0x0, 24, Access.RW, "a signed value; reads back", signed=True),
@@ -343,7 +346,7 @@ PEEKING = tuple(name for name in BLOCKS if name != "chain")
 
 @pytest.fixture(scope="module")
 def peeking():
-    """A third Zoo, on CXXRTL's fast path for waits (sim.cxxrtl.edge_wires)."""
+    """A third Zoo, on CXXRTL's fast path for waits (sim.backends.cxxrtl.build.edge_wires)."""
     yield from zoo_pair(PEEKING)
 
 
@@ -664,7 +667,7 @@ def test_auto_backend_falls_back_to_amaranth_without_a_compiler(monkeypatch, cap
     message = capfd.readouterr().err
     assert message.count("\n") == 1
     assert "no C++ compiler" in message
-    with pytest.raises(ValueError, match="backend kind must be 'auto', 'pysim' or 'cxxrtl'"):
+    with pytest.raises(ValueError, match="backend kind must be one of auto, pysim, cxxrtl"):
         make_backend(Zoo(), "verilator")
 
 

@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
+from testbench import read_reg, simulate, write_reg
 
 from hdl.decel_control import DECEL_MAP, DecelControl
 from hdl.decel_control_model import BUDGET_WIDTH, DecelControlModel
-from sim.testbench import read_reg, simulate, write_reg
 
 BUDGET, REMAINING, CTRL, STATUS = (DECEL_MAP[name] for name in
                                    ("BUDGET", "REMAINING", "CTRL", "STATUS"))

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from testbench import simulate
 
 from hdl.divider import PhaseDivider
 from hdl.divider_model import (
@@ -13,7 +14,6 @@ from hdl.divider_model import (
     frequency_of,
     increment_for,
 )
-from sim.testbench import simulate
 
 
 def run_gateware(width: int, increments: list[int]) -> list[bool]:

@@ -7,10 +7,10 @@ from dataclasses import dataclass
 import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
+from testbench import BusOp, bus_write, drive_bus, read_ops, read_reg, simulate, write_ops
 
 from hdl.encoder import ENCODER_MAP, Decode, EncoderInterface
 from hdl.encoder_model import EncoderModel
-from sim.testbench import BusOp, bus_write, drive_bus, read_ops, read_reg, simulate, write_ops
 
 WIRES = ("a", "a_n", "b", "b_n")
 #: (A, B) at x4 position p (index p mod 4): A leading B, 00 -> 10 -> 11 -> 01, counts up.

@@ -9,8 +9,16 @@ from pathlib import Path
 import pytest
 from amaranth.back import verilog
 
-from sim.export import BLOCKS, CORE_WAIVERS, Exportable, block, export_verilog, pins, verilog_text
-from sim.verilator import lint
+from sim.backends.verilator.model import lint
+from sim.fpga.export import (
+    BLOCKS,
+    CORE_WAIVERS,
+    Exportable,
+    block,
+    export_verilog,
+    pins,
+    verilog_text,
+)
 
 NAMES = [b.name for b in BLOCKS]
 
@@ -42,7 +50,7 @@ def test_export_all_writes_one_file_per_registered_block(exported):
 
 
 def test_named_blocks_are_written_in_the_order_given(tmp_path, monkeypatch):
-    monkeypatch.setattr("sim.export.verilog_text", text)  # the files' text is tested above
+    monkeypatch.setattr("sim.fpga.export.verilog_text", text)  # the files' text is tested above
     paths = export_verilog(["divider", "rate_multiplier"], tmp_path)
     assert paths == [tmp_path / "divider.v", tmp_path / "rate_multiplier.v"]
     assert export_verilog(["all"], tmp_path) == [tmp_path / f"{n}.v" for n in NAMES]
@@ -112,7 +120,7 @@ def test_the_core_is_amaranths_verilog_unchanged():
 
 def test_a_probe_that_is_not_an_output_port_is_refused(monkeypatch):
     bad = Exportable("bad", "hdl.divider:PhaseDivider", "test", probes=("stb", "nope"))
-    monkeypatch.setattr("sim.export.BLOCKS", (*BLOCKS, bad))
+    monkeypatch.setattr("sim.fpga.export.BLOCKS", (*BLOCKS, bad))
     with pytest.raises(ValueError, match=r"bad: probes \['nope'\] are not output ports"):
         pins("bad")
 

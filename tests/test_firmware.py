@@ -12,27 +12,28 @@ from hdl.chipset import port
 from hdl.k3701_model import Kind
 
 
-class FakeBackend:
-    """Records the cycle of every bus access; reads return a fixed byte."""
+class FakeLink:
+    """A :class:`firmware_model.link.ChipsetLink` that records the cycle of every bus access;
+    reads return a fixed byte."""
 
     def __init__(self):
         self.cycle = 0
         self.writes: list[tuple[int, int, int]] = []
 
-    def step(self, n: int = 1) -> None:
+    def idle(self, n: int) -> None:
         self.cycle += n
 
-    def bus_write(self, addr: int, data: int) -> None:
+    def write(self, addr: int, data: int) -> None:
         self.writes.append((self.cycle, addr, data))
         self.cycle += 1
 
-    def bus_read(self, addr: int) -> int:
+    def read(self, addr: int) -> int:
         self.cycle += 1
         return 0x5A
 
 
 def test_out_instructions_take_17_t_states_at_the_host_clock():
-    backend = FakeBackend()
+    backend = FakeLink()
     host = Host8085(backend, host_hz=3.072e6, clock_hz=1e6)
     for k in range(300):
         host.out(0x10, k & 0xFF)
@@ -44,7 +45,7 @@ def test_out_instructions_take_17_t_states_at_the_host_clock():
 
 
 def test_register_writes_go_lsb_first_to_the_chip_select_ports():
-    backend = FakeBackend()
+    backend = FakeLink()
     host = Host8085(backend)
     host.write("K3701", "X", -2)
     assert [(a, d) for _, a, d in backend.writes] == [

@@ -2,7 +2,7 @@
 
 While the machine stands still (a dwell, the host busy, the axes at rest) only the feed-rate
 generator's dividers and rate multiplier, and the accel/decel accumulators between their
-carries, run on (``sim.system.free_running``); the compiled backend then skips ahead and
+carries, run on (``sim.machine.system.free_running``); the compiled backend then skips ahead and
 advances them in closed form. Every signal of the design must end up as if each cycle had
 been evaluated.
 """
@@ -23,10 +23,10 @@ from firmware_model.gcode import parse
 from firmware_model.job import AXES, Job, MachineConfig, ServoConfig
 from hdl.k3701 import K3701, K3701_MAP
 from hdl.k3701_model import Block
-from sim.backend import Countdown, FreeRunning
-from sim.cxxrtl import CxxrtlBackend
-from sim.plant import ALPHA_BITS, ServoPlant
-from sim.run import RunOptions, build_backend, run_job
+from sim.backends.contract import Countdown, FreeRunning
+from sim.backends.cxxrtl.backend import CxxrtlBackend
+from sim.machine.plant import ALPHA_BITS, ServoPlant
+from sim.run.runner import RunOptions, build_backend, run_job
 
 #: Report fields that depend on how the run was computed, not on what it computed.
 HOW = ("wall_seconds", "cycles_per_second", "backend", "skipped_cycles")

@@ -9,6 +9,7 @@ import random
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from testbench import bus_write, read_reg, simulate, write_reg
 
 from hdl.k3701 import K3701, K3701_MAP
 from hdl.k3701_model import (
@@ -25,8 +26,7 @@ from hdl.k3701_model import (
     quadrant_of,
     walk,
 )
-from sim.reproduce import table1
-from sim.testbench import bus_write, read_reg, simulate, write_reg
+from sim.reproduce.experiments import table1
 
 OUTPUTS = ("x_pos", "x_neg", "y_pos", "y_neg", "busy", "irq", "error", "overrun")
 CMD = K3701_MAP["CMD"]

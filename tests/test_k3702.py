@@ -7,11 +7,7 @@ import pytest
 from amaranth.back import verilog
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
-
-from hdl.k3702 import K3702, K3702_MAP
-from hdl.k3702_model import K3702Model, K3702Outputs, wrap
-from sim.testbench import (
-    CLOCK_PERIOD,
+from testbench import (
     BusOp,
     bus_write,
     drive_bus,
@@ -21,6 +17,10 @@ from sim.testbench import (
     write_ops,
     write_reg,
 )
+
+from hdl.k3702 import K3702, K3702_MAP
+from hdl.k3702_model import K3702Model, K3702Outputs, wrap
+from sim.backends.contract import CLOCK_PERIOD
 
 INPUTS = ("com_pos", "com_neg", "fb_pos", "fb_neg")
 PORTS = tuple(f.name for f in fields(K3702Outputs) if f.name != "status")

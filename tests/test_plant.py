@@ -6,10 +6,10 @@ import random
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from testbench import simulate
 
-from sim.plant import FRAC_BITS, PlantParams, ServoPlant, dac_zero
-from sim.plant_model import ServoPlantModel
-from sim.testbench import simulate
+from sim.machine.plant import FRAC_BITS, PlantParams, ServoPlant, dac_zero
+from sim.machine.plant_model import ServoPlantModel
 
 
 def compare_with_model(params: PlantParams, dac_bits: int,

@@ -8,10 +8,10 @@ import pytest
 from amaranth.hdl import Elaboratable, Module, Signal
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from testbench import simulate
 
 from hdl.rate_multiplier import RateMultiplier
 from hdl.rate_multiplier_model import RateMultiplierModel, gate
-from sim.testbench import simulate
 
 #: The 7497's decoding gates as the datasheet's logic diagram wires them: rate bit b passes
 #: the counter states s with s mod period == residue (F: QA low; E: QA high, QB low; ...).

@@ -15,7 +15,7 @@ import pytest
 
 from firmware_model.firmware import feed_word
 from sim.cli import build_parser
-from sim.reproduce import (
+from sim.reproduce.experiments import (
     FEED_HIGH,
     FEED_LOW,
     MACHINE,

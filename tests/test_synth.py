@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import pytest
 
-from sim.export import BLOCKS
-from sim.synth import DEVICES, TARGET_MHZ, synthesize
+from sim.fpga.export import BLOCKS
+from sim.fpga.synth import DEVICES, TARGET_MHZ, synthesize
 
 pytestmark = pytest.mark.slow
 

@@ -32,8 +32,8 @@ from hdl.k3701_model import Block, K3701Model, Kind
 from hdl.k3702 import K3702_MAP
 from hdl.k3702_model import K3702Model
 from hdl.rate_multiplier_model import RateMultiplierModel
-from sim.export import BLOCKS, verilog_text
-from sim.verilator import Model, VerilatedModel, build
+from sim.backends.verilator.model import Model, VerilatedModel, build
+from sim.fpga.export import BLOCKS, verilog_text
 
 SEEDS = (1, 2)
 CYCLES = 20000

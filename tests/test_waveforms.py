@@ -7,8 +7,8 @@ import pytest
 import pywellen
 
 from firmware_model.job import demo_job
-from sim.output import write_gtkw
-from sim.run import RunOptions, run_job
+from sim.run.output import write_gtkw
+from sim.run.runner import RunOptions, run_job
 
 CHIP_SCOPES = ("k3701", "k3702_x", "k3702_y", "encoder_x", "encoder_y", "feed", "decel",
                "accel")

@@ -12,8 +12,14 @@ from amaranth.lib.wiring import In, Out
 from hdl.chipset import AXES, Accel, Chipset
 from hdl.feed_rate import DIVIDER_WIDTH, FEED_STAGES
 from hdl.hostbus import HostBus
-from sim.backend import CarryAccumulator, Countdown, FreeRunning, PhaseAccumulator, StrobeCounter
-from sim.plant import ALPHA_BITS, ServoPlant
+from sim.backends.contract import (
+    CarryAccumulator,
+    Countdown,
+    FreeRunning,
+    PhaseAccumulator,
+    StrobeCounter,
+)
+from sim.machine.plant import ALPHA_BITS, ServoPlant
 
 __all__ = ["AxisProbe", "System", "free_running"]
 
@@ -50,10 +56,10 @@ class AxisProbe(wiring.Signature):
     Members
     -------
     gain, alpha, vmax, dac_zero : In
-        Plant parameters (:class:`sim.plant.PlantParams`; ``dac_zero`` from
-        :func:`sim.plant.dac_zero` of the K3702's DAC_BITS).
+        Plant parameters (:class:`sim.machine.plant.PlantParams`; ``dac_zero`` from
+        :func:`sim.machine.plant.dac_zero` of the K3702's DAC_BITS).
     stall, glitch_a, glitch_b, break_a : In(1)
-        Fault injection (see :class:`sim.plant.ServoPlant`).
+        Fault injection (see :class:`sim.machine.plant.ServoPlant`).
     command, error : Out(signed(24))
         The K3702's counters.
     count : Out(signed(32))

@@ -1,6 +1,6 @@
 """FPGA synthesis of the exported chips: Yosys ``synth_ice40`` and nextpnr-ice40, per block.
 
-Each registered block (:data:`sim.export.BLOCKS`) is exported, synthesised alone and placed
+Each registered block (:data:`sim.fpga.export.BLOCKS`) is exported, synthesised alone and placed
 and routed alone on the device, so its LUTs, flip-flops and maximum clock frequency are its
 own; the chipset top (the entry with ``top=True``) gives the total. Until the top exists, the
 total row is the sum of one of each block. The tools are YoWASP's WebAssembly builds from PyPI
@@ -27,7 +27,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from sim.export import BLOCKS, Exportable, block, verilog_text
+from sim.fpga.export import BLOCKS, Exportable, block, verilog_text
 
 __all__ = ["DEVICES", "TARGET_MHZ", "BlockResult", "Device", "SynthReport", "synthesize"]
 

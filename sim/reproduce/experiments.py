@@ -33,11 +33,13 @@ from firmware_model.job import AXES, Job, MachineConfig, ServoConfig
 from hdl.decel_control import DECEL_MAP
 from hdl.divider_model import frequency_of, increment_for
 from hdl.feed_rate import DIVIDER_WIDTH, FEED_MAP
-from hdl.k3701 import K3701_MAP
-from hdl.k3701_model import Block, Kind, make_path, walk
-from sim.backend import Backend
-from sim.plant import DAC_VOLTS
-from sim.run import TRACE_COLUMNS, RunOptions, build_backend, run_job
+from hdl.k3701 import block_registers
+from hdl.k3701_model import Block, make_path, walk
+from sim.backends.contract import Backend
+from sim.machine.plant import DAC_VOLTS
+from sim.run.link import SimulatedLink
+from sim.run.runner import RunOptions, build_backend, run_job
+from sim.run.sampler import TRACE_COLUMNS
 
 __all__ = ["FEED_HIGH", "FEED_LOW", "FULL", "MACHINE", "QUICK", "Reproduction", "Row", "RunData",
            "RunSpec", "Scale", "analyse", "feed_for_word", "fp_rate", "hardware_tau",
@@ -216,7 +218,7 @@ def _run(spec: RunSpec) -> RunData:
                                      max_cycles=spec.max_cycles,
                                      budget_offset=spec.budget_offset), backend)
     probes = {"busy": backend.probe("chipset.k3701.busy"),
-              "remaining_x": Host8085(backend).read("K3701", "X")}
+              "remaining_x": Host8085(SimulatedLink(backend)).read("K3701", "X")}
     if spec.drain_cycles:
         limit = backend.cycle + spec.drain_cycles
         while not backend.probe("chipset.accel.idle") and backend.cycle < limit:
@@ -238,16 +240,10 @@ def _max_rates(spec: RateSpec) -> RunData:
     cycles = 0
     for name, block, counter, steps in spec.blocks:
         backend = _backend(spec.accel)
-        host = Host8085(backend)
+        host = Host8085(SimulatedLink(backend))
         host.command("K3701", ack=1, clear=1)
-        host.write("K3701", "X", block.xe)
-        host.write("K3701", "Y", block.ye)
-        if block.kind is Kind.CIRCULAR:
-            host.write("K3701", "I", block.i)
-            host.write("K3701", "J", block.j)
-        host.write("K3701", "CTRL", K3701_MAP["CTRL"].encode(
-            circular=int(block.kind), cw=int(block.cw), sqrt2=int(block.sqrt2),
-            quadrant=block.quadrant - 1))
+        for register, value in block_registers(block).items():
+            host.write("K3701", register, value)
         host.command("K3701", start=1, ack=1)
         # The feed path wide open: the rate multiplier's input clock at every cycle and its
         # word at the maximum, the budget at the maximum: FP in all but 1 of 2^18 cycles.

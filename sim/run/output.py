@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 
 from firmware_model.gcode import Arc, Line
-from sim.run import TRACE_COLUMNS, RunResult
+from sim.run.runner import RunResult
+from sim.run.sampler import TRACE_COLUMNS
 
 __all__ = ["summary", "write_gtkw", "write_outputs", "write_plot", "write_trace"]
 

@@ -1,10 +1,10 @@
-"""Reference model of :class:`sim.plant.ServoPlant`: the same fixed-point update, in Python."""
+"""Reference model of :class:`sim.machine.plant.ServoPlant`: its fixed-point update, in Python."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sim.plant import ALPHA_BITS, FRAC_BITS, VC_BITS, VC_MAX, dac_zero
+from sim.machine.plant import ALPHA_BITS, FRAC_BITS, VC_BITS, VC_MAX, dac_zero
 
 __all__ = ["ServoPlantModel"]
 

@@ -124,7 +124,7 @@ def validate(value: Any, schema: dict = RUN_SCHEMA, where: str = "$") -> None:
 def schema_markdown() -> str:
     """``docs/run-json.md``: every key of the report with its type and meaning."""
     lines = ["# `k37 run --json` output", "",
-             f"Generated from `sim/report.py` (schema version {SCHEMA_VERSION}; do not edit "
+             f"Generated from `sim/run/report.py` (schema version {SCHEMA_VERSION}; do not edit "
              "by hand).", "", "| key | type | meaning |", "|---|---|---|"]
 
     def walk(schema: dict, path: str) -> None:

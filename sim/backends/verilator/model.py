@@ -2,7 +2,7 @@
 
 :func:`build` verilates a Verilog file's top module (with ``--pins-inout-enables``: an inout
 pin ``d`` becomes the input ``d`` and the outputs ``d__out`` and ``d__en``), compiles it with a
-small C ABI harness (``verilator_harness.cc``) into a shared library and caches that under
+small C ABI harness (``harness.cc``) into a shared library and caches that under
 ``~/.cache/k37/verilator/<sha256>/`` (or ``$K37_CACHE_DIR/verilator``), keyed by the Verilog,
 the harness, the flags and the versions of Verilator and the compiler. Verilator's runtime
 (``verilated.cpp``, ``verilated_threads.cpp``) is compiled once per toolchain and shared by
@@ -21,18 +21,23 @@ import os
 import re
 import shutil
 import subprocess
-import sys
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
-# The build helpers shared with the CXXRTL backend.
-from sim.cxxrtl import Model, _finish, _sha256, find_compiler
+from sim.backends.toolchain import (
+    Model,
+    build_dir,
+    cache_root,
+    find_compiler,
+    finish,
+    progress,
+    sha256,
+)
 
 __all__ = ["LintResult", "Model", "VerilatedModel", "build", "find_verilator", "lint"]
 
-HARNESS = Path(__file__).with_name("verilator_harness.cc")
+HARNESS = Path(__file__).with_name("harness.cc")
 #: Verilator's options for the model: speed over checks (the exported file is lint-clean).
 VERILATOR_FLAGS = ("--cc", "--pins-inout-enables", "-O3", "--x-assign", "fast",
                    "--x-initial", "fast", "--noassert", "--prefix", "Vtop")
@@ -112,12 +117,6 @@ def _toolchain() -> _Toolchain:
     return _Toolchain(verilator, compiler, root, versions)
 
 
-def cache_root() -> Path:
-    """Where built models are kept."""
-    env = os.environ.get("K37_CACHE_DIR")
-    return (Path(env) if env else Path.home() / ".cache" / "k37") / "verilator"
-
-
 def _ports_h(header: str) -> str:
     """``K37_PORT(name, is_input, width)`` lines for the ports declared in Verilator's Vtop.h."""
     ports = re.findall(r"VL_(IN|OUT|INOUT)(?:8|16|32|64|W)?\(&(\w+),(\d+),(\d+)", header)
@@ -127,30 +126,21 @@ def _ports_h(header: str) -> str:
                    for kind, name, msb, lsb in ports)
 
 
-def _progress(message: str) -> None:
-    print(f"k37 verilator: {message}", file=sys.stderr, flush=True)
-
-
 def build(verilog: str, top: str) -> Model:
     """Build (or find in the cache) the model library of module ``top`` in ``verilog``."""
     tools = _toolchain()
     harness = HARNESS.read_text()
-    runtime_key = _sha256(" ".join(CXX_FLAGS), tools.versions)
-    key = _sha256(verilog, top, harness, " ".join(VERILATOR_FLAGS), runtime_key)
-    root = cache_root()
+    runtime_key = sha256(" ".join(CXX_FLAGS), tools.versions)
+    key = sha256(verilog, top, harness, " ".join(VERILATOR_FLAGS), runtime_key)
+    root = cache_root("verilator")
     final = root / key
     library = final / "model.so"
     if library.exists():
         return Model(library, False, {})
 
-    root.mkdir(parents=True, exist_ok=True)
     runtime = [root / f"runtime-{runtime_key}-{Path(src).stem}.o" for src in _RUNTIME]
     seconds: dict[str, float] = {}
-    # Build in a private folder and rename the result into place: parallel builds never see
-    # a half-written file.
-    with tempfile.TemporaryDirectory(dir=root, prefix=".build-") as tmp:
-        work = Path(tmp) / key
-        work.mkdir()
+    with build_dir(root, key) as work:
         start = time.perf_counter()
         (work / "design.v").write_text(verilog)
         result = _run([tools.verilator, *VERILATOR_FLAGS, "--top-module", top, "-Mdir", "obj",
@@ -164,15 +154,15 @@ def build(verilog: str, top: str) -> Model:
                         for src, target in zip(_RUNTIME, runtime, strict=True)
                         if not target.exists()]
         if runtime_jobs:
-            _progress("compiling the Verilator runtime (once per toolchain) ...")
+            progress("verilator", "compiling the Verilator runtime (once per toolchain) ...")
         (obj / "ports.h").write_text(_ports_h((obj / "Vtop.h").read_text()))
         sources = sorted(p.name for p in obj.glob("Vtop*.cpp"))
         (obj / "model.cpp").write_text("".join(f'#include "{s}"\n' for s in sources)
                                        + harness)
-        _progress(f"new model {top} {key[:12]}: compiling {len(sources)} files ...")
-        _finish(tools.compile("model.cpp", "model.o", obj), f"the Verilated {top}")
+        progress("verilator", f"new model {top} {key[:12]}: compiling {len(sources)} files ...")
+        finish(tools.compile("model.cpp", "model.o", obj), f"the Verilated {top}")
         for job, target in runtime_jobs:
-            _finish(job, "the Verilator runtime")
+            finish(job, "the Verilator runtime")
             os.replace(work / target.name, target)
         link = _run([tools.compiler, "-shared", "-pthread", "-o", str(work / "model.so"),
                      "model.o", *map(str, runtime)], cwd=obj)
@@ -180,12 +170,7 @@ def build(verilog: str, top: str) -> Model:
             raise RuntimeError(f"linking the Verilator model failed:\n{link.stderr[-4000:]}")
         seconds["compile"] = time.perf_counter() - start - seconds["verilate"]
         shutil.rmtree(obj)
-        try:
-            work.rename(final)
-        except OSError:
-            if not library.exists():  # not a parallel build that got there first
-                raise
-        _progress(f"built in {sum(seconds.values()):.1f} s, cached in {final}")
+        progress("verilator", f"built in {sum(seconds.values()):.1f} s, cached in {final}")
     return Model(library, True, seconds)
 
 

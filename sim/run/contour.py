@@ -1,0 +1,74 @@
+"""The contour error: distance of each sampled actual position to the programmed path."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from firmware_model.firmware import Firmware
+from firmware_model.gcode import Arc, Dwell, Line
+from firmware_model.job import Job
+
+__all__ = ["contour_errors"]
+
+
+def _segment_distance(p: np.ndarray, a: tuple[int, int], b: tuple[int, int]) -> np.ndarray:
+    ax, ay = a
+    d = np.array([b[0] - ax, b[1] - ay], dtype=float)
+    rel = p - np.array([ax, ay], dtype=float)
+    length2 = float(d @ d)
+    t = np.zeros(len(p)) if length2 == 0 else np.clip(rel @ d / length2, 0.0, 1.0)
+    return np.hypot(*(rel - np.outer(t, d)).T)
+
+
+def _arc_distance(p: np.ndarray, item: Arc) -> np.ndarray:
+    cx, cy = item.start[0] + item.i, item.start[1] + item.j
+    rel = p - np.array([cx, cy], dtype=float)
+    radius = math.hypot(item.i, item.j)
+    a0 = math.atan2(-item.j, -item.i)
+    end = item.end
+    a1 = math.atan2(end[1] - cy, end[0] - cx)
+    sweep = (a1 - a0) % (2 * math.pi) if not item.cw else (a0 - a1) % (2 * math.pi)
+    if sweep == 0:
+        sweep = 2 * math.pi
+    ang = np.arctan2(rel[:, 1], rel[:, 0])
+    off = (ang - a0) % (2 * math.pi) if not item.cw else (a0 - ang) % (2 * math.pi)
+    on_arc = np.abs(np.hypot(rel[:, 0], rel[:, 1]) - radius)
+    ends = np.minimum(np.hypot(*(p - np.array(item.start, dtype=float)).T),
+                      np.hypot(*(p - np.array(end, dtype=float)).T))
+    return np.where(off <= sweep, on_arc, ends)
+
+
+def contour_errors(job: Job, firmware: Firmware, samples: np.ndarray) -> np.ndarray:
+    """Distance of each sample's actual position to the programmed path (LSB).
+
+    A sample is compared with the block running at its cycle and its neighbours (a lagging
+    axis is still on the block before).
+    """
+    moves = [it for it in job.program.items if not isinstance(it, Dwell)]
+    if not len(samples) or not moves or not firmware.blocks:
+        return np.zeros(0)
+    cycles, pts = samples[:, 0], samples[:, 3:5]
+    move_of = {it.index: k for k, it in enumerate(moves)}
+    block_move = np.array([move_of[b.index] for b in firmware.blocks])
+    running = np.searchsorted([b.start_cycle for b in firmware.blocks], cycles,
+                              side="right") - 1
+    candidates = []
+    for shift in (-1, 0, 1):
+        idx = running + shift
+        valid = (idx >= 0) & (idx < len(block_move))
+        candidates.append(np.where(valid, block_move[np.clip(idx, 0, len(block_move) - 1)],
+                                   -1))
+    candidates = np.array(candidates)
+    best = np.full(len(pts), np.inf)
+    for k in np.unique(candidates[candidates >= 0]):
+        near = (candidates == k).any(axis=0)
+        item = moves[k]
+        dist = (_segment_distance(pts[near], item.start, item.end) if isinstance(item, Line)
+                else _arc_distance(pts[near], item))
+        best[near] = np.minimum(best[near], dist)
+    # Samples before the first block: distance to the start point.
+    before = ~np.isfinite(best)
+    best[before] = np.hypot(*(pts[before] - np.array(moves[0].start, dtype=float)).T)
+    return best

@@ -1,0 +1,92 @@
+"""The simulated machine as the 8085 sees it, and what the run measures at the firmware's
+trace points.
+
+:class:`SimulatedLink` implements :class:`firmware_model.link.ChipsetLink` over a
+:class:`sim.run.sampler.Sampler` (a backend sampled as it runs) or a bare backend: the bus, the two
+interrupt inputs and the clock, nothing else. :class:`BlockMeter` is the logic analyser: at each
+block's start and end (:class:`firmware_model.firmware.BlockObserver`) it reads the simulation's
+observation counters (feed pulses, K3701 step pulses), which no firmware sees.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from firmware_model.firmware import BlockRecord
+from firmware_model.link import Interrupts
+from hdl.chipset import AXES
+from sim.backends.contract import Backend
+from sim.run.sampler import Sampler
+
+__all__ = ["BlockMeasure", "BlockMeter", "SimulatedLink"]
+
+
+class SimulatedLink:
+    """:class:`firmware_model.link.ChipsetLink` on the simulated machine's bus and IRQ ports."""
+
+    def __init__(self, sampler: Sampler | Backend):
+        self.sampler = sampler
+
+    @property
+    def cycle(self) -> int:
+        return self.sampler.cycle
+
+    def idle(self, cycles: int) -> None:
+        self.sampler.step(cycles)
+
+    def write(self, address: int, data: int) -> None:
+        self.sampler.bus_write(address, data)
+
+    def read(self, address: int) -> int:
+        return self.sampler.bus_read(address)
+
+    def wait_interrupt(self, max_cycles: int) -> int:
+        return self.sampler.run_until("irq", max_cycles)
+
+    def interrupts(self) -> Interrupts:
+        return Interrupts(bool(self.sampler.get("irq_interp")),
+                          bool(self.sampler.get("irq_alarm")))
+
+
+#: The step-pulse counters of each axis, by the report's names.
+_PULSES = {f"{axis}{sign}": f"{axis}__pulses_{name}"
+           for axis in AXES for sign, name in (("+", "pos"), ("-", "neg"))}
+
+
+@dataclass
+class BlockMeasure:
+    """What the run measured of one block: FP the K3701 received, its step pulses per axis
+    and direction, and the interpolated end position those pulses make."""
+
+    fp_pulses: int = 0
+    steps: dict[str, int] = field(default_factory=lambda: dict.fromkeys(_PULSES, 0))
+    end_command: tuple[int, ...] | None = None
+
+
+class BlockMeter:
+    """Reads the observation counters at the firmware's block trace points."""
+
+    def __init__(self, sampler: Sampler):
+        self.sampler = sampler
+        self.measures: dict[int, BlockMeasure] = {}
+        self._marks: dict[str, int] = {}
+
+    def _counters(self) -> dict[str, int]:
+        return {"fp": self.sampler.get("fp_total"),
+                **{key: self.sampler.get(port) for key, port in _PULSES.items()}}
+
+    def block_started(self, record: BlockRecord) -> None:
+        self._marks = self._counters()
+        self.measures[record.index] = BlockMeasure()
+
+    def block_ended(self, record: BlockRecord) -> None:
+        now = self._counters()
+        delta = {key: now[key] - self._marks[key] for key in now}
+        steps = {key: delta[key] for key in _PULSES}
+        self.measures[record.index] = BlockMeasure(
+            delta["fp"], steps,
+            tuple(now[f"{axis}+"] - now[f"{axis}-"] for axis in AXES))
+
+    def of(self, record: BlockRecord) -> BlockMeasure:
+        """The measure of a block the firmware ran (zeros if it never ended)."""
+        return self.measures.get(record.index, BlockMeasure())
