@@ -12,6 +12,7 @@ selects are :data:`CHIP_SELECTS`, the registers each chip's own map. :func:`port
 """
 
 import enum
+from dataclasses import replace
 
 from amaranth.hdl import Array, Cat, Module, Signal, signed
 from amaranth.lib import wiring
@@ -24,6 +25,7 @@ from hdl.feed_rate import FEED_MAP, FeedRate
 from hdl.hostbus import HostBus, RegisterMap
 from hdl.k3701 import K3701, K3701_MAP
 from hdl.k3702 import COUNTER_WIDTH, K3702, K3702_MAP
+from hdl.observation import CarryAccumulator, FreeRunning
 
 __all__ = ["AXES", "CHIP_SELECTS", "Accel", "AxisPins", "Chipset", "port"]
 
@@ -114,16 +116,22 @@ class Chipset(wiring.Component):
         Either K3702's alarm interrupt (RST 6.5).
     fp : Out(1)
         Observation: the feed pulses the K3701 receives.
-    quiet : Out(1)
-        Observation: no accel/decel circuit has an output pulse pending in this cycle and the
-        K3701's step latency count is ``quiet``, so the free-running dividers and rate
-        multiplier, the accel/decel accumulators adding x at each fa, and the K3701's latency
-        count going down, change nothing else until the next feed pulse through the open decel
-        gate, an accumulator's next carry or the count reaching 1; combinational.
     step_x_pos, step_x_neg, step_y_pos, step_y_neg : Out(1)
         Observation: the K3701's step pulses.
     x, y : Out(AxisPins())
         The two axes.
+
+    Simulation only (attributes, not pins: see :mod:`hdl.observation`)
+    ----------------------------------------------------------------
+    quiet : Signal(1)
+        No accel/decel circuit has an output pulse pending in this cycle and the K3701 is
+        ``quiet``, so the free-running state changes nothing else until the next feed pulse
+        through the open decel gate, an accumulator's next carry or the K3701's latency count
+        reaching 1; combinational.
+    free_running : FreeRunning
+        The feed-rate generator's dividers and rate multiplier (whose pulses matter while the
+        decel gate is open), each accel/decel accumulator (adding x at each fa) and the
+        K3701's latency count.
     """
 
     def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15):
@@ -136,11 +144,23 @@ class Chipset(wiring.Component):
         self.accel_bits = accel_bits
         super().__init__({
             "bus": In(HostBus(8)),
-            "irq_interp": Out(1), "irq_alarm": Out(1), "fp": Out(1), "quiet": Out(1),
+            "irq_interp": Out(1), "irq_alarm": Out(1), "fp": Out(1),
             "step_x_pos": Out(1), "step_x_neg": Out(1),
             "step_y_pos": Out(1), "step_y_neg": Out(1),
             "x": Out(AxisPins()), "y": Out(AxisPins()),
         })
+        self.quiet = Signal()
+
+    @property
+    def free_running(self) -> FreeRunning:
+        feed = FeedRate.FREE_RUNNING.under("feed")
+        gated = tuple(replace(c, gate="decel.gate_open") for c in feed.counters)
+        accel = {Accel.PRE: ("accel",), Accel.POST: ("accel_x", "accel_y"),
+                 Accel.NONE: ()}[self.accel]
+        carries = tuple(CarryAccumulator(path, self.accel_bits, self.accel is Accel.POST,
+                                         clock=f"feed.{FeedRate.FA_CLOCK}") for path in accel)
+        return replace(feed, counters=gated).merge(
+            FreeRunning(carries=carries), K3701.FREE_RUNNING.under("k3701"), quiet="quiet")
 
     def elaborate(self, platform) -> Module:
         m = Module()

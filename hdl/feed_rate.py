@@ -12,6 +12,7 @@ from amaranth.lib.wiring import In, Out, connect, flipped
 from hdl.divider import PhaseDivider
 from hdl.divider_model import FA_INCREMENT
 from hdl.hostbus import Access, HostBus, Register, RegisterBank, RegisterMap
+from hdl.observation import FreeRunning, PhaseAccumulator, StrobeCounter
 from hdl.rate_multiplier import RateMultiplier
 
 __all__ = ["DIVIDER_WIDTH", "FEED_MAP", "FeedRate"]
@@ -45,17 +46,31 @@ class FeedRate(wiring.Component):
         RM_INC divider's registered strobe, and the BRM output follows it combinationally.
     fa : Out(1)
         Accel/decel addition clock enable (registered).
+
+    Simulation only (see :mod:`hdl.observation`)
+    --------------------------------------------
+    FREE_RUNNING : FreeRunning
+        Both dividers run on for ever and the rate multiplier counts the input clock's
+        strobes; its pulses matter only where the parent gates them (no ``quiet``: nothing
+        here waits for an event).
     """
 
     bus: In(HostBus(FEED_MAP.addr_width))
     out: Out(1)
     fa: Out(1)
 
+    #: The divider whose strobe is ``fa`` (a parent's accumulators count its strobes).
+    FA_CLOCK = "fa_clock"
+    FREE_RUNNING = FreeRunning(
+        accumulators=(PhaseAccumulator("rm_clock", DIVIDER_WIDTH),
+                      PhaseAccumulator(FA_CLOCK, DIVIDER_WIDTH)),
+        counters=(StrobeCounter("rate", 6 * FEED_STAGES, clock="rm_clock"),))
+
     def elaborate(self, platform) -> Module:
         m = Module()
         m.submodules.regs = regs = RegisterBank(FEED_MAP)
         m.submodules.rm_clock = rm_clock = PhaseDivider(DIVIDER_WIDTH)
-        m.submodules.fa_clock = fa_clock = PhaseDivider(DIVIDER_WIDTH)
+        m.submodules[self.FA_CLOCK] = fa_clock = PhaseDivider(DIVIDER_WIDTH)
         m.submodules.rate = rate = RateMultiplier(FEED_STAGES)
         connect(m, flipped(self.bus), regs.bus)
         m.d.comb += [

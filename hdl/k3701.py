@@ -16,6 +16,7 @@ from hdl.k3701_model import (
     Block,
     Kind,
 )
+from hdl.observation import Countdown, FreeRunning
 
 __all__ = ["K3701", "K3701_MAP", "block_registers"]
 
@@ -146,11 +147,15 @@ class K3701(wiring.Component):
         Data-request interrupt; rises when a block ends (also with ERROR), held until CMD.ack.
     error, overrun : Out(1)
         The sticky STATUS bits.
-    quiet : Out(1)
-        Observation for simulation (idle skipping, :func:`sim.machine.system.free_running`): while
-        no FP comes, the step latency count affects nothing but its own decrement each cycle
-        until it reaches 1. FP is low, and the count is 0 (waiting for FP) or at least 2 and,
-        in a circle, past the decision stages; combinational.
+
+    Simulation only (attributes, not pins: see :mod:`hdl.observation`)
+    ----------------------------------------------------------------
+    quiet : Signal(1)
+        While no FP comes, the step latency count affects nothing but its own decrement each
+        cycle until it reaches 1: FP is low, and the count is 0 (waiting for FP) or at least
+        2 and, in a circle, past the decision stages; combinational.
+    FREE_RUNNING : FreeRunning
+        The latency count, a :class:`hdl.observation.Countdown` that stops before 1.
     """
 
     bus: In(HostBus(K3701_MAP.addr_width))
@@ -163,7 +168,9 @@ class K3701(wiring.Component):
     irq: Out(1)
     error: Out(1)
     overrun: Out(1)
-    quiet: Out(1)
+
+    #: See "Simulation only" above (names local to the K3701).
+    FREE_RUNNING = FreeRunning(countdowns=(Countdown("count", stop=1),), quiet="quiet")
 
     def __init__(self, *, latency_linear: int = LATENCY_LINEAR,
                  latency_circular: int = LATENCY_CIRCULAR,
@@ -179,6 +186,7 @@ class K3701(wiring.Component):
         self.latency_circular = latency_circular
         self.circle_setup = circle_setup
         super().__init__()
+        self.quiet = Signal()
 
     def elaborate(self, platform) -> Module:
         # Written for compiled simulation (CXXRTL evaluates an expression only when the

@@ -18,9 +18,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import simulate
 
+from hdl import observation
 from hdl.hostbus import Access, HostBus, Register, RegisterBank, RegisterMap
-from sim.backends.contract import Backend, FreeRunning, component_ports
-from sim.backends.contract import PhaseAccumulator as Divider
+from hdl.observation import FreeRunning
+from sim.backends.contract import Backend, component_ports
 from sim.backends.cxxrtl.backend import CxxrtlBackend
 from sim.backends.cxxrtl.build import edge_wires, fall_eval
 from sim.backends.factory import make_backend
@@ -726,8 +727,8 @@ def test_recorded_samples_are_the_ports_at_every_multiple_of_the_period(pair):
 class Undeclared(Zoo):
     """A Zoo that declares a free-running register the design does not have."""
 
-    free_running = FreeRunning(accumulators=(Divider("phase.nowhere", 16),), counters=(),
-                               carries=(), plants=(), quiet="phase__pulse")
+    free_running = FreeRunning(
+        accumulators=(observation.PhaseAccumulator("phase.nowhere", 16),), quiet="phase__pulse")
 
 
 def test_a_free_running_register_missing_from_the_model_is_refused():

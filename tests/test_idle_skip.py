@@ -23,7 +23,6 @@ from firmware_model.gcode import parse
 from firmware_model.job import AXES, Job, MachineConfig, ServoConfig
 from hdl.k3701 import K3701, K3701_MAP
 from hdl.k3701_model import Block
-from sim.backends.contract import Countdown, FreeRunning
 from sim.backends.cxxrtl.backend import CxxrtlBackend
 from sim.machine.plant import ALPHA_BITS, ServoPlant
 from sim.run.runner import RunOptions, build_backend, run_job
@@ -146,13 +145,12 @@ def test_skipping_through_random_moves_changes_no_signal(accel, feed, tm, kp, x,
 
 class LonePlant(wiring.Component):
     """One servo plant with its inputs as ports, declared free-running: the skip then steps
-    it natively up to each change of its count (sim/cxxrtl_harness.cc, advance_plants), which
-    ``seen`` registers a cycle later (as an encoder interface would) and feeds back: on odd
-    counts the D/A code is one step further from 0 V, so a skip that ran past a count change
-    moves the plant differently."""
+    it natively up to each change of its count (sim/backends/cxxrtl/harness.cc, advance_plants),
+    which ``seen`` registers a cycle later (as an encoder interface would) and feeds back: on odd
+    counts the D/A code is one step further from 0 V, so a skip that ran past a count change moves
+    the plant differently."""
 
-    free_running = FreeRunning(accumulators=(), counters=(), carries=(), plants=("plant",),
-                               quiet="quiet")
+    free_running = ServoPlant.FREE_RUNNING.under("plant").merge(quiet="quiet")
 
     def __init__(self):
         super().__init__({"dac": In(16), "dac_zero": In(16), "gain": In(32),
@@ -218,11 +216,10 @@ def test_native_plant_steps_equal_the_plants_gateware(lone_plants, phases):
 
 
 class FreeK3701(K3701):
-    """The K3701 alone, its step latency count declared free-running: between feed pulses
-    (an input here, changed only between calls), a skip runs the count down to its step."""
+    """The K3701 alone, with its own free-running declaration: between feed pulses (an input
+    here, changed only between calls), a skip runs the step latency count down to its step."""
 
-    free_running = FreeRunning(accumulators=(), counters=(), carries=(), plants=(),
-                               quiet="quiet", countdowns=(Countdown("count", stop=1),))
+    free_running = K3701.FREE_RUNNING
 
 
 @pytest.fixture(scope="module")

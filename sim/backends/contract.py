@@ -34,85 +34,10 @@ import numpy as np
 from amaranth.hdl import Shape, Value, ValueCastable
 from amaranth.lib import wiring
 
-__all__ = ["CLOCK_PERIOD", "Backend", "CarryAccumulator", "Countdown", "FreeRunning",
-           "PhaseAccumulator", "Port", "StrobeCounter", "component_ports", "sign_extend"]
+__all__ = ["CLOCK_PERIOD", "Backend", "Port", "component_ports", "sign_extend"]
 
 #: The paper's system clock period, 1 us (1 MHz): the time base of waveforms.
 CLOCK_PERIOD = 1e-6
-
-
-@dataclass(frozen=True)
-class PhaseAccumulator:
-    """A :class:`hdl.divider.PhaseDivider` at probe path ``path`` (``phase``, ``increment``,
-    ``stb`` below it): it adds ``increment`` to ``phase`` at every edge, for ever."""
-
-    path: str
-    width: int
-
-
-@dataclass(frozen=True)
-class StrobeCounter:
-    """A :class:`hdl.rate_multiplier.RateMultiplier` at ``path`` (``count``, ``select``,
-    ``word``): it counts the cycles in which accumulator number ``clock``'s ``stb`` is high, and
-    pulses in those that select a set bit of ``word``. While the probe ``gate`` reads 1 its
-    pulses matter, so a skip must stop before the next one (None: they never matter)."""
-
-    path: str
-    width: int
-    clock: int
-    gate: str | None = None
-
-
-@dataclass(frozen=True)
-class CarryAccumulator:
-    """An :class:`hdl.accel_decel.AccelDecel` at ``path`` (``y``, ``x``): at each cycle in
-    which accumulator number ``clock``'s ``stb`` is high, ``y += x`` in ``n`` bits; a carry out
-    of them changes ``x`` and sends a pulse, so a skip must stop before the next carry."""
-
-    path: str
-    n: int
-    signed: bool
-    clock: int
-
-
-@dataclass(frozen=True)
-class Countdown:
-    """A register at probe path ``path`` that, while it is not 0, goes down by one each
-    cycle; reaching ``stop`` is an event, so a skip must stop before it (e.g. the K3701's step
-    latency count, whose step comes out at 1)."""
-
-    path: str
-    stop: int
-
-
-@dataclass(frozen=True)
-class FreeRunning:
-    """State of a design that runs on by itself, for exact idle skipping.
-
-    A component may declare it as its ``free_running`` attribute. When the probe ``quiet``
-    reads 1, this state must affect nothing else in the design until a carry accumulator's
-    next carry, a strobe counter's next pulse through its open gate, a plant's next count or a
-    countdown's stop;
-    a backend that skips idle cycles then proves a fixed point of the rest from one cycle and
-    advances this state, up to that event (:meth:`Backend.step` with ``skip_idle``).
-    """
-
-    accumulators: tuple[PhaseAccumulator, ...]
-    counters: tuple[StrobeCounter, ...]
-    carries: tuple[CarryAccumulator, ...]
-    #: Paths of :class:`sim.machine.plant.ServoPlant` instances: while the rest stands still, they
-    #: are stepped natively (bit for bit as their gateware) up to a change of their count.
-    plants: tuple[str, ...]
-    quiet: str
-    countdowns: tuple[Countdown, ...] = ()
-
-    def registers(self) -> tuple[str, ...]:
-        """Probe paths of the registers that make up this state (all else is "the rest")."""
-        return (*(f"{a.path}.{name}" for a in self.accumulators for name in ("phase", "stb")),
-                *(f"{c.path}.{name}" for c in self.counters for name in ("count", "select")),
-                *(f"{c.path}.y" for c in self.carries),
-                *(c.path for c in self.countdowns),
-                *(f"{p}.{name}" for p in self.plants for name in ("velocity", "before")))
 
 
 @dataclass(frozen=True)
@@ -196,8 +121,8 @@ class Backend(abc.ABC):
 
         With ``skip_idle``, a backend may count cycles without evaluating them once the design
         is provably at a fixed point (nothing changes and the inputs are held, or only the
-        component's :class:`FreeRunning` state changes while it is quiet, which is then
-        advanced in closed form); the state is exactly that of stepping.
+        component's declared :class:`hdl.observation.FreeRunning` state changes while it is
+        quiet, which is then advanced in closed form); the state is exactly that of stepping.
         """
 
     @abc.abstractmethod

@@ -15,6 +15,8 @@ from amaranth.hdl import Module, Mux, Signal, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
+from hdl.observation import FreeRunning, PlantState
+
 __all__ = ["ALPHA_BITS", "FRAC_BITS", "VC_MAX", "PlantParams", "ServoPlant", "dac_zero"]
 
 #: Fraction bits of position and velocity.
@@ -132,6 +134,10 @@ class ServoPlant(wiring.Component):
     b_n: Out(1)
     count: Out(signed(32))
     velocity: Out(signed(VC_BITS + 1))
+
+    #: While the chipset stands still, a compiled backend steps the plant natively, with this
+    #: fixed-point format, up to its next count (:mod:`hdl.observation`).
+    FREE_RUNNING = FreeRunning(plants=(PlantState("", VC_BITS, ALPHA_BITS, FRAC_BITS),))
 
     def elaborate(self, platform) -> Module:
         m = Module()

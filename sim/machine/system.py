@@ -10,44 +10,11 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from hdl.chipset import AXES, Accel, Chipset
-from hdl.feed_rate import DIVIDER_WIDTH, FEED_STAGES
 from hdl.hostbus import HostBus
-from sim.backends.contract import (
-    CarryAccumulator,
-    Countdown,
-    FreeRunning,
-    PhaseAccumulator,
-    StrobeCounter,
-)
+from hdl.observation import FreeRunning
 from sim.machine.plant import ALPHA_BITS, ServoPlant
 
-__all__ = ["AxisProbe", "System", "free_running"]
-
-
-def free_running(accel: Accel, accel_bits: int) -> FreeRunning:
-    """What runs on while the machine stands still, with the accel/decel circuit at ``accel``.
-
-    The feed-rate generator's two dividers and its rate multiplier, the accumulator of each
-    accel/decel circuit (which adds x at every fa, for seconds at the end of a move, between
-    its rare carries), the K3701's step latency count going down, and the plants while they
-    move within one encoder count. The chipset's ``quiet`` says when they affect nothing else
-    until the next feed pulse through the open decel gate, an accumulator's next carry, the
-    latency count reaching 1 (the step) or a plant's next count; the compiled backend's idle
-    skipping then advances them, up to that event: between the events of a move too.
-    """
-    paths = {Accel.PRE: ("chipset.accel",), Accel.POST: ("chipset.accel_x", "chipset.accel_y"),
-             Accel.NONE: ()}[accel]
-    return FreeRunning(
-        accumulators=(PhaseAccumulator("chipset.feed.rm_clock", DIVIDER_WIDTH),
-                      PhaseAccumulator("chipset.feed.fa_clock", DIVIDER_WIDTH)),
-        counters=(StrobeCounter("chipset.feed.rate", 6 * FEED_STAGES, clock=0,
-                                gate="chipset.decel.gate_open"),),
-        carries=tuple(CarryAccumulator(path, accel_bits, accel is Accel.POST, clock=1)
-                      for path in paths),
-        plants=tuple(f"plant_{axis}" for axis in AXES),
-        quiet="quiet",
-        countdowns=(Countdown("chipset.k3701.count", stop=1),),
-    )
+__all__ = ["AxisProbe", "System"]
 
 
 class AxisProbe(wiring.Signature):
@@ -98,16 +65,21 @@ class System(wiring.Component):
     fp_total : Out(32)
         Feed pulses the K3701 received since reset.
     quiet : Out(1)
-        The chipset's ``quiet`` (:func:`free_running` may run on alone).
+        The chipset's ``quiet``: its free-running state and the plants may run on alone.
     x, y : Out(AxisProbe())
         Per-axis plant settings, faults and observations.
+
+    ``free_running`` (:mod:`hdl.observation`) is what runs on while the machine stands still:
+    the chipset's (the feed-rate generator's dividers and rate multiplier, the accel/decel
+    accumulators, the K3701's step latency count) and the plants while they move within one
+    encoder count. That is a dwell, the host busy, the axes settling, and, at a low feed, most
+    of every move: the compiled backend's idle skipping advances them up to the next event.
     """
 
     def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15):
-        self.accel = Accel(accel)
-        self.accel_bits = accel_bits
-        #: See :func:`free_running`.
-        self.free_running = free_running(self.accel, accel_bits)
+        self.chipset = Chipset(accel=accel, accel_bits=accel_bits)
+        self.free_running: FreeRunning = self.chipset.free_running.under("chipset").merge(
+            *(ServoPlant.FREE_RUNNING.under(f"plant_{axis}") for axis in AXES), quiet="quiet")
         super().__init__({
             "bus": In(HostBus(8)), "irq": Out(1), "irq_interp": Out(1), "irq_alarm": Out(1),
             "fp_total": Out(32), "quiet": Out(1),
@@ -116,7 +88,7 @@ class System(wiring.Component):
 
     def elaborate(self, platform) -> Module:
         m = Module()
-        m.submodules.chipset = chip = Chipset(accel=self.accel, accel_bits=self.accel_bits)
+        m.submodules.chipset = chip = self.chipset
         wiring.connect(m, wiring.flipped(self.bus), chip.bus)
         m.d.comb += [
             self.irq_interp.eq(chip.irq_interp), self.irq_alarm.eq(chip.irq_alarm),

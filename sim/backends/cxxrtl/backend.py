@@ -20,10 +20,10 @@ from amaranth.hdl import Fragment, Shape
 from amaranth.hdl._ir import PortDirection
 from amaranth.lib import wiring
 
+from hdl.observation import FreeRunning
 from sim.backends.contract import (
     CLOCK_PERIOD,
     Backend,
-    FreeRunning,
     Port,
     check_count,
     check_window,
@@ -31,7 +31,6 @@ from sim.backends.contract import (
     signal_paths,
 )
 from sim.backends.cxxrtl.build import build
-from sim.machine.plant import ALPHA_BITS, FRAC_BITS, VC_BITS
 
 __all__ = ["CxxrtlBackend"]
 
@@ -85,7 +84,7 @@ class CxxrtlBackend(Backend):
     Construction converts and builds the design (or loads it from the cache; ``model`` tells
     which). ``step(n, skip_idle=True)`` and ``run_until(..., skip_idle=True)`` stop evaluating once
     a whole clock cycle changed no state but the component's declared
-    :class:`sim.backends.contract.FreeRunning` state, while its ``quiet`` probe reads 1: with the
+    :class:`hdl.observation.FreeRunning` state, while its ``quiet`` probe reads 1: with the
     inputs held, the rest is at a fixed point, so the cycles up to the next event of the
     free-running state are only counted (``skipped_cycles``) and that state is advanced in closed
     form; the result is bit-identical to stepping. The commits tell after every cycle whether the
@@ -147,6 +146,13 @@ class CxxrtlBackend(Backend):
                     from None
 
         lib, handle = self._lib, self._handle
+        clocks = {acc.path: k for k, acc in enumerate(free.accumulators)}
+
+        def clock(owner: str, path: str | None) -> int:
+            if path not in clocks:
+                raise ValueError(f"{owner}: its clock {path!r} is not a declared accumulator")
+            return clocks[path]
+
         for acc in free.accumulators:
             if lib.k37_free_accumulator(handle, item(f"{acc.path}.phase"),
                                         item(f"{acc.path}.increment"), item(f"{acc.path}.stb"),
@@ -156,22 +162,26 @@ class CxxrtlBackend(Backend):
             gate = ctypes.c_size_t(-1).value if counter.gate is None else item(counter.gate)
             if lib.k37_free_counter(handle, item(f"{counter.path}.count"),
                                     item(f"{counter.path}.select"), counter.width,
-                                    counter.clock, item(f"{counter.path}.word"), gate) < 0:
+                                    clock(counter.path, counter.clock),
+                                    item(f"{counter.path}.word"), gate) < 0:
                 raise ValueError(f"{counter.path}: count and select must be registers of "
                                  f"<= 64 bits, clocked by a declared accumulator")
         for carry in free.carries:
             if lib.k37_free_carry(handle, item(f"{carry.path}.y"), item(f"{carry.path}.x"),
-                                  carry.n, carry.signed, carry.clock) < 0:
+                                  carry.n, carry.signed, clock(carry.path, carry.clock)) < 0:
                 raise ValueError(f"{carry.path}: y must be an n-bit register, x at most 63 bits, "
                                  f"clocked by a declared accumulator")
         for plant in free.plants:
             names = ("velocity", "before", "dac", "dac_zero", "gain", "alpha", "vmax", "stall")
-            items = _sizes([item(f"{plant}.{n}") for n in names])
-            if lib.k37_free_plant(handle, items, VC_BITS, ALPHA_BITS, FRAC_BITS) < 0:
-                raise ValueError(f"{plant}: velocity and position must be registers")
+            items = _sizes([item(f"{plant.path}.{n}") for n in names])
+            if lib.k37_free_plant(handle, items, plant.vc_bits, plant.alpha_bits,
+                                  plant.frac_bits) < 0:
+                raise ValueError(f"{plant.path}: velocity and position must be registers")
         for countdown in free.countdowns:
             if lib.k37_free_countdown(handle, item(countdown.path), countdown.stop) < 0:
                 raise ValueError(f"{countdown.path}: must be a register of <= 64 bits")
+        if free.quiet is None:
+            raise ValueError("the top's free-running declaration names no quiet signal")
         lib.k37_free_quiet(handle, item(free.quiet))
 
     def _set_inits(self) -> None:
