@@ -72,6 +72,9 @@ class AccelDecel(wiring.Component):
         Drained: ``x == 0`` and ``pending == 0`` (``y`` keeps its residue).
     """
 
+    #: Observation outputs, not pins of the chip (the Verilog export keeps them inside).
+    PROBES = ("x", "y", "pending")
+
     def __init__(self, n: int = 15, counter_width: int = 24, bidirectional: bool = False):
         check_params(n, counter_width, bidirectional)
         self.n = n

@@ -134,6 +134,12 @@ class Chipset(wiring.Component):
         K3701's latency count.
     """
 
+    #: Observation outputs, not pins of the chipset (the Verilog export keeps them inside):
+    #: the FP into the K3701, its step pulses, and each axis's K3702 inputs and counters.
+    PROBES = ("fp", *(f"step_{axis}_{sign}" for axis in AXES for sign in ("pos", "neg")),
+              *(f"{axis}__{name}" for axis in AXES
+                for name in ("com_pos", "com_neg", "fb_pos", "fb_neg", "command", "error")))
+
     def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15):
         try:
             self.accel = Accel(accel)

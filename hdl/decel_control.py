@@ -59,6 +59,9 @@ class DecelControl(wiring.Component):
         Probe: the remaining budget (what REMAINING reads).
     """
 
+    #: Observation outputs, not pins of the chip (the Verilog export keeps them inside).
+    PROBES = ("remaining",)
+
     bus: In(HostBus(DECEL_MAP.addr_width))
     inp: In(1)
     out: Out(1)

@@ -113,6 +113,9 @@ class K3702(wiring.Component):
         Alarm interrupt, held until the host acknowledges it (CMD.ack).
     """
 
+    #: Observation outputs, not pins of the chip (the Verilog export keeps them inside).
+    PROBES = ("command", "error")
+
     bus: In(HostBus(K3702_MAP.addr_width))
     com_pos: In(1)
     com_neg: In(1)

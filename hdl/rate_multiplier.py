@@ -51,6 +51,9 @@ class RateMultiplier(wiring.Component):
         input clocks since reset modulo ``64**stages``.
     """
 
+    #: Observation outputs, not pins of the chip (the Verilog export keeps them inside).
+    PROBES = ("count",)
+
     def __init__(self, stages: int = 3):
         self.stages = positive_int("stages", stages)
         bits = 6 * stages

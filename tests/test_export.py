@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 from amaranth.back import verilog
 
+from hdl.divider import PhaseDivider
 from sim.backends.verilator.model import lint
 from sim.fpga.export import (
     BLOCKS,
@@ -118,8 +119,14 @@ def test_the_core_is_amaranths_verilog_unchanged():
     assert core.replace("(* top =  1  *)\n", "", 1) in text("decel_control")
 
 
+class BadProbes(PhaseDivider):
+    """A divider that declares an observation output it does not have."""
+
+    PROBES = ("stb", "nope")
+
+
 def test_a_probe_that_is_not_an_output_port_is_refused(monkeypatch):
-    bad = Exportable("bad", "hdl.divider:PhaseDivider", "test", probes=("stb", "nope"))
+    bad = Exportable("bad", f"{__name__}:BadProbes", "test")
     monkeypatch.setattr("sim.fpga.export.BLOCKS", (*BLOCKS, bad))
     with pytest.raises(ValueError, match=r"bad: probes \['nope'\] are not output ports"):
         pins("bad")

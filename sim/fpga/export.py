@@ -10,8 +10,8 @@ Each exported file holds two layers:
 * a thin **pin wrapper** ``<block>``, generated here, with the real chips' pin names: the
   8-bit host bus as ``d[7:0]`` (bidirectional), ``addr``, ``cs_n``, ``rd_n``, ``wr_n``
   (active low, as on the chips); every other signature port keeps its name (``x_pos`` is
-  +X, ``alarm_n`` is ALARM, active low already in the core). Ports a block lists as probes
-  (simulation observability, not chip pins) stay inside.
+  +X, ``alarm_n`` is ALARM, active low already in the core). Output ports a block declares
+  in its ``PROBES`` (simulation observability, not chip pins) stay inside.
 
 The header names the block's parameters, its register map(s) and version, and the clocking
 and bus protocol; the port list gives each pin its SPEC name and meaning. Waivers for
@@ -57,21 +57,25 @@ class Exportable:
     """One block of the registry: how to build it and which of its ports are chip pins.
 
     ``factory`` is ``"module:Class"``; ``params`` are constructor arguments (the defaults, the
-    paper's values, otherwise); ``probes`` are output ports that are not pins of the chip;
-    ``top`` marks the chipset top (synthesis reports it as the total). The block's register
-    maps are found in its module (every :class:`RegisterMap` there).
+    paper's values, otherwise); ``top`` marks the chipset top (synthesis reports it as the
+    total). The block's own ``PROBES`` name its output ports that are not pins of the chip;
+    its register maps are found in its module (every :class:`RegisterMap` there).
     """
 
     name: str
     factory: str
     title: str
-    probes: tuple[str, ...] = ()
     params: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))
     top: bool = False
 
     def component(self) -> wiring.Component:
         """A new instance of the block."""
         return self._class()(**self.params)
+
+    @property
+    def probes(self) -> tuple[str, ...]:
+        """The block's observation outputs (its class's ``PROBES``), kept out of the pins."""
+        return getattr(self._class(), "PROBES", ())
 
     def _module(self):
         return importlib.import_module(self.factory.split(":")[0])
@@ -102,24 +106,21 @@ def _params(**kwargs: Any) -> MappingProxyType:
 #: two-axis chipset top.
 BLOCKS: tuple[Exportable, ...] = (
     Exportable("k3701", "hdl.k3701:K3701", "KM3701 two-axis interpolator"),
-    Exportable("k3702", "hdl.k3702:K3702", "KM3702 position controller (one axis)",
-               probes=("command", "error")),
+    Exportable("k3702", "hdl.k3702:K3702", "KM3702 position controller (one axis)"),
     Exportable("encoder", "hdl.encoder:EncoderInterface", "encoder interface (one axis)"),
     Exportable("accel_decel", "hdl.accel_decel:AccelDecel",
-               "exponential accel/decel, pre-interpolation (FP) form",
-               probes=("x", "y", "pending")),
+               "exponential accel/decel, pre-interpolation (FP) form"),
     Exportable("accel_decel_axis", "hdl.accel_decel:AccelDecel",
                "exponential accel/decel, post-interpolation (signed, one axis) form",
-               probes=("x", "y", "pending"), params=_params(bidirectional=True)),
+               params=_params(bidirectional=True)),
     Exportable("rate_multiplier", "hdl.rate_multiplier:RateMultiplier",
-               "cascaded SN7497-style binary rate multiplier (feedrate)", probes=("count",)),
+               "cascaded SN7497-style binary rate multiplier (feedrate)"),
     Exportable("divider", "hdl.divider:PhaseDivider", "phase-accumulator clock-enable divider"),
     Exportable("decel_control", "hdl.decel_control:DecelControl",
-               "decel control (FP budget gate)", probes=("remaining",)),
+               "decel control (FP budget gate)"),
     Exportable("feed_rate", "hdl.feed_rate:FeedRate",
                "feed-rate generator (rate multiplier and its two dividers on the host bus)"),
-    Exportable("chipset", "hdl.chipset:Chipset", "two-axis chipset top", top=True,
-               probes=("x__command", "x__error", "y__command", "y__error")),
+    Exportable("chipset", "hdl.chipset:Chipset", "two-axis chipset top", top=True),
 )
 
 
