@@ -1,1 +1,2 @@
-"""Simulation backends, plant models, waveform output and the ``k37`` command line."""
+"""The simulated machine and its backends, running jobs, the FPGA flow, reproducing the paper,
+and the ``k37`` command line (one sub-package each)."""

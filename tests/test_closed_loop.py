@@ -8,8 +8,6 @@ in ``tests/test_backend_equivalence.py``.
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -24,20 +22,13 @@ ROOT = Path(__file__).resolve().parent.parent
 COL = {name: k for k, name in enumerate(TRACE_COLUMNS)}
 
 
-def job_file(tmp_path: Path, gcode: str, machine: str = "", servo: str = "") -> Path:
-    path = tmp_path / "job.toml"
-    path.write_text(f'[machine]\n{machine}\n[servo]\n{servo}\n[program]\ngcode = """\n'
-                    f'{gcode}\n"""\n')
-    return path
-
-
 def run(path: Path, **options) -> object:
     return run_job(load_job(path), RunOptions(backend="cxxrtl", **options))
 
 
-def test_constant_feed_settles_to_following_error_feed_over_kp(tmp_path):
+def test_constant_feed_settles_to_following_error_feed_over_kp(job_file):
     # 600 mm/min = 10 mm/s = 1e4 LSB/s on X alone, no accel/decel: error -> 1e4 / 30.
-    path = job_file(tmp_path, "G21 G90 G01 X20 F600\nM30", machine='accel = "none"',
+    path = job_file("G21 G90 G01 X20 F600\nM30", machine='accel = "none"',
                     servo="kp = 30.0\ntm = 0.01")
     result = run(path, sample_every=500)
     assert result.ok, result.report["alarms"]
@@ -49,8 +40,8 @@ def test_constant_feed_settles_to_following_error_feed_over_kp(tmp_path):
     assert result.report["axes"]["x"]["max_abs_error"] == pytest.approx(1e4 / 30, rel=0.05)
 
 
-def test_full_circle_returns_exactly_to_its_start(tmp_path):
-    path = job_file(tmp_path, "G21 G90 F1200\nG03 I-5 J0\nG04 P0.5\nM30")
+def test_full_circle_returns_exactly_to_its_start(job_file):
+    path = job_file("G21 G90 F1200\nG03 I-5 J0\nG04 P0.5\nM30")
     result = run(path, sample_every=2000)
     r = result.report
     assert r["status"] == "ok", r["alarms"]
@@ -67,9 +58,9 @@ def test_full_circle_returns_exactly_to_its_start(tmp_path):
     assert r["path"]["max_contour_error"] == pytest.approx(expected, rel=0.1, abs=1.0)
 
 
-def test_square_with_g01_corners_ends_each_block_at_its_corner(tmp_path):
+def test_square_with_g01_corners_ends_each_block_at_its_corner(job_file):
     corners = [(5000, 0), (5000, 5000), (0, 5000), (0, 0)]
-    path = job_file(tmp_path, "G21 G90 F900\nG01 X5\nY5\nX0\nY0\nG04 P0.5\nM30")
+    path = job_file("G21 G90 F900\nG01 X5\nY5\nX0\nY0\nG04 P0.5\nM30")
     result = run(path, sample_every=2000)
     r = result.report
     assert r["status"] == "ok", r["alarms"]
@@ -79,9 +70,9 @@ def test_square_with_g01_corners_ends_each_block_at_its_corner(tmp_path):
     assert [r["axes"][a]["actual"] for a in ("x", "y")] == [0, 0]
 
 
-def test_actual_position_is_command_minus_error_at_every_sample(tmp_path):
+def test_actual_position_is_command_minus_error_at_every_sample(job_file):
     """The K3702's command - error is the plant's encoder count, a fixed few cycles late."""
-    path = job_file(tmp_path, "G21 G91 F900\nG01 X0.6 Y-0.3\nG01 X-0.2 Y0.4\nG04 P0.05\nM30",
+    path = job_file("G21 G91 F900\nG01 X0.6 Y-0.3\nG01 X-0.2 Y0.4\nG04 P0.05\nM30",
                     machine='accel = "none"')
     result = run(path, sample_every=1)
     s = result.samples.astype(np.int64)
@@ -99,8 +90,8 @@ def test_actual_position_is_command_minus_error_at_every_sample(tmp_path):
     assert moved[-1] == s[-1, COL["y_actual"]]
 
 
-def test_stalled_axis_raises_the_alarm_and_the_feed_stops(tmp_path):
-    path = job_file(tmp_path, "G21 G90 F600\nG01 X50\nM30",
+def test_stalled_axis_raises_the_alarm_and_the_feed_stops(job_file):
+    path = job_file("G21 G90 F600\nG01 X50\nM30",
                     machine='accel = "none"\nalarm_limit = 1500')
     job = load_job(path)
     backend = build_backend(job, "cxxrtl")
@@ -117,16 +108,11 @@ def test_stalled_axis_raises_the_alarm_and_the_feed_stops(tmp_path):
     backend.close()
 
 
-def k37(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "sim.cli", *args], cwd=cwd,
-                          capture_output=True, text=True, check=False)
-
-
-def test_k37_run_exits_non_zero_with_the_alarm_in_the_json(tmp_path):
-    path = job_file(tmp_path, "G21 G90 F600\nG01 Y30\nM30",
+def test_k37_run_exits_non_zero_with_the_alarm_in_the_json(job_file, k37):
+    path = job_file("G21 G90 F600\nG01 Y30\nM30",
                     machine='accel = "none"\nalarm_limit = 1000')
     out = k37("run", str(path), "--stall", "y", "--json", "-", "--backend", "cxxrtl",
-              "--sample-every", "5000", cwd=tmp_path)
+              "--sample-every", "5000")
     assert out.returncode == 1
     report = json.loads(out.stdout)
     assert report["status"] == "alarm"
@@ -141,10 +127,10 @@ def test_k37_run_exits_non_zero_with_the_alarm_in_the_json(tmp_path):
     ("[program]\ngcode = 'G01 X9000 F100'\n", "outside"),
     ("[program]\ngcode = 'G02 X0 Y0 I5 J0 F4000'\n", "above the K3701's maximum"),
 ])
-def test_bad_jobs_give_one_error_line_and_no_traceback(tmp_path, content, message):
+def test_bad_jobs_give_one_error_line_and_no_traceback(tmp_path, content, message, k37):
     path = tmp_path / "job.toml"
     path.write_text(content)
-    out = k37("run", str(path), cwd=tmp_path)
+    out = k37("run", str(path))
     assert out.returncode == 2
     lines = out.stderr.strip().splitlines()
     assert len(lines) == 1, out.stderr
@@ -152,8 +138,8 @@ def test_bad_jobs_give_one_error_line_and_no_traceback(tmp_path, content, messag
     assert "Traceback" not in out.stderr
 
 
-def test_feed_above_the_interpolator_maximum_is_refused_before_loading(tmp_path):
-    job = load_job(job_file(tmp_path, "G21 G90 G02 X0 Y0 I5 J0 F4000\nM30"))
+def test_feed_above_the_interpolator_maximum_is_refused_before_loading(job_file):
+    job = load_job(job_file("G21 G90 G02 X0 Y0 I5 J0 F4000\nM30"))
     with pytest.raises(FirmwareError, match=r"job.toml:program.gcode:1: feed 4000 mm/min is "
                                             r"above the K3701's maximum for an arc, 2857"):
         check_program(job)

@@ -1,5 +1,6 @@
 """Generated documentation stays in step with the code it is generated from."""
 
+import re
 from pathlib import Path
 
 import pytest
@@ -29,3 +30,19 @@ def test_k37_docs_writes_every_document(tmp_path):
     assert main(["docs", "-o", str(tmp_path)]) == 0
     for name, text in documents().items():
         assert (tmp_path / name).read_text() == text
+
+
+def _source_files() -> set[str]:
+    """Every module and C++ harness of the three packages, as a path from the root."""
+    return {str(p.relative_to(ROOT)) for package in ("hdl", "sim", "firmware_model")
+            for pattern in ("*.py", "*.cc") for p in (ROOT / package).rglob(pattern)
+            if p.name != "__init__.py"}
+
+
+def test_the_readme_architecture_table_names_every_module():
+    readme = (ROOT / "README.md").read_text()
+    section = readme[readme.index("## Architecture"):]
+    section = section[:section.index("\n## ", 1)]
+    named = set(re.findall(r"`([\w/]+\.(?:py|cc))`", section))
+    assert _source_files() - named == set(), "add these to the README's architecture table"
+    assert named - _source_files() == set(), "the README names modules that do not exist"

@@ -5,9 +5,8 @@ from __future__ import annotations
 import pytest
 
 from firmware_model.firmware import FirmwareError, check_program, feed_word, max_feed_mm_min
-from firmware_model.gcode import parse
 from firmware_model.host import T_STATES, Host8085
-from firmware_model.job import AXES, Job, MachineConfig, ServoConfig
+from firmware_model.job import MachineConfig
 from hdl.chipset import port
 from hdl.k3701_model import Kind
 
@@ -72,20 +71,14 @@ def test_maximum_feeds_follow_the_step_latencies():
     assert max_feed_mm_min(machine, Kind.CIRCULAR) == pytest.approx(1e6 / 21 * 0.06)
 
 
-def job_of(gcode: str) -> Job:
-    machine = MachineConfig()
-    return Job("t", machine, dict.fromkeys(AXES, ServoConfig()),
-               parse(gcode, source="t.ngc", sqrt2=machine.sqrt2))
-
-
 @pytest.mark.parametrize(("gcode", "message"), [
     ("G01 X1 F6000", r"t.ngc:1: feed 6000 mm/min is above the K3701's maximum for a line, 5455"),
     ("G01 X1 F0.01", r"t.ngc:1: feed 0.01 mm/min is below the rate multiplier's resolution"),
 ])
-def test_impossible_feeds_are_refused_with_the_line(gcode, message):
+def test_impossible_feeds_are_refused_with_the_line(make_job, gcode, message):
     with pytest.raises(FirmwareError, match=message):
-        check_program(job_of(gcode))
+        check_program(make_job(gcode, source="t.ngc"))
 
 
-def test_rapid_moves_use_the_machine_rapid_feed():
-    check_program(job_of("G00 X5 Y5"))  # 3000 mm/min: inside the linear maximum
+def test_rapid_moves_use_the_machine_rapid_feed(make_job):
+    check_program(make_job("G00 X5 Y5"))  # 3000 mm/min: inside the linear maximum

@@ -9,8 +9,6 @@ been evaluated.
 
 from __future__ import annotations
 
-import random
-
 import numpy as np
 import pytest
 from amaranth.hdl import Module, Mux
@@ -19,43 +17,13 @@ from amaranth.lib.wiring import In, Out
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_model.gcode import parse
-from firmware_model.job import AXES, Job, MachineConfig, ServoConfig
+from firmware_model.job import Job, MachineConfig, ServoConfig
 from hdl.k3701 import K3701, K3701_MAP
 from hdl.k3701_model import Block
 from sim.backends.cxxrtl.backend import CxxrtlBackend
 from sim.machine.plant import ALPHA_BITS, ServoPlant
+from sim.run.report import HOW_FIELDS
 from sim.run.runner import RunOptions, build_backend, run_job
-
-#: Report fields that depend on how the run was computed, not on what it computed.
-HOW = ("wall_seconds", "cycles_per_second", "backend", "skipped_cycles")
-
-
-def dwell_job(seed: int, accel: str) -> tuple[Job, dict, float]:
-    """Short random moves, each followed by a dwell; returns the job, faults, dwell seconds."""
-    rng = random.Random(seed)
-    lines = [f"G21 G91 F{rng.choice((300, 1200, 2400))}"]
-    dwell = 0.0
-    for _ in range(3):
-        if rng.random() < 0.5:
-            x, y = rng.randint(-30, 30) / 1000, rng.randint(-30, 30) / 1000
-            lines.append(f"G01 X{x:.3f} Y{y:.3f}")
-        else:
-            lines.append(f"G0{rng.choice((2, 3))} I{rng.randint(5, 20) / 1000:.3f} J0")
-        seconds = rng.randint(50, 150) / 1000  # the axes settle in the first 10 to 40 ms
-        lines.append(f"G04 P{seconds}")
-        dwell += seconds
-    lines.append("M30")
-    machine = MachineConfig(accel=accel, accel_bits=rng.choice((4, 6, 8)),
-                            sqrt2=rng.random() < 0.5,
-                            accel_fa_hz=float(rng.randint(50_000, 400_000)),
-                            encoder_filter=rng.randint(1, 4))
-    servo = ServoConfig(kp=rng.uniform(100, 400), tm=rng.uniform(0.0002, 0.002))
-    program = parse("\n".join(lines), source=f"<dwell {seed}>", sqrt2=machine.sqrt2)
-    faults = {}
-    if rng.random() < 0.3:
-        faults[rng.choice(AXES)] = {"stall": 1}  # at rest, in alarm: skippable too
-    return Job(f"dwell-{seed}", machine, dict.fromkeys(AXES, servo), program), faults, dwell
 
 
 def run(job: Job, faults: dict, kind: str, skip: bool, sample_every: int,
@@ -67,7 +35,7 @@ def run(job: Job, faults: dict, kind: str, skip: bool, sample_every: int,
     signals = {name: backend.probe(name) for name in backend.probe_names()}
     skipped = backend.skipped_cycles
     backend.close()
-    report = {k: v for k, v in result.report.items() if k not in HOW}
+    report = {k: v for k, v in result.report.items() if k not in HOW_FIELDS}
     return report, result.samples, signals, skipped
 
 
@@ -86,15 +54,16 @@ def skipped_equals_stepped(job: Job, faults: dict, sample_every: int,
 
 @pytest.mark.parametrize("accel", ["pre", "post", "none"])
 @pytest.mark.parametrize(("seed", "sample_every"), [(1, 97), (2, 10_007)])
-def test_skipping_idle_cycles_changes_no_signal_of_the_machine(accel, seed, sample_every):
-    job, faults, dwell = dwell_job(seed * 10 + len(accel), accel)
+def test_skipping_idle_cycles_changes_no_signal_of_the_machine(accel, seed, sample_every,
+                                                              random_moves):
+    job, faults, dwell = random_moves(seed * 10 + len(accel), accel, dwell=True)
     _, skipped = skipped_equals_stepped(job, faults, sample_every)
     # Most of the dwells (the axes settle first) and the waits for the host are skipped.
     assert skipped[3] > 0.5 * dwell * job.machine.clock_hz
 
 
-def test_a_skipping_compiled_run_equals_amaranths_simulator():
-    job, faults, _ = dwell_job(7, "pre")
+def test_a_skipping_compiled_run_equals_amaranths_simulator(random_moves):
+    job, faults, _ = random_moves(1, "pre", dwell=True)
     compiled = run(job, faults, "cxxrtl", True, 50, max_cycles=30_000)
     reference = run(job, faults, "pysim", True, 50, max_cycles=30_000)
     assert compiled[3] > 5_000, "the run must include skipped cycles"
@@ -103,25 +72,21 @@ def test_a_skipping_compiled_run_equals_amaranths_simulator():
 
 
 @pytest.mark.parametrize("accel", ["pre", "post"])
-def test_skipping_between_accel_decel_carries_changes_no_signal(accel):
+def test_skipping_between_accel_decel_carries_changes_no_signal(accel, make_job):
     # The paper's tau = 300 ms: after the move the circuit drains for seconds, its last
     # carries 100 to 300 ms apart; a stiff servo (Kp 200/s, Tm 0.5 ms) rests in between.
-    machine = MachineConfig(accel=accel)
-    program = parse("G21 G91 F1200\nG01 X0.3 Y0.1\nM30", source="<tail>", sqrt2=machine.sqrt2)
-    servo = ServoConfig(kp=200.0, tm=0.0005)
-    job = Job("tail", machine, dict.fromkeys(AXES, servo), program)
+    job = make_job("G21 G91 F1200\nG01 X0.3 Y0.1\nM30", MachineConfig(accel=accel),
+                   ServoConfig(kp=200.0, tm=0.0005), name="tail")
     stepped, skipped = skipped_equals_stepped(job, {}, 1000)
     assert skipped[3] > 0.3 * stepped[0]["cycles"]
 
 
 @pytest.mark.parametrize("accel", ["pre", "post", "none"])
-def test_skipping_between_the_feed_pulses_of_a_low_feed_arc_changes_no_signal(accel):
+def test_skipping_between_the_feed_pulses_of_a_low_feed_arc_changes_no_signal(accel, make_job):
     # The paper's low feed (word 0x00FF: 88 FP/s): between feed pulses, carries and encoder
     # edges, thousands of cycles apart, only the free-running state and the plants move.
-    machine = MachineConfig(accel=accel)
-    program = parse("G21 G91 F5.3\nG03 X0 Y0 I0.04 J0\nM30", source="<low feed>",
-                    sqrt2=machine.sqrt2)
-    job = Job("low-feed", machine, dict.fromkeys(AXES, ServoConfig()), program)
+    job = make_job("G21 G91 F5.3\nG03 X0 Y0 I0.04 J0\nM30", MachineConfig(accel=accel),
+                   name="low-feed")
     stepped, skipped = skipped_equals_stepped(job, {}, 1000)
     assert skipped[3] > 0.5 * stepped[0]["cycles"]
 
@@ -130,15 +95,16 @@ def test_skipping_between_the_feed_pulses_of_a_low_feed_arc_changes_no_signal(ac
 @given(accel=st.sampled_from(["pre", "post", "none"]), feed=st.integers(1, 3000),
        tm=st.sampled_from([1e-6, 0.0005, 0.01]), kp=st.floats(20, 300),
        x=st.integers(-40, 40), y=st.integers(-40, 40), arc=st.booleans())
-def test_skipping_through_random_moves_changes_no_signal(accel, feed, tm, kp, x, y, arc):
+def test_skipping_through_random_moves_changes_no_signal(make_job, accel, feed, tm, kp, x, y,
+                                                         arc):
     # Feeds from 1 to 3000 mm/min give every shape of rate multiplier word (the skip stops
     # before the next feed pulse through the open gate); Tm = 1 us lands the velocity at once, so
     # the plants also move at a steady velocity (stepped in closed form up to the next count).
     machine = MachineConfig(accel=accel, accel_fa_hz=400_000.0)
     move = f"G03 X0 Y0 I{abs(x) / 1000 + 0.005:.3f} J0" if arc else \
         f"G01 X{x / 1000:.3f} Y{y / 1000:.3f}"
-    program = parse(f"G21 G91 F{feed}\n{move}\nM30", source="<random>", sqrt2=machine.sqrt2)
-    job = Job("random", machine, dict.fromkeys(AXES, ServoConfig(kp=kp, tm=tm)), program)
+    job = make_job(f"G21 G91 F{feed}\n{move}\nM30", machine, ServoConfig(kp=kp, tm=tm),
+                   name="random")
     _, skipped = skipped_equals_stepped(job, {}, 997, max_cycles=2_000_000)
     assert skipped[3] > 0
 

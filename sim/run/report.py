@@ -12,6 +12,9 @@ from typing import Any
 __all__ = ["RUN_SCHEMA", "SCHEMA_VERSION", "schema_markdown", "validate"]
 
 SCHEMA_VERSION = 1
+#: Fields that depend on how the run was computed (backend, idle skipping, wall clock), not
+#: on what it computed: two runs of one job differ in these only.
+HOW_FIELDS = ("wall_seconds", "cycles_per_second", "backend", "skipped_cycles")
 
 
 def _obj(description: str, props: dict[str, dict], required: list[str] | None = None) -> dict:

@@ -1,0 +1,2 @@
+"""The compiled backend: CXXRTL C++ built with g++ (``build.py``), driven through ctypes
+(``backend.py``) and a C harness (``harness.cc``) that steps, records and skips idle cycles."""

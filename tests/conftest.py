@@ -1,0 +1,99 @@
+"""Fixtures the tests share: jobs built or written for a test, random move programs, the
+``k37`` command.
+
+Amaranth-simulator helpers for the gateware's unit tests (a bench on a 1 MHz clock, host-bus
+accesses) are in ``testbench.py`` beside this file.
+"""
+
+from __future__ import annotations
+
+import random
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from firmware_model.gcode import parse
+from firmware_model.job import AXES, Job, MachineConfig, ServoConfig
+
+
+def _make_job(gcode: str, machine: MachineConfig | None = None,
+              servo: ServoConfig | None = None, *, name: str = "test",
+              source: str | None = None) -> Job:
+    """``gcode`` (named ``source`` in errors, default ``<name>``) on ``machine`` (default: the
+    paper's) with ``servo`` on both axes."""
+    machine = machine or MachineConfig()
+    program = parse(gcode, source=source or f"<{name}>", lsb_mm=machine.lsb_mm,
+                    sqrt2=machine.sqrt2)
+    return Job(name, machine, dict.fromkeys(AXES, servo or ServoConfig()), program)
+
+
+def _random_moves(seed: int, accel: str, *, dwell: bool) -> tuple[Job, dict, float]:
+    """Three short random lines or full circles (each followed by a 50 to 150 ms dwell if
+    ``dwell``) on a random small machine, and random faults: the job, its faults and the
+    seconds of dwell."""
+    rng = random.Random(seed)
+    lines = [f"G21 G91 F{rng.choice((300, 1200, 2400))}"]
+    seconds = 0.0
+    for _ in range(3):
+        if rng.random() < 0.5:
+            x, y = rng.randint(-40, 40) / 1000, rng.randint(-40, 40) / 1000
+            lines.append(f"G01 X{x:.3f} Y{y:.3f}")
+        else:
+            lines.append(f"G0{rng.choice((2, 3))} I{rng.randint(5, 30) / 1000:.3f} J0")
+        if dwell:
+            wait = rng.randint(50, 150) / 1000  # the axes settle in the first 10 to 40 ms
+            lines.append(f"G04 P{wait}")
+            seconds += wait
+    lines.append("M30")
+    machine = MachineConfig(accel=accel, accel_bits=rng.choice((4, 6, 8)),
+                            sqrt2=rng.random() < 0.5,
+                            accel_fa_hz=float(rng.randint(50_000, 400_000)),
+                            alarm_limit=rng.choice((30, 20_000)),
+                            encoder_filter=rng.randint(1, 4))
+    servo = ServoConfig(kp=rng.uniform(100, 400), tm=rng.uniform(0.0002, 0.002))
+    faults = {}
+    if rng.random() < 0.4:
+        faults[rng.choice(AXES)] = {rng.choice(("stall", "break_a")): 1}
+    return _make_job("\n".join(lines), machine, servo, name=f"random-{seed}"), faults, seconds
+
+
+@pytest.fixture(scope="session")
+def make_job() -> Callable[..., Job]:
+    """``make_job(gcode, machine=None, servo=None, *, name, source)``: see
+    :func:`_make_job`."""
+    return _make_job
+
+
+@pytest.fixture(scope="session")
+def random_moves() -> Callable[..., tuple[Job, dict, float]]:
+    """``random_moves(seed, accel, *, dwell)``: a random short job, its faults and its dwell
+    seconds (see :func:`_random_moves`)."""
+    return _random_moves
+
+
+@pytest.fixture
+def job_file(tmp_path: Path) -> Callable[..., Path]:
+    """Writes a TOML job (its ``[machine]`` and ``[servo]`` tables as TOML text) to
+    ``tmp_path/job.toml`` and returns its path."""
+
+    def write(gcode: str, machine: str = "", servo: str = "") -> Path:
+        path = tmp_path / "job.toml"
+        path.write_text(f'[machine]\n{machine}\n[servo]\n{servo}\n[program]\ngcode = """\n'
+                        f'{gcode}\n"""\n')
+        return path
+
+    return write
+
+
+@pytest.fixture
+def k37(tmp_path: Path) -> Callable[..., subprocess.CompletedProcess]:
+    """Runs ``k37 ARGS`` in a fresh Python (``python -m sim.cli``) in ``tmp_path``."""
+
+    def run(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "sim.cli", *args], cwd=tmp_path,
+                              capture_output=True, text=True, check=False)
+
+    return run
