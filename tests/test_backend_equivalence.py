@@ -20,7 +20,7 @@ def comparable(report: dict) -> dict:
 
 
 @pytest.mark.parametrize("accel", ["pre", "post", "none"])
-@pytest.mark.parametrize("seed", [1, 2])
+@pytest.mark.parametrize("seed", [pytest.param(1, marks=pytest.mark.slow), 2])
 def test_backends_give_identical_reports_and_traces(accel, seed, random_moves):
     job, faults, _ = random_moves(seed * 10 + len(accel), accel, dwell=False)
     results = {}

@@ -189,6 +189,7 @@ def test_gateware_equals_model_on_a_glitchy_walk_in_every_mode():
 # -- counting -------------------------------------------------------------------------------
 
 @pytest.mark.slow
+@pytest.mark.slow
 def test_glitches_shorter_than_k_never_change_the_count_over_a_million_edges():
     # The reference model (equal to the gateware above) runs what the Amaranth simulator
     # cannot: 10^6 edges, about 3 x 10^6 samples.

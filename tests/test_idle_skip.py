@@ -53,7 +53,8 @@ def skipped_equals_stepped(job: Job, faults: dict, sample_every: int,
 
 
 @pytest.mark.parametrize("accel", ["pre", "post", "none"])
-@pytest.mark.parametrize(("seed", "sample_every"), [(1, 97), (2, 10_007)])
+@pytest.mark.parametrize(("seed", "sample_every"),
+                         [pytest.param(1, 97, marks=pytest.mark.slow), (2, 10_007)])
 def test_skipping_idle_cycles_changes_no_signal_of_the_machine(accel, seed, sample_every,
                                                               random_moves):
     job, faults, dwell = random_moves(seed * 10 + len(accel), accel, dwell=True)
@@ -62,6 +63,7 @@ def test_skipping_idle_cycles_changes_no_signal_of_the_machine(accel, seed, samp
     assert skipped[3] > 0.5 * dwell * job.machine.clock_hz
 
 
+@pytest.mark.slow
 def test_a_skipping_compiled_run_equals_amaranths_simulator(random_moves):
     job, faults, _ = random_moves(1, "pre", dwell=True)
     compiled = run(job, faults, "cxxrtl", True, 50, max_cycles=30_000)
@@ -91,6 +93,7 @@ def test_skipping_between_the_feed_pulses_of_a_low_feed_arc_changes_no_signal(ac
     assert skipped[3] > 0.5 * stepped[0]["cycles"]
 
 
+@pytest.mark.slow
 @settings(derandomize=True, max_examples=12, deadline=None)
 @given(accel=st.sampled_from(["pre", "post", "none"]), feed=st.integers(1, 3000),
        tm=st.sampled_from([1e-6, 0.0005, 0.01]), kp=st.floats(20, 300),

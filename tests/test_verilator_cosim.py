@@ -443,6 +443,7 @@ def cosimulate(chip: Chip, seed: int, cycles: int = CYCLES) -> int:
     return checks
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", SEEDS)
 @pytest.mark.parametrize("name", list(CHIPS))
 def test_exported_verilog_matches_the_reference_model_on_random_stimulus(name, seed):
