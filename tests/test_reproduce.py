@@ -15,17 +15,14 @@ import pytest
 
 from firmware_model.firmware import feed_word
 from sim.cli import build_parser
-from sim.reproduce.experiments import (
-    FEED_HIGH,
-    FEED_LOW,
-    MACHINE,
-    QUICK,
-    analyse,
+from sim.reproduce.experiments import analyse, reproduce
+from sim.reproduce.paper import FEED_HIGH, FEED_LOW
+from sim.reproduce.runs import MACHINE, QUICK
+from sim.reproduce.theory import (
     feed_for_word,
     fp_rate,
     hardware_tau,
     lag,
-    reproduce,
     servo,
     servo_radius_loss,
 )
