@@ -34,6 +34,7 @@ def quick(tmp_path_factory):
     return reproduce(out, quick=True), out
 
 
+@pytest.mark.slow
 def test_every_row_of_the_quick_reproduction_passes(quick):
     result, _ = quick
     failed = [f"{row.what}: {row.emulator} (tolerance: {row.tolerance})"
@@ -43,6 +44,7 @@ def test_every_row_of_the_quick_reproduction_passes(quick):
     assert all(s.rows for s in result.sections)
 
 
+@pytest.mark.slow
 def test_report_has_every_row_and_every_figure(quick):
     result, out = quick
     report = (out / "report.md").read_text()
@@ -58,6 +60,7 @@ def test_report_has_every_row_and_every_figure(quick):
     assert "What was scaled down" in report and "Scale `quick`" in report
 
 
+@pytest.mark.slow
 def test_a_row_fails_when_the_emulator_is_off(quick, tmp_path):
     """The rows compare measured values: doctor one run and its row, and only it, fails."""
     result, _ = quick
