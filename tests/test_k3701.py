@@ -26,7 +26,7 @@ from hdl.k3701_model import (
     quadrant_of,
     walk,
 )
-from sim.reproduce.experiments import table1
+from sim.reproduce.paper import table1
 
 OUTPUTS = ("x_pos", "x_neg", "y_pos", "y_neg", "busy", "irq", "error", "overrun")
 CMD = K3701_MAP["CMD"]

@@ -15,17 +15,14 @@ import pytest
 
 from firmware_model.firmware import feed_word
 from sim.cli import build_parser
-from sim.reproduce.experiments import (
-    FEED_HIGH,
-    FEED_LOW,
-    MACHINE,
-    QUICK,
-    analyse,
+from sim.reproduce.experiments import analyse, reproduce
+from sim.reproduce.paper import FEED_HIGH, FEED_LOW
+from sim.reproduce.runs import MACHINE, QUICK
+from sim.reproduce.theory import (
     feed_for_word,
     fp_rate,
     hardware_tau,
     lag,
-    reproduce,
     servo,
     servo_radius_loss,
 )
@@ -37,6 +34,7 @@ def quick(tmp_path_factory):
     return reproduce(out, quick=True), out
 
 
+@pytest.mark.slow
 def test_every_row_of_the_quick_reproduction_passes(quick):
     result, _ = quick
     failed = [f"{row.what}: {row.emulator} (tolerance: {row.tolerance})"
@@ -46,6 +44,7 @@ def test_every_row_of_the_quick_reproduction_passes(quick):
     assert all(s.rows for s in result.sections)
 
 
+@pytest.mark.slow
 def test_report_has_every_row_and_every_figure(quick):
     result, out = quick
     report = (out / "report.md").read_text()
@@ -61,6 +60,7 @@ def test_report_has_every_row_and_every_figure(quick):
     assert "What was scaled down" in report and "Scale `quick`" in report
 
 
+@pytest.mark.slow
 def test_a_row_fails_when_the_emulator_is_off(quick, tmp_path):
     """The rows compare measured values: doctor one run and its row, and only it, fails."""
     result, _ = quick

@@ -1,0 +1,151 @@
+"""What the observations are compared with: the hardware's exact rates and the linear physics.
+
+The accel/decel circuit is a first-order lag of the FP count (:func:`lag`, SPEC section 5);
+each axis's closed position loop is ``G(s) = Kp / (s (1 + s Tm) + Kp)`` (:func:`servo`,
+:func:`servo_radius_loss`, SPEC section 9); the K3701's commanded path and FP counts come from
+its reference model (:func:`ideal_command`, :func:`quarter_counts`). Everything here is
+computed independently of the emulator's runs.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from firmware_model.firmware import FEED_BITS, feed_word, rm_clock_hz
+from firmware_model.job import MachineConfig
+from hdl.divider_model import frequency_of, increment_for
+from hdl.feed_rate import DIVIDER_WIDTH
+from hdl.k3701_model import Block, make_path, walk
+
+__all__ = ["E63", "feed_for_word", "fp_rate", "hardware_tau", "ideal_command", "lag",
+           "quarter_counts", "servo", "servo_radius_loss"]
+
+#: 1 - 1/e: the fraction of the final value a first-order lag reaches after one tau.
+E63 = 1 - math.exp(-1)
+
+
+# -- the hardware's rates ---------------------------------------------------------------------
+
+
+def feed_for_word(machine: MachineConfig, word: int) -> float:
+    """The G-code feed (mm/min) whose rate-multiplier word is ``word`` (inverts feed_word)."""
+    feed = word / (1 << FEED_BITS) * rm_clock_hz(machine) * 60 * machine.lsb_mm
+    if feed_word(machine, feed) != word:
+        raise ValueError(f"no feed gives the rate-multiplier word {word}")
+    return feed
+
+
+def fp_rate(machine: MachineConfig, word: int) -> float:
+    """The mean FP rate of a feed word on the hardware (its dividers' exact increments)."""
+    inc = increment_for(rm_clock_hz(machine), width=DIVIDER_WIDTH, f_clk=machine.clock_hz)
+    f_in = frequency_of(inc, width=DIVIDER_WIDTH, f_clk=machine.clock_hz)
+    return f_in * word / (1 << FEED_BITS)
+
+
+def hardware_tau(machine: MachineConfig) -> float:
+    """The accel/decel time constant 2^n / fa with the fa divider's exact increment."""
+    inc = increment_for(machine.accel_fa_hz, width=DIVIDER_WIDTH, f_clk=machine.clock_hz)
+    return 2**machine.accel_bits / frequency_of(inc, width=DIVIDER_WIDTH, f_clk=machine.clock_hz)
+
+
+# -- the accel/decel circuit and the servo ------------------------------------------------------
+
+
+def _expm(m: np.ndarray) -> np.ndarray:
+    """Matrix exponential (scaling and squaring of a Taylor series; small matrices)."""
+    squarings = max(0, math.ceil(math.log2(max(np.abs(m).sum(axis=1).max(), 1e-300))) + 1)
+    a = m / 2.0**squarings
+    result = term = np.eye(len(m))
+    for k in range(1, 16):
+        term = term @ a / k
+        result = result + term
+    for _ in range(squarings):
+        result = result @ result
+    return result
+
+
+def lag(t: np.ndarray, signal: np.ndarray, tau: float) -> np.ndarray:
+    """``signal`` (sampled at the uniform times ``t``) through 1 / (1 + s tau), from rest.
+
+    Exact for a signal that is linear between samples.
+    """
+    dt = t[1] - t[0]
+    a = math.exp(-dt / tau)
+    b = 1 - tau / dt * (1 - a)
+    out = np.empty(len(signal))
+    y = out[0] = signal[0]
+    for k in range(len(signal) - 1):
+        y = a * y + (1 - a) * signal[k] + b * (signal[k + 1] - signal[k])
+        out[k + 1] = y
+    return out
+
+
+def servo(t: np.ndarray, command: np.ndarray, kp: float, tm: float,
+          substeps: int = 10) -> np.ndarray:
+    """The actual position of one axis following ``command``: G(s) = Kp / (s (1 + s Tm) + Kp).
+
+    The plant of SPEC section 9 (velocity command Kp x error, first-order velocity lag Tm),
+    from rest at ``command[0]``; the command is taken as linear between the samples.
+    """
+    h = (t[1] - t[0]) / substeps
+    # State (position, velocity) with the command as a held input over each substep.
+    system = np.array([[0.0, 1.0, 0.0], [-kp / tm, -1 / tm, kp / tm], [0.0, 0.0, 0.0]])
+    step = _expm(system * h)
+    (p11, p12, g1), (p21, p22, g2) = step[0], step[1]
+    out = np.empty(len(command))
+    p, v = float(command[0]), 0.0
+    out[0] = p
+    for k in range(len(command) - 1):
+        c0, dc = command[k], (command[k + 1] - command[k]) / substeps
+        for j in range(substeps):
+            c = c0 + (j + 0.5) * dc
+            p, v = p11 * p + p12 * v + g1 * c, p21 * p + p22 * v + g2 * c
+        out[k + 1] = p
+    return out
+
+
+def servo_radius_loss(radius: float, speed: float, kp: float, tm: float) -> float:
+    """Steady-state radius loss R (1 - |G(jw)|) of a circle followed at ``speed`` (LSB/s).
+
+    ``G(s) = Kp / (s (1 + s Tm) + Kp)`` is one axis's closed position loop, ``w = v / R``.
+    """
+    w = speed / radius
+    return radius * (1 - kp / abs(complex(kp - w * w * tm, w)))
+
+
+# -- the K3701's path (its reference model) -------------------------------------------------------
+
+
+def ideal_command(block: Block, fp_per_s: float, t: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Where the K3701 has commanded each axis at times ``t`` (s after its FP start).
+
+    FP arrive at the constant rate ``fp_per_s``; each step of the reference model's path
+    costs 2 half-FP (3 for a diagonal with sqrt(2) control), and happens with the FP that
+    completes its credit.
+    """
+    steps = [(s.dx, s.dy) for s in walk(block)]
+    d = np.array(steps, dtype=float).reshape(-1, 2)
+    cost = np.where((d[:, 0] != 0) & (d[:, 1] != 0) & block.sqrt2, 3, 2)
+    fp_of_step = np.ceil(np.cumsum(cost) / 2)
+    done = np.searchsorted(fp_of_step / fp_per_s, t, side="right")
+    pos = np.vstack([np.zeros((1, 2)), np.cumsum(d, axis=0)])
+    return pos[done, 0], pos[done, 1]
+
+
+def quarter_counts(radius: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Angle (rad) after each step of a CCW quarter circle from the x axis, and the exact FP
+    counts to that point with sqrt(2) control off and on (the reference model's path)."""
+    path = make_path(Block.arc(0, 0, -radius, 0))
+    angles, n, diag = [], [], []
+    steps = diagonal = 0
+    while path.x > 0:
+        step, _, _ = path.advance()
+        steps += 1
+        diagonal += step.dx != 0 and step.dy != 0
+        angles.append(math.atan2(path.y, path.x))
+        n.append(steps)
+        diag.append(diagonal)
+    n_arr, d_arr = np.array(n), np.array(diag)
+    return np.array(angles), n_arr, n_arr + (d_arr + 1) // 2

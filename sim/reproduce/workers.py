@@ -1,0 +1,144 @@
+"""The experiments' runs in worker processes: :func:`run_all`.
+
+The closed-loop runs are independent, so they run in worker processes (two by default, one
+per core), all on the compiled (CXXRTL) backend; every run on a given accel placement shares
+one compiled model, built once per process and reset between runs.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import time
+from collections.abc import Callable
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+
+import numpy as np
+
+from firmware_model.host import Host8085
+from firmware_model.job import AXES
+from hdl.decel_control import DECEL_MAP
+from hdl.feed_rate import FEED_MAP
+from hdl.k3701 import block_registers
+from sim.backends.contract import Backend
+from sim.reproduce.runs import RateSpec, RunData, RunSpec, Scale, minus_spec, run_specs
+from sim.run.link import SimulatedLink
+from sim.run.runner import RunOptions, build_backend, run_job
+
+__all__ = ["run_all"]
+
+_BACKENDS: dict[str, Backend] = {}
+
+
+def _backend(accel: str) -> Backend:
+    """This process's compiled machine for ``accel``, reset to cycle 0."""
+    backend = _BACKENDS.get(accel)
+    if backend is None:
+        job = RunSpec("build", accel, "M30", 1).job()
+        backend = _BACKENDS[accel] = build_backend(job, "cxxrtl")
+    else:
+        backend.reset()
+    return backend
+
+
+def _build(accel: str) -> RunData:
+    """Build (or load from the cache) this process's model for ``accel``."""
+    start = time.perf_counter()
+    _backend(accel)
+    return RunData(f"build {accel}", {}, np.zeros(0), {}, time.perf_counter() - start)
+
+
+def _run(spec: RunSpec) -> RunData:
+    """A closed-loop run of ``spec``, and the probes its experiment reads after it."""
+    start = time.perf_counter()
+    backend = _backend(spec.accel)
+    job = spec.job()
+    result = run_job(job, RunOptions(backend="cxxrtl", sample_every=spec.sample_every,
+                                     max_cycles=spec.max_cycles,
+                                     budget_offset=spec.budget_offset), backend)
+    probes = {"busy": backend.probe("chipset.k3701.busy"),
+              "remaining_x": Host8085(SimulatedLink(backend)).read("K3701", "X")}
+    if spec.drain_cycles:
+        limit = backend.cycle + spec.drain_cycles
+        while not backend.probe("chipset.accel.idle") and backend.cycle < limit:
+            backend.step(1000)
+        probes["drained_cycle"] = backend.cycle
+    probes["fp_total"] = backend.get("fp_total")
+    for axis in AXES:
+        probes[f"{axis}_command"] = backend.get(f"{axis}__command")
+        probes[f"{axis}_steps"] = (backend.get(f"{axis}__pulses_pos")
+                                   - backend.get(f"{axis}__pulses_neg"))
+    return RunData(spec.key, result.report, result.samples, probes,
+                   time.perf_counter() - start)
+
+
+def _max_rates(spec: RateSpec) -> RunData:
+    """Step rates of the K3701 gateware with FP offered every cycle (SPEC section 3)."""
+    start = time.perf_counter()
+    probes: dict[str, int] = {}
+    cycles = 0
+    for name, block, counter, steps in spec.blocks:
+        backend = _backend(spec.accel)
+        host = Host8085(SimulatedLink(backend))
+        host.command("K3701", ack=1, clear=1)
+        for register, value in block_registers(block).items():
+            host.write("K3701", register, value)
+        host.command("K3701", start=1, ack=1)
+        # The feed path wide open: the rate multiplier's input clock at every cycle and its
+        # word at the maximum, the budget at the maximum: FP in all but 1 of 2^18 cycles.
+        for chip, regmap, register in (("FEED", FEED_MAP, "RM_INC"), ("FEED", FEED_MAP, "FEED"),
+                                       ("DECEL", DECEL_MAP, "BUDGET")):
+            host.write(chip, register, regmap[register].bounds[1])
+        backend.step(1000)  # past the start and the circle's radius check
+        c0, n0 = backend.cycle, backend.get(counter)
+        backend.step(steps * block.latency)
+        probes[f"{name}_cycles"] = backend.cycle - c0
+        probes[f"{name}_steps"] = backend.get(counter) - n0
+        probes[f"{name}_busy"] = backend.probe("chipset.k3701.busy")
+        probes[f"{name}_overrun"] = backend.probe("chipset.k3701.overrun")
+        cycles += backend.cycle
+    return RunData(spec.key, {"cycles": cycles}, np.zeros(0), probes,
+                   time.perf_counter() - start)
+
+
+def _execute(task: RunSpec | RateSpec | str) -> RunData:
+    """A worker's task: a run, the step-rate measurement, or a build (an accel placement)."""
+    if isinstance(task, str):
+        return _build(task)
+    if isinstance(task, RateSpec):
+        return _max_rates(task)
+    return _run(task)
+
+
+def run_all(scale: Scale, jobs: int = 2,
+            progress: Callable[[str], None] | None = None) -> dict[str, RunData]:
+    """Run every experiment's runs in ``jobs`` worker processes; results by key.
+
+    Each accel placement's model is built once first (two builds in parallel); a placement's
+    runs are queued as soon as its model is in the cache, so no model is compiled twice.
+    """
+    say = progress or (lambda _: None)
+    specs = run_specs(scale)
+    by_accel: dict[str, list[RunSpec | RateSpec]] = {"pre": [], "post": []}
+    for spec in specs.values():
+        by_accel[spec.accel].append(spec)
+    results: dict[str, RunData] = {}
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max(1, jobs), mp_context=context) as pool:
+        pending: dict[Future, str] = {pool.submit(_execute, accel): accel
+                                      for accel in by_accel}
+        while pending:
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                key = pending.pop(future)
+                data = future.result()
+                results[data.key] = data
+                cycles = data.report.get("cycles")
+                what = f", {cycles / 1e6:.1f} M cycles" if cycles else ""
+                say(f"{data.key}: {data.seconds:.1f} s{what}")
+                if key in by_accel:
+                    pending.update({pool.submit(_execute, spec): spec.key
+                                    for spec in by_accel[key]})
+                elif key == "hazard_exact":
+                    minus = minus_spec(data, specs["hazard_exact"])  # type: ignore[arg-type]
+                    pending[pool.submit(_execute, minus)] = minus.key
+    return results
