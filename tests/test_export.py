@@ -109,6 +109,20 @@ def test_probe_ports_stay_inside_the_core():
            "error." in text("k3702")
 
 
+def test_the_chipset_top_has_only_the_boards_pins():
+    names = {p.name for p in pins("chipset")}
+    axis = {"dac", "alarm_n", "a", "a_n", "b", "b_n"}
+    bus = {"d", "addr", "cs_n", "rd_n", "wr_n"}
+    assert names == {"clk", "rst", "irq_interp", "irq_alarm", *bus,
+                     *(f"{x}_{n}" for x in ("x", "y") for n in axis)}
+
+
+def test_simulation_observation_is_never_a_pin():
+    for name in NAMES:
+        assert "quiet" not in {p.name for p in pins(name)}
+        assert "quiet" not in port_list(text(name), name)
+
+
 def test_pin_comments_come_from_the_members_docstring():
     assert re.search(r"input  wire +fp, +// FP: Feed pulse, sampled every cycle", text("k3701"))
 
