@@ -24,7 +24,7 @@ def _cmd_docs(args: argparse.Namespace) -> int:
 def _cmd_run(args: argparse.Namespace) -> int:
     from firmware_model.firmware import FirmwareError
     from firmware_model.gcode import GcodeError
-    from firmware_model.job import JobError, load_job
+    from sim.run.jobfile import JobError, load_job
     from sim.run.output import write_outputs
     from sim.run.runner import RunOptions, run_job
 

@@ -22,9 +22,10 @@ from firmware_model.job import AXES, Job
 from hdl.chipset import CHIP_SELECTS, port
 from sim.backends.contract import Backend
 from sim.backends.factory import make_backend
-from sim.machine.plant import PlantParams, dac_zero
+from sim.machine.plant import dac_zero
 from sim.machine.system import System
 from sim.run.contour import contour_errors
+from sim.run.jobfile import plant_params
 from sim.run.link import BlockMeasure, BlockMeter, SimulatedLink
 from sim.run.report import SCHEMA_VERSION, validate
 from sim.run.sampler import Sampler
@@ -66,10 +67,7 @@ class RunResult:
 def _configure_plants(backend: Backend, job: Job, faults: dict[str, dict[str, int]]) -> None:
     machine = job.machine
     for axis in AXES:
-        servo = job.servo[axis]
-        max_speed = None if servo.max_speed is None else servo.max_speed / 60 / machine.lsb_mm
-        params = PlantParams(kp=servo.kp, tm=servo.tm, max_speed=max_speed,
-                             clock_hz=machine.clock_hz)
+        params = plant_params(machine, job.servo[axis])
         backend.set(f"{axis}__gain", params.gain)
         backend.set(f"{axis}__alpha", params.alpha)
         backend.set(f"{axis}__vmax", params.vmax)
