@@ -14,6 +14,7 @@ from hdl.divider_model import FA_INCREMENT
 from hdl.hostbus import Access, HostBus, Register, RegisterBank, RegisterMap
 from hdl.observation import FreeRunning, PhaseAccumulator, StrobeCounter
 from hdl.rate_multiplier import RateMultiplier
+from hdl.rate_multiplier_model import STAGE_BITS
 
 __all__ = ["DIVIDER_WIDTH", "FEED_BITS", "FEED_MAP", "FeedRate"]
 
@@ -22,7 +23,7 @@ DIVIDER_WIDTH = 24
 #: Rate multiplier stages: an 18-bit feed word.
 FEED_STAGES = 3
 #: Width of the feed word: W feed pulses per 2^FEED_BITS input clocks.
-FEED_BITS = 6 * FEED_STAGES
+FEED_BITS = STAGE_BITS * FEED_STAGES
 
 FEED_MAP = RegisterMap("FEED", 1, (
     Register("FEED", 0x00, 24, Access.RW,
