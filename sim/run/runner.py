@@ -21,7 +21,7 @@ from firmware_model.host import Host8085
 from firmware_model.job import AXES, Job
 from hdl.chipset import CHIP_SELECTS, port
 from sim.backends.contract import Backend
-from sim.backends.factory import make_backend
+from sim.backends.factory import BACKEND_NAMES, make_backend
 from sim.machine.plant import dac_zero
 from sim.machine.system import System
 from sim.run.contour import contour_errors
@@ -37,7 +37,8 @@ __all__ = ["RunOptions", "RunResult", "build_backend", "run_job"]
 class RunOptions:
     """How to run a job (the command line's options)."""
 
-    backend: str = "auto"
+    #: One of :data:`sim.backends.factory.BACKEND_NAMES`.
+    backend: str = BACKEND_NAMES[0]
     max_cycles: int = 10**9
     sample_every: int = 1000
     vcd: Path | None = None
@@ -77,7 +78,7 @@ def _configure_plants(backend: Backend, job: Job, faults: dict[str, dict[str, in
 
 
 def build_backend(job: Job, kind: str) -> Backend:
-    """The simulated machine of ``job`` on backend ``kind`` (auto, pysim, cxxrtl)."""
+    """The simulated machine of ``job`` on backend ``kind`` (one of ``BACKEND_NAMES``)."""
     system = System(accel=job.machine.accel, accel_bits=job.machine.accel_bits)
     return make_backend(system, kind)
 
