@@ -27,7 +27,7 @@ from hdl.feed_rate import DIVIDER_WIDTH
 from hdl.k3702 import K3702_MAP
 from hdl.limits import Limit
 
-__all__ = ["AXES", "DEMO_GCODE", "Boolean", "Job", "MachineConfig", "OneOf", "Optional",
+__all__ = ["AXES", "DEMO_GCODE", "Boolean", "Job", "MachineConfig", "OneOf", "OrAbsent",
            "RunConfig", "ServoConfig", "Valid", "demo_job", "gcode_job"]
 
 #: The axes of the machine, in order.
@@ -83,7 +83,7 @@ class Boolean:
 
 
 @dataclass(frozen=True)
-class Optional:
+class OrAbsent:
     """Absent (None), or a value of ``valid``."""
 
     valid: Valid
@@ -173,7 +173,7 @@ class ServoConfig(_Checked):
 
     kp: float = _key(30.0, Limit(), "position loop gain Kp (1/s)")
     tm: float = _key(0.01, Limit(), "velocity loop time constant Tm (s); 0: none")
-    max_speed: float | None = _key(None, Optional(Limit()),
+    max_speed: float | None = _key(None, OrAbsent(Limit()),
                                    "motor speed limit (mm/min); absent: no limit")
 
 
@@ -181,7 +181,7 @@ class ServoConfig(_Checked):
 class RunConfig(_Checked):
     """Options of the run itself."""
 
-    max_time_s: float | None = _key(None, Optional(Limit(0, low_open=True, unit="s")),
+    max_time_s: float | None = _key(None, OrAbsent(Limit(0, low_open=True, unit="s")),
                                     "stop the run after this much simulated time (s); absent: "
                                     "the command line's limit")
 

@@ -45,7 +45,7 @@ from firmware_model.job import (
     AXES,
     Job,
     MachineConfig,
-    Optional,
+    OrAbsent,
     RunConfig,
     ServoConfig,
     Valid,
@@ -231,7 +231,7 @@ def job_keys_markdown() -> str:
         for f in fields(config):
             valid: Valid = config.valid(f.name)
             if table == "servo":  # the type is checked there, the range is the plant's
-                valid = Optional(plant[f.name]) if f.default is None else plant[f.name]
+                valid = OrAbsent(plant[f.name]) if f.default is None else plant[f.name]
             default = "absent" if f.default is None else _toml_value(f.default)
             rows.append(f"| {table}.{f.name} | {default} | {valid.describe()} | "
                         f"{f.metadata['doc']} |")
