@@ -10,6 +10,10 @@ simulation backend.
 Before anything is loaded, :func:`check_program` refuses what the hardware cannot do: a feed
 above the interpolator's step rate or below the rate multiplier's resolution, an FP budget
 beyond 24 bits.
+
+A feed (mm/min) becomes FP/s (:meth:`firmware_model.job.MachineConfig.lsb_per_s`) and then the
+rate multiplier's word at the input clock the firmware sets (:func:`feed_word`); a word gives
+back its feed with :func:`word_feed`.
 """
 
 from __future__ import annotations
@@ -22,17 +26,16 @@ from firmware_model.host import Host8085
 from firmware_model.job import AXES, Job, MachineConfig
 from hdl.decel_control import BUDGET_WIDTH
 from hdl.divider_model import increment_for
-from hdl.feed_rate import DIVIDER_WIDTH, FEED_STAGES
+from hdl.feed_rate import DIVIDER_WIDTH, FEED_BITS
 from hdl.k3701 import block_registers
 from hdl.k3701_model import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
 
 __all__ = ["AlarmEvent", "BlockObserver", "BlockRecord", "Firmware", "FirmwareError",
-           "check_program", "feed_word", "max_feed_mm_min"]
+           "check_program", "feed_word", "max_feed_mm_min", "rm_clock_hz", "word_feed"]
 
 #: Rate-multiplier input clock: one input clock per linear step time, so the FP stream into
 #: the K3701 never has two pulses closer than the linear step latency.
 RM_CLOCK_DIVISOR = LATENCY_LINEAR
-FEED_BITS = 6 * FEED_STAGES
 
 
 class FirmwareError(ValueError):
@@ -81,13 +84,17 @@ def rm_clock_hz(machine: MachineConfig) -> float:
 def max_feed_mm_min(machine: MachineConfig, kind: Kind) -> float:
     """The highest feed the K3701 follows: one FP per step latency (SPEC section 3)."""
     latency = LATENCY_LINEAR if kind is Kind.LINEAR else LATENCY_CIRCULAR
-    return machine.clock_hz / latency * machine.lsb_mm * 60
+    return machine.mm_per_min(machine.clock_hz / latency)
 
 
 def feed_word(machine: MachineConfig, feed_mm_min: float) -> int:
-    """The 18-bit rate-multiplier word for a feed: FP/s = f_in * W / 2^18."""
-    fp_per_s = feed_mm_min / 60 / machine.lsb_mm
-    return round(fp_per_s / rm_clock_hz(machine) * (1 << FEED_BITS))
+    """The rate-multiplier word for a feed: FP/s = f_in * W / 2^FEED_BITS (nearest)."""
+    return round(machine.lsb_per_s(feed_mm_min) / rm_clock_hz(machine) * (1 << FEED_BITS))
+
+
+def word_feed(machine: MachineConfig, word: int) -> float:
+    """The feed (mm/min) of a rate-multiplier word: the inverse of :func:`feed_word`."""
+    return machine.mm_per_min(rm_clock_hz(machine) * word / (1 << FEED_BITS))
 
 
 def _where(item: Item, program: Program) -> str:
@@ -116,9 +123,9 @@ def check_program(job: Job) -> None:
                 f"for {what}, {limit:.0f} mm/min (one step per {item.block.latency} cycles "
                 f"at {machine.clock_hz / 1e6:g} MHz)")
         if feed_word(machine, feed) < 1:
-            lowest = rm_clock_hz(machine) / (1 << FEED_BITS) * machine.lsb_mm * 60
             raise FirmwareError(f"{_where(item, program)}: feed {feed:g} mm/min is below the "
-                                f"rate multiplier's resolution, {lowest:.3g} mm/min")
+                                f"rate multiplier's resolution, {word_feed(machine, 1):.3g} "
+                                f"mm/min")
         if item.plan.fp >= 1 << BUDGET_WIDTH:
             raise FirmwareError(f"{_where(item, program)}: the block needs {item.plan.fp} FP, "
                                 f"more than the 24-bit budget register holds")

@@ -52,9 +52,10 @@ from dataclasses import dataclass, field
 from decimal import ROUND_HALF_UP, Decimal
 
 from hdl.k3701_model import COORD_MAX, Block, BlockError, Plan, make_path, plan
+from hdl.limits import Limit
 
-__all__ = ["ARC_TOLERANCE", "INCH_MM", "Arc", "Dwell", "GcodeError", "Item", "Line", "Program",
-           "parse"]
+__all__ = ["ARC_TOLERANCE", "ARC_TOLERANCE_LIMIT", "INCH_MM", "LSB_MM_LIMIT", "Arc", "Dwell",
+           "GcodeError", "Item", "Line", "Program", "parse"]
 
 #: Millimetres per inch (G20).
 INCH_MM = Decimal("25.4")
@@ -62,6 +63,10 @@ INCH_MM = Decimal("25.4")
 #: start's. Rounding the end point and the centre to the LSB grid alone changes it by up to
 #: sqrt(2) LSB.
 ARC_TOLERANCE = 2.0
+#: The arc tolerances the front end accepts.
+ARC_TOLERANCE_LIMIT = Limit(0, unit="LSB")
+#: The LSB lengths it converts coordinates with.
+LSB_MM_LIMIT = Limit(0, low_open=True, unit="mm")
 
 
 class GcodeError(ValueError):
@@ -433,26 +438,24 @@ def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: b
     source : str
         Name used in error messages (a file name).
     lsb_mm : float
-        Millimetres per LSB (1 um by default).
+        Millimetres per LSB (1 um by default), in :data:`LSB_MM_LIMIT`.
     sqrt2 : bool
         The machine's sqrt(2) control setting: it decides the FP counts of the plans.
     arc_tolerance : float
         Largest difference (LSB) between the start's and the end's distances from an arc's
-        centre.
+        centre, in :data:`ARC_TOLERANCE_LIMIT`.
 
     Raises
     ------
     GcodeError
         For anything the front end or the K3701 cannot run, naming line and column.
+    TypeError, ValueError
+        ``lsb_mm`` or ``arc_tolerance`` is out of its limit.
     """
-    if not isinstance(lsb_mm, (int, float)) or isinstance(lsb_mm, bool) or not lsb_mm > 0:
-        raise ValueError(f"lsb_mm must be a positive number, not {lsb_mm!r}")
-    if (not isinstance(arc_tolerance, (int, float)) or isinstance(arc_tolerance, bool)
-            or not arc_tolerance >= 0):
-        raise ValueError(f"arc_tolerance must be a non-negative number, not {arc_tolerance!r}")
-    parser = _Parser(source, float(lsb_mm), bool(sqrt2), float(arc_tolerance))
+    lsb_mm = LSB_MM_LIMIT.check("lsb_mm", lsb_mm)
+    arc_tolerance = ARC_TOLERANCE_LIMIT.check("arc_tolerance", arc_tolerance)
+    parser = _Parser(source, lsb_mm, bool(sqrt2), arc_tolerance)
     for number, text_line in enumerate(text.split("\n"), start=1):
         parser.line_no = number
         parser.line(text_line)
-    return Program(tuple(parser.items), parser.end, source, float(lsb_mm), bool(sqrt2),
-                   float(arc_tolerance))
+    return Program(tuple(parser.items), parser.end, source, lsb_mm, bool(sqrt2), arc_tolerance)

@@ -25,9 +25,10 @@ from hdl.feed_rate import FEED_MAP, FeedRate
 from hdl.hostbus import HostBus, RegisterMap
 from hdl.k3701 import K3701, K3701_MAP
 from hdl.k3702 import COUNTER_WIDTH, K3702, K3702_MAP
+from hdl.limits import Limit
 from hdl.observation import CarryAccumulator, FreeRunning
 
-__all__ = ["AXES", "CHIP_SELECTS", "Accel", "AxisPins", "Chipset", "port"]
+__all__ = ["ACCEL_BITS", "AXES", "CHIP_SELECTS", "Accel", "AxisPins", "Chipset", "port"]
 
 #: Address bits of a register inside a chip; the chip select is above them.
 REG_BITS = 5
@@ -43,6 +44,10 @@ class Accel(enum.Enum):
     POST = "post"
     #: No accel/decel circuit.
     NONE = "none"
+
+
+#: The accumulator widths n the chipset's accel/decel circuits are built with.
+ACCEL_BITS = Limit(4, 24, integer=True)
 
 
 #: Chip select of each chip instance, and the register map it answers with.
@@ -103,7 +108,8 @@ class Chipset(wiring.Component):
     accel : Accel or str
         Placement of the accel/decel circuit (``"pre"``, ``"post"`` or ``"none"``).
     accel_bits : int
-        Accumulator width n of the accel/decel circuit(s) (tau = 2^n / fa).
+        Accumulator width n of the accel/decel circuit(s) (tau = 2^n / fa), in
+        :data:`ACCEL_BITS`.
 
     Members
     -------
@@ -144,10 +150,9 @@ class Chipset(wiring.Component):
         try:
             self.accel = Accel(accel)
         except ValueError:
-            raise ValueError(f"accel must be one of pre, post, none, not {accel!r}") from None
-        if not isinstance(accel_bits, int) or not 4 <= accel_bits <= 24:
-            raise ValueError(f"accel_bits must be an integer in 4..24, not {accel_bits!r}")
-        self.accel_bits = accel_bits
+            raise ValueError(f"accel must be one of {', '.join(a.value for a in Accel)}, "
+                             f"not {accel!r}") from None
+        self.accel_bits = ACCEL_BITS.check("accel_bits", accel_bits)
         super().__init__({
             "bus": In(HostBus(8)),
             "irq_interp": Out(1), "irq_alarm": Out(1), "fp": Out(1),

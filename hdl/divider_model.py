@@ -9,7 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["FA_INCREMENT", "PhaseDividerModel", "frequency_of", "increment_for", "positive_int"]
+from hdl.limits import Limit
+
+__all__ = ["FA_INCREMENT", "PhaseDividerModel", "frequency_of", "increment_for", "positive_int",
+           "rate_limit"]
 
 #: The system clock of the paper (Hz).
 F_CLK = 1_000_000
@@ -24,11 +27,20 @@ def positive_int(name: str, value: object, minimum: int = 1) -> int:
     return value
 
 
-def increment_for(freq: float, *, width: int = 24, f_clk: float = F_CLK) -> int:
-    """The increment whose strobe rate is nearest to ``freq`` (Hz) at ``f_clk``."""
+def rate_limit(*, width: int = 24, f_clk: float = F_CLK) -> Limit:
+    """The strobe rates (Hz) a running divider makes: from increment 1, ``f_clk / 2**width``,
+    up to (not including) ``f_clk``."""
     positive_int("width", width)
-    if not 0 <= freq < f_clk:
-        raise ValueError(f"frequency must be in 0 <= f < f_clk = {f_clk}, not {freq!r}")
+    return Limit(f_clk / (1 << width), f_clk, high_open=True, unit="Hz",
+                 note=f"{width}-bit divider at clock_hz")
+
+
+def increment_for(freq: float, *, width: int = 24, f_clk: float = F_CLK) -> int:
+    """The increment whose strobe rate is nearest to ``freq`` (Hz) at ``f_clk``: 0 stops the
+    strobe, any other rate must be in :func:`rate_limit` (so that it never rounds to 0)."""
+    limit = rate_limit(width=width, f_clk=f_clk)
+    if freq != 0:
+        limit.check("frequency", freq)
     return min(round(freq / f_clk * (1 << width)), (1 << width) - 1)
 
 

@@ -14,18 +14,21 @@ from hdl.divider_model import FA_INCREMENT
 from hdl.hostbus import Access, HostBus, Register, RegisterBank, RegisterMap
 from hdl.observation import FreeRunning, PhaseAccumulator, StrobeCounter
 from hdl.rate_multiplier import RateMultiplier
+from hdl.rate_multiplier_model import STAGE_BITS
 
-__all__ = ["DIVIDER_WIDTH", "FEED_MAP", "FeedRate"]
+__all__ = ["DIVIDER_WIDTH", "FEED_BITS", "FEED_MAP", "FeedRate"]
 
 #: Width of both phase-accumulator dividers: f = f_clk * increment / 2^24.
 DIVIDER_WIDTH = 24
 #: Rate multiplier stages: an 18-bit feed word.
 FEED_STAGES = 3
+#: Width of the feed word: W feed pulses per 2^FEED_BITS input clocks.
+FEED_BITS = STAGE_BITS * FEED_STAGES
 
 FEED_MAP = RegisterMap("FEED", 1, (
     Register("FEED", 0x00, 24, Access.RW,
-             f"feed word W: the rate multiplier passes W of every 2^{6 * FEED_STAGES} input "
-             f"clocks", valid=(0, (1 << (6 * FEED_STAGES)) - 1)),
+             f"feed word W: the rate multiplier passes W of every 2^{FEED_BITS} input "
+             f"clocks", valid=(0, (1 << FEED_BITS) - 1)),
     Register("RM_INC", 0x03, 24, Access.RW,
              "rate-multiplier input clock: f_in = f_clk * RM_INC / 2^24 (0 stops the feed)"),
     Register("FA_INC", 0x06, 24, Access.RW,
@@ -64,7 +67,7 @@ class FeedRate(wiring.Component):
     FREE_RUNNING = FreeRunning(
         accumulators=(PhaseAccumulator("rm_clock", DIVIDER_WIDTH),
                       PhaseAccumulator(FA_CLOCK, DIVIDER_WIDTH)),
-        counters=(StrobeCounter("rate", 6 * FEED_STAGES, clock="rm_clock"),))
+        counters=(StrobeCounter("rate", FEED_BITS, clock="rm_clock"),))
 
     def elaborate(self, platform) -> Module:
         m = Module()

@@ -25,6 +25,8 @@ from amaranth.hdl import Cat, Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
+from hdl.limits import Limit
+
 __all__ = [
     "Access",
     "Field",
@@ -169,6 +171,11 @@ class Register:
     def bounds(self) -> tuple[int, int]:
         """The lowest and highest value the chip accepts (``valid``, else the full range)."""
         return self.full_range if self.valid is None else self.valid
+
+    @property
+    def limit(self) -> Limit:
+        """The values the chip accepts (:attr:`bounds`), for checking a value to be written."""
+        return Limit(*self.bounds, integer=True)
 
     @property
     def nbytes(self) -> int:

@@ -10,6 +10,7 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from hdl.divider_model import positive_int
+from hdl.rate_multiplier_model import STAGE_BITS, selected_bit
 
 __all__ = ["RateMultiplier"]
 
@@ -56,20 +57,20 @@ class RateMultiplier(wiring.Component):
 
     def __init__(self, stages: int = 3):
         self.stages = positive_int("stages", stages)
-        bits = 6 * stages
+        bits = STAGE_BITS * stages
         super().__init__({"word": In(bits), "clk_en": In(1), "out": Out(1),
                           "enable_out": Out(1), "count": Out(bits)})
 
     def elaborate(self, platform) -> Module:
         m = Module()
-        bits = 6 * self.stages
-        # The gates pass the clock in state k iff the word bit they select is set, and they
-        # select bit (bits - 1 - t) where t is the number of trailing ones of k (stage
-        # s = t // 6 is the first one not in state 63, and its gate for rate bit 5 - t % 6
-        # is open); no bit when k is all ones. ``select`` holds that bit index for the state
-        # the next input clock reaches (the sentinel ``bits`` for none), updated only when the
-        # counter moves, so each cycle costs one shift.
-        select = Signal(range(bits + 1), init=_selected(1, bits))
+        bits = STAGE_BITS * self.stages
+        # The gates pass the clock in state k iff the word bit they select is set
+        # (:func:`hdl.rate_multiplier_model.selected_bit`): bit (bits - 1 - t) where t is the
+        # number of trailing ones of k (stage s = t // 6 is the first one not in state 63, and
+        # its gate for rate bit 5 - t % 6 is open); no bit when k is all ones. ``select`` holds
+        # that bit index for the state the next input clock reaches (the sentinel ``bits`` for
+        # none), updated only when the counter moves, so each cycle costs one shift.
+        select = Signal(range(bits + 1), init=selected_bit(1, self.stages))
         with m.If(self.clk_en):
             m.d.sync += [self.count.eq(self.count + 1),
                          select.eq(_select_expr(self.count + 2, bits))]
@@ -78,16 +79,9 @@ class RateMultiplier(wiring.Component):
         return m
 
 
-def _selected(state: int, bits: int) -> int:
-    """The word bit that counter state ``state`` selects (``bits``: none)."""
-    t = 0
-    while t < bits and (state >> t) & 1:
-        t += 1
-    return bits - 1 - t if t < bits else bits
-
-
 def _select_expr(state, bits: int):
-    """:func:`_selected` of the Amaranth value ``state`` (taken modulo ``2**bits``)."""
+    """:func:`hdl.rate_multiplier_model.selected_bit` of the Amaranth value ``state`` (taken
+    modulo ``2**bits``), as a chain of multiplexers on its trailing ones."""
     result = bits
     for t in reversed(range(bits)):
         result = Mux(state[t], result, bits - 1 - t)

@@ -25,13 +25,20 @@ The counter advances at the input clock's edge and the output pulse of that cloc
 the new state (the 7497 gates the low half of the clock that advanced it). After reset the
 counter is 0, so input clock number k (1, 2, ...) gives a pulse if the base-64 digits of k
 select one.
+
+This decoding (:func:`gate`, :func:`selected_bit`) is the rule every other form follows: the
+gateware's and the compiled backend's closed forms (a state with t trailing ones selects word
+bit ``6 * stages - 1 - t``) are tested against it.
 """
 
 from __future__ import annotations
 
 from hdl.divider_model import positive_int
 
-__all__ = ["RateMultiplierModel", "gate", "stage_gate"]
+__all__ = ["STAGE_BITS", "RateMultiplierModel", "gate", "selected_bit", "stage_gate"]
+
+#: Counter and rate-input width of one 7497.
+STAGE_BITS = 6
 
 
 def stage_gate(state, rate):
@@ -40,8 +47,8 @@ def stage_gate(state, rate):
     Works on ints or on NumPy integer arrays (elementwise).
     """
     hit = 0
-    for bit in range(6):
-        ones = 5 - bit        # rate bit b needs the counter's low 5-b bits set, the next clear
+    for bit in range(STAGE_BITS):
+        ones = STAGE_BITS - 1 - bit  # rate bit b needs the low 5-b bits set, the next clear
         hit = hit | (((state & ((2 << ones) - 1)) == (1 << ones) - 1) & ((rate >> bit) & 1 == 1))
     return hit
 
@@ -50,12 +57,20 @@ def gate(count, word, stages: int):
     """Whether a ``stages``-deep cascade with feed ``word`` outputs in counter state ``count``."""
     hit = 0
     upstream_at_63 = 1
+    top = (1 << STAGE_BITS) - 1
     for s in range(stages):
-        digit = (count >> (6 * s)) & 63
-        rate = (word >> (6 * (stages - 1 - s))) & 63
+        digit = (count >> (STAGE_BITS * s)) & top
+        rate = (word >> (STAGE_BITS * (stages - 1 - s))) & top
         hit = hit | (upstream_at_63 & stage_gate(digit, rate))
-        upstream_at_63 = upstream_at_63 & (digit == 63)
+        upstream_at_63 = upstream_at_63 & (digit == top)
     return hit
+
+
+def selected_bit(count: int, stages: int) -> int:
+    """The word bit whose gate passes the clock in counter state ``count`` (the gates are
+    disjoint: one at most), or ``STAGE_BITS * stages`` for none (the all-ones state)."""
+    bits = STAGE_BITS * stages
+    return next((bit for bit in range(bits) if gate(count, 1 << bit, stages)), bits)
 
 
 class RateMultiplierModel:
@@ -63,7 +78,7 @@ class RateMultiplierModel:
 
     def __init__(self, stages: int = 3):
         self.stages = positive_int("stages", stages)
-        self.bits = 6 * stages
+        self.bits = STAGE_BITS * stages
         self.count = 0
 
     def step(self, word: int, clk_en: bool) -> tuple[bool, bool]:

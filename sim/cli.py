@@ -24,7 +24,7 @@ def _cmd_docs(args: argparse.Namespace) -> int:
 def _cmd_run(args: argparse.Namespace) -> int:
     from firmware_model.firmware import FirmwareError
     from firmware_model.gcode import GcodeError
-    from firmware_model.job import JobError, load_job
+    from sim.run.jobfile import JobError, load_job
     from sim.run.output import write_outputs
     from sim.run.runner import RunOptions, run_job
 
@@ -101,9 +101,11 @@ def build_parser() -> argparse.ArgumentParser:
         prog="k37", description="Cycle-accurate emulator of the TOKO KM3701/KM3702 NC chipset.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
+    from sim.backends.factory import BACKEND_NAMES
+
     p = sub.add_parser("run", help="run a job (TOML or G-code); no job: the built-in demo")
     p.add_argument("job", nargs="?", help="job file: .toml, or G-code run on the default machine")
-    p.add_argument("--backend", choices=["auto", "pysim", "cxxrtl"], default="auto",
+    p.add_argument("--backend", choices=BACKEND_NAMES, default=BACKEND_NAMES[0],
                    help="simulation backend (auto: compiled when a C++ compiler exists)")
     p.add_argument("--max-cycles", type=_positive_int, default=10**9,
                    help="stop after this many clock cycles (default 1e9)")

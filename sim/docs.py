@@ -31,7 +31,7 @@ def registers_document() -> str:
 
 def documents() -> dict[str, str]:
     """Every generated document under ``docs/``, by file name."""
-    from firmware_model.job import job_keys_markdown
+    from sim.run.jobfile import job_keys_markdown
     from sim.run.report import schema_markdown
 
     return {"registers.md": registers_document(), "run-json.md": schema_markdown(),

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from firmware_model.firmware import FirmwareError, check_program
-from firmware_model.job import load_job
+from sim.run.jobfile import load_job
 from sim.run.runner import RunOptions, build_backend, run_job
 from sim.run.sampler import TRACE_COLUMNS
 

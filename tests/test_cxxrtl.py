@@ -24,7 +24,7 @@ from hdl.observation import FreeRunning
 from sim.backends.contract import Backend, component_ports
 from sim.backends.cxxrtl.backend import CxxrtlBackend
 from sim.backends.cxxrtl.build import edge_wires, fall_eval
-from sim.backends.factory import make_backend
+from sim.backends.factory import BACKENDS, make_backend
 from sim.backends.pysim import PysimBackend
 from sim.machine.system import System
 
@@ -670,6 +670,10 @@ def test_auto_backend_falls_back_to_amaranth_without_a_compiler(monkeypatch, cap
     assert "no C++ compiler" in message
     with pytest.raises(ValueError, match="backend kind must be one of auto, pysim, cxxrtl"):
         make_backend(Zoo(), "verilator")
+
+
+def test_each_backend_reports_the_name_the_factory_makes_it_by():
+    assert (PysimBackend.name, CxxrtlBackend.name) == BACKENDS
 
 
 @pytest.mark.usefixtures("backends")  # the model is built

@@ -80,7 +80,10 @@ def test_bad_parameters_are_refused_by_name():
         PhaseDivider("8")
     with pytest.raises(ValueError, match="width must be at least 1, not 0"):
         PhaseDivider(0)
-    with pytest.raises(ValueError, match="frequency must be in"):
+    with pytest.raises(ValueError, match=r"^frequency must be >= 0\.05960464478 and < 1000000 Hz "
+                                         r"\(24-bit divider at clock_hz\), not 2000000\.0$"):
         increment_for(2e6)
+    with pytest.raises(ValueError, match=r"^frequency must be >= 0\.0596.* not 0\.05$"):
+        increment_for(0.05)  # an increment that rounds to 0 would stop the strobe
     with pytest.raises(ValueError, match=r"increment must be in 0..2\*\*8-1, not 256"):
         PhaseDividerModel(8).step(256)

@@ -3,11 +3,20 @@
 from __future__ import annotations
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from firmware_model.firmware import FirmwareError, check_program, feed_word, max_feed_mm_min
+from firmware_model.firmware import (
+    FirmwareError,
+    check_program,
+    feed_word,
+    max_feed_mm_min,
+    word_feed,
+)
 from firmware_model.host import T_STATES, Host8085
 from firmware_model.job import MachineConfig
 from hdl.chipset import port
+from hdl.feed_rate import FEED_BITS
 from hdl.k3701_model import Kind
 
 
@@ -65,6 +74,16 @@ def test_feed_word_gives_the_programmed_feed_from_the_rate_multiplier():
     assert word * (1e6 / 11) / 2**18 == pytest.approx(1e4, rel=1e-4)
 
 
+@settings(derandomize=True, max_examples=200, deadline=None)
+@given(st.integers(1, (1 << FEED_BITS) - 1), st.sampled_from([0.001, 0.0254, 0.01]),
+       st.sampled_from([1_000_000, 2_000_000, 3_072_000]))
+def test_a_word_gives_back_its_feed_and_the_feed_its_word(word, lsb_mm, clock_hz):
+    machine = MachineConfig(clock_hz=clock_hz, lsb_mm=lsb_mm)
+    feed = word_feed(machine, word)
+    assert feed_word(machine, feed) == word
+    assert feed == pytest.approx(machine.mm_per_min(clock_hz / 11 * word / 2**FEED_BITS))
+
+
 def test_maximum_feeds_follow_the_step_latencies():
     machine = MachineConfig()
     assert max_feed_mm_min(machine, Kind.LINEAR) == pytest.approx(1e6 / 11 * 0.06)
@@ -73,7 +92,8 @@ def test_maximum_feeds_follow_the_step_latencies():
 
 @pytest.mark.parametrize(("gcode", "message"), [
     ("G01 X1 F6000", r"t.ngc:1: feed 6000 mm/min is above the K3701's maximum for a line, 5455"),
-    ("G01 X1 F0.01", r"t.ngc:1: feed 0.01 mm/min is below the rate multiplier's resolution"),
+    ("G01 X1 F0.01", r"t.ngc:1: feed 0.01 mm/min is below the rate multiplier's resolution, "
+                     r"0.0208 mm/min"),
 ])
 def test_impossible_feeds_are_refused_with_the_line(make_job, gcode, message):
     with pytest.raises(FirmwareError, match=message):

@@ -337,12 +337,12 @@ def test_the_default_source_name_is_gcode():
 
 
 @pytest.mark.parametrize(("kwargs", "message"), [
-    ({"lsb_mm": 0}, "lsb_mm must be a positive number, not 0"),
-    ({"lsb_mm": "1"}, "lsb_mm must be a positive number, not '1'"),
-    ({"arc_tolerance": -1}, "arc_tolerance must be a non-negative number, not -1"),
+    ({"lsb_mm": 0}, "lsb_mm must be > 0 mm, not 0"),
+    ({"lsb_mm": "1"}, "lsb_mm must be a number, not '1'"),
+    ({"arc_tolerance": -1}, "arc_tolerance must be >= 0 LSB, not -1"),
 ])
 def test_bad_parser_parameters_are_refused(kwargs, message):
-    with pytest.raises(ValueError, match=f"^{message}$"):
+    with pytest.raises((TypeError, ValueError), match=f"^{message}$"):
         parse("", **kwargs)
 
 

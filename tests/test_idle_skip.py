@@ -21,7 +21,7 @@ from firmware_model.job import Job, MachineConfig, ServoConfig
 from hdl.k3701 import K3701, K3701_MAP
 from hdl.k3701_model import Block
 from sim.backends.cxxrtl.backend import CxxrtlBackend
-from sim.machine.plant import ALPHA_BITS, ServoPlant
+from sim.machine.plant import ALPHA_BITS, COUNT_BITS, GAIN_BITS, ServoPlant
 from sim.run.report import HOW_FIELDS
 from sim.run.runner import RunOptions, build_backend, run_job
 
@@ -122,9 +122,9 @@ class LonePlant(wiring.Component):
     free_running = ServoPlant.FREE_RUNNING.under("plant").merge(quiet="quiet")
 
     def __init__(self):
-        super().__init__({"dac": In(16), "dac_zero": In(16), "gain": In(32),
-                          "alpha": In(ALPHA_BITS), "stall": In(1), "count": Out(32),
-                          "seen": Out(32), "quiet": Out(1)})
+        super().__init__({"dac": In(16), "dac_zero": In(16), "gain": In(GAIN_BITS),
+                          "alpha": In(ALPHA_BITS), "stall": In(1), "count": Out(COUNT_BITS),
+                          "seen": Out(COUNT_BITS), "quiet": Out(1)})
 
     def elaborate(self, platform):
         m = Module()

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
+import sys
 from pathlib import Path
 
 import pytest
@@ -13,16 +15,20 @@ from firmware_model.job import (
     AXES,
     DEMO_GCODE,
     Job,
-    JobError,
     MachineConfig,
     RunConfig,
     ServoConfig,
     demo_job,
-    job_keys_markdown,
-    load_job,
 )
+from hdl.chipset import Chipset
+from hdl.divider_model import increment_for
 from hdl.encoder import ENCODER_MAP
+from hdl.feed_rate import DIVIDER_WIDTH
 from hdl.k3702 import K3702_MAP
+from hdl.limits import Limit
+from sim.cli import main
+from sim.machine.plant import ALPHA_BITS, GAIN_BITS, VMAX_BITS, PlantParams
+from sim.run.jobfile import JobError, job_keys_markdown, load_job, plant_params, servo_limits
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PROGRAM = '[program]\ngcode = "G01 X1 F100"\n'
@@ -181,14 +187,18 @@ def test_an_unknown_key_is_named_with_its_full_path(tmp_path, text, key):
 
 @pytest.mark.parametrize(("table", "message"), [
     ("[machine]\nclock_hz = 1000000.5", "machine.clock_hz must be an integer, not 1000000.5"),
-    ("[machine]\nclock_hz = 0", "machine.clock_hz must be in 1..1000000000, not 0"),
-    ("[machine]\nlsb_mm = -1", "machine.lsb_mm must be positive, not -1.0"),
+    ("[machine]\nclock_hz = 0", "machine.clock_hz must be in 1..1000000000 Hz, not 0"),
+    ("[machine]\nlsb_mm = -1", "machine.lsb_mm must be > 0 mm, not -1"),
     ("[machine]\nlsb_mm = nan", "machine.lsb_mm must be finite, not nan"),
     ("[machine]\naccel = 'pre2'",
      "machine.accel must be one of 'pre', 'post', 'none', not 'pre2'"),
-    ("[machine]\naccel_bits = 0", "machine.accel_bits must be in 1..24, not 0"),
+    ("[machine]\naccel_bits = 2", "machine.accel_bits must be in 4..24, not 2"),
     ("[machine]\naccel_fa_hz = 1e6",
-     "machine.accel_fa_hz must be below clock_hz = 1000000, not 1000000.0"),
+     "machine.accel_fa_hz must be >= 0.05960464478 and < 1000000 Hz (24-bit divider at "
+     "clock_hz), not 1000000.0"),
+    ("[machine]\naccel_fa_hz = 0.05",
+     "machine.accel_fa_hz must be >= 0.05960464478 and < 1000000 Hz (24-bit divider at "
+     "clock_hz), not 0.05"),
     ("[machine]\nsqrt2 = 1", "machine.sqrt2 must be true or false, not 1"),
     ("[machine]\ndac_bits = 17", "machine.dac_bits must be in 8..16, not 17"),
     ("[machine]\ndac_bits = '12'", "machine.dac_bits must be an integer, not '12'"),
@@ -196,12 +206,18 @@ def test_an_unknown_key_is_named_with_its_full_path(tmp_path, text, key):
     ("[machine]\nalarm_limit = 16777216",
      "machine.alarm_limit must be in 0..16777215, not 16777216"),
     ("[machine]\nencoder_filter = 0", "machine.encoder_filter must be in 1..255, not 0"),
-    ("[machine]\nrapid_mm_min = 0", "machine.rapid_mm_min must be positive, not 0.0"),
-    ("[servo]\nkp = -30", "servo.kp must be positive, not -30.0"),
+    ("[machine]\nrapid_mm_min = 0", "machine.rapid_mm_min must be > 0 mm/min, not 0"),
+    ("[servo]\nkp = -30", "servo.kp must be > 0 and < 1000000 1/s (32-bit gain at clock_hz), "
+                          "not -30.0"),
+    ("[servo]\nkp = 2e6", "servo.kp must be > 0 and < 1000000 1/s (32-bit gain at clock_hz), "
+                          "not 2000000.0"),
     ("[servo]\nkp = true", "servo.kp must be a number, not True"),
-    ("[servo.y]\ntm = 0", "servo.y.tm must be positive, not 0.0"),
+    ("[servo.y]\ntm = -1", "servo.y.tm must be >= 0 and <= 16.777216 s (24-bit alpha at "
+                           "clock_hz), not -1.0"),
     ("[servo.x]\nmax_speed = 'fast'", "servo.x.max_speed must be a number, not 'fast'"),
-    ("[run]\nmax_time_s = 0", "run.max_time_s must be positive, not 0.0"),
+    ("[servo]\nmax_speed = 1e300", "servo.max_speed must be > 0 and < 3932160000 mm/min "
+                                   "(48-bit speed limit at clock_hz and lsb_mm), not 1e+300"),
+    ("[run]\nmax_time_s = 0", "run.max_time_s must be > 0 s, not 0"),
     ("name = 5", "name must be a non-empty string, not 5"),
     ("machine = 5", "machine must be a table, not 5"),
     ("servo = {x = 3}", "servo.x must be a table, not 3"),
@@ -218,7 +234,7 @@ def test_a_bad_value_is_named_with_its_key(tmp_path, table, message):
     ("[program]\ngcode = 5\n", "program.gcode must be a string, not 5"),
     ("[program]\nfile = ['a']\n", "program.file must be a string, not ['a']"),
     ('[program]\ngcode = ""\narc_tolerance = -1\n',
-     "program.arc_tolerance must not be negative, not -1.0"),
+     "program.arc_tolerance must be >= 0 LSB, not -1"),
     ("program = 'G00 X1'\n", "program must be a table, not 'G00 X1'"),
 ])
 def test_the_program_table_needs_exactly_one_program(tmp_path, text, message):
@@ -256,12 +272,156 @@ def test_job_errors_carry_no_chained_exception(tmp_path):
     assert info.value.__suppress_context__
 
 
+# --- every machine and servo key's range, through `k37 run` ---------------------------------
+
+#: The range of every numeric machine and servo key on the default machine, as the blocks
+#: define them (servo: the plant's fixed point, in the job's units).
+DEFAULT = MachineConfig()
+LIMITS: dict[str, Limit] = {
+    **{f"machine.{f.name}": DEFAULT.valid(f.name) for f in dataclasses.fields(MachineConfig)
+       if isinstance(DEFAULT.valid(f.name), Limit)},
+    **{f"servo.{name}": limit for name, limit in servo_limits(DEFAULT).items()}}
+#: A program any machine runs: it moves nothing.
+DWELL = '[program]\ngcode = "G04 P0.01"\n'
+
+
+def test_the_ranges_are_the_blocks():
+    assert {key: limit.describe() for key, limit in LIMITS.items()} == {
+        "machine.clock_hz": "in 1..1000000000 Hz",
+        "machine.lsb_mm": "> 0 mm",
+        "machine.accel_bits": "in 4..24",
+        "machine.accel_fa_hz": ">= 0.05960464478 and < 1000000 Hz (24-bit divider at clock_hz)",
+        "machine.dac_bits": "in 8..16",
+        "machine.in_position": "in 0..16777215",
+        "machine.alarm_limit": "in 0..16777215",
+        "machine.encoder_filter": "in 1..255",
+        "machine.rapid_mm_min": "> 0 mm/min",
+        "servo.kp": "> 0 and < 1000000 1/s (32-bit gain at clock_hz)",
+        "servo.tm": ">= 0 and <= 16.777216 s (24-bit alpha at clock_hz)",
+        "servo.max_speed": "> 0 and < 3932160000 mm/min (48-bit speed limit at clock_hz and "
+                           "lsb_mm)",
+    }
+
+
+def _step(bound: float, limit: Limit, toward: float) -> float:
+    """The next value after ``bound`` toward ``toward`` that the key's type holds (near 0: the
+    smallest normal float, as a subnormal speed underflows in the plant's units)."""
+    if limit.integer:
+        return bound + (1 if toward > bound else -1)
+    if bound == 0 and toward > 0:
+        return sys.float_info.min
+    return math.nextafter(bound, toward)
+
+
+def _bounds(limit: Limit) -> list[tuple[float, bool, float]]:
+    """Each bound (as the key's type), whether it is open, and the direction of the inside."""
+    kind = int if limit.integer else float
+    return [(kind(bound), is_open, toward)
+            for bound, is_open, toward in ((limit.low, limit.low_open, math.inf),
+                                           (limit.high, limit.high_open, -math.inf))
+            if bound is not None]
+
+
+def outside(limit: Limit) -> list[float]:
+    """The values just outside each bound."""
+    return [bound if is_open else _step(bound, limit, -toward)
+            for bound, is_open, toward in _bounds(limit)]
+
+
+def inside(limit: Limit) -> list[float]:
+    """The boundary values a key takes: each bound, or just inside it if open."""
+    return [_step(bound, limit, toward) if is_open else bound
+            for bound, is_open, toward in _bounds(limit)]
+
+
+def job_text(key: str, value: float) -> str:
+    """A job with ``key = value`` (under ``[servo]``, ``[servo.x]`` or ``[servo.y]`` as the
+    key says); a clock comes with an fa and a kp it allows."""
+    table, name = key.rsplit(".", 1)
+    text = f"[{table}]\n{name} = {value!r}\n"
+    if key == "machine.clock_hz":
+        text += f"accel_fa_hz = {value / 2!r}\n[servo]\nkp = {value / 2!r}\n"
+    return text + DWELL
+
+
+def run_error(tmp_path: Path, capsys, text: str) -> str:
+    """``k37 run`` of a job file of ``text``: exit 2 and the one line it printed."""
+    path = write(tmp_path, text)
+    assert main(["run", str(path), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    prefix = f"k37: error: {path}: "
+    assert err.startswith(prefix)
+    return err[len(prefix):].rstrip("\n")
+
+
+OUT_OF_RANGE = [(key, value) for key, limit in LIMITS.items() for value in outside(limit)]
+OVERRIDES = [(key.replace("servo.", f"servo.{axis}."), value) for axis in AXES
+             for key, value in OUT_OF_RANGE if key.startswith("servo.")]
+
+
+@pytest.mark.parametrize(("key", "value"), OUT_OF_RANGE + OVERRIDES)
+def test_a_value_out_of_range_exits_2_naming_key_value_and_range(tmp_path, capsys, key, value):
+    limit = LIMITS[key.replace(".x.", ".").replace(".y.", ".")]
+    assert run_error(tmp_path, capsys, job_text(key, value)) == (
+        f"{key} must be {limit.describe()}, not {value!r}")
+
+
+@pytest.mark.parametrize(("key", "value"),
+                         [(key, value) for key, limit in LIMITS.items() for value in inside(limit)])
+def test_the_boundary_values_are_accepted_and_fit_the_blocks(tmp_path, key, value):
+    job = load_job(write(tmp_path, job_text(key, value)))
+    table, name = key.split(".")
+    configs = [job.machine] if table == "machine" else [job.servo[axis] for axis in AXES]
+    assert [getattr(config, name) for config in configs] == [value] * len(configs)
+    for axis in AXES:
+        plant = plant_params(job.machine, job.servo[axis])
+        assert (0 <= plant.gain < 1 << GAIN_BITS and 0 < plant.alpha < 1 << ALPHA_BITS
+                and 0 <= plant.vmax < 1 << VMAX_BITS)
+    assert 0 < increment_for(job.machine.accel_fa_hz, width=DIVIDER_WIDTH,
+                             f_clk=job.machine.clock_hz) < 1 << DIVIDER_WIDTH
+
+
+@pytest.mark.parametrize(("key", "value", "block"), [
+    ("machine.accel_bits", 2, lambda: Chipset(accel_bits=2)),
+    ("machine.accel_fa_hz", 0.05, lambda: increment_for(0.05, width=DIVIDER_WIDTH, f_clk=1e6)),
+    ("machine.lsb_mm", -1.0, lambda: parse("", lsb_mm=-1.0)),
+    ("servo.kp", 2e6, lambda: PlantParams(kp=2e6, tm=0.01)),
+    ("servo.tm", 40.0, lambda: PlantParams(kp=30.0, tm=40.0)),
+])
+def test_the_block_and_the_loader_refuse_a_value_in_the_same_words(tmp_path, capsys, key, value,
+                                                                    block):
+    with pytest.raises(ValueError, match=" must ") as info:
+        block()
+    refusal = str(info.value).split(" must ", 1)[1]
+    assert run_error(tmp_path, capsys, job_text(key, value)) == f"{key} must {refusal}"
+
+
+def test_the_servo_ranges_follow_the_clock_and_the_lsb(tmp_path, capsys):
+    fast = "[machine]\nclock_hz = 2_000_000\nlsb_mm = 0.01\n[servo]\n"
+    job = load_job(write(tmp_path, fast + "kp = 1.5e6\nmax_speed = 7e10\n" + DWELL))
+    assert job.servo["x"].kp == 1.5e6
+    assert run_error(tmp_path, capsys, fast + "max_speed = 8e10\n" + DWELL) == (
+        "servo.max_speed must be > 0 and < 78643200000 mm/min (48-bit speed limit at clock_hz "
+        "and lsb_mm), not 80000000000.0")
+
+
+def test_an_extreme_valid_job_runs_without_a_traceback(tmp_path):
+    path = write(tmp_path, "[machine]\naccel_bits = 4\naccel_fa_hz = 0.0596046448\n"
+                           "[servo]\nkp = 999999.0\ntm = 16.777216\nmax_speed = 3.9e9\n"
+                           '[program]\ngcode = "G01 X0.01 F100"\n')
+    assert main(["run", str(path), "--backend", "pysim", "--max-cycles", "3000", "-q"]) in (0, 1)
+
+
 # --- direct construction and the JSON form ----------------------------------------------------
 
 @pytest.mark.parametrize(("cls", "kwargs", "error", "message"), [
     (MachineConfig, {"dac_bits": 7}, ValueError, "dac_bits must be in 8..16, not 7"),
     (MachineConfig, {"accel_bits": 1.5}, TypeError, "accel_bits must be an integer, not 1.5"),
-    (ServoConfig, {"kp": 0}, ValueError, "kp must be positive, not 0.0"),
+    (MachineConfig, {"clock_hz": 100_000}, ValueError,
+     r"accel_fa_hz must be >= 0\.005960464478 and < 100000 Hz \(24-bit divider at clock_hz\), "
+     r"not 109226\.66666666667"),
+    (ServoConfig, {"kp": "30"}, TypeError, "kp must be a number, not '30'"),
     (RunConfig, {"max_time_s": "1"}, TypeError, "max_time_s must be a number, not '1'"),
 ])
 def test_configs_built_in_python_are_checked_too(cls, kwargs, error, message):

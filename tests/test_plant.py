@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import simulate
 
-from sim.machine.plant import FRAC_BITS, PlantParams, ServoPlant, dac_zero
+from sim.machine.plant import ALPHA_BITS, FRAC_BITS, PlantParams, ServoPlant, dac_zero
 from sim.machine.plant_model import ServoPlantModel
 
 
@@ -98,7 +98,7 @@ def test_speed_limit_clamps_the_velocity_command():
 
 
 def test_positive_motion_has_a_leading_b():
-    model = ServoPlantModel(PlantParams(kp=100.0, tm=0.0).gain, 1 << 24, dac_bits=12)
+    model = ServoPlantModel(PlantParams(kp=100.0, tm=0.0).gain, 1 << ALPHA_BITS, dac_bits=12)
     states = []
     for _ in range(20_000):
         model.cycle(2048 + 1000)  # 1e5 counts/s: a count every 10 cycles

@@ -1,6 +1,11 @@
 # amaranth: UnusedElaboratable=no
-"""Rate multiplier: the SN7497's pulse pattern per stage, and exact counts when cascaded."""
+"""Rate multiplier: the SN7497's pulse pattern per stage, and exact counts when cascaded.
 
+The reference model's decoding is the rule; the gateware and the compiled backend's closed
+forms (its idle skipping) are tested against it.
+"""
+
+import ctypes
 import random
 
 import numpy as np
@@ -11,7 +16,14 @@ from hypothesis import strategies as st
 from testbench import simulate
 
 from hdl.rate_multiplier import RateMultiplier
-from hdl.rate_multiplier_model import RateMultiplierModel, gate
+from hdl.rate_multiplier_model import (
+    STAGE_BITS,
+    RateMultiplierModel,
+    gate,
+    selected_bit,
+    stage_gate,
+)
+from sim.backends.cxxrtl.backend import CxxrtlBackend
 
 #: The 7497's decoding gates as the datasheet's logic diagram wires them: rate bit b passes
 #: the counter states s with s mod period == residue (F: QA low; E: QA high, QB low; ...).
@@ -22,6 +34,13 @@ def sn7497_states(rate: int) -> set[int]:
     """The counter states in which a 7497 with rate inputs ``rate`` passes the clock."""
     return {s for s in range(64) for bit, (period, residue) in SN7497_GATES.items()
             if rate >> bit & 1 and s % period == residue}
+
+
+def test_the_model_decodes_as_the_datasheet():
+    for rate in range(64):
+        states = sn7497_states(rate)
+        assert {s for s in range(64) if stage_gate(s, rate)} == states, rate
+        assert {s for s in range(64) if rate >> selected_bit(s, 1) & 1} == states, rate
 
 
 def run_gateware(dut: RateMultiplier, stimulus: list[tuple[int, bool]]) -> list[tuple]:
@@ -99,6 +118,15 @@ def test_12_bit_word_gives_exactly_w_pulses_per_4096_clocks(word):
     assert sum(enable_out for _, enable_out, _ in seen) == 1
 
 
+@settings(derandomize=True, max_examples=3, deadline=None)
+@given(st.integers(0, (1 << 12) - 1))
+def test_gateware_pulses_in_the_states_the_model_gates_over_a_whole_period(word):
+    seen = run_gateware(RateMultiplier(stages=2), [(word, 1)] * 4096)
+    states = np.arange(1, 4097) % 4096  # the state each input clock reaches
+    assert [out for out, _, _ in seen] == gate(states, word, 2).tolist()
+    assert [count for _, _, count in seen] == list(range(4096))
+
+
 class _PulseCounter(Elaboratable):
     """A rate multiplier on every cycle with counters of its pulses, for long free runs."""
 
@@ -159,3 +187,31 @@ def test_bad_parameters_are_refused_by_name():
         RateMultiplier(stages=1.5)
     with pytest.raises(ValueError, match=r"word must be in 0..2\*\*6-1, not 64"):
         RateMultiplierModel(1).step(64, True)
+
+
+@pytest.fixture(scope="module")
+def harness() -> ctypes.CDLL:
+    """The compiled backend's harness (linked into every model), for its closed forms."""
+    backend = CxxrtlBackend(RateMultiplier(stages=1))
+    lib = ctypes.CDLL(str(backend.model.path))
+    backend.close()
+    u64, uint = ctypes.c_uint64, ctypes.c_uint
+    lib.k37_rm_selected_bit.restype, lib.k37_rm_selected_bit.argtypes = uint, [u64, uint]
+    lib.k37_rm_clocks_before_pulse.restype = u64
+    lib.k37_rm_clocks_before_pulse.argtypes = [u64, u64, uint]
+    return lib
+
+
+@settings(derandomize=True, max_examples=150, deadline=None)
+@given(stages=st.sampled_from([1, 2, 3]), data=st.data())
+def test_the_compiled_backends_closed_forms_follow_the_model(harness, stages, data):
+    bits = STAGE_BITS * stages
+    count = data.draw(st.one_of(st.integers(0, (1 << bits) - 1),
+                                st.integers(0, bits).map(lambda t: (1 << t) - 1)))
+    word = data.draw(st.one_of(st.integers(0, (1 << bits) - 1),
+                               st.integers(0, bits - 1).map(lambda b: 1 << b)))
+    assert harness.k37_rm_selected_bit(count, bits) == selected_bit(count, stages)
+    # Input clocks before the first pulse, from the model over a whole period.
+    hits = np.flatnonzero(gate((count + 1 + np.arange(1 << bits)) % (1 << bits), word, stages))
+    expected = int(hits[0]) if hits.size else (1 << 64) - 1
+    assert harness.k37_rm_clocks_before_pulse(count, word, bits) == expected

@@ -13,13 +13,12 @@ import math
 import numpy as np
 import pytest
 
-from firmware_model.firmware import feed_word
+from firmware_model.firmware import feed_word, word_feed
 from sim.cli import build_parser
 from sim.reproduce.experiments import analyse, reproduce
 from sim.reproduce.paper import FEED_HIGH, FEED_LOW
 from sim.reproduce.runs import MACHINE, QUICK
 from sim.reproduce.theory import (
-    feed_for_word,
     fp_rate,
     hardware_tau,
     lag,
@@ -75,7 +74,7 @@ def test_a_row_fails_when_the_emulator_is_off(quick, tmp_path):
 def test_feed_words_of_the_paper_photos_map_back_to_their_feeds():
     machine = MACHINE["pre"]
     for word in (FEED_HIGH, FEED_LOW):
-        assert feed_word(machine, feed_for_word(machine, word)) == word
+        assert feed_word(machine, word_feed(machine, word)) == word
     # W / 2^18 of the rate multiplier's clock, f_clk / 11.
     assert fp_rate(machine, FEED_HIGH) == pytest.approx(61695 / 2**18 * 1e6 / 11, rel=1e-6)
     assert hardware_tau(machine) == pytest.approx(0.3, rel=1e-6)

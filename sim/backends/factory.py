@@ -9,15 +9,18 @@ from amaranth.lib import wiring
 from sim.backends.contract import CLOCK_PERIOD, Backend
 from sim.backends.toolchain import find_compiler
 
-__all__ = ["BACKEND_NAMES", "make_backend"]
+__all__ = ["BACKENDS", "BACKEND_NAMES", "make_backend"]
 
-#: What ``--backend`` and ``RunOptions.backend`` accept.
-BACKEND_NAMES = ("auto", "pysim", "cxxrtl")
+#: The backends, by the ``name`` each reports: Amaranth's simulator and the compiled one.
+BACKENDS = ("pysim", "cxxrtl")
+#: What ``--backend`` and ``RunOptions.backend`` accept; the first, ``auto`` (the compiled
+#: backend when a C++ compiler exists, else Amaranth's simulator), is the default.
+BACKEND_NAMES = ("auto", *BACKENDS)
 
 
-def make_backend(component: wiring.Component, kind: str = "auto", *,
+def make_backend(component: wiring.Component, kind: str = BACKEND_NAMES[0], *,
                  period: float = CLOCK_PERIOD) -> Backend:
-    """A backend for ``component``: ``"pysim"``, ``"cxxrtl"``, or ``"auto"``.
+    """A backend for ``component``: one of :data:`BACKEND_NAMES`.
 
     ``auto`` picks the compiled backend when a C++ compiler is available, and otherwise says
     so in one line on stderr and falls back to Amaranth's simulator.

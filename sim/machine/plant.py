@@ -15,17 +15,28 @@ from amaranth.hdl import Module, Mux, Signal, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
+from hdl.limits import Limit
 from hdl.observation import FreeRunning, PlantState
 
-__all__ = ["ALPHA_BITS", "FRAC_BITS", "VC_MAX", "PlantParams", "ServoPlant", "dac_zero"]
+__all__ = ["ALPHA_BITS", "COUNT_BITS", "FRAC_BITS", "GAIN_BITS", "POSITION_BITS", "PRODUCT_BITS",
+           "VC_BITS", "VC_MAX", "VMAX_BITS", "PlantParams", "ServoPlant", "dac_zero"]
 
 #: Fraction bits of position and velocity.
 FRAC_BITS = 32
 #: Fraction bits of the velocity-lag coefficient alpha = dt / Tm (alpha < 2^ALPHA_BITS).
 ALPHA_BITS = 24
-#: Velocity bound: 2^37 = 32 counts per cycle (keeps every product within 64 bits).
+#: Velocity bound: 2^37 = 32 counts per cycle (keeps every product within PRODUCT_BITS).
 VC_BITS = 37
 VC_MAX = (1 << VC_BITS) - 1
+#: Width of the gain port (velocity command per count of error, FRAC_BITS fraction bits).
+GAIN_BITS = 32
+#: Width of the speed-limit port (counts per cycle, FRAC_BITS fraction bits).
+VMAX_BITS = 48
+#: Width of the encoder count, the integer part of the position.
+COUNT_BITS = 32
+POSITION_BITS = COUNT_BITS + FRAC_BITS
+#: Width of the velocity update's product: two machine words of a compiled simulator.
+PRODUCT_BITS = 64
 #: Full-scale D/A voltage.
 DAC_VOLTS = 10.0
 
@@ -35,13 +46,20 @@ def dac_zero(dac_bits: int) -> int:
     return 1 << (dac_bits - 1)
 
 
+def _saturate(value: float, bits: int) -> int:
+    """``value`` rounded to an integer, at most the largest of ``bits`` bits (a value in the
+    last half LSB below a port's full scale takes its top code)."""
+    return min(round(value), (1 << bits) - 1)
+
+
 @dataclass(frozen=True)
 class PlantParams:
     """One axis's servo drive, in physical units, and its fixed-point encoding.
 
     ``kp``: position-loop gain (1/s); the amplifier's Kv = kp * 2^(N-1) / 10 V follows
     from it (SPEC section 9). ``tm``: velocity-loop time constant (s, 0 for none).
-    ``max_speed``: speed limit (counts/s, None for none). ``clock_hz``: system clock.
+    ``max_speed``: speed limit (counts/s, None for none). ``clock_hz``: system clock. Each
+    must be in its :meth:`limits`.
     """
 
     kp: float
@@ -50,17 +68,33 @@ class PlantParams:
     clock_hz: float = 1e6
 
     def __post_init__(self) -> None:
-        if not self.kp > 0:
-            raise ValueError(f"servo kp must be > 0 1/s, not {self.kp!r}")
-        if self.tm < 0:
-            raise ValueError(f"servo tm must be >= 0 s, not {self.tm!r}")
-        if self.max_speed is not None and not self.max_speed > 0:
-            raise ValueError(f"servo max_speed must be > 0 counts/s, not {self.max_speed!r}")
+        Limit(0, low_open=True, unit="Hz").check("clock_hz", self.clock_hz)
+        limits = self.limits(self.clock_hz)
+        for name in ("kp", "tm", "max_speed"):
+            value = getattr(self, name)
+            if value is not None:
+                limits[name].check(name, value)
+
+    @staticmethod
+    def limits(clock_hz: float) -> dict[str, Limit]:
+        """The range of ``kp``, ``tm`` and ``max_speed`` at ``clock_hz``: what the fixed point
+        carries. The gain and the speed limit, per cycle with FRAC_BITS fraction bits, must
+        stay below their ports' full scale; alpha must not round to 0 (which would end the
+        lag at once), so Tm is at most 2^ALPHA_BITS cycles."""
+        per_lsb = clock_hz / (1 << FRAC_BITS)  # 1/s of kp, counts/s of max_speed, per LSB
+        return {
+            "kp": Limit(0, (1 << GAIN_BITS) * per_lsb, low_open=True, high_open=True,
+                        unit="1/s", note=f"{GAIN_BITS}-bit gain at clock_hz"),
+            "tm": Limit(0, (1 << ALPHA_BITS) / clock_hz, unit="s",
+                        note=f"{ALPHA_BITS}-bit alpha at clock_hz"),
+            "max_speed": Limit(0, (1 << VMAX_BITS) * per_lsb, low_open=True, high_open=True,
+                               unit="counts/s", note=f"{VMAX_BITS}-bit speed limit at clock_hz"),
+        }
 
     @property
     def gain(self) -> int:
         """Velocity command per count of error, in counts/cycle << FRAC_BITS."""
-        return round(self.kp / self.clock_hz * (1 << FRAC_BITS))
+        return _saturate(self.kp / self.clock_hz * (1 << FRAC_BITS), GAIN_BITS)
 
     @property
     def alpha(self) -> int:
@@ -71,14 +105,14 @@ class PlantParams:
         """
         if self.tm * self.clock_hz <= 1:
             return (1 << ALPHA_BITS) - 1
-        return min(round((1 << ALPHA_BITS) / (self.tm * self.clock_hz)), (1 << ALPHA_BITS) - 1)
+        return _saturate((1 << ALPHA_BITS) / (self.tm * self.clock_hz), ALPHA_BITS)
 
     @property
     def vmax(self) -> int:
         """Speed limit in counts/cycle << FRAC_BITS (0: none)."""
         if self.max_speed is None:
             return 0
-        return max(1, round(self.max_speed / self.clock_hz * (1 << FRAC_BITS)))
+        return max(1, _saturate(self.max_speed / self.clock_hz * (1 << FRAC_BITS), VMAX_BITS))
 
     def kv(self, dac_bits: int) -> float:
         """The amplifier's velocity gain, counts/s per volt."""
@@ -103,7 +137,7 @@ class ServoPlant(wiring.Component):
     dac_zero : In(16)
         The code of 0 V, 2^(N-1) for an N-bit converter (:func:`dac_zero`); given as a
         number rather than N, so that the model needs no shifter.
-    gain, alpha, vmax : In(32), In(ALPHA_BITS), In(48)
+    gain, alpha, vmax : In(GAIN_BITS), In(ALPHA_BITS), In(VMAX_BITS)
         Fixed-point parameters, see :class:`PlantParams`.
     stall : In(1)
         Fault: the axis is blocked (velocity held at 0).
@@ -113,7 +147,7 @@ class ServoPlant(wiring.Component):
         Fault: the /A line is broken (reads as A, not its complement).
     a, a_n, b, b_n : Out(1)
         Encoder lines.
-    count : Out(signed(32))
+    count : Out(signed(COUNT_BITS))
         The encoder count (floor of the position).
     velocity : Out(signed(VC_BITS + 1))
         Motor velocity, counts/cycle << FRAC_BITS.
@@ -121,9 +155,9 @@ class ServoPlant(wiring.Component):
 
     dac: In(16)
     dac_zero: In(16)
-    gain: In(32)
+    gain: In(GAIN_BITS)
     alpha: In(ALPHA_BITS)
-    vmax: In(48)
+    vmax: In(VMAX_BITS)
     stall: In(1)
     glitch_a: In(1)
     glitch_b: In(1)
@@ -132,7 +166,7 @@ class ServoPlant(wiring.Component):
     a_n: Out(1)
     b: Out(1)
     b_n: Out(1)
-    count: Out(signed(32))
+    count: Out(signed(COUNT_BITS))
     velocity: Out(signed(VC_BITS + 1))
 
     #: While the chipset stands still, a compiled backend steps the plant natively, with this
@@ -143,28 +177,28 @@ class ServoPlant(wiring.Component):
         m = Module()
         err = Signal(signed(17))
         m.d.comb += err.eq(self.dac - self.dac_zero)
-        # Every value fits in 64 bits, so that compiled simulators compute it in at most two
-        # machine words: |vc|, |v| < 2^VC_BITS and alpha < 2^ALPHA_BITS, so
+        # Every value fits in PRODUCT_BITS = 64 bits, so that compiled simulators compute it in
+        # at most two machine words: |vc|, |v| < 2^VC_BITS and alpha < 2^ALPHA_BITS, so
         # |(vc - v) * alpha| < 2^62.
-        vc_raw = Signal(signed(17 + 33))
+        vc_raw = Signal(signed(len(err) + GAIN_BITS + 1))
         m.d.comb += vc_raw.eq(err * self.gain)
         vmax = Signal(VC_BITS)
         m.d.comb += vmax.eq(Mux((self.vmax == 0) | (self.vmax > VC_MAX), VC_MAX, self.vmax))
         vc = Signal(signed(VC_BITS + 1))
         m.d.comb += vc.eq(Mux(vc_raw > vmax, vmax, Mux(vc_raw < -vmax, -vmax, vc_raw)))
-        delta = Signal(signed(64))
+        delta = Signal(signed(PRODUCT_BITS))
         m.d.comb += delta.eq((vc - self.velocity) * self.alpha + (1 << (ALPHA_BITS - 1)))
         # p += v_next is kept as before = p - v (so before += v): each register's next value
         # is then one expression, which compiled simulators evaluate only at the clock edge.
         # An update that rounds to 0 lands on vc: the lag ends exactly, so an axis at rest
         # has velocity 0 (no creep from a residue the rounding can never remove).
-        step = Signal(signed(64 - ALPHA_BITS))
+        step = Signal(signed(PRODUCT_BITS - ALPHA_BITS))
         m.d.comb += step.eq(delta.shift_right(ALPHA_BITS))
         m.d.sync += self.velocity.eq(
             Mux(self.stall, 0, Mux(step == 0, vc, self.velocity + step)))
-        before = Signal(signed(32 + FRAC_BITS))
+        before = Signal(signed(POSITION_BITS))
         m.d.sync += before.eq(before + self.velocity)
-        position = Signal(signed(32 + FRAC_BITS))
+        position = Signal(signed(POSITION_BITS))
         m.d.comb += position.eq(before + self.velocity)
         # The encoder lines follow the position; a fault input acts one cycle later, as if
         # it were registered with the lines.

@@ -4,7 +4,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sim.machine.plant import ALPHA_BITS, FRAC_BITS, VC_BITS, VC_MAX, dac_zero
+from sim.machine.plant import (
+    ALPHA_BITS,
+    COUNT_BITS,
+    FRAC_BITS,
+    POSITION_BITS,
+    PRODUCT_BITS,
+    VC_BITS,
+    VC_MAX,
+    dac_zero,
+)
 
 __all__ = ["ServoPlantModel"]
 
@@ -27,7 +36,7 @@ class ServoPlantModel:
 
     @property
     def count(self) -> int:
-        return _wrap(self.position >> FRAC_BITS, 32)
+        return _wrap(self.position >> FRAC_BITS, COUNT_BITS)
 
     def quadrature(self) -> tuple[int, int]:
         """(A, B) of the current count."""
@@ -38,7 +47,8 @@ class ServoPlantModel:
         err = dac - dac_zero(self.dac_bits)
         vmax = VC_MAX if not self.vmax or self.vmax > VC_MAX else self.vmax
         vc = max(-vmax, min(vmax, err * self.gain))
-        delta = _wrap((vc - self.velocity) * self.alpha + (1 << (ALPHA_BITS - 1)), 64)
+        delta = _wrap((vc - self.velocity) * self.alpha + (1 << (ALPHA_BITS - 1)),
+                      PRODUCT_BITS)
         step = delta >> ALPHA_BITS
         if stall:
             self.velocity = 0
@@ -46,4 +56,4 @@ class ServoPlantModel:
             self.velocity = vc
         else:
             self.velocity = _wrap(self.velocity + step, VC_BITS + 1)
-        self.position = _wrap(self.position + self.velocity, 32 + FRAC_BITS)
+        self.position = _wrap(self.position + self.velocity, POSITION_BITS)

@@ -11,8 +11,9 @@ from amaranth.lib.wiring import In, Out
 
 from hdl.chipset import AXES, Accel, Chipset
 from hdl.hostbus import HostBus
+from hdl.k3702 import COUNTER_WIDTH
 from hdl.observation import FreeRunning
-from sim.machine.plant import ALPHA_BITS, ServoPlant
+from sim.machine.plant import ALPHA_BITS, COUNT_BITS, GAIN_BITS, VMAX_BITS, ServoPlant
 
 __all__ = ["AxisProbe", "System"]
 
@@ -27,13 +28,13 @@ class AxisProbe(wiring.Signature):
         :func:`sim.machine.plant.dac_zero` of the K3702's DAC_BITS).
     stall, glitch_a, glitch_b, break_a : In(1)
         Fault injection (see :class:`sim.machine.plant.ServoPlant`).
-    command, error : Out(signed(24))
+    command, error : Out(signed(COUNTER_WIDTH))
         The K3702's counters.
-    count : Out(signed(32))
+    count : Out(signed(COUNT_BITS))
         The plant's encoder count (the true position in LSB).
     dac : Out(16)
         The D/A word.
-    max_abs_error : Out(24)
+    max_abs_error : Out(COUNTER_WIDTH)
         The largest |error| seen since reset, updated every cycle.
     pulses_pos, pulses_neg : Out(32)
         K3701 step pulses on this axis since reset.
@@ -43,10 +44,11 @@ class AxisProbe(wiring.Signature):
 
     def __init__(self):
         super().__init__({
-            "gain": In(32), "alpha": In(ALPHA_BITS), "vmax": In(48), "dac_zero": In(16),
+            "gain": In(GAIN_BITS), "alpha": In(ALPHA_BITS), "vmax": In(VMAX_BITS),
+            "dac_zero": In(16),
             "stall": In(1), "glitch_a": In(1), "glitch_b": In(1), "break_a": In(1),
-            "command": Out(signed(24)), "error": Out(signed(24)), "count": Out(signed(32)),
-            "dac": Out(16), "max_abs_error": Out(24),
+            "command": Out(signed(COUNTER_WIDTH)), "error": Out(signed(COUNTER_WIDTH)),
+            "count": Out(signed(COUNT_BITS)), "dac": Out(16), "max_abs_error": Out(COUNTER_WIDTH),
             "pulses_pos": Out(32), "pulses_neg": Out(32), "alarm_n": Out(1),
         })
 

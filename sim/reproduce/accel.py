@@ -12,13 +12,14 @@ from pathlib import Path
 
 import numpy as np
 
+from firmware_model.firmware import word_feed
 from firmware_model.gcode import Line
 from firmware_model.job import AXES
 from sim.machine.plant import DAC_VOLTS
 from sim.reproduce.paper import FEED_HIGH, PAPER_TAU_S
 from sim.reproduce.report import Section, pct, pyplot, save_figure
 from sim.reproduce.runs import MACHINE, SERVO, RunData, Specs, Trace
-from sim.reproduce.theory import E63, feed_for_word, fp_rate, hardware_tau, lag, servo
+from sim.reproduce.theory import E63, fp_rate, hardware_tau, lag, servo
 
 __all__ = ["section"]
 
@@ -79,7 +80,7 @@ def section(runs: dict[str, RunData], specs: Specs, out: Path) -> Section:
         f"the feedback disconnected), and showed the accel/decel curve again with the encoder "
         f"feedback on (Photo 2). The emulator runs a line of ({item.block.xe}, "
         f"{item.block.ye}) LSB under FP control at the feed word {FEED_HIGH} "
-        f"(F{feed_for_word(machine, FEED_HIGH):.2f} mm/min, {fi:.0f} FP/s); its budget of "
+        f"(F{word_feed(machine, FEED_HIGH):.2f} mm/min, {fi:.0f} FP/s); its budget of "
         f"{item.plan.fp} FP keeps the feed on for {item.plan.fp / fi:.2f} s, then the "
         f"circuit drains. Photo 1 is read as the circuit's output rate (the FP rate into the "
         f"K3701, counted on the gateware); without feedback the D/A of a K3702 would show the "

@@ -66,7 +66,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
         "The paper warns that under FP control the host's count of the FP a block needs must "
         "equal the interpolator's; the SPEC (section 7) spells out the two ways it goes wrong. "
         f"The emulator runs an X line of {end} LSB at "
-        f"F{scale.hazard_fp_s * 60 * machine.lsb_mm:g} ({fi:.0f} FP/s) three times, with "
+        f"F{machine.mm_per_min(scale.hazard_fp_s):g} ({fi:.0f} FP/s) three times, with "
         f"the firmware's exact budget and with the budget one too high and one too low "
         f"(`RunOptions(budget_offset=+-1)`).",
         f"One FP too many: the K3701 ends its block when it has its {need} FP, while the "

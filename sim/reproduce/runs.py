@@ -14,11 +14,12 @@ from typing import TypeVar
 
 import numpy as np
 
+from firmware_model.firmware import word_feed
 from firmware_model.gcode import Arc, Line, parse
 from firmware_model.job import AXES, Job, MachineConfig, ServoConfig
 from hdl.k3701_model import Block
 from sim.reproduce.paper import FEED_HIGH, FEED_LOW
-from sim.reproduce.theory import feed_for_word, hardware_tau
+from sim.reproduce.theory import hardware_tau
 from sim.run.sampler import TRACE_COLUMNS
 
 __all__ = ["FULL", "MACHINE", "QUICK", "SERVO", "RateSpec", "RunData", "RunSpec", "Scale", "Specs",
@@ -161,7 +162,7 @@ def _tau_cycles() -> int:
 def run_specs(scale: Scale) -> Specs:
     """Every run of the experiments at ``scale`` (the budget-too-low run comes later)."""
     pre = MACHINE["pre"]
-    high, low = feed_for_word(pre, FEED_HIGH), feed_for_word(pre, FEED_LOW)
+    high, low = word_feed(pre, FEED_HIGH), word_feed(pre, FEED_LOW)
     every = scale.sample_every
     x, y = scale.line
     r = scale.radius
@@ -171,7 +172,7 @@ def run_specs(scale: Scale) -> Specs:
     rest = f"G04 P{REST_S}\nM30"
     circle = f"G17 G21 G91\nG03 I-{_mm(r, pre)} J0 F{high:.6f}\n{rest}"
     hazard = (f"G17 G21 G91\nG01 X{_mm(scale.hazard_steps, pre)} "
-              f"F{scale.hazard_fp_s * 60 * pre.lsb_mm:.6f}\n{rest}")
+              f"F{pre.mm_per_min(scale.hazard_fp_s):.6f}\n{rest}")
     big = 100_000  # a radius whose first octant holds the whole circular count
     return {
         "hazard_exact": RunSpec("hazard_exact", "pre", hazard, every),

@@ -13,13 +13,13 @@ import math
 
 import numpy as np
 
-from firmware_model.firmware import FEED_BITS, feed_word, rm_clock_hz
+from firmware_model.firmware import rm_clock_hz
 from firmware_model.job import MachineConfig
 from hdl.divider_model import frequency_of, increment_for
-from hdl.feed_rate import DIVIDER_WIDTH
+from hdl.feed_rate import DIVIDER_WIDTH, FEED_BITS
 from hdl.k3701_model import Block, make_path, walk
 
-__all__ = ["E63", "feed_for_word", "fp_rate", "hardware_tau", "ideal_command", "lag",
+__all__ = ["E63", "fp_rate", "hardware_tau", "ideal_command", "lag",
            "quarter_counts", "servo", "servo_radius_loss"]
 
 #: 1 - 1/e: the fraction of the final value a first-order lag reaches after one tau.
@@ -27,14 +27,6 @@ E63 = 1 - math.exp(-1)
 
 
 # -- the hardware's rates ---------------------------------------------------------------------
-
-
-def feed_for_word(machine: MachineConfig, word: int) -> float:
-    """The G-code feed (mm/min) whose rate-multiplier word is ``word`` (inverts feed_word)."""
-    feed = word / (1 << FEED_BITS) * rm_clock_hz(machine) * 60 * machine.lsb_mm
-    if feed_word(machine, feed) != word:
-        raise ValueError(f"no feed gives the rate-multiplier word {word}")
-    return feed
 
 
 def fp_rate(machine: MachineConfig, word: int) -> float:

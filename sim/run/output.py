@@ -101,7 +101,7 @@ def write_plot(result: RunResult, path: Path) -> None:
     if len(s) > 1:
         dt = np.diff(t)
         for col, name in ((3, "x"), (4, "y")):
-            speed = np.diff(s[:, col]) * lsb_mm * 60 / dt
+            speed = result.job.machine.mm_per_min(np.diff(s[:, col]) / dt)
             ax.plot(t[1:], speed, label=f"{name}")
     ax.set(title="axis speeds", xlabel="time (s)", ylabel="mm/min")
     ax.legend()

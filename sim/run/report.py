@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from sim.backends.factory import BACKENDS
+
 __all__ = ["RUN_SCHEMA", "SCHEMA_VERSION", "schema_markdown", "validate"]
 
 SCHEMA_VERSION = 1
@@ -54,7 +56,8 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
                "description": "ok; alarm: a K3702 alarm stopped the feed; fault: an "
                               "interpolator error, FP overrun, encoder fault or settle "
                               "timeout; timeout: max_cycles ran out"},
-    "backend": {"type": "string", "description": "simulation backend used"},
+    "backend": {"type": "string", "enum": list(BACKENDS),
+                "description": "simulation backend used"},
     "cycles": _int("system clock cycles simulated"),
     "clock_hz": _num("system clock (Hz)"),
     "machine_seconds": _num("simulated time, cycles / clock_hz (s)"),

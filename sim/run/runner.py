@@ -21,10 +21,11 @@ from firmware_model.host import Host8085
 from firmware_model.job import AXES, Job
 from hdl.chipset import CHIP_SELECTS, port
 from sim.backends.contract import Backend
-from sim.backends.factory import make_backend
-from sim.machine.plant import PlantParams, dac_zero
+from sim.backends.factory import BACKEND_NAMES, make_backend
+from sim.machine.plant import dac_zero
 from sim.machine.system import System
 from sim.run.contour import contour_errors
+from sim.run.jobfile import plant_params
 from sim.run.link import BlockMeasure, BlockMeter, SimulatedLink
 from sim.run.report import SCHEMA_VERSION, validate
 from sim.run.sampler import Sampler
@@ -36,7 +37,8 @@ __all__ = ["RunOptions", "RunResult", "build_backend", "run_job"]
 class RunOptions:
     """How to run a job (the command line's options)."""
 
-    backend: str = "auto"
+    #: One of :data:`sim.backends.factory.BACKEND_NAMES`.
+    backend: str = BACKEND_NAMES[0]
     max_cycles: int = 10**9
     sample_every: int = 1000
     vcd: Path | None = None
@@ -66,10 +68,7 @@ class RunResult:
 def _configure_plants(backend: Backend, job: Job, faults: dict[str, dict[str, int]]) -> None:
     machine = job.machine
     for axis in AXES:
-        servo = job.servo[axis]
-        max_speed = None if servo.max_speed is None else servo.max_speed / 60 / machine.lsb_mm
-        params = PlantParams(kp=servo.kp, tm=servo.tm, max_speed=max_speed,
-                             clock_hz=machine.clock_hz)
+        params = plant_params(machine, job.servo[axis])
         backend.set(f"{axis}__gain", params.gain)
         backend.set(f"{axis}__alpha", params.alpha)
         backend.set(f"{axis}__vmax", params.vmax)
@@ -79,7 +78,7 @@ def _configure_plants(backend: Backend, job: Job, faults: dict[str, dict[str, in
 
 
 def build_backend(job: Job, kind: str) -> Backend:
-    """The simulated machine of ``job`` on backend ``kind`` (auto, pysim, cxxrtl)."""
+    """The simulated machine of ``job`` on backend ``kind`` (one of ``BACKEND_NAMES``)."""
     system = System(accel=job.machine.accel, accel_bits=job.machine.accel_bits)
     return make_backend(system, kind)
 

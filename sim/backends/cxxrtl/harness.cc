@@ -1,4 +1,4 @@
-// A C ABI over one CXXRTL model, for ctypes (see sim/cxxrtl.py).
+// A C ABI over one CXXRTL model, for ctypes (see sim/backends/cxxrtl/backend.py).
 //
 // This file does not depend on the design, so it is compiled once per toolchain and linked
 // with each design's object, which defines k37_make_top() (the output of `write_cxxrtl` for
@@ -24,17 +24,44 @@ cxxrtl::module *k37_make_top();
 // Whether anything but rising edges of `clk` matters (falling-edge logic, derived clocks).
 bool k37_needs_falling_edge();
 // Commits after a falling or a rising edge of `clk`: of the wires that edge can change (and
-// those written outside any edge), or all wires (sim/cxxrtl.py, edge_wires). They return
-// CHANGED if any wire changed, | REST_CHANGED if any but the free-running state's did.
+// those written outside any edge), or all wires (build.py, edge_wires). They return CHANGED if
+// any wire changed, | REST_CHANGED if any but the free-running state's did.
 unsigned k37_commit_fall(cxxrtl::module *top);
 unsigned k37_commit_rise(cxxrtl::module *top);
 // Whether the eval() of a falling edge computes every combinational value as a settle would;
 // then k37_discard_fall() forgets the next values that eval() wrote, undoing the edge.
 bool k37_can_peek();
 // eval() at a falling edge of `clk`: computes the negedge registers' next values and the output
-// ports, possibly nothing else (sim/cxxrtl.py, fall_eval); other combinational values are stale.
+// ports, possibly nothing else (build.py, fall_eval); other combinational values are stale.
 bool k37_eval_fall(cxxrtl::module *top);
 void k37_discard_fall(cxxrtl::module *top);
+
+extern "C" {
+
+// The rate multiplier's decoding (hdl/rate_multiplier.py), as its reference model defines it
+// (hdl/rate_multiplier_model.py; tests/test_rate_multiplier.py pins these to it): counter state
+// `state` of a `width`-bit cascade passes the input clock for word bit width - 1 - t, t its
+// trailing ones, and for none (width) when it is all ones. The states with t trailing ones are
+// those equal to 2^t - 1 modulo 2^(t + 1).
+unsigned k37_rm_selected_bit(uint64_t state, unsigned width) {
+	unsigned ones = 0;
+	while (ones < width && (state >> ones & 1))
+		ones++;
+	return ones < width ? width - 1 - ones : width;
+}
+
+// Input clocks that pass without a pulse from counter state `count` on (clock i, from 0,
+// reaches state count + 1 + i): the fewest before a state that selects a set bit of `word`,
+// UINT64_MAX if `word` is 0.
+uint64_t k37_rm_clocks_before_pulse(uint64_t count, uint64_t word, unsigned width) {
+	uint64_t first = count + 1, clocks = UINT64_MAX;
+	for (unsigned t = 0; t < width; t++)
+		if (word >> (width - 1 - t) & 1)
+			clocks = std::min(clocks, ((uint64_t(1) << t) - 1 - first) & ((uint64_t(2) << t) - 1));
+	return clocks;
+}
+
+}  // extern "C"
 
 namespace {
 
@@ -74,8 +101,8 @@ struct Accumulator {
 };
 
 // A counter (the rate multiplier's, hdl/rate_multiplier.py) that counts the cycles in which
-// accumulator `clock`'s stb is high; `select` is the gate selected by state count + 1: the
-// bit index width - 1 - (trailing ones of count + 1), or width when they are all ones.
+// accumulator `clock`'s stb is high; `select` is the word bit that state count + 1 selects
+// (k37_rm_selected_bit).
 struct StrobeCounter {
 	size_t count, select;
 	unsigned width;
@@ -102,7 +129,7 @@ struct Countdown {
 	uint64_t stop;
 };
 
-// A servo plant (sim/plant.py), stepped natively while it moves within one encoder count:
+// A servo plant (sim/machine/plant.py), stepped natively while it moves within one encoder count:
 // v += round((vc - v) alpha / 2^alpha_bits), or v = vc if that rounds to 0 (0 if stalled);
 // before += v; the count is (before + v) >> frac_bits. Skips stop before a count changes.
 struct Plant {
@@ -348,22 +375,17 @@ uint64_t event_horizon(Model &m) {
 	for (const StrobeCounter &c : m.counters) {
 		if (c.gate == SIZE_MAX || !read_u64(m, c.gate))
 			continue;
-		// Strobes before the first that selects a set word bit: strobe i selects bit
-		// width - 1 - t for the t trailing ones of state + 1 + i, and the states with t
-		// trailing ones are those equal to 2^t - 1 modulo 2^(t + 1).
-		uint64_t word = read_u64(m, c.word), first = read_u64(m, c.count) + 1;
-		uint64_t strobes = UINT64_MAX;
-		for (unsigned t = 0; t < c.width; t++)
-			if (word >> (c.width - 1 - t) & 1)
-				strobes = std::min(strobes, ((uint64_t(1) << t) - 1 - first) &
-				                                ((uint64_t(2) << t) - 1));
+		// The strobes before the first that gives a pulse.
+		uint64_t strobes = k37_rm_clocks_before_pulse(read_u64(m, c.count), read_u64(m, c.word),
+		                                              c.width);
 		if (strobes != UINT64_MAX)
 			horizon = std::min(horizon, cycles_within(m, m.accumulators[c.clock], strobes));
 	}
 	return horizon;
 }
 
-// One plant's registers and (constant) inputs, and its update, as sim/plant.py computes them:
+// One plant's registers and (constant) inputs, and its update, as sim/machine/plant.py computes
+// them:
 // the position (before + v, what the count is taken from) and the velocity.
 struct PlantState {
 	int64_t v, vc, alpha;
@@ -462,7 +484,7 @@ bool plants_moved(Model &m) {
 	for (const Plant &p : m.plants) {
 		uint64_t before = read_u64(m, p.before);
 		uint64_t v = uint64_t(sign_extend(read_u64(m, p.velocity), p.vc_bits + 1));
-		if (uint32_t((before + v) >> p.frac_bits) != uint32_t(before >> p.frac_bits))
+		if ((before + v) >> p.frac_bits != before >> p.frac_bits)
 			return true;
 	}
 	return false;
@@ -482,11 +504,8 @@ void advance_free(Model &m, uint64_t k) {
 	for (const StrobeCounter &c : m.counters) {
 		uint64_t mask = (uint64_t(1) << c.width) - 1;
 		uint64_t count = (read_u64(m, c.count) + strobes[c.clock]) & mask;
-		uint64_t ones = 0;
-		for (uint64_t next = (count + 1) & mask; ones < c.width && (next >> ones & 1); ones++)
-			;
 		write_state(m, c.count, count);
-		write_state(m, c.select, ones < c.width ? c.width - 1 - ones : c.width);
+		write_state(m, c.select, k37_rm_selected_bit((count + 1) & mask, c.width));
 	}
 	for (const CarryAccumulator &c : m.carries) {
 		int64_t x = read_x(m, c);
@@ -784,7 +803,9 @@ int k37_free_carry(void *handle, size_t y, size_t x, unsigned n, int x_signed, s
 	return 0;
 }
 
-// Declare a servo plant (see Plant); 0, or -1 if velocity or before is not a register.
+// Declare a servo plant (see Plant); 0, or -1 if velocity or before is not a register, or
+// they are not as wide as the format says (the position, before, must be the 64 bits that
+// the native steps compute in).
 int k37_free_plant(void *handle, const size_t *items, unsigned vc_bits, unsigned alpha_bits,
                    unsigned frac_bits) {
 	Model &m = *static_cast<Model *>(handle);
