@@ -9,11 +9,17 @@ simulation backend.
 
 Before anything is loaded, :func:`check_program` refuses what the hardware cannot do: a feed
 above the interpolator's step rate or below the rate multiplier's resolution, an FP budget
-beyond 24 bits.
+beyond 24 bits, a dwell longer than the clock can count.
 
 A feed (mm/min) becomes FP/s (:meth:`firmware_model.job.MachineConfig.lsb_per_s`) and then the
 rate multiplier's word at the input clock the firmware sets (:func:`feed_word`); a word gives
 back its feed with :func:`word_feed`.
+
+While the 8085 waits for a block's end, its timer interrupt (every :data:`TIMER_TICK_SECONDS`)
+polls both encoders' status: the encoder interface has no interrupt line (SPEC section 8: a
+line fault is a flag), so this is how a broken line is seen while the axes move rather than
+only at the next block end. Any encoder fault stops the feed and the program, as an alarm
+does.
 """
 
 from __future__ import annotations
@@ -31,11 +37,16 @@ from hdl.k3701 import block_registers
 from hdl.k3701_model import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
 
 __all__ = ["AlarmEvent", "BlockObserver", "BlockRecord", "Firmware", "FirmwareError",
-           "check_program", "feed_word", "max_feed_mm_min", "rm_clock_hz", "word_feed"]
+           "check_program", "feed_word", "max_feed_mm_min", "planned_seconds", "rm_clock_hz",
+           "word_feed"]
 
 #: Rate-multiplier input clock: one input clock per linear step time, so the FP stream into
 #: the K3701 never has two pulses closer than the linear step latency.
 RM_CLOCK_DIVISOR = LATENCY_LINEAR
+#: The simulation counts system cycles in 64 bits: no dwell may be longer.
+CYCLE_COUNTER_BITS = 64
+#: The encoder faults the firmware reads in an encoder's STATUS.
+ENCODER_FAULTS = ("line_fault_a", "line_fault_b", "quad_error")
 
 
 class FirmwareError(ValueError):
@@ -97,6 +108,15 @@ def word_feed(machine: MachineConfig, word: int) -> float:
     return machine.mm_per_min(rm_clock_hz(machine) * word / (1 << FEED_BITS))
 
 
+def planned_seconds(item: Item, machine: MachineConfig) -> float:
+    """How long ``item`` is planned to take: a dwell's time, a block's FP at its feed word's
+    rate (the accel/decel circuit's lag not counted)."""
+    if isinstance(item, Dwell):
+        return item.seconds
+    fp_per_s = feed_word(machine, _feed_of(item, machine)) * rm_clock_hz(machine) / (1 << FEED_BITS)
+    return item.plan.fp / fp_per_s
+
+
 def _where(item: Item, program: Program) -> str:
     return f"{program.source}:{item.line_no}"
 
@@ -113,6 +133,12 @@ def check_program(job: Job) -> None:
     machine, program = job.machine, job.program
     for item in program.items:
         if isinstance(item, Dwell):
+            counter = 2**CYCLE_COUNTER_BITS / machine.clock_hz
+            if not item.seconds < counter:
+                raise FirmwareError(
+                    f"{_where(item, program)}: G04 P: the dwell is longer than the simulated "
+                    f"clock can count (2^{CYCLE_COUNTER_BITS} cycles, {counter:.3g} s at "
+                    f"{machine.clock_hz / 1e6:g} MHz)")
             continue
         feed = _feed_of(item, machine)
         limit = max_feed_mm_min(machine, item.block.kind)
@@ -151,6 +177,9 @@ class Firmware:
         self.alarms: list[AlarmEvent] = []
         self.stopped = False
         self.timed_out = False
+        #: The program item running (None before the first) and the cycle it began.
+        self.item: Item | None = None
+        self.item_cycle = 0
 
     # -- initialisation ----------------------------------------------------------------------
 
@@ -182,6 +211,7 @@ class Firmware:
         for item in self.job.program.items:
             if self.stopped or self.host.cycle >= self.limit:
                 break
+            self.item, self.item_cycle = item, self.host.cycle
             if isinstance(item, Dwell):
                 self._dwell(item)
             else:
@@ -191,9 +221,10 @@ class Firmware:
         self.timed_out = self.host.cycle >= self.limit and not self.stopped
 
     def _dwell(self, item: Dwell) -> None:
-        # A delay loop on the 8085: the chipset runs on, nothing is accessed.
+        # A delay loop on the 8085: the chipset runs on, nothing is accessed; the run's
+        # cycle limit cuts it short.
         t_states = round(item.seconds * self.host_hz)
-        self.host.work(t_states)
+        self.host.work(t_states, max_cycles=self.limit - self.host.cycle)
 
     @property
     def host_hz(self) -> float:
@@ -219,15 +250,27 @@ class Firmware:
         self._wait_block_end(record)
 
     def _wait_block_end(self, record: BlockRecord) -> None:
-        """Wait for interrupts; serve them until the K3701's data request ends the block."""
+        """Wait for interrupts; serve them until the K3701's data request ends the block. The
+        timer interrupt wakes the host at every tick (multiples of the tick since reset)."""
         host = self.host
+        tick = max(1, round(TIMER_TICK_SECONDS * self.job.machine.clock_hz))
         while record.end_cycle is None and not self.stopped:
             left = self.limit - host.cycle
             if left <= 0:
                 return
-            host.wait_interrupt(left)
+            to_tick = tick - host.cycle % tick
+            waited = host.wait_interrupt(min(left, to_tick))
             if host.interrupts().any():
                 self._interrupt(record)
+            elif waited == to_tick and host.cycle < self.limit:
+                self._timer_interrupt()
+
+    def _timer_interrupt(self) -> None:
+        """The timer's routine: poll the encoders."""
+        host = self.host
+        host.work(host.timing.isr_entry)
+        self._check_encoders()
+        host.work(host.timing.isr_exit)
 
     def _interrupt(self, record: BlockRecord | None) -> None:
         """The interrupt routine: alarm first (stop the feed), then the data request."""
@@ -261,15 +304,20 @@ class Firmware:
         self._check_encoders()
 
     def _check_encoders(self) -> None:
+        """Read both encoders' STATUS; a fault (the position is no longer known) stops the
+        feed and the program."""
         host = self.host
         for axis in AXES:
             chip = f"ENCODER_{axis.upper()}"
             status = host.status(chip)
-            for flag in ("line_fault_a", "line_fault_b", "quad_error"):
-                if status[flag]:
-                    self.alarms.append(AlarmEvent(axis, host.cycle, f"encoder_{flag}"))
-            if any(status[f] for f in ("line_fault_a", "line_fault_b", "quad_error")):
+            faults = [flag for flag in ENCODER_FAULTS if status[flag]]
+            for flag in faults:
+                self.alarms.append(AlarmEvent(axis, host.cycle, f"encoder_{flag}"))
+            if faults:
                 host.command(chip, clear=1)
+                if not self.stopped:
+                    host.write("DECEL", "CTRL", 1)  # stop feed at once
+                self.stopped = True
 
     def _settle(self) -> None:
         """After the last block: poll until both axes hold the programmed end, in position."""
@@ -289,7 +337,7 @@ class Firmware:
             if done:
                 self._check_encoders()
                 return
-            host.work(SETTLE_POLL_T_STATES)
+            host.work(SETTLE_POLL_T_STATES, max_cycles=self.limit - host.cycle)
         if host.cycle < self.limit:
             self.alarms.append(AlarmEvent(None, host.cycle, "settle_timeout"))
 
@@ -298,4 +346,7 @@ class Firmware:
 SETTLE_SECONDS = 5.0
 #: The settle loop's delay between polls (about 1 ms at 3.072 MHz).
 SETTLE_POLL_T_STATES = 3072
+#: The host's timer tick (50 Hz, a mains-rate timer), on which it polls the encoders while a
+#: block runs.
+TIMER_TICK_SECONDS = 0.02
 

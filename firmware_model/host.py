@@ -64,9 +64,15 @@ class Host8085:
         self._owed -= whole
         return whole
 
-    def work(self, t_states: int) -> None:
-        """Spend ``t_states`` without bus activity (computation, loop overhead)."""
+    def work(self, t_states: int, max_cycles: int | None = None) -> None:
+        """Spend ``t_states`` without bus activity (computation, loop overhead).
+
+        A delay loop passes ``max_cycles``, the system cycles the run has left: it stops there
+        (the run is over), however long it was meant to be.
+        """
         cycles = self._advance(t_states)
+        if max_cycles is not None:
+            cycles = min(cycles, max(0, max_cycles))
         if cycles:
             self.link.idle(cycles)
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -21,14 +22,22 @@ def _cmd_docs(args: argparse.Namespace) -> int:
     return 0
 
 
+#: Exit code of a run stopped by Ctrl-C (128 + SIGINT, as a shell reports it).
+EXIT_INTERRUPTED = 130
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from firmware_model.firmware import FirmwareError
     from firmware_model.gcode import GcodeError
     from sim.run.jobfile import JobError, load_job
-    from sim.run.output import write_outputs
-    from sim.run.runner import RunOptions, run_job
+    from sim.run.output import OutputError, check_outputs, write_outputs
+    from sim.run.progress import ProgressPrinter
+    from sim.run.runner import OptionError, RunOptions, run_job
 
+    progress = None if args.quiet else ProgressPrinter(sys.stderr)
     try:
+        check_outputs(json_path=args.json, trace=args.trace, plot=args.plot, vcd=args.vcd,
+                      gtkw=args.gtkw)
         job = load_job(args.job)
         faults = {axis: {"stall": 1} for axis in args.stall}
         for axis in args.break_line:
@@ -36,14 +45,28 @@ def _cmd_run(args: argparse.Namespace) -> int:
         options = RunOptions(backend=args.backend, max_cycles=args.max_cycles,
                              sample_every=args.sample_every, vcd=args.vcd,
                              vcd_start=args.vcd_start, vcd_stop=args.vcd_stop,
-                             progress=sys.stderr.isatty() and not args.quiet, faults=faults,
-                             skip_idle=not args.no_skip_idle)
+                             progress=progress, faults=faults, skip_idle=not args.no_skip_idle,
+                             sigint=True)
         result = run_job(job, options)
-    except (JobError, GcodeError, FirmwareError) as e:
+    except (OutputError, OptionError, JobError, GcodeError, FirmwareError) as e:
         print(f"k37: error: {e}", file=sys.stderr)
         return 2
-    write_outputs(result, json_path=args.json, trace=args.trace, plot=args.plot,
-                  gtkw=args.gtkw, vcd=args.vcd, quiet=args.quiet)
+    except KeyboardInterrupt:  # outside the run itself (building the machine, the report)
+        print("k37: interrupted; nothing written", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    finally:
+        if progress is not None:
+            progress.finish()
+    try:
+        write_outputs(result, json_path=args.json, trace=args.trace, plot=args.plot,
+                      gtkw=args.gtkw, vcd=args.vcd, quiet=args.quiet)
+    except KeyboardInterrupt:
+        print("k37: interrupted while writing the outputs", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    if result.report["status"] == "interrupted":
+        print(f"k37: interrupted at cycle {result.report['cycles']:,}; outputs written",
+              file=sys.stderr)
+        return EXIT_INTERRUPTED
     return 0 if result.ok else 1
 
 
@@ -129,7 +152,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="fault: block this axis's motor")
     p.add_argument("--break-line", action="append", default=[], choices=["x", "y"],
                    help="fault: break this axis's /A encoder line")
-    p.add_argument("-q", "--quiet", action="store_true", help="no summary, no progress bar")
+    p.add_argument("-q", "--quiet", action="store_true", help="no summary, no progress line")
     p.set_defaults(func=_cmd_run)
 
     from sim.fpga.export import BLOCKS
@@ -167,7 +190,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    return args.func(args)
+    try:
+        return args.func(args)
+    except BrokenPipeError:  # the reader of stdout went away (`k37 run | head`): no traceback
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
 
 
 if __name__ == "__main__":

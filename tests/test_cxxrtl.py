@@ -726,6 +726,10 @@ def test_recorded_samples_are_the_ports_at_every_multiple_of_the_period(pair):
         cxxrtl.step(cycles, skip_idle=k == 40 or rng.random() < 0.5)
     assert cxxrtl.recorded().tolist() == expected
     assert cxxrtl.skipped_cycles > 0
+    assert cxxrtl.recorded().shape == (0, 1 + len(names)), "each sample is taken once"
+    cxxrtl.step(14)
+    assert cxxrtl.recorded()[:, 0].tolist() == [pysim.cycle + 7 - pysim.cycle % 7 + k * 7
+                                                for k in range(2)]
 
 
 class Undeclared(Zoo):

@@ -1,3 +1,4 @@
+# amaranth: UnusedElaboratable=no
 """Job files: TOML and G-code jobs, the demo, defaults, and one-line errors for bad input."""
 
 from __future__ import annotations

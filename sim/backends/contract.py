@@ -203,7 +203,8 @@ class Backend(abc.ABC):
         return False
 
     def recorded(self) -> np.ndarray:
-        """The samples :meth:`record` took: a row per sample, the cycle and the ports."""
+        """The samples :meth:`record` took since the last call: a row per sample, the cycle and
+        the ports. Each sample is returned once, so the caller may stream them away."""
         raise NotImplementedError(f"{type(self).__name__} does not record samples")
 
     def probe(self, path: str) -> int:

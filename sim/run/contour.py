@@ -9,8 +9,9 @@ import numpy as np
 from firmware_model.firmware import Firmware
 from firmware_model.gcode import Arc, Dwell, Line
 from firmware_model.job import Job
+from sim.run.sampler import CHUNK_ROWS, SampleStore
 
-__all__ = ["contour_errors"]
+__all__ = ["contour_errors", "contour_summary"]
 
 
 def _segment_distance(p: np.ndarray, a: tuple[int, int], b: tuple[int, int]) -> np.ndarray:
@@ -72,3 +73,32 @@ def contour_errors(job: Job, firmware: Firmware, samples: np.ndarray) -> np.ndar
     before = ~np.isfinite(best)
     best[before] = np.hypot(*(pts[before] - np.array(moves[0].start, dtype=float)).T)
     return best
+
+
+def contour_summary(job: Job, firmware: Firmware, store: SampleStore,
+                    leaf: int = CHUNK_ROWS) -> tuple[float, float]:
+    """The largest and the root-mean-square contour error of the samples in ``store`` (LSB),
+    reading at most ``leaf`` samples at a time.
+
+    The sum of squares is split as numpy's pairwise summation splits one array (halves rounded
+    down to a multiple of 8) down to ranges of at most ``leaf`` samples, each summed by numpy:
+    the mean is the one ``np.mean`` gives for the whole run's errors at once, bit for bit.
+    """
+    peak = 0.0
+
+    def total(start: int, stop: int) -> float:
+        nonlocal peak
+        if stop - start <= leaf:
+            errors = contour_errors(job, firmware, store.read(start, stop))
+            if not errors.size:  # no block ran: no contour
+                return 0.0
+            peak = max(peak, float(errors.max()))
+            return np.add.reduce(errors**2)
+        half = (stop - start) // 2
+        half -= half % 8
+        return total(start, start + half) + total(start + half, stop)
+
+    if not store.rows:
+        return 0.0, 0.0
+    square_sum = total(0, store.rows)
+    return peak, float(math.sqrt(square_sum / store.rows))

@@ -70,6 +70,7 @@ class BlockMeter:
         self.sampler = sampler
         self.measures: dict[int, BlockMeasure] = {}
         self._marks: dict[str, int] = {}
+        self._running: int | None = None  # the index of the block started and not ended
 
     def _counters(self) -> dict[str, int]:
         return {"fp": self.sampler.get("fp_total"),
@@ -78,6 +79,7 @@ class BlockMeter:
     def block_started(self, record: BlockRecord) -> None:
         self._marks = self._counters()
         self.measures[record.index] = BlockMeasure()
+        self._running = record.index
 
     def block_ended(self, record: BlockRecord) -> None:
         now = self._counters()
@@ -86,6 +88,14 @@ class BlockMeter:
         self.measures[record.index] = BlockMeasure(
             delta["fp"], steps,
             tuple(now[f"{axis}+"] - now[f"{axis}-"] for axis in AXES))
+        self._running = None
+
+    def done(self, index: int, fp: int) -> float:
+        """The part of block ``index`` (``fp`` FP planned) done: the FP received so far over
+        ``fp`` while it runs; 0 before it started, 1 once it ended."""
+        if self._running != index:
+            return 1.0 if index in self.measures else 0.0
+        return (self.sampler.get("fp_total") - self._marks["fp"]) / fp if fp else 1.0
 
     def of(self, record: BlockRecord) -> BlockMeasure:
         """The measure of a block the firmware ran (zeros if it never ended)."""

@@ -1,4 +1,5 @@
-"""What ``k37 run`` writes: the summary, JSON report, trace CSV, plot and GTKWave file."""
+"""What ``k37 run`` writes: the summary, JSON report, trace CSV, plot and GTKWave file; and
+the check of every output path before a run starts."""
 
 from __future__ import annotations
 
@@ -11,38 +12,105 @@ from pathlib import Path
 import numpy as np
 
 from firmware_model.gcode import Arc, Line
+from sim.machine.plant import DAC_VOLTS
 from sim.run.runner import RunResult
 from sim.run.sampler import TRACE_COLUMNS
 
-__all__ = ["summary", "write_gtkw", "write_outputs", "write_plot", "write_trace"]
+__all__ = ["OutputError", "check_outputs", "summary", "write_gtkw", "write_outputs",
+           "write_plot", "write_trace"]
+
+
+class OutputError(ValueError):
+    """An output the run could not write; one line naming the option."""
+
+
+def plot_formats() -> list[str]:
+    """The file suffixes matplotlib can write (without the dot)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return sorted(FigureCanvasBase.get_supported_filetypes())
+
+
+def check_outputs(*, json_path: str | None, trace: Path | None, plot: Path | None,
+                  vcd: Path | None, gtkw: Path | None) -> None:
+    """Refuse, before a run, outputs it could not write: a missing folder, a folder where the
+    file should be, a plot format matplotlib does not write, ``--gtkw`` without ``--vcd``."""
+    paths = {"--json": None if json_path in (None, "-") else Path(json_path),
+             "--trace": trace, "--plot": plot, "--vcd": vcd, "--gtkw": gtkw}
+    for option, path in paths.items():
+        if path is None:
+            continue
+        if path.is_dir():
+            raise OutputError(f"{option} {path}: is a folder, not a file")
+        folder = path.parent
+        if not folder.is_dir():
+            raise OutputError(f"{option} {path}: the folder {folder} does not exist")
+    if gtkw is not None and vcd is None:
+        raise OutputError(f"--gtkw {gtkw}: needs --vcd (the waveform the save file shows)")
+    if plot is not None:
+        formats = plot_formats()
+        if plot.suffix.lower().lstrip(".") not in formats:
+            what = f"the suffix {plot.suffix}" if plot.suffix else "a file without a suffix"
+            raise OutputError(f"--plot {plot}: matplotlib cannot write {what}; it writes "
+                              f"{', '.join('.' + f for f in formats)}")
+
+
+def _mm(lsb: float, lsb_mm: float) -> str:
+    return f"{lsb * lsb_mm:.3f} mm"
+
+
+def _point(xy: list[int], lsb_mm: float) -> str:
+    return f"({xy[0] * lsb_mm:.3f}, {xy[1] * lsb_mm:.3f}) mm = ({xy[0]}, {xy[1]}) LSB"
 
 
 def summary(result: RunResult) -> str:
-    """A few lines for the terminal."""
+    """A few lines for the terminal, every figure with its unit."""
     r = result.report
-    lines = [f"k37 run {result.job.name}: {r['status']} after {r['cycles']:,} cycles "
-             f"({r['machine_seconds']:.3f} s machine time, {r['wall_seconds']:.2f} s wall, "
-             f"{r['cycles_per_second']:,.0f} cycles/s on {r['backend']}"
-             + (f", {r['skipped_cycles']:,} idle cycles skipped" if r["skipped_cycles"] else "")
-             + ")",
-             f"  blocks {len(r['blocks'])}, contour error max {r['path']['max_contour_error']:.2f}"
-             f" LSB, rms {r['path']['rms_contour_error']:.2f} LSB"]
+    machine = result.job.machine
+    lsb_mm, clock = machine.lsb_mm, r["clock_hz"]
+    skipped = f", {r['skipped_cycles']:,} idle cycles skipped" if r["skipped_cycles"] else ""
+    end, path = r["end_point"], r["path"]
+    off = max(abs(a - p) for a, p in zip(end["actual"], end["programmed"], strict=True))
+    if end["reached"]:
+        reached = f"reached (within the in-position zone, {machine.in_position} LSB)"
+    else:
+        why = "" if end["program_ran"] else "the program did not run to its end; "
+        reached = (f"NOT reached: {why}actual {_point(end['actual'], lsb_mm)}, {off} LSB off "
+                   f"(in-position zone {machine.in_position} LSB)")
+    lines = [f"k37 run {result.job.name}: {r['status']}: {r['reason']}",
+             f"  time: {r['cycles']:,} cycles = {r['machine_seconds']:.3f} s machine time in "
+             f"{r['wall_seconds']:.2f} s wall ({r['cycles_per_second']:,.0f} cycles/s on "
+             f"{r['backend']}{skipped})",
+             f"  end point {_point(end['programmed'], lsb_mm)}: {reached}",
+             f"  {len(r['blocks'])} block{'s' if len(r['blocks']) != 1 else ''} run; "
+             f"contour error max "
+             f"{path['max_contour_error']:.2f} LSB ({_mm(path['max_contour_error'], lsb_mm)}), "
+             f"rms {path['rms_contour_error']:.2f} LSB "
+             f"({_mm(path['rms_contour_error'], lsb_mm)}) over {path['samples']:,} samples"]
+    half = 1 << (machine.dac_bits - 1)
     for axis, a in r["axes"].items():
-        lines.append(f"  {axis}: command {a['command']}, actual {a['actual']}, error "
-                     f"{a['error']}, max |error| {a['max_abs_error']}")
-    lines += [f"  {a['kind']} on axis {a['axis'] or '-'} at cycle {a['cycle']:,}"
-              for a in r["alarms"]]
+        volts = DAC_VOLTS * min(a["max_abs_error"], half) / half
+        lines.append(f"  {axis}: command {a['command']} LSB, actual {a['actual']} LSB "
+                     f"({_mm(a['actual'], lsb_mm)}), error {a['error']} LSB, max |error| "
+                     f"{a['max_abs_error']} LSB ({_mm(a['max_abs_error'], lsb_mm)}, "
+                     f"{volts:.2f} V at the D/A)")
+    lines += [f"  {a['kind']}{' on axis ' + a['axis'] if a['axis'] else ''} at cycle "
+              f"{a['cycle']:,} ({a['cycle'] / clock:.3f} s)" for a in r["alarms"]]
+    lines += [f"  warning: {w}" for w in r["warnings"]]
     return "\n".join(lines)
 
 
 def write_trace(result: RunResult, path: Path) -> None:
-    """The samples as CSV, one row per sample, columns :data:`sim.run.TRACE_COLUMNS`."""
+    """The samples as CSV, one row per sample, columns :data:`sim.run.TRACE_COLUMNS` (read
+    from the store a chunk at a time)."""
     with open(path, "w", newline="") as f:
         out = csv.writer(f)
         out.writerow(TRACE_COLUMNS)
-        for row in result.samples:
-            out.writerow([f"{v:.4f}" if "volts" in name else int(v)
-                          for name, v in zip(TRACE_COLUMNS, row, strict=True)])
+        volts = ["volts" in name for name in TRACE_COLUMNS]
+        for chunk in result.store.chunks():
+            out.writerows([f"{v:.4f}" if is_volts else int(v)
+                           for is_volts, v in zip(volts, row, strict=True)]
+                          for row in chunk.tolist())
 
 
 def _programmed_path(result: RunResult) -> list[np.ndarray]:
@@ -179,7 +247,8 @@ def write_gtkw(vcd: Path, path: Path) -> list[str]:
 def write_outputs(result: RunResult, *, json_path: str | None, trace: Path | None,
                   plot: Path | None, gtkw: Path | None, vcd: Path | None,
                   quiet: bool = False) -> None:
-    """Write every output the command line asked for."""
+    """Write every output the command line asked for (checked by :func:`check_outputs`); no
+    GTKWave save file for a waveform the run did not write (its report warns)."""
     if json_path == "-":
         json.dump(result.report, sys.stdout, indent=2)
         print()
@@ -189,9 +258,7 @@ def write_outputs(result: RunResult, *, json_path: str | None, trace: Path | Non
         write_trace(result, trace)
     if plot:
         write_plot(result, plot)
-    if gtkw:
-        if vcd is None:
-            raise ValueError("--gtkw needs --vcd")
+    if gtkw and vcd is not None and vcd.exists():
         write_gtkw(vcd, gtkw)
     if not quiet and json_path != "-":
         print(summary(result))

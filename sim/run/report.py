@@ -52,10 +52,14 @@ _AXIS = _obj("one axis at the end of the run", {
 RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
     "schema_version": _int(f"version of this schema ({SCHEMA_VERSION})"),
     "job": {"type": "object", "description": "the job's configuration as run"},
-    "status": {"type": "string", "enum": ["ok", "alarm", "fault", "timeout"],
+    "status": {"type": "string", "enum": ["ok", "alarm", "fault", "timeout", "interrupted"],
                "description": "ok; alarm: a K3702 alarm stopped the feed; fault: an "
                               "interpolator error, FP overrun, encoder fault or settle "
-                              "timeout; timeout: max_cycles ran out"},
+                               "timeout; timeout: a limit ran out (--max-cycles, or the job's "
+                               "run.max_time_s of simulated time); interrupted: a stop was "
+                               "requested (Ctrl-C)"},
+    "reason": {"type": "string", "description": "why the run ended, in words (which alarm, "
+                                                "fault or limit, at which cycle)"},
     "backend": {"type": "string", "enum": list(BACKENDS),
                 "description": "simulation backend used"},
     "cycles": _int("system clock cycles simulated"),
@@ -84,6 +88,15 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
                                                   "(LSB, from the step pulses)"},
                })},
     "axes": _obj("per-axis state", {"x": _AXIS, "y": _AXIS}),
+    "end_point": _obj("whether the machine reached the program's end point", {
+        "programmed": _xy("the last move's end (LSB)"),
+        "actual": _xy("the plants' encoder counts at the end of the run (LSB)"),
+        "program_ran": {"type": "boolean", "description": "every block of the program ran to "
+                                                          "its end"},
+        "reached": {"type": "boolean", "description": "program_ran, and every axis within the "
+                                                      "in-position zone (machine.in_position) "
+                                                      "of the end point"},
+    }),
     "path": _obj("contour error: distance from each actual sample to the programmed path", {
         "max_contour_error": _num("largest (LSB)"),
         "rms_contour_error": _num("root mean square (LSB)"),
@@ -97,10 +110,13 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
                             "fp_overrun, encoder_line_fault_a, encoder_line_fault_b, "
                             "encoder_quad_error, settle_timeout"},
                })},
+    "warnings": {"type": "array", "items": {"type": "string"},
+                 "description": "what the run could not do as asked (e.g. a waveform window "
+                                "it never reached)"},
 })
 
 _TYPES = {"object": dict, "array": list, "string": str, "integer": int, "number": (int, float),
-          "null": type(None)}
+          "boolean": bool, "null": type(None)}
 
 
 def validate(value: Any, schema: dict = RUN_SCHEMA, where: str = "$") -> None:

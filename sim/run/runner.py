@@ -2,21 +2,31 @@
 
 :func:`run_job` builds :class:`sim.machine.system.System` for the job's machine on a backend, sets
 the plants, runs :class:`firmware_model.firmware.Firmware` over the program, samples the machine
-every ``sample_every`` cycles, and returns a :class:`RunResult` whose ``report`` is the JSON
-document of :mod:`sim.run.report`.
+every ``sample_every`` cycles into a :class:`sim.run.sampler.SampleStore`, and returns a
+:class:`RunResult` whose ``report`` is the JSON document of :mod:`sim.run.report`.
+
+A run ends at the program's end, an alarm or fault, or the first limit it reaches: the cycle
+limit ``max_cycles`` or the job's ``run.max_time_s`` of simulated time, whichever is fewer
+cycles (the firmware stops there, even inside a dwell), or a stop request (``stop``, which
+Ctrl-C sets with ``sigint``), looked at on the sampler's ticks (every 10^6 cycles at most), so
+a run ends within a tick of it, and still reports.
 """
 
 from __future__ import annotations
 
-import math
-import sys
+import signal
+import threading
 import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 
 from firmware_model.firmware import BlockRecord, Firmware, check_program
+from firmware_model.gcode import Dwell
 from firmware_model.host import Host8085
 from firmware_model.job import AXES, Job
 from hdl.chipset import CHIP_SELECTS, port
@@ -24,13 +34,15 @@ from sim.backends.contract import Backend
 from sim.backends.factory import BACKEND_NAMES, make_backend
 from sim.machine.plant import dac_zero
 from sim.machine.system import System
-from sim.run.contour import contour_errors
+from sim.run.contour import contour_summary
 from sim.run.jobfile import plant_params
 from sim.run.link import BlockMeasure, BlockMeter, SimulatedLink
+from sim.run.progress import ProgramPlan, Progress
 from sim.run.report import SCHEMA_VERSION, validate
-from sim.run.sampler import Sampler
+from sim.run.sampler import Sampler, SampleStore
 
-__all__ = ["RunOptions", "RunResult", "build_backend", "run_job"]
+__all__ = ["OptionError", "RunOptions", "RunResult", "RunStopped", "build_backend",
+           "check_options", "run_job"]
 
 
 @dataclass
@@ -44,25 +56,64 @@ class RunOptions:
     vcd: Path | None = None
     vcd_start: int = 0
     vcd_stop: int | None = None
-    progress: bool = False
+    #: Called with the run's :class:`sim.run.progress.Progress` at the sampler's ticks.
+    progress: Callable[[Progress], None] | None = None
     faults: dict[str, dict[str, int]] = field(default_factory=dict)
     #: Added to every block's FP budget (the SPEC section 7 hazard); 0 normally.
     budget_offset: int = 0
     #: Let the backend skip provably idle cycles (bit-identical; see Backend.step).
     skip_idle: bool = True
+    #: Set (from another thread, or by Ctrl-C with ``sigint``) to stop the run at the next
+    #: tick, status interrupted.
+    stop: threading.Event | None = None
+    #: While the run goes, Ctrl-C (SIGINT) sets ``stop`` instead of raising KeyboardInterrupt
+    #: (in the main thread; the command line sets it).
+    sigint: bool = False
 
 
 @dataclass
 class RunResult:
-    """A finished run: its report (JSON-able), samples and wall-clock time."""
+    """A finished run: its report (JSON-able), its samples (in a store) and its job."""
 
     report: dict
-    samples: np.ndarray
+    store: SampleStore
     job: Job
+
+    @cached_property
+    def samples(self) -> np.ndarray:
+        """Every sample, a row of :data:`sim.run.sampler.TRACE_COLUMNS` each (in memory)."""
+        return self.store.array()
 
     @property
     def ok(self) -> bool:
         return self.report["status"] == "ok"
+
+
+class OptionError(ValueError):
+    """Run options that cannot work; one line naming the command line's option."""
+
+
+class RunStopped(Exception):  # noqa: N818 (not an error: a run ended early)
+    """Raised at a sampler's tick to end the run there: its status and why."""
+
+    def __init__(self, status: str, reason: str):
+        super().__init__(reason)
+        self.status = status
+        self.reason = reason
+
+
+def check_options(options: RunOptions) -> None:
+    """Refuse, before anything is built, options that cannot work: a waveform window that is
+    empty or starts where the run can no longer be."""
+    start, stop = options.vcd_start, options.vcd_stop
+    if start < 0:
+        raise OptionError(f"--vcd-start {start}: a cycle cannot be negative")
+    if stop is not None and start >= stop:
+        raise OptionError(f"--vcd-start {start:,} must come before --vcd-stop {stop:,}: "
+                          f"the waveform window would be empty")
+    if options.vcd is not None and start >= options.max_cycles:
+        raise OptionError(f"--vcd-start {start:,} is at or past --max-cycles "
+                          f"{options.max_cycles:,}: the waveform window would never be reached")
 
 
 def _configure_plants(backend: Backend, job: Job, faults: dict[str, dict[str, int]]) -> None:
@@ -83,47 +134,135 @@ def build_backend(job: Job, kind: str) -> Backend:
     return make_backend(system, kind)
 
 
+class _Watch:
+    """What the sampler's ticks look at: a stop request, progress."""
+
+    def __init__(self, options: RunOptions, stop: threading.Event, sampler: Sampler,
+                 firmware: Firmware, meter: BlockMeter):
+        self.options = options
+        self.stop = stop
+        self.sampler = sampler
+        self.firmware = firmware
+        self.meter = meter
+        self.plan = ProgramPlan(firmware.job) if options.progress else None
+        self.start = time.perf_counter()
+
+    def __call__(self) -> None:
+        cycle = self.sampler.cycle
+        if self.stop.is_set():
+            raise RunStopped("interrupted", f"stopped on request (Ctrl-C) at cycle {cycle:,}")
+        if self.options.progress is not None:
+            self.options.progress(self.progress(cycle, time.perf_counter() - self.start))
+
+    def progress(self, cycle: int, wall: float) -> Progress:
+        assert self.plan is not None
+        item = self.firmware.item
+        if item is None:
+            done = 0.0
+        elif isinstance(item, Dwell):
+            done = self.plan.dwell_done(item, cycle - self.firmware.item_cycle)
+        else:
+            done = self.meter.done(item.index, item.plan.fp)
+        return self.plan.progress(item, done, cycle, wall)
+
+
+@contextmanager
+def _sigint_sets(stop: threading.Event, enabled: bool) -> Iterator[None]:
+    """While it lasts, SIGINT sets ``stop`` (if ``enabled``, in the main thread)."""
+    if not enabled or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, lambda *_: stop.set())
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, signal.SIG_DFL if previous is None else previous)
+
+
 def run_job(job: Job, options: RunOptions | None = None,
             backend: Backend | None = None) -> RunResult:
-    """Run ``job`` to its end (or an alarm, or ``max_cycles``) and report.
+    """Run ``job`` to its end (or an alarm, a fault, a limit, a stop request) and report.
 
-    A ``backend`` passed in must be freshly built for the job's machine
-    (:func:`build_backend`); it is left open, for the caller to look at afterwards.
+    Raises :class:`OptionError` or :class:`firmware_model.firmware.FirmwareError` before
+    building anything if the options or the program cannot work. A ``backend`` passed in must
+    be freshly built for the job's machine (:func:`build_backend`); it is left open, for the
+    caller to look at afterwards.
     """
     options = options or RunOptions()
     check_program(job)  # refuse what the hardware cannot do before building anything
+    check_options(options)
     owned = backend is None
     backend = backend or build_backend(job, options.backend)
     _configure_plants(backend, job, options.faults)
     if options.vcd is not None:
         backend.trace(str(options.vcd), options.vcd_start, options.vcd_stop)
-    sampler = Sampler(backend, options.sample_every, job.machine.dac_bits,
-                      options.max_cycles if options.progress else 0,
-                      skip_idle=options.skip_idle)
+    store = SampleStore(job.machine.dac_bits)
+    sampler = Sampler(backend, options.sample_every, store, skip_idle=options.skip_idle)
     host = Host8085(SimulatedLink(sampler), clock_hz=job.machine.clock_hz)
     meter = BlockMeter(sampler)
     firmware = Firmware(host, job, budget_offset=options.budget_offset, observer=meter)
-    start = time.perf_counter()
-    firmware.run(options.max_cycles)
-    wall = time.perf_counter() - start
-    if options.progress:
-        print(file=sys.stderr)
-    samples = sampler.samples()
-    report = _report(job, backend, firmware, meter, samples, wall)
+    stop = options.stop or threading.Event()
+    sampler.tick = watch = _Watch(options, stop, sampler, firmware, meter)
+    stopped = None
+    limit, limit_name = cycle_limit(job, options)
+    with _sigint_sets(stop, options.sigint):
+        try:
+            firmware.run(limit)
+        except RunStopped as e:
+            stopped = e
+    wall = time.perf_counter() - watch.start
+    sampler.flush()
+    status, reason = _status(firmware, stopped, limit_name, backend.cycle)
+    report = _report(job, backend, firmware, meter, store, wall, status, reason)
+    if options.vcd is not None:
+        backend.stop_trace()
+        report["warnings"] += _waveform_warnings(options, report["cycles"])
     if owned:
         backend.close()
     validate(report)
-    return RunResult(report, samples, job)
+    return RunResult(report, store, job)
 
 
-def _status(firmware: Firmware) -> str:
-    if any(a.kind == "alarm" for a in firmware.alarms):
-        return "alarm"
+def _waveform_warnings(options: RunOptions, cycles: int) -> list[str]:
+    """A warning if the run ended before the waveform window: then no file is left (a backend
+    may have written a header, or nothing at all)."""
+    assert options.vcd is not None
+    if cycles > options.vcd_start:
+        return []
+    Path(options.vcd).unlink(missing_ok=True)
+    return [f"--vcd {options.vcd}: the run ended at cycle {cycles:,}, before --vcd-start "
+            f"{options.vcd_start:,}: no waveform written (nor a GTKWave save file)"]
+
+
+def cycle_limit(job: Job, options: RunOptions) -> tuple[int, str]:
+    """The run's cycle limit, the fewer of ``max_cycles`` and the job's ``run.max_time_s`` of
+    simulated time, and its name in words."""
+    by_option = (options.max_cycles, f"the cycle limit, --max-cycles {options.max_cycles:,},")
+    seconds = job.run.max_time_s
+    if seconds is None:
+        return by_option
+    cycles = max(1, round(seconds * job.machine.clock_hz))
+    if cycles >= options.max_cycles:
+        return by_option
+    return cycles, f"the job's limit, run.max_time_s = {seconds:g} s ({cycles:,} cycles),"
+
+
+def _status(firmware: Firmware, stopped: RunStopped | None, limit_name: str,
+            cycles: int) -> tuple[str, str]:
+    """The run's status and why, in words."""
+    for alarm in firmware.alarms:
+        if alarm.kind == "alarm":
+            return "alarm", (f"K3702 alarm on axis {alarm.axis} at cycle {alarm.cycle:,} "
+                             f"(|error| beyond the alarm zone)")
     if firmware.alarms:
-        return "fault"
+        fault = firmware.alarms[0]
+        axis = f" on axis {fault.axis}" if fault.axis else ""
+        return "fault", f"{fault.kind}{axis} at cycle {fault.cycle:,}"
+    if stopped is not None:
+        return stopped.status, stopped.reason
     if firmware.timed_out:
-        return "timeout"
-    return "ok"
+        return "timeout", f"{limit_name} ran out at cycle {cycles:,}"
+    return "ok", "the program ran to its end"
 
 
 def _block_report(b: BlockRecord, measure: BlockMeasure) -> dict:
@@ -144,15 +283,28 @@ def _axis_report(backend: Backend, axis: str) -> dict:
             "flags": {f.name: f.decode(word) for f in status.fields}}
 
 
+def _end_point(job: Job, firmware: Firmware, axes: dict[str, dict]) -> dict:
+    programmed = list(job.program.final_position)
+    actual = [axes[axis]["actual"] for axis in AXES]
+    zone = job.machine.in_position
+    moves = sum(not isinstance(item, Dwell) for item in job.program.items)
+    ran = len(firmware.blocks) == moves and all(b.end_cycle is not None for b in firmware.blocks)
+    return {"programmed": programmed, "actual": actual, "program_ran": ran,
+            "reached": ran and all(abs(a - p) <= zone
+                                   for a, p in zip(actual, programmed, strict=True))}
+
+
 def _report(job: Job, backend: Backend, firmware: Firmware, meter: BlockMeter,
-            samples: np.ndarray, wall: float) -> dict:
+            store: SampleStore, wall: float, status: str, reason: str) -> dict:
     cycles = backend.cycle
     clock = job.machine.clock_hz
-    contour = contour_errors(job, firmware, samples)
+    max_contour, rms_contour = contour_summary(job, firmware, store)
+    axes = {axis: _axis_report(backend, axis) for axis in AXES}
     return {
         "schema_version": SCHEMA_VERSION,
         "job": job.to_dict(),
-        "status": _status(firmware),
+        "status": status,
+        "reason": reason,
         "backend": backend.name,
         "cycles": cycles,
         "clock_hz": clock,
@@ -161,11 +313,13 @@ def _report(job: Job, backend: Backend, firmware: Firmware, meter: BlockMeter,
         "cycles_per_second": cycles / wall if wall > 0 else 0.0,
         "skipped_cycles": backend.skipped_cycles,
         "blocks": [_block_report(b, meter.of(b)) for b in firmware.blocks],
-        "axes": {axis: _axis_report(backend, axis) for axis in AXES},
+        "axes": axes,
+        "end_point": _end_point(job, firmware, axes),
         "path": {
-            "max_contour_error": float(contour.max()) if contour.size else 0.0,
-            "rms_contour_error": float(math.sqrt(np.mean(contour**2))) if contour.size else 0.0,
-            "samples": len(samples),
+            "max_contour_error": max_contour,
+            "rms_contour_error": rms_contour,
+            "samples": store.rows,
         },
         "alarms": [{"axis": a.axis, "cycle": a.cycle, "kind": a.kind} for a in firmware.alarms],
+        "warnings": [],
     }

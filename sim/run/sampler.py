@@ -1,56 +1,121 @@
-"""Sampling a run: the traced ports, at every multiple of ``sample_every`` cycles."""
+"""Sampling a run: the traced ports, at every multiple of ``sample_every`` cycles, streamed to a
+temporary file as they are taken.
+
+A run of 10^9 cycles sampled every cycle would not fit in memory: :class:`SampleStore` keeps the
+samples on disk (80 bytes each, raw integers) and hands them back in chunks, so that what a run
+holds in memory stays flat in its length. :class:`Sampler` takes them and stops the backend at
+regular ticks (every :data:`PROGRESS_CYCLES` cycles at most), where the run's owner looks at
+progress, limits and stop requests.
+"""
 
 from __future__ import annotations
 
-import sys
-import time
+import os
+import tempfile
+import weakref
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
 from sim.backends.contract import Backend
 from sim.machine.plant import DAC_VOLTS
 
-__all__ = ["SAMPLED_PORTS", "TRACE_COLUMNS", "Sampler"]
+__all__ = ["CHUNK_ROWS", "PROGRESS_CYCLES", "SAMPLED_PORTS", "TRACE_COLUMNS", "SampleStore",
+           "Sampler"]
 
-#: Columns of the trace (CSV) and of :attr:`RunResult.samples`.
+#: Columns of the trace (CSV) and of :attr:`sim.run.runner.RunResult.samples`.
 TRACE_COLUMNS = ("cycle", "x_command", "y_command", "x_actual", "y_actual", "x_error",
                  "y_error", "x_dac_volts", "y_dac_volts", "fp_total")
 #: The ports behind those columns (after "cycle"; the D/A words become volts).
 SAMPLED_PORTS = ("x__command", "y__command", "x__count", "y__count", "x__error", "y__error",
                  "x__dac", "y__dac", "fp_total")
-
-
-#: With a backend that records the samples itself, calls stop only for the progress bar.
+#: Samples held in memory at a time, on the way in and on the way out.
+CHUNK_ROWS = 1 << 16
+#: The longest a backend that records the samples itself runs between ticks (cycles).
 PROGRESS_CYCLES = 1_000_000
+#: The same for a backend sampled from Python (Amaranth's simulator: about 1e4 cycles/s).
+SLOW_TICK_CYCLES = 10_000
 NEVER = 1 << 63
+
+_WIDTH = len(TRACE_COLUMNS)
+_ROW_BYTES = 8 * _WIDTH
+_VOLTS = slice(TRACE_COLUMNS.index("x_dac_volts"), TRACE_COLUMNS.index("y_dac_volts") + 1)
+
+
+class SampleStore:
+    """Samples appended as raw rows (the cycle and :data:`SAMPLED_PORTS`, integers) to an
+    anonymous temporary file, read back as rows of :data:`TRACE_COLUMNS` (D/A words in volts
+    for a ``dac_bits`` D/A converter)."""
+
+    def __init__(self, dac_bits: int):
+        self._file = tempfile.TemporaryFile()  # noqa: SIM115 (open as long as the store)
+        self._closer = weakref.finalize(self, self._file.close)  # deleted with the store
+        self._half = 1 << (dac_bits - 1)
+        #: Samples stored.
+        self.rows = 0
+
+    def append(self, raw: np.ndarray) -> None:
+        """Store ``raw``: integer rows of the cycle and :data:`SAMPLED_PORTS`."""
+        if len(raw):
+            self._file.seek(0, os.SEEK_END)
+            self._file.write(np.ascontiguousarray(raw, dtype=np.int64).tobytes())
+            self.rows += len(raw)
+
+    def read(self, start: int, stop: int) -> np.ndarray:
+        """Samples ``start`` to ``stop`` (exclusive), a row of :data:`TRACE_COLUMNS` each."""
+        start, stop = max(0, start), min(stop, self.rows)
+        self._file.seek(start * _ROW_BYTES)
+        data = self._file.read(max(0, stop - start) * _ROW_BYTES)
+        samples = np.frombuffer(data, dtype=np.int64).reshape(-1, _WIDTH).astype(float)
+        samples[:, _VOLTS] = DAC_VOLTS * (samples[:, _VOLTS] - self._half) / self._half
+        return samples
+
+    def chunks(self, rows: int = CHUNK_ROWS) -> Iterator[np.ndarray]:
+        """Every sample, in order, ``rows`` at a time."""
+        for start in range(0, self.rows, rows):
+            yield self.read(start, start + rows)
+
+    def array(self) -> np.ndarray:
+        """Every sample at once (memory in proportion to the run: for plots and tests)."""
+        return self.read(0, self.rows)
+
+    def close(self) -> None:
+        """Delete the file now."""
+        self._closer()
 
 
 class Sampler:
-    """Wraps a backend so that it is sampled at every multiple of ``every`` cycles.
+    """Wraps a backend so that it is sampled at every multiple of ``every`` cycles into
+    ``store``, and calls ``tick`` at regular points of the run.
 
     It offers the backend calls the firmware's host uses (``step``, ``run_until``, ``get``,
     ``bus_write``, ``bus_read``, ``cycle``). A backend that records (:meth:`Backend.record`,
-    the compiled one) samples as it steps, without a call per sample; with another, the
-    sampler advances it in chunks that stop at every sample point and samples there. The
-    samples are the same either way, on every backend alike. ``skip_idle`` is passed on to
-    the backend's ``step`` and ``run_until``.
+    the compiled one) samples as it steps, without a call per sample, and its samples are
+    taken into the store at each tick; with another, the sampler advances it in chunks that
+    stop at every sample point and samples there. The samples are the same either way, on
+    every backend alike. Ticks come every :data:`PROGRESS_CYCLES` cycles at most (fewer with
+    a short sampling period, so that at most :data:`CHUNK_ROWS` samples wait in the
+    recorder; :data:`SLOW_TICK_CYCLES` on a backend sampled from Python); ``tick`` may raise
+    to end the run there. ``skip_idle`` is passed on to the backend's ``step`` and
+    ``run_until``.
     """
 
-    def __init__(self, backend: Backend, every: int, dac_bits: int, progress_total: int = 0,
-                 *, skip_idle: bool = False):
+    def __init__(self, backend: Backend, every: int, store: SampleStore, *,
+                 skip_idle: bool = False, tick: Callable[[], None] | None = None):
         if every < 1:
             raise ValueError(f"sample_every must be >= 1 cycle, not {every}")
         self.backend = backend
-        self.rows: list[list[int]] = []  # raw samples taken here: cycle and SAMPLED_PORTS
-        self.half = 1 << (dac_bits - 1)
-        self.progress_total = progress_total
+        self.every = every
+        self.store = store
         self.skip_idle = skip_idle
-        self._progress_at = 0.0
+        self.tick = tick
+        self.rows: list[list[int]] = []  # raw samples taken here: cycle and SAMPLED_PORTS
         self.native = backend.record(SAMPLED_PORTS, every)
-        # Where calls stop: at each sample, or for the progress bar.
-        self.stride = (every if not self.native else PROGRESS_CYCLES if progress_total
-                       else NEVER)
-        self.next = self.stride
+        self.tick_every = (min(PROGRESS_CYCLES, every * CHUNK_ROWS) if self.native
+                           else SLOW_TICK_CYCLES)
+        self.next_sample = NEVER if self.native else every
+        self.next_tick = self.tick_every
+        self.next = min(self.next_sample, self.next_tick)  # where calls stop
 
     @property
     def cycle(self) -> int:
@@ -59,31 +124,32 @@ class Sampler:
     def get(self, name: str) -> int:
         return self.backend.get(name)
 
-    def samples(self) -> np.ndarray:
-        """The samples, a row of :data:`TRACE_COLUMNS` each (the D/A words in volts)."""
-        raw = (self.backend.recorded() if self.native else
-               np.array(self.rows, dtype=np.int64).reshape(-1, 1 + len(SAMPLED_PORTS)))
-        data = raw.astype(float)
-        volts = slice(TRACE_COLUMNS.index("x_dac_volts"), TRACE_COLUMNS.index("y_dac_volts") + 1)
-        data[:, volts] = DAC_VOLTS * (data[:, volts] - self.half) / self.half
-        return data
-
-    def _progress(self) -> None:
-        now = time.monotonic()
-        if now - self._progress_at < 0.5:
-            return
-        self._progress_at = now
-        frac = min(1.0, self.cycle / self.progress_total)
-        bar = "#" * int(frac * 30)
-        print(f"\rk37 run: [{bar:<30}] {self.cycle:,} cycles", end="", file=sys.stderr)
+    def flush(self) -> None:
+        """Move the samples taken so far into the store."""
+        if self.native:
+            self.store.append(self.backend.recorded())
+        elif self.rows:
+            self.store.append(np.array(self.rows, dtype=np.int64))
+            self.rows.clear()
 
     def _after(self) -> None:
-        if self.cycle >= self.next:
-            if not self.native:
-                self.rows.append([self.cycle, *self.backend.get_many(SAMPLED_PORTS)])
-            self.next += self.stride
-            if self.progress_total:
-                self._progress()
+        cycle = self.cycle
+        if cycle < self.next:
+            return
+        if cycle >= self.next_sample:
+            self.rows.append([cycle, *self.backend.get_many(SAMPLED_PORTS)])
+            self.next_sample += self.every
+            if len(self.rows) >= CHUNK_ROWS:
+                self.flush()
+        ticked = cycle >= self.next_tick
+        if ticked:
+            self.next_tick += self.tick_every
+        self.next = min(self.next_sample, self.next_tick)
+        if ticked:
+            if self.native:
+                self.flush()
+            if self.tick is not None:
+                self.tick()
 
     def step(self, n: int = 1) -> None:
         while n > 0:

@@ -232,10 +232,10 @@ class CxxrtlBackend(Backend):
         if self._recording is None:
             return super().recorded()
         ports = self._recording
-        words = self._lib.k37_recorded(self._handle, None, 0)
+        words = self._lib.k37_recorded(self._handle, None, 0)  # held, none taken
         raw = np.zeros(words, dtype=np.uint64)
         self._lib.k37_recorded(self._handle, raw.ctypes.data_as(ctypes.POINTER(ctypes.c_uint64)),
-                               words)
+                               words)  # taken
         rows = raw.astype(np.int64).reshape(-1, 1 + len(ports))
         for column, port in enumerate(ports, start=1):
             if port.signed:  # sign-extend

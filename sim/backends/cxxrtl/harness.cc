@@ -833,19 +833,22 @@ void k37_free_quiet(void *handle, size_t index) {
 }
 
 // Record items[0 .. n) (of at most 64 bits each) at every later multiple of `every` cycles
-// (every >= 1), as the clock reaches it, until the model is destroyed (k37_recorded).
+// (every >= 1), as the clock reaches it, until the model is destroyed (taken by k37_recorded).
 void k37_record(void *handle, const size_t *items, size_t n, uint64_t every) {
 	Model &m = *static_cast<Model *>(handle);
 	m.recorder = Recorder{std::vector<size_t>(items, items + n), every,
 	                      (m.cycle / every + 1) * every, {}};
 }
 
-// The samples recorded so far: rows of the cycle and each item's value; copies up to `size`
-// words into `out` and returns the number of words recorded.
+// The samples recorded and not yet taken: rows of the cycle and each item's value. Moves up
+// to `size` words into `out` (they are taken: the recorder holds only what was not) and
+// returns the number of words held before the call.
 size_t k37_recorded(void *handle, uint64_t *out, size_t size) {
-	const std::vector<uint64_t> &rows = static_cast<Model *>(handle)->recorder.rows;
-	std::copy_n(rows.begin(), std::min(size, rows.size()), out);
-	return rows.size();
+	std::vector<uint64_t> &rows = static_cast<Model *>(handle)->recorder.rows;
+	size_t held = rows.size(), taken = std::min(size, held);
+	std::copy_n(rows.begin(), taken, out);
+	rows.erase(rows.begin(), rows.begin() + taken);
+	return held;
 }
 
 int k37_falling_edge(void *handle) {
