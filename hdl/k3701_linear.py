@@ -25,7 +25,8 @@ class LinearDatapath(Datapath):
     """
 
     def elaborate(self, platform) -> Module:
-        # The block's decisions are fresh expressions at each use (see hdl.k3701.K3701).
+        # ``end`` and ``error`` each have an expression of their own, so that the compiled
+        # simulation evaluates each only where the core reads it (see hdl.k3701.K3701).
         m = Module()
         block = self.block
         long_x = Signal()       # the long axis is X
