@@ -3,16 +3,21 @@
 The reference model is :mod:`hdl.k3701_model`; this module is tested against it cycle by cycle.
 """
 
-from amaranth.hdl import Cat, Const, Module, Mux, Signal, signed
+from collections.abc import Sequence
+from types import SimpleNamespace
+
+from amaranth.hdl import Cat, Const, Module, Mux, Signal, Value, ValueLike, signed
 from amaranth.lib import enum, wiring
 from amaranth.lib.wiring import In, Out, connect, flipped
 
 from hdl.hostbus import Access, Field, HostBus, Register, RegisterBank, RegisterMap
+from hdl.k3701_circular import CircularDatapath
+from hdl.k3701_datapath import Datapath, StepSignature, moves
+from hdl.k3701_linear import LinearDatapath
 from hdl.k3701_model import (
     CIRCLE_SETUP_CYCLES,
     LATENCY_CIRCULAR,
     LATENCY_LINEAR,
-    MAX_RADIUS_SQUARED,
     Block,
     Kind,
 )
@@ -75,33 +80,22 @@ class _Phase(enum.Enum, shape=2):
     RUN = 2
 
 
-#: Cycles of a circular step's latency in which its successor is decided (see ``K3701``).
-_CIRCLE_STAGES = 4
+#: The datapath of each interpolation type (the type is CTRL.circular).
+_DATAPATHS: dict[Kind, type[Datapath]] = {Kind.LINEAR: LinearDatapath,
+                                          Kind.CIRCULAR: CircularDatapath}
 
 
-def _field(word, field):
+def _field(word: Value, field: Field) -> Value:
     """The bits of ``field`` in ``word`` (a slice: cheaper to simulate than Field.decode)."""
     return word[field.offset:field.offset + field.width]
 
 
-def _abs(v):
-    return Mux(v < 0, -v, v)
-
-
-def _quadrant(x, y, cw):
-    """Quadrant code 0..3 (= quadrant 1..4) of (x, y) for the motion direction ``cw``."""
-    xp, xz, yp, yz = x > 0, x == 0, y > 0, y == 0
-    xn, yn = ~xp & ~xz, ~yp & ~yz
-    ccw = Mux(xp & (yp | yz), 0, Mux((xn | xz) & yp, 1, Mux(xn & (yn | yz), 2, 3)))
-    cwq = Mux((xp | xz) & yp, 0, Mux(xn & (yp | yz), 1, Mux((xn | xz) & yn, 2, 3)))
-    return Mux(cw, cwq, ccw)
-
-
-def _signs_negative(q, cw):
-    """(x moves negative, y moves negative) inside quadrant code ``q``."""
-    sx_neg = Mux(cw, q[1], ~q[1])            # CCW: Q1, Q2; CW: Q3, Q4
-    sy_neg = Mux(cw, q[0] == q[1], q[0] != q[1])  # CCW: Q2, Q3; CW: Q1, Q4
-    return sx_neg, sy_neg
+def _select(kind: Value, values: Sequence[ValueLike]) -> Value:
+    """``values[kind]``, a fresh expression at each call (see ``K3701.elaborate``)."""
+    result = values[0]
+    for k, value in enumerate(values[1:], 1):
+        result = Mux(kind == k, value, result)
+    return result
 
 
 class K3701(wiring.Component):
@@ -119,11 +113,14 @@ class K3701(wiring.Component):
       one FP arriving meanwhile is held, a further one sets OVERRUN and is lost;
     * BUSY falls and ``irq`` rises in the cycle of the final step's pulses.
 
-    Inside, each step is decided before its FP can come: a line's next step in the cycle the
-    current one is output, a circle's first step during the radius check and each following
-    one in four pipelined cycles of the current step's latency. The logic thus works only
-    when there is something to decide, which keeps compiled simulation fast; it needs a
-    circular latency of at least 6 cycles.
+    Inside, this core runs the block (registers, commands and status, FP intake and credit,
+    the step latency and the pulses) and one datapath per interpolation type decides its
+    steps (:mod:`hdl.k3701_linear`, :mod:`hdl.k3701_circular`, through the interface of
+    :mod:`hdl.k3701_datapath`). Each step is decided before its FP can come: a line's next
+    step in the cycle the current one is output, a circle's first step during the radius
+    check and each following one in four pipelined cycles of the current step's latency.
+    The logic thus works only when there is something to decide, which keeps compiled
+    simulation fast; it needs a circular latency of at least 6 cycles.
 
     Parameters
     ----------
@@ -153,7 +150,7 @@ class K3701(wiring.Component):
     quiet : Signal(1)
         While no FP comes, the step latency count affects nothing but its own decrement each
         cycle until it reaches 1: FP is low, and the count is 0 (waiting for FP) or at least
-        2 and, in a circle, past the decision stages; combinational.
+        2 and past the running datapath's decision stages; combinational.
     FREE_RUNNING : FreeRunning
         The latency count, a :class:`hdl.observation.Countdown` that stops before 1.
     """
@@ -175,8 +172,9 @@ class K3701(wiring.Component):
     def __init__(self, *, latency_linear: int = LATENCY_LINEAR,
                  latency_circular: int = LATENCY_CIRCULAR,
                  circle_setup: int = CIRCLE_SETUP_CYCLES):
-        for name, value, low in (("latency_linear", latency_linear, 2),
-                                 ("latency_circular", latency_circular, 2 + _CIRCLE_STAGES)):
+        for name, value, kind in (("latency_linear", latency_linear, Kind.LINEAR),
+                                  ("latency_circular", latency_circular, Kind.CIRCULAR)):
+            low = 2 + _DATAPATHS[kind].STAGES
             if not isinstance(value, int) or not low <= value <= 32:
                 raise ValueError(f"{name} must be an integer in {low}..32, not {value!r}")
         if circle_setup != CIRCLE_SETUP_CYCLES:
@@ -198,73 +196,63 @@ class K3701(wiring.Component):
         connect(m, flipped(self.bus), regs.bus)
         ctrl = K3701_MAP["CTRL"]
         cmd = K3701_MAP["CMD"]
+        latency = {Kind.LINEAR: self.latency_linear, Kind.CIRCULAR: self.latency_circular}
+        datapaths = [_DATAPATHS[k]() for k in Kind]
+        for k, datapath in zip(Kind, datapaths, strict=True):
+            m.submodules[k.name.lower()] = datapath
 
         phase = Signal(_Phase)
-        circular = Signal()
-        cw = Signal()
+        kind = Signal(range(len(Kind)))  # the running block's type
         sqrt2 = Signal()
-        end_q = Signal(2)
         xm = Signal(signed(24))
         ym = Signal(signed(24))
-        # The current step, decided before its FP can come: it moves the long axis (X if
-        # long_x), and the other one too if diag; final (and final_error) by its output.
-        long_x = Signal()
-        diag = Signal()
-        final = Signal()
-        final_error = Signal()
-        # Linear working registers.
-        n_long = Signal(24)
-        n_short = Signal(24)
-        acc = Signal(25)
-        left = Signal(24)
-        lx_neg = Signal()
-        ly_neg = Signal()
-        # Circular working registers (position and end point relative to the centre).
-        x = Signal(signed(25))
-        y = Signal(signed(25))
-        ex = Signal(signed(25))
-        ey = Signal(signed(25))
-        q = Signal(2)
-        armed = Signal()
-        d_after = Signal(signed(28))  # D = x^2 + y^2 - R0^2 after the current step
-        end_on_x = Signal()
-        bad = Signal()          # the circle is invalid (complete at the end of the check)
-        sq = Signal(48)
-        sq_k = Signal(range(25))
-        # The circle's next step, decided in stages (see below).
-        next_q = Signal(2)
-        next_long_x = Signal()
-        next_diag = Signal()
-        next_armed = Signal()
-        d1 = Signal(signed(28))  # D after the next step: first if single-axis, then chosen
-        d2 = Signal(signed(28))  # D after the next step if diagonal
-        # Feed intake.
-        count = Signal(range(max(self.latency_linear, self.latency_circular)))
+        count = Signal(range(max(latency.values())))
         held = Signal()
         credit = Signal(3)
 
+        word = regs.ctrl.w_data
+        new_kind = word[ctrl.field("circular").offset]   # the type of a block starting now
+        start = regs.cmd.w_stb & regs.cmd.w_data[cmd.field("start").offset]
         m.d.comb += [
             regs.x.r_data.eq(xm),
             regs.y.r_data.eq(ym),
-            regs.ctrl.r_data.eq(regs.ctrl.w_data),
+            regs.ctrl.r_data.eq(word),
             regs.status.r_data.eq(Cat(self.busy, self.irq, self.error, self.overrun)),
         ]
+        for k, datapath in zip(Kind, datapaths, strict=True):
+            running = (phase == _Phase.RUN) & (kind == k)
+            block = datapath.block
+            m.d.comb += [
+                block.xe.eq(regs.x.w_data), block.ye.eq(regs.y.w_data),
+                block.i.eq(regs.i.w_data), block.j.eq(regs.j.w_data),
+                block.cw.eq(word[ctrl.field("cw").offset]),
+                block.quadrant.eq(_field(word, ctrl.field("quadrant"))),
+                datapath.start.eq(start & (phase == _Phase.IDLE) & (new_kind == k)),
+                datapath.advance.eq(running & (count == 1)),
+                *(datapath.stage[s].eq(running & (count == latency[k] - 1 - s))
+                  for s in range(datapath.STAGES)),
+            ]
+            if datapath.SETUP:
+                m.d.comb += datapath.setup.eq((phase == _Phase.SETUP) & (kind == k))
 
-        # The current step's moves.
-        sx_neg, sy_neg = _signs_negative(q, cw)
-        x_move = long_x | diag
-        y_move = ~long_x | diag
-        x_neg = Mux(circular, sx_neg, lx_neg)
-        y_neg = Mux(circular, sy_neg, ly_neg)
-        dx = Mux(x_move, Mux(x_neg, -1, 1), 0)
-        dy = Mux(y_move, Mux(y_neg, -1, 1), 0)
+        def running_step() -> SimpleNamespace:
+            """The running block's next step: its datapath's ``step`` members, as fresh
+            expressions (see ``answer``)."""
+            return SimpleNamespace(**{name: _select(kind, [getattr(d.step, name)
+                                                           for d in datapaths])
+                                      for name in StepSignature().members})
+
+        def answer(which: Value, port: str, setup: bool) -> Value:
+            """A datapath's answer on ``port``, from datapaths with ``SETUP`` == ``setup``
+            (else 0), for the type ``which``: a fresh expression at each call, so that it is
+            evaluated only where it is used."""
+            return _select(which, [getattr(d, port) if d.SETUP is setup else Const(0)
+                                   for d in datapaths])
 
         # --- feed intake: hold one FP while the engine is busy, lose (and flag) a second ---
-        latency_m1 = Mux(circular, self.latency_circular - 1, self.latency_linear - 1)
         engine_busy = (phase == _Phase.SETUP) | ((phase == _Phase.RUN) & (count != 0))
 
         m.d.sync += [self.x_pos.eq(0), self.x_neg.eq(0), self.y_pos.eq(0), self.y_neg.eq(0)]
-        start = regs.cmd.w_stb & regs.cmd.w_data[cmd.field("start").offset]
         with m.If(regs.cmd.w_stb & regs.cmd.w_data[cmd.field("ack").offset]):
             m.d.sync += self.irq.eq(0)
         with m.If(regs.cmd.w_stb & regs.cmd.w_data[cmd.field("clear").offset]):
@@ -275,7 +263,7 @@ class K3701(wiring.Component):
             with m.Else():
                 m.d.sync += held.eq(1)
 
-        def finish(error):
+        def finish(error: Value) -> None:
             m.d.sync += [phase.eq(_Phase.IDLE), self.busy.eq(0), self.irq.eq(1), held.eq(0),
                          count.eq(0)]
             with m.If(error):
@@ -284,141 +272,53 @@ class K3701(wiring.Component):
         with m.Switch(phase):
             with m.Case(_Phase.IDLE):
                 with m.If(start):
-                    # Latch the block: the registers may be rewritten while it runs.
-                    xe, ye = regs.x.w_data.as_signed(), regs.y.w_data.as_signed()
-                    i, j = regs.i.w_data.as_signed(), regs.j.w_data.as_signed()
-                    word = regs.ctrl.w_data
-                    is_circ = word[ctrl.field("circular").offset]
-                    min_coord = -(1 << 23)
-
-                    # Fresh expressions for each use, so that each is evaluated only here.
-                    def line_refused():
-                        return (xe == min_coord) | (ye == min_coord)
-
-                    def line_stops():
-                        return line_refused() | ((xe == 0) & (ye == 0))
-
-                    axe, aye = _abs(xe).as_unsigned(), _abs(ye).as_unsigned()
-                    x_long = axe >= aye
-                    nl = Mux(x_long, axe, aye)
-                    ns = Mux(x_long, aye, axe)
+                    # Latch the block (the registers may be rewritten while it runs); the
+                    # datapath of its type latches its own part.
                     m.d.sync += [
-                        circular.eq(is_circ),
-                        cw.eq(word[ctrl.field("cw").offset]),
+                        kind.eq(new_kind),
                         sqrt2.eq(word[ctrl.field("sqrt2").offset]),
-                        end_q.eq(_field(word, ctrl.field("quadrant"))),
-                        xm.eq(xe), ym.eq(ye),
+                        xm.eq(regs.x.w_data), ym.eq(regs.y.w_data),
                         credit.eq(0), held.eq(0), count.eq(0),
-                        # linear, and its first step (a circle decides its own in SETUP)
-                        long_x.eq(x_long), n_long.eq(nl), n_short.eq(ns), acc.eq(nl[1:]),
-                        diag.eq(nl[1:] + ns >= nl), final.eq(nl == 1), final_error.eq(0),
-                        left.eq(nl), lx_neg.eq(xe < 0), ly_neg.eq(ye < 0),
-                        # circular
-                        x.eq(-i), y.eq(-j), ex.eq(xe - i), ey.eq(ye - j), d_after.eq(0),
-                        bad.eq(line_refused() | (i == min_coord) | (j == min_coord)),
-                        sq.eq(0), sq_k.eq(0),
-                        phase.eq(Mux(is_circ, _Phase.SETUP,
-                                     Mux(line_stops(), _Phase.IDLE, _Phase.RUN))),
-                        self.busy.eq(is_circ | ~line_stops()),
+                        phase.eq(_select(new_kind, [_Phase.SETUP if d.SETUP else _Phase.RUN
+                                                    for d in datapaths])),
+                        self.busy.eq(1),
                     ]
-                    with m.If(~is_circ & line_refused()):
-                        m.d.sync += self.error.eq(1)
-                    with m.If(~is_circ & line_stops()):
-                        m.d.sync += self.irq.eq(1)
+                    with m.If(answer(new_kind, "end", setup=False)):
+                        finish(answer(new_kind, "error", setup=False))
             with m.Case(_Phase.SETUP):
-                ax, ay = _abs(x), _abs(y)
-                bit = (23 - sq_k).as_unsigned()
-                with m.If(sq_k != 24):
-                    m.d.sync += [
-                        sq.eq((sq << 1) + Mux(ax.bit_select(bit, 1), ax, 0)
-                              + Mux(ay.bit_select(bit, 1), ay, 0)),
-                        sq_k.eq(sq_k + 1),
-                    ]
-                    # Meanwhile, the checks that need no radius.
-                    with m.Switch(sq_k):
-                        with m.Case(0):
-                            m.d.sync += [
-                                end_on_x.eq(_abs(ey) >= _abs(ex)),
-                                bad.eq(bad | ((ex == 0) & (ey == 0))
-                                       | (_quadrant(ex, ey, cw) != end_q)),
-                            ]
-                        with m.Case(23):
-                            sq_final = (sq << 1) + Mux(ax[0], ax, 0) + Mux(ay[0], ay, 0)
-                            m.d.sync += bad.eq(bad | (sq_final == 0)
-                                               | (sq_final > MAX_RADIUS_SQUARED))
-                with m.Elif(bad):
-                    finish(Const(1))
-                with m.Else():
-                    sx0_neg, sy0_neg = _signs_negative(next_q, cw)
-                    ahead = Mux(end_on_x, Mux(sx0_neg, ex < x, ex > x),
-                                Mux(sy0_neg, ey < y, ey > y))
-                    m.d.sync += [phase.eq(_Phase.RUN), q.eq(next_q),
-                                 armed.eq((next_q == end_q) & ahead),
-                                 long_x.eq(next_long_x), diag.eq(next_diag), d_after.eq(d1)]
+                with m.If(answer(kind, "end", setup=True)):
+                    finish(answer(kind, "error", setup=True))
+                with m.Elif(answer(kind, "ready", setup=True)):
+                    m.d.sync += phase.eq(_Phase.RUN)
             with m.Case(_Phase.RUN):
                 with m.If(count == 0):
                     take = held | self.fp
                     m.d.sync += held.eq(held & self.fp)
                     credit2 = credit + 2
-                    cost = Mux(sqrt2 & diag, 3, 2)
+                    cost = Mux(sqrt2 & running_step().diag, 3, 2)
                     with m.If(take):
                         with m.If(credit2 >= cost):
-                            m.d.sync += [credit.eq(credit2 - cost), count.eq(latency_m1)]
+                            m.d.sync += [credit.eq(credit2 - cost),
+                                         count.eq(_select(kind, [latency[k] - 1 for k in Kind]))]
                         with m.Else():
                             m.d.sync += credit.eq(credit2)
                 with m.Else():
                     m.d.sync += count.eq(count - 1)
                     with m.If(count == 1):
-                        acc_next = Mux(diag, acc + n_short - n_long, acc + n_short)
+                        step = running_step()
+                        dx, dy = moves(step)
                         m.d.sync += [
-                            self.x_pos.eq(x_move & ~x_neg), self.x_neg.eq(x_move & x_neg),
-                            self.y_pos.eq(y_move & ~y_neg), self.y_neg.eq(y_move & y_neg),
+                            self.x_pos.eq(step.x & ~step.x_neg), self.x_neg.eq(step.x & step.x_neg),
+                            self.y_pos.eq(step.y & ~step.y_neg), self.y_neg.eq(step.y & step.y_neg),
                             xm.eq(xm - dx), ym.eq(ym - dy),
-                            # linear: the next step
-                            acc.eq(acc_next), left.eq(left - 1),
-                            # circular: the next step, as the stages decided it
-                            q.eq(next_q), armed.eq(next_armed), d_after.eq(d1),
-                            long_x.eq(Mux(circular, next_long_x, long_x)),
-                            diag.eq(Mux(circular, next_diag, acc_next + n_short >= n_long)),
                         ]
-                        with m.If(~circular):
-                            m.d.sync += final.eq(left == 2)
-                        with m.If(final):
-                            finish(final_error)
+                        with m.If(step.final):
+                            finish(step.error)
 
-        # A circle's step is decided in four stages, each from registers: the position moves,
-        # then its quadrant and long axis, then the two candidate D values (and whether the
-        # step ends the arc), then the choice. For a block's first step the last three run in
-        # the radius check's first cycles (from the start point, D = 0); for each next step
-        # all four run in the current step's latency, so that it is decided before the
-        # current step's output, when the next FP may already come. (Written after the
-        # phase switch, so that no register's hold value is shared between its branches.)
-        in_setup = phase == _Phase.SETUP
-        in_circle_run = (phase == _Phase.RUN) & circular
-        stage = [in_circle_run & (count == self.latency_circular - k)
-                 for k in range(1, _CIRCLE_STAGES + 1)]
-        with m.If(stage[0]):
-            m.d.sync += [x.eq(x + dx), y.eq(y + dy)]
-        with m.If((in_setup & (sq_k == 0)) | stage[1]):
-            m.d.sync += [next_q.eq(_quadrant(x, y, cw)), next_long_x.eq(_abs(y) >= _abs(x))]
-        with m.If((in_setup & (sq_k == 1)) | stage[2]):
-            nx_neg, ny_neg = _signs_negative(next_q, cw)
-            two_x = Mux(nx_neg, -x, x) << 1
-            two_y = Mux(ny_neg, -y, y) << 1
-            m.d.sync += [d1.eq(d_after + Mux(next_long_x, two_x, two_y) + 1),
-                         d2.eq(d_after + two_x + two_y + 2)]
-        with m.If(stage[2]):
-            arming = armed | ((next_q == end_q) & (next_q != q))
-            m.d.sync += [next_armed.eq(arming),
-                         final.eq(arming & ((next_q != end_q) | Mux(end_on_x, x == ex, y == ey))),
-                         final_error.eq(arming & (next_q != end_q))]
-        with m.If((in_setup & (sq_k == 2)) | stage[3]):
-            # The short axis moves too if that makes |D| smaller.
-            m.d.sync += [next_diag.eq(_abs(d2) < _abs(d1)),
-                         d1.eq(Mux(_abs(d2) < _abs(d1), d2, d1))]
-
-        m.d.comb += self.quiet.eq(~self.fp & ((count == 0) | ((count >= 2) & (
-            ~circular | (count <= self.latency_circular - 1 - _CIRCLE_STAGES)))))
+        # Idle skipping may run while the count is 0 or at least 2 and past the stages.
+        past_stages = _select(kind, [count <= latency[k] - 1 - d.STAGES if d.STAGES else Const(1)
+                                     for k, d in zip(Kind, datapaths, strict=True)])
+        m.d.comb += self.quiet.eq(~self.fp & ((count == 0) | ((count >= 2) & past_stages)))
 
         # START while a block runs is refused (and flagged), never obeyed.
         with m.If(start & (phase != _Phase.IDLE)):

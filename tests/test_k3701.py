@@ -12,6 +12,8 @@ from hypothesis import strategies as st
 from testbench import bus_write, read_reg, simulate, write_reg
 
 from hdl.k3701 import K3701, K3701_MAP
+from hdl.k3701_circular import CircularDatapath
+from hdl.k3701_linear import LinearDatapath
 from hdl.k3701_model import (
     CIRCLE_SETUP_CYCLES,
     COORD_MAX,
@@ -307,6 +309,117 @@ def test_start_while_busy_is_refused_with_error_and_ack_clears_irq():
         assert not ctx.get(dut.irq)
 
     simulate(dut, bench)
+
+
+# --- each datapath alone, against the model's step decisions --------------------------------
+
+def decisions_alone(block: Block, latency: int, gaps: list[int], max_steps: int) -> list[tuple]:
+    """Drive the datapath of ``block``'s type alone through its ports, as the core does, with
+    the ``latency`` and the idle cycles ``gaps`` (cycled) between steps.
+
+    Returns what it answered: ("end", error) if it ended the block without a step, else one
+    (dx, dy, diag, final, error) per step, up to the final one or ``max_steps``.
+    """
+    datapath = {Kind.LINEAR: LinearDatapath, Kind.CIRCULAR: CircularDatapath}[block.kind]()
+    assert latency >= 2 + datapath.STAGES
+    answers: list[tuple] = []
+
+    async def bench(ctx):
+        for name, value in (("xe", block.xe), ("ye", block.ye), ("i", block.i),
+                            ("j", block.j), ("cw", int(block.cw)),
+                            ("quadrant", block.quadrant - 1)):
+            ctx.set(getattr(datapath.block, name), value)
+        ctx.set(datapath.start, 1)
+        if not datapath.SETUP and ctx.get(datapath.end):
+            answers.append(("end", ctx.get(datapath.error)))
+            return
+        await ctx.tick()
+        ctx.set(datapath.start, 0)
+        ctx.set(datapath.setup, datapath.SETUP)
+        setup_cycles = 0
+        while datapath.SETUP and not ctx.get(datapath.ready):
+            if ctx.get(datapath.end):
+                answers.append(("end", ctx.get(datapath.error)))
+                return
+            setup_cycles += 1
+            await ctx.tick()
+        if datapath.SETUP:
+            assert setup_cycles + 1 == CIRCLE_SETUP_CYCLES
+            await ctx.tick()
+            ctx.set(datapath.setup, 0)
+        step = datapath.step
+        for gap in itertools.islice(itertools.cycle(gaps), max_steps):
+            diag = ctx.get(step.diag)  # C: the credit completes (the cost is read)
+            await ctx.tick()
+            for k in range(latency - 2):  # C+1 .. C+L-2, the stages first
+                ctx.set(datapath.stage, 1 << k if k < datapath.STAGES else 0)
+                await ctx.tick()
+            ctx.set(datapath.stage, 0)
+            ctx.set(datapath.advance, 1)  # C+L-1: the step is taken
+            assert ctx.get(step.diag) == diag
+            answers.append((ctx.get(step.x) * (-1 if ctx.get(step.x_neg) else 1),
+                            ctx.get(step.y) * (-1 if ctx.get(step.y_neg) else 1),
+                            diag, ctx.get(step.final), ctx.get(step.error)))
+            await ctx.tick()
+            ctx.set(datapath.advance, 0)
+            if answers[-1][3]:
+                return
+            for _ in range(gap):
+                await ctx.tick()
+
+    simulate(datapath, bench)
+    return answers
+
+
+def model_decisions(block: Block) -> list[tuple]:
+    """:func:`decisions_alone` as the reference model's paths decide them."""
+    try:
+        path = make_path(block)
+    except BlockError:
+        return [("end", 1)]
+    if path.done:  # a zero-length line
+        return [("end", 0)]
+    answers = []
+    final = False
+    while not final:
+        step, final, error = path.advance()
+        answers.append((step.dx, step.dy, int(step.diagonal), int(final), int(error)))
+    return answers
+
+
+@settings(max_examples=30, deadline=None, derandomize=True)
+@given(xe=small, ye=small, latency=st.integers(2, 12),
+       gaps=st.lists(st.integers(0, 5), min_size=1, max_size=4))
+def test_linear_datapath_alone_decides_the_models_steps(xe, ye, latency, gaps):
+    block = Block.line(xe, ye)
+    want = model_decisions(block)
+    assert decisions_alone(block, latency, gaps, len(want) + 1) == want
+
+
+@settings(max_examples=20, deadline=None, derandomize=True)
+@given(i=st.integers(-12, 12), j=st.integers(-12, 12), cw=st.booleans(),
+       frac=st.floats(0.0, 1.0), latency=st.integers(6, 12),
+       gaps=st.lists(st.integers(0, 5), min_size=1, max_size=4))
+def test_circular_datapath_alone_decides_the_models_steps(i, j, cw, frac, latency, gaps):
+    if i == 0 and j == 0:
+        i = 3
+    full = plan(Block.arc(0, 0, i, j, cw=cw)).steps
+    xe, ye = on_path_end(i, j, cw, max(1, round(frac * full)))
+    block = Block.arc(xe, ye, i, j, cw=cw)
+    want = model_decisions(block)
+    assert decisions_alone(block, latency, gaps, len(want) + 1) == want
+
+
+@pytest.mark.parametrize("block", [
+    Block.line(-(1 << 23), 5),                               # refused in S
+    Block.line(0, 0),                                        # nothing to do
+    Block(Kind.CIRCULAR, 0, 0, COORD_MAX, COORD_MAX, quadrant=1),  # radius too large
+    Block(Kind.CIRCULAR, -10, 10, -10, 0, quadrant=3),       # end not in its quadrant
+    Block(Kind.CIRCULAR, 10, 15, -10, 0, quadrant=1),        # leaves its end quadrant
+])
+def test_datapaths_alone_end_refused_and_empty_blocks_as_the_model(block):
+    want = model_decisions(block)
+    assert decisions_alone(block, 6, [0], len(want) + 1) == want
 
 
 # --- the algorithms, on the model (fast, many cases) ------------------------------------------

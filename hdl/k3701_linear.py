@@ -1,0 +1,64 @@
+"""K3701 linear interpolation datapath: DDA stepping on the long axis.
+
+The reference model is :class:`hdl.k3701_model.LinearPath`.
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Module, Mux, Signal
+
+from hdl.k3701_datapath import Datapath, magnitude, refused
+
+__all__ = ["LinearDatapath"]
+
+
+class LinearDatapath(Datapath):
+    """Linear interpolation: the long axis (the larger |component|, ties to X) moves every
+    step, the short one too when the accumulator, started at half the long count, reaches
+    the long count.
+
+    Timing (the ports are those of :class:`hdl.k3701_datapath.DatapathSignature`; S is the
+    start cycle): no setup and no stages. ``end`` (with ``error`` when Xe or Ye is -2^23)
+    is high in S for a refused or zero-length line; the first step is in ``step`` from S+1;
+    each ``advance`` decides the next step at its edge, so that it is in ``step`` from the
+    following cycle. A line never ends with an error step.
+    """
+
+    def elaborate(self, platform) -> Module:
+        # ``end`` and ``error`` each have an expression of their own, so that the compiled
+        # simulation evaluates each only where the core reads it (see hdl.k3701.K3701).
+        m = Module()
+        block = self.block
+        long_x = Signal()       # the long axis is X
+        diag = Signal()         # the next step moves the short axis too
+        final = Signal()        # the next step is the last
+        n_long = Signal(24)
+        n_short = Signal(24)
+        acc = Signal(25)
+        left = Signal(24)       # steps still to take
+        x_neg = Signal()
+        y_neg = Signal()
+
+        m.d.comb += [
+            self.end.eq(refused(block, "xe", "ye") | ((block.xe == 0) & (block.ye == 0))),
+            self.error.eq(refused(block, "xe", "ye")),
+            self.step.x.eq(long_x | diag), self.step.x_neg.eq(x_neg),
+            self.step.y.eq(~long_x | diag), self.step.y_neg.eq(y_neg),
+            self.step.diag.eq(diag), self.step.final.eq(final),
+        ]
+
+        with m.If(self.start):
+            axe, aye = magnitude(block.xe).as_unsigned(), magnitude(block.ye).as_unsigned()
+            x_long = axe >= aye
+            nl = Mux(x_long, axe, aye)
+            ns = Mux(x_long, aye, axe)
+            m.d.sync += [
+                long_x.eq(x_long), n_long.eq(nl), n_short.eq(ns), acc.eq(nl[1:]),
+                diag.eq(nl[1:] + ns >= nl), final.eq(nl == 1), left.eq(nl),
+                x_neg.eq(block.xe < 0), y_neg.eq(block.ye < 0),
+            ]
+        with m.If(self.advance):
+            acc_next = Mux(diag, acc + n_short - n_long, acc + n_short)
+            m.d.sync += [acc.eq(acc_next), left.eq(left - 1),
+                         diag.eq(acc_next + n_short >= n_long), final.eq(left == 2)]
+        return m
