@@ -59,7 +59,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
             progress.finish()
     try:
         write_outputs(result, json_path=args.json, trace=args.trace, plot=args.plot,
-                      gtkw=args.gtkw, vcd=args.vcd, quiet=args.quiet)
+                      gtkw=args.gtkw, vcd=args.vcd, vcd_start=args.vcd_start,
+                      quiet=args.quiet)
     except KeyboardInterrupt:
         print("k37: interrupted while writing the outputs", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -1,31 +1,85 @@
 """Waveforms: a third-party reader (pywellen, the library behind Surfer) opens the VCD, with
-a scope per chip, and the GTKWave save file names signals that exist in it."""
+a scope per chip; the GTKWave save file shows every signal it lists, as GTKWave names it, in
+the right number format, zoomed to the window; ``signals`` selects what is dumped."""
 
 from __future__ import annotations
+
+import math
 
 import pytest
 import pywellen
 
 from firmware_model.job import demo_job
-from sim.run.output import write_gtkw
-from sim.run.runner import RunOptions, run_job
+from sim.run.runner import RunOptions, build_backend, run_job
+from sim.run.waveform import GTKW_GROUPS, GTKW_WIDTH_PX, wave_signals, wave_span, write_gtkw
 
 CHIP_SCOPES = ("k3701", "k3702_x", "k3702_y", "encoder_x", "encoder_y", "feed", "decel",
                "accel")
 
 
+def parse_gtkw(text: str) -> tuple[dict[str, str], list[tuple[int, str]]]:
+    """A save file's ``[key] value`` settings (and ``*`` zoom line) and its traces as
+    (flags, name), group markers included (``-name``)."""
+    settings, traces, flags = {}, [], None
+    for line in text.splitlines():
+        if line.startswith("["):
+            key, _, value = line[1:].partition("] ")
+            settings[key] = value
+        elif line.startswith("*"):
+            settings["*"] = line[1:]
+        elif line.startswith("@"):
+            flags = int(line[1:], 16)
+        else:
+            assert flags is not None, f"a trace without flags: {line!r}"
+            traces.append((flags, line))
+    return settings, traces
+
+
 @pytest.mark.parametrize("backend", ["pysim", "cxxrtl"])
-def test_vcd_opens_in_pywellen_with_a_scope_per_chip_and_gtkw_names_its_signals(tmp_path,
-                                                                               backend):
+def test_vcd_opens_in_pywellen_with_a_scope_per_chip_and_gtkw_shows_every_listed_signal(
+        tmp_path, backend):
     vcd, gtkw = tmp_path / "run.vcd", tmp_path / "run.gtkw"
-    run_job(demo_job(), RunOptions(backend=backend, max_cycles=1500, vcd=vcd))
+    run_job(demo_job(), RunOptions(backend=backend, max_cycles=1500, vcd=vcd, vcd_start=300))
     wave = pywellen.Waveform(str(vcd))
     scopes = {str(s).removeprefix("Scope(").removesuffix(")") for s in wave.all_scopes()}
     for chip in CHIP_SCOPES:
         assert f"bench.top.chipset.{chip}" in scopes, sorted(scopes)
-    names = {v.full_name for v in wave.all_vars()}
-    written = write_gtkw(vcd, gtkw)
-    assert len(written) >= 15
-    listed = [line for line in gtkw.read_text().splitlines() if line.startswith("bench.")]
-    assert listed == written
-    assert set(listed) <= names
+    widths = wave_signals(vcd)
+    assert set(widths) == {v.full_name for v in wave.all_vars()}
+    window = (300 * 10**9, wave_span(vcd)[1])
+    written = write_gtkw(vcd, gtkw, window=window)
+    settings, traces = parse_gtkw(gtkw.read_text())
+    signals = [(f, name) for f, name in traces if not name.startswith("-")]
+    assert [name for _, name in signals] == written
+    # Every listed signal the file declares is shown, multi-bit ones as GTKWave names them.
+    listed = [e.partition(":")[0] for _, names in GTKW_GROUPS for e in names]
+    traced = [n for n in listed if any(d.rsplit(".", 1)[-1] == n for d in widths)]
+    assert len(traced) >= len(listed) - 1  # fp: a wire CXXRTL may inline
+    assert len(signals) == len(traced)
+    for (flags, name), short in zip(signals, traced, strict=True):
+        base, _, bits = name.partition("[")
+        assert base.rsplit(".", 1)[-1] == short
+        width = widths[base]
+        assert bits == ("" if width == 1 else f"{width - 1}:0]")
+        signed = short.endswith(("__command", "__error", "__count"))
+        expected = 0x28 if width == 1 else 0x22 if short.startswith("bus__") else \
+            0x424 if signed else 0x24
+        assert flags == expected, (name, hex(flags))
+    # Grouped: each group's begin and end marker around its signals.
+    groups = [name for _, name in traces if name.startswith("-")]
+    assert groups[::2] == groups[1::2] == [f"-{g}" for g, _ in GTKW_GROUPS]
+    # Zoomed to the traced window: 2**-zoom fs per pixel.
+    start, stop = window
+    assert wave_span(vcd)[0] == (0 if backend == "pysim" else start - 250_000_000)
+    assert int(settings["timestart"]) == start
+    zoom = float(settings["*"].split()[0])
+    assert math.isclose(2 ** -zoom * GTKW_WIDTH_PX, stop - start, rel_tol=1e-5)
+
+
+def test_the_gtkw_signedness_matches_the_top_ports():
+    ports = build_backend(demo_job(), "pysim").ports
+    for _, names in GTKW_GROUPS:
+        for entry in names:
+            name, _, kind = entry.partition(":")
+            if name in ports:
+                assert ports[name].signed == (kind == "s"), name

@@ -1,5 +1,5 @@
-"""What ``k37 run`` writes: the summary, JSON report, trace CSV, plot and GTKWave file; and
-the check of every output path before a run starts."""
+"""What ``k37 run`` writes: the summary, JSON report, trace CSV, plot and GTKWave file (made
+by :mod:`sim.run.waveform`); and the check of every output path before a run starts."""
 
 from __future__ import annotations
 
@@ -12,12 +12,13 @@ from pathlib import Path
 import numpy as np
 
 from firmware_model.gcode import Arc, Line
+from sim.backends.contract import CLOCK_PERIOD
 from sim.machine.plant import DAC_VOLTS
 from sim.run.runner import RunResult
 from sim.run.sampler import TRACE_COLUMNS
+from sim.run.waveform import wave_span, write_gtkw
 
-__all__ = ["OutputError", "check_outputs", "summary", "write_gtkw", "write_outputs",
-           "write_plot", "write_trace"]
+__all__ = ["OutputError", "check_outputs", "summary", "write_outputs", "write_plot", "write_trace"]
 
 
 class OutputError(ValueError):
@@ -184,69 +185,9 @@ def write_plot(result: RunResult, path: Path) -> None:
     plt.close(fig)
 
 
-#: Signals of the GTKWave save file, grouped per chip and axis: (group, names).
-GTKW_GROUPS = (
-    ("host bus", ("bus__addr", "bus__w_stb", "bus__w_data", "bus__r_stb", "bus__r_data",
-                  "irq_interp", "irq_alarm")),
-    ("feed", ("fp", "fp_total")),
-    ("K3701", ("step_x_pos", "step_x_neg", "step_y_pos", "step_y_neg")),
-    ("K3702 x", ("x__command", "x__error", "x__dac", "x__alarm_n")),
-    ("K3702 y", ("y__command", "y__error", "y__dac", "y__alarm_n")),
-    ("plant x", ("x__count",)),
-    ("plant y", ("y__count",)),
-)
-
-
-def vcd_signals(path: Path) -> dict[str, int]:
-    """Every ``scope.name`` a VCD file declares, with its width in bits."""
-    names: dict[str, int] = {}
-    scopes: list[str] = []
-    with open(path) as f:
-        for line in f:
-            words = line.split()
-            if not words:
-                continue
-            if words[0] == "$scope":
-                scopes.append(words[2])
-            elif words[0] == "$upscope":
-                scopes.pop()
-            elif words[0] == "$var":
-                names[".".join([*scopes, words[4]])] = int(words[2])
-            elif words[0] == "$enddefinitions":
-                break
-    return names
-
-
-def write_gtkw(vcd: Path, path: Path) -> list[str]:
-    """A GTKWave save file for ``vcd`` showing the chips' main signals, grouped.
-
-    Each listed name is looked up among the signals the VCD declares (by its last name
-    component, the shortest path winning), so the file names only existing signals.
-    Returns the signals written.
-    """
-    declared = vcd_signals(vcd)
-    lines = [f'[dumpfile] "{vcd.resolve()}"', "[timestart] 0"]
-    written = []
-    for group, names in GTKW_GROUPS:
-        found = []
-        for name in names:
-            match = [d for d in declared if d.rsplit(".", 1)[-1] == name]
-            if match:
-                found.append(min(match, key=len))
-        if not found:
-            continue
-        lines.append(f"@800200\n-{group}")
-        for sig in found:
-            lines.append(f"@{'28' if declared[sig] == 1 else '22'}\n{sig}")
-        lines.append(f"@1000200\n-{group}")
-        written += found
-    path.write_text("\n".join(lines) + "\n")
-    return written
-
-
 def write_outputs(result: RunResult, *, json_path: str | None, trace: Path | None,
                   plot: Path | None, gtkw: Path | None, vcd: Path | None,
-                  quiet: bool = False) -> None:
+                  vcd_start: int = 0, quiet: bool = False) -> None:
     """Write every output the command line asked for (checked by :func:`check_outputs`); no
     GTKWave save file for a waveform the run did not write (its report warns)."""
     if json_path == "-":
@@ -259,6 +200,7 @@ def write_outputs(result: RunResult, *, json_path: str | None, trace: Path | Non
     if plot:
         write_plot(result, plot)
     if gtkw and vcd is not None and vcd.exists():
-        write_gtkw(vcd, gtkw)
+        window = round(vcd_start * CLOCK_PERIOD * 1e15), wave_span(vcd)[1]
+        write_gtkw(vcd, gtkw, window=window)
     if not quiet and json_path != "-":
         print(summary(result))

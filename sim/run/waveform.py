@@ -1,0 +1,125 @@
+"""Waveform files of ``k37 run``: the signals a VCD or FST declares, its time span, and the
+GTKWave save file that shows the chips' main signals."""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from pathlib import Path
+
+__all__ = ["GTKW_GROUPS", "GTKW_WIDTH_PX", "gtkw_flags", "wave_signals", "wave_span",
+           "write_gtkw"]
+
+#: Signals of the GTKWave save file, grouped per chip and axis: (group, names), a name
+#: followed by ``:s`` being signed (two's complement).
+GTKW_GROUPS = (
+    ("host bus", ("bus__addr", "bus__w_stb", "bus__w_data", "bus__r_stb", "bus__r_data",
+                  "irq_interp", "irq_alarm")),
+    ("feed", ("fp", "fp_total")),
+    ("K3701", ("step_x_pos", "step_x_neg", "step_y_pos", "step_y_neg")),
+    ("K3702 x", ("x__command:s", "x__error:s", "x__dac", "x__alarm_n")),
+    ("K3702 y", ("y__command:s", "y__error:s", "y__dac", "y__alarm_n")),
+    ("plant x", ("x__count:s",)),
+    ("plant y", ("y__count:s",)),
+)
+
+#: Width in pixels of the wave pane the save file's zoom fits the traced window into.
+GTKW_WIDTH_PX = 1000
+
+# GTKWave's trace flags (its analyzer.h: TR_HEX 0x2, TR_DEC 0x4, TR_BIN 0x8, TR_RJUSTIFY
+# 0x20, TR_BLANK 0x200, TR_SIGNED 0x400, TR_GRP_BEGIN 0x800000, TR_GRP_END 0x1000000).
+_HEX, _DEC, _BIN, _RJUSTIFY, _BLANK, _SIGNED = 0x2, 0x4, 0x8, 0x20, 0x200, 0x400
+_GROUP_BEGIN, _GROUP_END = 0x800000 | _BLANK, 0x1000000 | _BLANK
+#: Bus-like signals (addresses, data bytes), shown in hex; other numbers in decimal.
+_HEX_NAMES = ("bus__addr", "bus__w_data", "bus__r_data")
+
+
+def gtkw_flags(name: str, width: int, signed: bool) -> int:
+    """GTKWave's display flags for a signal: binary for a bit, hex for a bus byte, else
+    decimal, signed decimal for a signed number."""
+    if width == 1:
+        return _RJUSTIFY | _BIN
+    if name in _HEX_NAMES:
+        return _RJUSTIFY | _HEX
+    return _RJUSTIFY | _DEC | (_SIGNED if signed else 0)
+
+
+def wave_signals(path: Path) -> dict[str, int]:
+    """Every ``scope.name`` a VCD or FST file declares, with its width in bits."""
+    if path.suffix.lower() == ".fst":
+        import pywellen
+
+        return {var.full_name: var.bitwidth for var in pywellen.Waveform(str(path)).all_vars()}
+    names: dict[str, int] = {}
+    scopes: list[str] = []
+    with open(path) as f:
+        for line in f:
+            words = line.split()
+            if not words:
+                continue
+            if words[0] == "$scope":
+                scopes.append(words[2])
+            elif words[0] == "$upscope":
+                scopes.pop()
+            elif words[0] == "$var":
+                names[".".join([*scopes, words[4]])] = int(words[2])
+            elif words[0] == "$enddefinitions":
+                break
+    return names
+
+
+def wave_span(path: Path) -> tuple[int, int]:
+    """The first and last time stamps of a VCD or FST file, in its time unit (fs)."""
+    if path.suffix.lower() == ".fst":
+        from pylibfst import lib
+
+        reader = lib.fstReaderOpen(os.fsencode(path))
+        try:
+            return lib.fstReaderGetStartTime(reader), lib.fstReaderGetEndTime(reader)
+        finally:
+            lib.fstReaderClose(reader)
+    stamp = re.compile(rb"^#(\d+)\s*$", re.M)
+    with open(path, "rb") as f:
+        first = next(int(m[1]) for line in f if (m := stamp.match(line)))
+        f.seek(max(0, os.fstat(f.fileno()).st_size - 65536))
+        last = int(stamp.findall(f.read())[-1])
+    return first, last
+
+
+def write_gtkw(wave: Path, path: Path, *, window: tuple[int, int] | None = None,
+               width_px: int = GTKW_WIDTH_PX) -> list[str]:
+    """A GTKWave save file for ``wave`` (VCD or FST) showing the chips' main signals, grouped,
+    zoomed to fit ``window`` (first and last time, default the file's span) into ``width_px``
+    pixels. (Amaranth's VCD writer stamps the values at a window's start at time 0.)
+
+    Each listed name is looked up among the signals the file declares (by its last name
+    component, the shortest path winning), so the file names only traced signals; a
+    multi-bit one carries the ``[msb:lsb]`` suffix GTKWave gives it. Returns the signals
+    written, as the file names them.
+    """
+    declared = wave_signals(wave)
+    start, stop = window or wave_span(wave)
+    # GTKWave shows 2**-zoom time units per pixel (its default zoom base, 2).
+    zoom = -math.log2(max(stop - start, 1) / width_px)
+    lines = [f'[dumpfile] "{wave.resolve()}"', f"[timestart] {start}",
+             f"*{zoom:.6f} -1"]
+    written = []
+    for group, names in GTKW_GROUPS:
+        found = []
+        for entry in names:
+            name, _, kind = entry.partition(":")
+            match = [d for d in declared if d.rsplit(".", 1)[-1] == name]
+            if match:
+                sig = min(match, key=len)
+                width = declared[sig]
+                shown = sig if width == 1 else f"{sig}[{width - 1}:0]"
+                found.append((shown, gtkw_flags(name, width, kind == "s")))
+        if not found:
+            continue
+        lines.append(f"@{_GROUP_BEGIN:x}\n-{group}")
+        lines += [f"@{flags:x}\n{shown}" for shown, flags in found]
+        lines.append(f"@{_GROUP_END:x}\n-{group}")
+        written += [shown for shown, _ in found]
+    path.write_text("\n".join(lines) + "\n")
+    return written
