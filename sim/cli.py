@@ -45,6 +45,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         options = RunOptions(backend=args.backend, max_cycles=args.max_cycles,
                              sample_every=args.sample_every, vcd=args.vcd,
                              vcd_start=args.vcd_start, vcd_stop=args.vcd_stop,
+                             signals=tuple(g for g in args.signals.split(",") if g),
                              progress=progress, faults=faults, skip_idle=not args.no_skip_idle,
                              sigint=True)
         result = run_job(job, options)
@@ -147,6 +148,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="first cycle of the VCD window")
     p.add_argument("--vcd-stop", type=int, default=None, metavar="CYCLE",
                    help="end of the VCD window (exclusive; default: the end of the run)")
+    p.add_argument("--signals", default="", metavar="GLOB[,GLOB...]",
+                   help="dump only the signals matching these globs over the dotted paths "
+                        "below the top (e.g. 'chipset.k3701.*,x__*'; default: every signal)")
     p.add_argument("--gtkw", metavar="PATH", type=Path,
                    help="write a GTKWave save file for the VCD (needs --vcd)")
     p.add_argument("--stall", action="append", default=[], choices=["x", "y"],

@@ -10,7 +10,7 @@ import pytest
 import pywellen
 
 from firmware_model.job import demo_job
-from sim.run.runner import RunOptions, build_backend, run_job
+from sim.run.runner import OptionError, RunOptions, build_backend, run_job
 from sim.run.waveform import GTKW_GROUPS, GTKW_WIDTH_PX, wave_signals, wave_span, write_gtkw
 
 CHIP_SCOPES = ("k3701", "k3702_x", "k3702_y", "encoder_x", "encoder_y", "feed", "decel",
@@ -83,3 +83,33 @@ def test_the_gtkw_signedness_matches_the_top_ports():
             name, _, kind = entry.partition(":")
             if name in ports:
                 assert ports[name].signed == (kind == "s"), name
+
+
+def changes(path, names: set[str]) -> dict[str, list[tuple[int, object]]]:
+    """The value changes of the signals ``names`` in a waveform file, by full name."""
+    wave = pywellen.Waveform(str(path))
+    out: dict[str, list[tuple[int, object]]] = {}
+    for var in wave.all_vars():
+        if var.full_name in names:
+            found = out[var.full_name] = []
+            wave.stream_changes(lambda t, _, v, found=found: found.append((t, v)), [var])
+    return out
+
+
+@pytest.mark.parametrize("backend", ["pysim", "cxxrtl"])
+def test_signals_selects_what_is_dumped_with_the_same_values(tmp_path, backend):
+    full, part = tmp_path / "full.vcd", tmp_path / "part.vcd"
+    globs = ("chipset.k3701.*", "x__*")
+    for path, signals in ((full, ()), (part, globs)):
+        run_job(demo_job(), RunOptions(backend=backend, max_cycles=1200, vcd=path,
+                                       vcd_start=200, signals=signals))
+    everything, selected = wave_signals(full), wave_signals(part)
+    top = "bench.top."
+    expected = {n for n in everything if n.startswith((top + "chipset.k3701.", top + "x__"))}
+    assert set(selected) == expected and len(expected) < len(everything) / 4
+    dumped = changes(full, expected)
+    assert sum(map(len, dumped.values())) > 2 * len(expected)  # values that change
+    assert changes(part, expected) == dumped
+    with pytest.raises(OptionError, match=r"--signals nothing\.\*: matches no signal"):
+        run_job(demo_job(), RunOptions(backend=backend, max_cycles=10, vcd=part,
+                                       signals=("nothing.*",)))

@@ -25,7 +25,8 @@ leading ``bench.top``.
 from __future__ import annotations
 
 import abc
-from collections.abc import Iterator
+import fnmatch
+from collections.abc import Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
@@ -34,7 +35,8 @@ import numpy as np
 from amaranth.hdl import Shape, Value, ValueCastable
 from amaranth.lib import wiring
 
-__all__ = ["CLOCK_PERIOD", "Backend", "Port", "component_ports", "sign_extend"]
+__all__ = ["CLOCK_PERIOD", "Backend", "Port", "component_ports", "select_signals",
+           "sign_extend"]
 
 #: The paper's system clock period, 1 us (1 MHz): the time base of waveforms.
 CLOCK_PERIOD = 1e-6
@@ -146,11 +148,15 @@ class Backend(abc.ABC):
         """
 
     @abc.abstractmethod
-    def trace(self, path: str, start_cycle: int = 0, stop_cycle: int | None = None) -> None:
+    def trace(self, path: str, start_cycle: int = 0, stop_cycle: int | None = None,
+              signals: Sequence[str] = ()) -> None:
         """Write a VCD of cycles ``start_cycle`` to ``stop_cycle`` (exclusive; None: to close).
 
         Scopes, names and timestamps are those of Amaranth's VCD writer with
         ``add_clock(period)``; the window may start in the future (or now, if already past).
+        ``signals``, if given, are globs over the dotted paths below the top (those of
+        :meth:`probe_names`, see :func:`select_signals`): only the signals they match are
+        written.
         """
 
     @abc.abstractmethod
@@ -275,3 +281,17 @@ def signal_paths(design: Any) -> dict[str, Value]:
         for signal, name in info.signal_names.items():
             paths.setdefault(".".join((*scope, name)), signal)
     return paths
+
+
+def select_signals(paths: Iterable[str], globs: Sequence[str]) -> set[str]:
+    """The ``paths`` (dotted, below the top) matched by any of ``globs`` (``fnmatch``, ``*``
+    spanning dots); a glob that matches none is refused (ValueError)."""
+    paths = list(paths)
+    selected: set[str] = set()
+    for glob in globs:
+        matched = fnmatch.filter(paths, glob)
+        if not matched:
+            raise ValueError(f"--signals {glob}: matches no signal (signals are dotted paths "
+                             f"below the top, e.g. chipset.k3701.* or x__*)")
+        selected.update(matched)
+    return selected

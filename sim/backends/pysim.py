@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from types import SimpleNamespace
 from typing import Any
 
 from amaranth.hdl import Shape, Value
+from amaranth.hdl._ast import SignalDict
 from amaranth.lib import wiring
 from amaranth.sim import Simulator
 
@@ -16,6 +18,7 @@ from sim.backends.contract import (
     check_count,
     check_window,
     component_ports,
+    select_signals,
     signal_paths,
 )
 
@@ -36,7 +39,8 @@ class PysimBackend(Backend):
     Two private parts of Amaranth 0.5 are used: the simulator's prepared design (for the
     probes' names, the ones its VCD writer uses) and its engine's VCD writer, which, unlike
     ``Simulator.write_vcd``, may start after time 0 (FSM states and enums, written as text,
-    then show their init value until they first change). ``skip_idle`` is accepted and
+    then show their init value until they first change), and, given a view of the design
+    naming only the selected signals, writes only those. ``skip_idle`` is accepted and
     ignored: every cycle is simulated.
     """
 
@@ -55,7 +59,7 @@ class PysimBackend(Backend):
         self._command: Callable[[Any], Any] | None = None
         self._parked = False
         self._cycle = 0
-        self._window: tuple[str, int, int | None] | None = None
+        self._window: tuple[str, int, int | None, set[str] | None] | None = None
         self._vcd: Any = None
         self._run_parked()
 
@@ -92,7 +96,7 @@ class PysimBackend(Backend):
         """How many of ``n`` cycles to run before the trace window's next edge."""
         self._update_trace()
         if self._window is not None:
-            _, start, stop = self._window
+            _, start, stop, _ = self._window
             edge = start if self._cycle < start else stop
             if edge is not None:
                 return min(n, edge - self._cycle)
@@ -122,13 +126,21 @@ class PysimBackend(Backend):
     def _update_trace(self) -> None:
         if self._window is None:
             return
-        path, start, stop = self._window
+        path, start, stop, selected = self._window
         if self._vcd is None and self._cycle >= start:
             # Amaranth's writer only starts at time 0 through the public API; its engine
             # records the current values as the initial ones, which is right at any time.
             self._vcd = self._sim._engine.write_vcd(vcd_file=path, gtkw_file=None, traces=(),
                                                      fs_per_delta=0)
-            self._vcd.__enter__()
+            if selected is None:
+                self._vcd.__enter__()
+            else:  # the writer declares every signal of the design it is given
+                engine, design = self._sim._engine, self._sim._engine._design
+                engine._design = _selected_design(design, selected)
+                try:
+                    self._vcd.__enter__()
+                finally:
+                    engine._design = design
         if stop is not None and self._cycle >= stop:
             self.stop_trace()
 
@@ -160,10 +172,12 @@ class PysimBackend(Backend):
         self._cycle = 0
         self._run_parked()
 
-    def trace(self, path: str, start_cycle: int = 0, stop_cycle: int | None = None) -> None:
+    def trace(self, path: str, start_cycle: int = 0, stop_cycle: int | None = None,
+              signals: Sequence[str] = ()) -> None:
         check_window(start_cycle, stop_cycle)
+        selected = select_signals(self._paths, signals) if signals else None
         self.stop_trace()
-        self._window = (path, start_cycle, stop_cycle)
+        self._window = (path, start_cycle, stop_cycle, selected)
         self._update_trace()
 
     def stop_trace(self) -> None:
@@ -174,3 +188,15 @@ class PysimBackend(Backend):
 
     def close(self) -> None:
         self.stop_trace()
+
+
+def _selected_design(design: Any, selected: set[str]) -> SimpleNamespace:
+    """A view of a prepared design naming only the ``selected`` signal paths (what the VCD
+    writer reads: each fragment's hierarchical name and signal names)."""
+    fragments = {}
+    for fragment, info in design.fragments.items():
+        scope = ".".join(info.name[1:])
+        names = SignalDict((signal, name) for signal, name in info.signal_names.items()
+                           if (f"{scope}.{name}" if scope else name) in selected)
+        fragments[fragment] = SimpleNamespace(name=info.name, signal_names=names)
+    return SimpleNamespace(fragments=fragments)

@@ -56,6 +56,8 @@ class RunOptions:
     vcd: Path | None = None
     vcd_start: int = 0
     vcd_stop: int | None = None
+    #: Globs over the dotted signal paths below the top to dump (empty: every signal).
+    signals: tuple[str, ...] = ()
     #: Called with the run's :class:`sim.run.progress.Progress` at the sampler's ticks.
     progress: Callable[[Progress], None] | None = None
     faults: dict[str, dict[str, int]] = field(default_factory=dict)
@@ -195,7 +197,13 @@ def run_job(job: Job, options: RunOptions | None = None,
     backend = backend or build_backend(job, options.backend)
     _configure_plants(backend, job, options.faults)
     if options.vcd is not None:
-        backend.trace(str(options.vcd), options.vcd_start, options.vcd_stop)
+        try:
+            backend.trace(str(options.vcd), options.vcd_start, options.vcd_stop,
+                          options.signals)
+        except ValueError as e:
+            if owned:
+                backend.close()
+            raise OptionError(str(e)) from None
     store = SampleStore(job.machine.dac_bits)
     sampler = Sampler(backend, options.sample_every, store, skip_idle=options.skip_idle)
     host = Host8085(SimulatedLink(sampler), clock_hz=job.machine.clock_hz)

@@ -11,6 +11,7 @@ import ctypes
 import os
 import re
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import ClassVar
 
@@ -28,6 +29,7 @@ from sim.backends.contract import (
     check_count,
     check_window,
     component_ports,
+    select_signals,
     signal_paths,
 )
 from sim.backends.cxxrtl.build import build
@@ -58,7 +60,8 @@ def _load(path: Path) -> ctypes.CDLL:
         "k37_bus_read": (u64, [handle, size, size, size, u64]),
         "k37_cycle": (u64, [handle]),
         "k37_skipped": (u64, [handle]),
-        "k37_trace": (ctypes.c_int, [handle, ctypes.c_char_p, ctypes.c_char_p, u64, u64, u64]),
+        "k37_trace": (ctypes.c_int, [handle, ctypes.c_char_p, ctypes.c_char_p, ctypes.c_char_p,
+                                      u64, u64, u64]),
         "k37_trace_close": (None, [handle]),
         "k37_falling_edge": (ctypes.c_int, [handle]),
         "k37_free_accumulator": (ctypes.c_int, [handle, size, size, size, ctypes.c_uint]),
@@ -122,6 +125,7 @@ class CxxrtlBackend(Backend):
                        for i in range(lib.k37_count(self._handle))}
         # CXXRTL separates the hierarchy with spaces; names may hold dots (struct fields).
         self._probes = {name.replace(" ", "."): i for name, i in self._items.items()}
+        self._names = {name.replace(" ", "."): name for name in self._items}
         self._shapes = {path: Shape.cast(signal.shape())
                         for path, signal in signal_paths(design).items()}
         self._index = {name: self._items[name] for name in self.ports}
@@ -315,7 +319,8 @@ class CxxrtlBackend(Backend):
     def skipped_cycles(self) -> int:  # type: ignore[override]
         return self._lib.k37_skipped(self._handle)
 
-    def trace(self, path: str, start_cycle: int = 0, stop_cycle: int | None = None) -> None:
+    def trace(self, path: str, start_cycle: int = 0, stop_cycle: int | None = None,
+              signals: Sequence[str] = ()) -> None:
         """Write a VCD of cycles ``[start_cycle, stop_cycle)`` (a window may lie in the future).
 
         Scopes and names follow Amaranth's VCD writer (``bench.top.<submodule>``), timestamps
@@ -323,9 +328,13 @@ class CxxrtlBackend(Backend):
         speed.
         """
         check_window(start_cycle, stop_cycle)
+        # The selected items by their CXXRTL names, one a line (None: every item).
+        keep = None if not signals else "\n".join(
+            self.VCD_SCOPE + self._names[path]
+            for path in sorted(select_signals(self._probes, signals))).encode()
         stop = (1 << 64) - 1 if stop_cycle is None else stop_cycle
         quarter_fs = round(self._period * 1e15 / 4)
-        if self._lib.k37_trace(self._handle, os.fsencode(path), self.VCD_SCOPE.encode(),
+        if self._lib.k37_trace(self._handle, os.fsencode(path), self.VCD_SCOPE.encode(), keep,
                                start_cycle, stop, quarter_fs):
             raise OSError(f"cannot write waveform file {path}")
 

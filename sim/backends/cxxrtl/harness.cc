@@ -17,6 +17,8 @@
 #include <cstdint>
 #include <cstdio>
 #include <memory>
+#include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -863,9 +865,10 @@ uint64_t k37_skipped(void *handle) {
 	return static_cast<Model *>(handle)->skipped;
 }
 
-// Record a VCD of cycles [start, stop) to `path`, scopes prefixed by `scope` ("bench top ").
-int k37_trace(void *handle, const char *path, const char *scope, uint64_t start, uint64_t stop,
-              uint64_t quarter_period_fs) {
+// Record a VCD of cycles [start, stop) to `path`, scopes prefixed by `scope` ("bench top "):
+// every item, or (`keep` not null) the items it names, one a line, scope included.
+int k37_trace(void *handle, const char *path, const char *scope, const char *keep,
+              uint64_t start, uint64_t stop, uint64_t quarter_period_fs) {
 	Model &m = *static_cast<Model *>(handle);
 	close_trace(m);
 	FILE *file = fopen(path, "wb");
@@ -873,6 +876,15 @@ int k37_trace(void *handle, const char *path, const char *scope, uint64_t start,
 		return -1;
 	m.trace.reset(new Trace{{}, {}, file, start, stop, quarter_period_fs, false});
 	m.top->debug_info(&m.trace->items, nullptr, scope);
+	if (keep) {
+		std::set<std::string> names;
+		std::istringstream lines(keep);
+		for (std::string line; std::getline(lines, line);)
+			names.insert(line);
+		auto &table = m.trace->items.table;
+		for (auto it = table.begin(); it != table.end();)
+			it = names.count(it->first) ? std::next(it) : table.erase(it);
+	}
 	m.trace->writer.timescale(1, "fs");
 	m.trace->writer.add_without_memories(m.trace->items);
 	settle(m);
