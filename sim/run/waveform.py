@@ -1,4 +1,4 @@
-"""Waveform files of ``k37 run``: the signals a VCD or FST declares, its time span, and the
+"""Waveform files of ``k37 run``: the signals a VCD declares, its time span, and the
 GTKWave save file that shows the chips' main signals."""
 
 from __future__ import annotations
@@ -46,11 +46,7 @@ def gtkw_flags(name: str, width: int, signed: bool) -> int:
 
 
 def wave_signals(path: Path) -> dict[str, int]:
-    """Every ``scope.name`` a VCD or FST file declares, with its width in bits."""
-    if path.suffix.lower() == ".fst":
-        import pywellen
-
-        return {var.full_name: var.bitwidth for var in pywellen.Waveform(str(path)).all_vars()}
+    """Every ``scope.name`` a VCD file declares, with its width in bits."""
     names: dict[str, int] = {}
     scopes: list[str] = []
     with open(path) as f:
@@ -70,15 +66,7 @@ def wave_signals(path: Path) -> dict[str, int]:
 
 
 def wave_span(path: Path) -> tuple[int, int]:
-    """The first and last time stamps of a VCD or FST file, in its time unit (fs)."""
-    if path.suffix.lower() == ".fst":
-        from pylibfst import lib
-
-        reader = lib.fstReaderOpen(os.fsencode(path))
-        try:
-            return lib.fstReaderGetStartTime(reader), lib.fstReaderGetEndTime(reader)
-        finally:
-            lib.fstReaderClose(reader)
+    """The first and last time stamps of a VCD file, in its time unit (fs)."""
     stamp = re.compile(rb"^#(\d+)\s*$", re.M)
     with open(path, "rb") as f:
         first = next(int(m[1]) for line in f if (m := stamp.match(line)))
@@ -89,7 +77,7 @@ def wave_span(path: Path) -> tuple[int, int]:
 
 def write_gtkw(wave: Path, path: Path, *, window: tuple[int, int] | None = None,
                width_px: int = GTKW_WIDTH_PX) -> list[str]:
-    """A GTKWave save file for ``wave`` (VCD or FST) showing the chips' main signals, grouped,
+    """A GTKWave save file for ``wave`` (VCD) showing the chips' main signals, grouped,
     zoomed to fit ``window`` (first and last time, default the file's span) into ``width_px``
     pixels. (Amaranth's VCD writer stamps the values at a window's start at time 0.)
 
