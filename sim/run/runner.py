@@ -298,7 +298,8 @@ def _report(job: Job, backend: Backend, firmware: Firmware, meter: BlockMeter,
             store: SampleStore, wall: float, status: str, reason: str) -> dict:
     cycles = backend.cycle
     clock = job.machine.clock_hz
-    max_contour, rms_contour = contour_summary(job, firmware, store)
+    max_contour, rms_contour = contour_summary(
+        job, [(b.index, b.start_cycle) for b in firmware.blocks], store)
     axes = {axis: _axis_report(backend, axis) for axis in AXES}
     return {
         "schema_version": SCHEMA_VERSION,
