@@ -200,8 +200,9 @@ def figure(result: RunResult) -> Figure:
 
     for ax in (contour_ax, follow, speed_ax, dac):
         _boundaries(ax, result)
+    # the job's name is the user's text: never TeX ("$x$" would be parsed as math)
     fig.suptitle(f"k37 run {result.job.name}: {result.report['status']}: "
-                 f"{result.report['reason']}")
+                 f"{result.report['reason']}", parse_math=False)
     return fig
 
 
