@@ -52,6 +52,7 @@ def load(path: str | PathLike[str] | None = None, *, gcode: str | None = None,
 
 
 def _job(job: Job | str | PathLike[str] | None) -> Job:
+    """``job`` itself, or the job :func:`load` reads from the path (None: the demo)."""
     return job if isinstance(job, Job) else load(job)
 
 
