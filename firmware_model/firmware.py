@@ -24,6 +24,7 @@ does.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -146,8 +147,8 @@ def check_program(job: Job) -> None:
             what = "a line" if item.block.kind is Kind.LINEAR else "an arc"
             raise FirmwareError(
                 f"{_where(item, program)}: feed {feed:g} mm/min is above the K3701's maximum "
-                f"for {what}, {limit:.0f} mm/min (one step per {item.block.latency} cycles "
-                f"at {machine.clock_hz / 1e6:g} MHz)")
+                f"for {what}, {math.floor(limit * 100) / 100:.2f} mm/min (one step per "
+                f"{item.block.latency} cycles at {machine.clock_hz / 1e6:g} MHz)")
         if feed_word(machine, feed) < 1:
             raise FirmwareError(f"{_where(item, program)}: feed {feed:g} mm/min is below the "
                                 f"rate multiplier's resolution, {word_feed(machine, 1):.3g} "

@@ -142,7 +142,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", metavar="PATH", help="write the JSON report ('-': stdout)")
     p.add_argument("--trace", metavar="PATH.csv", type=Path, help="write the samples as CSV")
     p.add_argument("--plot", metavar="PATH.png", type=Path,
-                   help="plot path, radial error, axis speeds and DAC volts")
+                   help="plot path, contour error, following error, speeds and DAC volts")
     p.add_argument("--vcd", metavar="PATH", type=Path, help="write a VCD waveform")
     p.add_argument("--vcd-start", type=int, default=0, metavar="CYCLE",
                    help="first cycle of the VCD window")

@@ -15,12 +15,11 @@ import threading
 import time
 from dataclasses import replace
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from firmware_model.firmware import TIMER_TICK_SECONDS, BlockRecord, FirmwareError, check_program
+from firmware_model.firmware import TIMER_TICK_SECONDS, FirmwareError, check_program
 from firmware_model.job import MachineConfig, RunConfig, demo_job
 from sim.cli import main
 from sim.run import runner
@@ -270,9 +269,7 @@ def test_samples_stream_to_the_store_in_bounded_chunks(make_job, monkeypatch):
 
 def test_contour_error_streamed_in_chunks_equals_the_whole_arrays_bit_for_bit(make_job):
     job = make_job("G21 G90 F600\nG01 X2\nG02 X4 Y0 I1 J0\nG01 Y-1\nM30")
-    blocks = [BlockRecord(k, 0, "linear", start, 0, 0) for k, start in
-              enumerate((100, 40_000, 90_000))]
-    firmware = SimpleNamespace(blocks=blocks)
+    blocks = list(enumerate((100, 40_000, 90_000)))
     rng = np.random.default_rng(5)
     n = 12_345
     raw = np.zeros((n, len(TRACE_COLUMNS)), dtype=np.int64)
@@ -282,10 +279,10 @@ def test_contour_error_streamed_in_chunks_equals_the_whole_arrays_bit_for_bit(ma
     store = SampleStore(12)
     for start in range(0, n, 1000):
         store.append(raw[start:start + 1000])
-    whole = contour_errors(job, firmware, store.array())
+    whole = contour_errors(job, blocks, store.array())
     expected = (float(whole.max()), float(math.sqrt(np.mean(whole**2))))
     for leaf in (100, 1000, CHUNK_ROWS):
-        assert contour_summary(job, firmware, store, leaf=leaf) == expected
+        assert contour_summary(job, blocks, store, leaf=leaf) == expected
 
 
 def test_trace_csv_is_written_from_the_store_chunk_by_chunk(tmp_path, monkeypatch):

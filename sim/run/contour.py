@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
-from firmware_model.firmware import Firmware
 from firmware_model.gcode import Arc, Dwell, Line
 from firmware_model.job import Job
 from sim.run.sampler import CHUNK_ROWS, SampleStore
 
-__all__ = ["contour_errors", "contour_summary"]
+__all__ = ["BlockStart", "contour_errors", "contour_summary"]
+
+#: A block that ran: its index in the program (dwells counted) and the cycle it started.
+BlockStart = tuple[int, int]
 
 
 def _segment_distance(p: np.ndarray, a: tuple[int, int], b: tuple[int, int]) -> np.ndarray:
@@ -41,20 +44,20 @@ def _arc_distance(p: np.ndarray, item: Arc) -> np.ndarray:
     return np.where(off <= sweep, on_arc, ends)
 
 
-def contour_errors(job: Job, firmware: Firmware, samples: np.ndarray) -> np.ndarray:
+def contour_errors(job: Job, blocks: Sequence[BlockStart], samples: np.ndarray) -> np.ndarray:
     """Distance of each sample's actual position to the programmed path (LSB).
 
+    ``blocks`` are the blocks that ran, in order (the firmware's records, or the report's).
     A sample is compared with the block running at its cycle and its neighbours (a lagging
     axis is still on the block before).
     """
     moves = [it for it in job.program.items if not isinstance(it, Dwell)]
-    if not len(samples) or not moves or not firmware.blocks:
+    if not len(samples) or not moves or not blocks:
         return np.zeros(0)
     cycles, pts = samples[:, 0], samples[:, 3:5]
     move_of = {it.index: k for k, it in enumerate(moves)}
-    block_move = np.array([move_of[b.index] for b in firmware.blocks])
-    running = np.searchsorted([b.start_cycle for b in firmware.blocks], cycles,
-                              side="right") - 1
+    block_move = np.array([move_of[index] for index, _ in blocks])
+    running = np.searchsorted([start for _, start in blocks], cycles, side="right") - 1
     candidates = []
     for shift in (-1, 0, 1):
         idx = running + shift
@@ -75,7 +78,7 @@ def contour_errors(job: Job, firmware: Firmware, samples: np.ndarray) -> np.ndar
     return best
 
 
-def contour_summary(job: Job, firmware: Firmware, store: SampleStore,
+def contour_summary(job: Job, blocks: Sequence[BlockStart], store: SampleStore,
                     leaf: int = CHUNK_ROWS) -> tuple[float, float]:
     """The largest and the root-mean-square contour error of the samples in ``store`` (LSB),
     reading at most ``leaf`` samples at a time.
@@ -89,7 +92,7 @@ def contour_summary(job: Job, firmware: Firmware, store: SampleStore,
     def total(start: int, stop: int) -> float:
         nonlocal peak
         if stop - start <= leaf:
-            errors = contour_errors(job, firmware, store.read(start, stop))
+            errors = contour_errors(job, blocks, store.read(start, stop))
             if not errors.size:  # no block ran: no contour
                 return 0.0
             peak = max(peak, float(errors.max()))

@@ -116,6 +116,8 @@ def _read(path: Path, name: str) -> str:
         raise JobError(f"{name}: not UTF-8 text (byte {e.start})") from None
     except OSError as e:
         raise JobError(f"{name}: cannot read: {e.strerror or e}") from None
+    except ValueError as e:  # a path no system can open (a NUL in it)
+        raise JobError(f"{name}: cannot read: {e}") from None
 
 
 _TOML_POSITION = re.compile(r"^(.*) \(at line (\d+), column (\d+)\)$")

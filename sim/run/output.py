@@ -1,24 +1,22 @@
-"""What ``k37 run`` writes: the summary, JSON report, trace CSV, plot and GTKWave file (made
-by :mod:`sim.run.waveform`); and the check of every output path before a run starts."""
+"""What ``k37 run`` writes: the summary, JSON report and trace CSV (the plot is made by
+:mod:`sim.run.plot`, the GTKWave file by :mod:`sim.run.waveform`); and the check of every output
+path before a run starts."""
 
 from __future__ import annotations
 
 import csv
 import json
-import math
 import sys
 from pathlib import Path
 
-import numpy as np
-
-from firmware_model.gcode import Arc, Line
 from sim.backends.contract import CLOCK_PERIOD
 from sim.machine.plant import DAC_VOLTS
+from sim.run.plot import write_plot
 from sim.run.runner import RunResult
 from sim.run.sampler import TRACE_COLUMNS
 from sim.run.waveform import wave_span, write_gtkw
 
-__all__ = ["OutputError", "check_outputs", "summary", "write_outputs", "write_plot", "write_trace"]
+__all__ = ["OutputError", "check_outputs", "summary", "write_outputs", "write_trace"]
 
 
 class OutputError(ValueError):
@@ -114,75 +112,6 @@ def write_trace(result: RunResult, path: Path) -> None:
                           for row in chunk.tolist())
 
 
-def _programmed_path(result: RunResult) -> list[np.ndarray]:
-    pieces = []
-    for item in result.job.program.items:
-        if isinstance(item, Line):
-            pieces.append(np.array([item.start, item.end], dtype=float))
-        elif isinstance(item, Arc):
-            cx, cy = item.start[0] + item.i, item.start[1] + item.j
-            radius = math.hypot(item.i, item.j)
-            a0 = math.atan2(item.start[1] - cy, item.start[0] - cx)
-            a1 = math.atan2(item.end[1] - cy, item.end[0] - cx)
-            sweep = (a1 - a0) % (2 * math.pi) if not item.cw else -((a0 - a1) % (2 * math.pi))
-            if sweep == 0:
-                sweep = -2 * math.pi if item.cw else 2 * math.pi
-            t = a0 + np.linspace(0, sweep, 720)
-            pieces.append(np.column_stack([cx + radius * np.cos(t), cy + radius * np.sin(t)]))
-    return pieces
-
-
-def write_plot(result: RunResult, path: Path) -> None:
-    """Programmed vs actual path, magnified radial error (arcs), axis speeds, DAC volts."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    s = result.samples
-    clock = result.report["clock_hz"]
-    lsb_mm = result.job.machine.lsb_mm
-    fig, axes = plt.subplots(2, 2, figsize=(12, 10))
-    ax = axes[0][0]
-    for piece in _programmed_path(result):
-        ax.plot(piece[:, 0] * lsb_mm, piece[:, 1] * lsb_mm, color="0.6", lw=2)
-    ax.plot(s[:, 3] * lsb_mm, s[:, 4] * lsb_mm, color="C0", lw=0.8, label="actual")
-    ax.set(title="path (grey: programmed)", xlabel="x (mm)", ylabel="y (mm)")
-    ax.set_aspect("equal", adjustable="datalim")
-
-    ax = axes[0][1]
-    arcs = [it for it in result.job.program.items if isinstance(it, Arc)]
-    if arcs:
-        arc = arcs[0]
-        cx, cy = arc.start[0] + arc.i, arc.start[1] + arc.j
-        radius = math.hypot(arc.i, arc.j)
-        ang = np.degrees(np.arctan2(s[:, 4] - cy, s[:, 3] - cx))
-        err = np.hypot(s[:, 3] - cx, s[:, 4] - cy) - radius
-        ax.plot(ang, err, ".", ms=2)
-        ax.set(title=f"radial error of the first arc (R = {radius:.0f} LSB)",
-               xlabel="angle (deg)", ylabel="actual radius - R (LSB)")
-    else:
-        ax.text(0.5, 0.5, "no arc in the program", ha="center", transform=ax.transAxes)
-        ax.set_axis_off()
-
-    t = s[:, 0] / clock
-    ax = axes[1][0]
-    if len(s) > 1:
-        dt = np.diff(t)
-        for col, name in ((3, "x"), (4, "y")):
-            speed = result.job.machine.mm_per_min(np.diff(s[:, col]) / dt)
-            ax.plot(t[1:], speed, label=f"{name}")
-    ax.set(title="axis speeds", xlabel="time (s)", ylabel="mm/min")
-    ax.legend()
-    ax = axes[1][1]
-    ax.plot(t, s[:, 7], label="x")
-    ax.plot(t, s[:, 8], label="y")
-    ax.set(title="D/A output", xlabel="time (s)", ylabel="volts")
-    ax.legend()
-    fig.suptitle(f"k37 run {result.job.name}: {result.report['status']}")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
 
 
 def write_outputs(result: RunResult, *, json_path: str | None, trace: Path | None,

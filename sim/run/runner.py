@@ -39,10 +39,10 @@ from sim.run.jobfile import plant_params
 from sim.run.link import BlockMeasure, BlockMeter, SimulatedLink
 from sim.run.progress import ProgramPlan, Progress
 from sim.run.report import SCHEMA_VERSION, validate
-from sim.run.sampler import Sampler, SampleStore
+from sim.run.sampler import TRACE_COLUMNS, Sampler, SampleStore
 
 __all__ = ["OptionError", "RunOptions", "RunResult", "RunStopped", "build_backend",
-           "check_options", "run_job"]
+           "check_options", "configure_plants", "run_job"]
 
 
 @dataclass
@@ -86,6 +86,12 @@ class RunResult:
         """Every sample, a row of :data:`sim.run.sampler.TRACE_COLUMNS` each (in memory)."""
         return self.store.array()
 
+    @cached_property
+    def traces(self) -> dict[str, np.ndarray]:
+        """Every sample by column of :data:`sim.run.sampler.TRACE_COLUMNS` (the CSV's
+        columns): ``traces["x_error"]`` is the X following error at each sample (LSB)."""
+        return {name: self.samples[:, k] for k, name in enumerate(TRACE_COLUMNS)}
+
     @property
     def ok(self) -> bool:
         return self.report["status"] == "ok"
@@ -118,7 +124,11 @@ def check_options(options: RunOptions) -> None:
                           f"{options.max_cycles:,}: the waveform window would never be reached")
 
 
-def _configure_plants(backend: Backend, job: Job, faults: dict[str, dict[str, int]]) -> None:
+def configure_plants(backend: Backend, job: Job,
+                     faults: dict[str, dict[str, int]] | None = None) -> None:
+    """Set the plants of a backend built for ``job`` to its servos, with ``faults`` (per axis:
+    a plant input, ``stall`` or ``break_a``, and its value)."""
+    faults = faults or {}
     machine = job.machine
     for axis in AXES:
         params = plant_params(machine, job.servo[axis])
@@ -195,7 +205,7 @@ def run_job(job: Job, options: RunOptions | None = None,
     check_options(options)
     owned = backend is None
     backend = backend or build_backend(job, options.backend)
-    _configure_plants(backend, job, options.faults)
+    configure_plants(backend, job, options.faults)
     if options.vcd is not None:
         try:
             backend.trace(str(options.vcd), options.vcd_start, options.vcd_stop,
@@ -306,7 +316,8 @@ def _report(job: Job, backend: Backend, firmware: Firmware, meter: BlockMeter,
             store: SampleStore, wall: float, status: str, reason: str) -> dict:
     cycles = backend.cycle
     clock = job.machine.clock_hz
-    max_contour, rms_contour = contour_summary(job, firmware, store)
+    max_contour, rms_contour = contour_summary(
+        job, [(b.index, b.start_cycle) for b in firmware.blocks], store)
     axes = {axis: _axis_report(backend, axis) for axis in AXES}
     return {
         "schema_version": SCHEMA_VERSION,
