@@ -38,8 +38,8 @@ from hdl.k3701 import block_registers
 from hdl.k3701_model import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
 
 __all__ = ["AlarmEvent", "BlockObserver", "BlockRecord", "Firmware", "FirmwareError",
-           "check_program", "feed_word", "max_feed_mm_min", "planned_seconds", "rm_clock_hz",
-           "word_feed"]
+           "check_program", "feed_word", "max_feed_mm_min", "planned_seconds", "programmed_feed",
+           "rm_clock_hz", "word_feed", "word_rate"]
 
 #: Rate-multiplier input clock: one input clock per linear step time, so the FP stream into
 #: the K3701 never has two pulses closer than the linear step latency.
@@ -104,9 +104,14 @@ def feed_word(machine: MachineConfig, feed_mm_min: float) -> int:
     return round(machine.lsb_per_s(feed_mm_min) / rm_clock_hz(machine) * (1 << FEED_BITS))
 
 
+def word_rate(machine: MachineConfig, word: int) -> float:
+    """The mean FP rate (FP/s) of a rate-multiplier word: f_in * W / 2^FEED_BITS."""
+    return rm_clock_hz(machine) * word / (1 << FEED_BITS)
+
+
 def word_feed(machine: MachineConfig, word: int) -> float:
     """The feed (mm/min) of a rate-multiplier word: the inverse of :func:`feed_word`."""
-    return machine.mm_per_min(rm_clock_hz(machine) * word / (1 << FEED_BITS))
+    return machine.mm_per_min(word_rate(machine, word))
 
 
 def planned_seconds(item: Item, machine: MachineConfig) -> float:
@@ -114,15 +119,15 @@ def planned_seconds(item: Item, machine: MachineConfig) -> float:
     rate (the accel/decel circuit's lag not counted)."""
     if isinstance(item, Dwell):
         return item.seconds
-    fp_per_s = feed_word(machine, _feed_of(item, machine)) * rm_clock_hz(machine) / (1 << FEED_BITS)
-    return item.plan.fp / fp_per_s
+    return item.plan.fp / word_rate(machine, feed_word(machine, programmed_feed(item, machine)))
 
 
 def _where(item: Item, program: Program) -> str:
     return f"{program.source}:{item.line_no}"
 
 
-def _feed_of(item: Line | Arc, machine: MachineConfig) -> float:
+def programmed_feed(item: Line | Arc, machine: MachineConfig) -> float:
+    """The feed a move runs at (mm/min): its F word, or the machine's rapid feed for G00."""
     if isinstance(item, Line) and item.rapid:
         return machine.rapid_mm_min
     assert item.feed_mm_min is not None
@@ -141,7 +146,7 @@ def check_program(job: Job) -> None:
                     f"clock can count (2^{CYCLE_COUNTER_BITS} cycles, {counter:.3g} s at "
                     f"{machine.clock_hz / 1e6:g} MHz)")
             continue
-        feed = _feed_of(item, machine)
+        feed = programmed_feed(item, machine)
         limit = max_feed_mm_min(machine, item.block.kind)
         if feed > limit:
             what = "a line" if item.block.kind is Kind.LINEAR else "an arc"
@@ -235,7 +240,7 @@ class Firmware:
         host, machine = self.host, self.job.machine
         host.work(host.timing.block_setup)
         block = item.block
-        word = feed_word(machine, _feed_of(item, machine))
+        word = feed_word(machine, programmed_feed(item, machine))
         budget = max(0, item.plan.fp + self.budget_offset)
         record = BlockRecord(item.index, item.line_no, block.kind.name.lower(),
                              host.cycle, budget, word)

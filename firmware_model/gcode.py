@@ -129,6 +129,26 @@ class Arc(_Move):
     cw: bool
     feed_mm_min: float
 
+    @property
+    def center(self) -> tuple[int, int]:
+        """Absolute position of the centre (LSB)."""
+        return self.start[0] + self.i, self.start[1] + self.j
+
+    @property
+    def radius(self) -> float:
+        """Distance from the centre to the start (LSB)."""
+        return math.hypot(self.i, self.j)
+
+    @property
+    def span(self) -> tuple[float, float]:
+        """The start's angle around the centre and the angle swept from it to :attr:`end` in
+        the direction of travel (radians; the sweep is in (0, 2 pi]: an end at the start is a
+        full circle)."""
+        cx, cy = self.center
+        a0 = math.atan2(-self.j, -self.i)
+        a1 = math.atan2(self.end[1] - cy, self.end[0] - cx)
+        return a0, ((a0 - a1) if self.cw else (a1 - a0)) % math.tau or math.tau
+
 
 @dataclass(frozen=True)
 class Dwell:

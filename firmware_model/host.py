@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from firmware_model.link import ChipsetLink, Interrupts
-from hdl.chipset import CHIP_SELECTS, port
+from hdl.chipset import chip_register, port
 
 __all__ = ["T_STATES", "Host8085", "HostTiming"]
 
@@ -97,7 +97,7 @@ class Host8085:
 
     def write(self, chip: str, register: str, value: int) -> None:
         """Write a whole register, LSB first (its last byte commits it)."""
-        reg = CHIP_SELECTS[chip][1][register]
+        reg = chip_register(chip, register)
         if not reg.access.writable:
             raise ValueError(f"{chip} {register} is read-only")
         for k, byte in enumerate(reg.to_bytes(value)):
@@ -105,7 +105,7 @@ class Host8085:
 
     def read(self, chip: str, register: str) -> int:
         """Read a whole register, LSB first (its first byte snapshots it)."""
-        reg = CHIP_SELECTS[chip][1][register]
+        reg = chip_register(chip, register)
         if not reg.access.readable:
             raise ValueError(f"{chip} {register} is write-only")
         data = [self.inp(port(chip, register, k)) for k in range(reg.nbytes)]
@@ -113,12 +113,12 @@ class Host8085:
 
     def command(self, chip: str, register: str = "CMD", **fields: int) -> None:
         """Write a command register from named fields (``host.command("K3701", start=1)``)."""
-        reg = CHIP_SELECTS[chip][1][register]
+        reg = chip_register(chip, register)
         self.write(chip, register, reg.encode(**fields))
 
     def status(self, chip: str, register: str = "STATUS") -> dict[str, int]:
         """Read a status register and decode its fields."""
-        reg = CHIP_SELECTS[chip][1][register]
+        reg = chip_register(chip, register)
         word = self.read(chip, register)
         return {f.name: f.decode(word) for f in reg.fields}
 

@@ -22,13 +22,14 @@ from hdl.accel_decel import AccelDecel
 from hdl.decel_control import DECEL_MAP, DecelControl
 from hdl.encoder import ENCODER_MAP, EncoderInterface
 from hdl.feed_rate import FEED_MAP, FeedRate
-from hdl.hostbus import HostBus, RegisterMap
+from hdl.hostbus import HostBus, Register, RegisterMap
 from hdl.k3701 import K3701, K3701_MAP
 from hdl.k3702 import COUNTER_WIDTH, K3702, K3702_MAP
 from hdl.limits import Limit
 from hdl.observation import CarryAccumulator, FreeRunning
 
-__all__ = ["ACCEL_BITS", "AXES", "CHIP_SELECTS", "Accel", "AxisPins", "Chipset", "port"]
+__all__ = ["ACCEL_BITS", "AXES", "CHIP_SELECTS", "Accel", "AxisPins", "Chipset", "chip_register",
+           "port"]
 
 #: Address bits of a register inside a chip; the chip select is above them.
 REG_BITS = 5
@@ -62,12 +63,21 @@ CHIP_SELECTS: dict[str, tuple[int, RegisterMap]] = {
 }
 
 
-def port(chip: str, register: str, byte: int = 0) -> int:
-    """The 8085 I/O port address of byte ``byte`` of ``register`` of ``chip``."""
+def _chip(chip: str) -> tuple[int, RegisterMap]:
     try:
-        cs, regmap = CHIP_SELECTS[chip]
+        return CHIP_SELECTS[chip]
     except KeyError:
         raise KeyError(f"no chip {chip!r}; chips are {', '.join(CHIP_SELECTS)}") from None
+
+
+def chip_register(chip: str, name: str) -> Register:
+    """Register ``name`` of ``chip`` (KeyError naming what is unknown)."""
+    return _chip(chip)[1][name]
+
+
+def port(chip: str, register: str, byte: int = 0) -> int:
+    """The 8085 I/O port address of byte ``byte`` of ``register`` of ``chip``."""
+    cs, regmap = _chip(chip)
     reg = regmap[register]
     if not 0 <= byte < reg.nbytes:
         raise ValueError(f"{chip} {register} has {reg.nbytes} byte(s), not byte {byte}")

@@ -27,7 +27,7 @@ from typing import Any
 
 from firmware_model.host import Host8085
 from firmware_model.job import Job, gcode_job
-from hdl.chipset import CHIP_SELECTS, port
+from hdl.chipset import CHIP_SELECTS
 from sim.backends.contract import Backend
 from sim.backends.factory import BACKEND_NAMES
 from sim.run.jobfile import load_job
@@ -84,17 +84,14 @@ class Machine:
     def write(self, chip: str, register: str, value: int) -> None:
         """Write ``register`` of ``chip`` (e.g. ``"K3702_X", "ALARM_ZONE"``) as the 8085 does:
         byte by byte, least significant first. KeyError names an unknown chip or register."""
-        port(chip, register)
         self.host.write(chip, register, value)
 
     def read(self, chip: str, register: str) -> int:
         """Read ``register`` of ``chip`` as the 8085 does (signed where the register is)."""
-        port(chip, register)
         return self.host.read(chip, register)
 
     def status(self, chip: str) -> dict[str, int]:
         """The fields of ``chip``'s STATUS register."""
-        port(chip, "STATUS")
         return self.host.status(chip)
 
     def step(self, cycles: int = 1) -> None:

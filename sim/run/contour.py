@@ -27,20 +27,13 @@ def _segment_distance(p: np.ndarray, a: tuple[int, int], b: tuple[int, int]) -> 
 
 
 def _arc_distance(p: np.ndarray, item: Arc) -> np.ndarray:
-    cx, cy = item.start[0] + item.i, item.start[1] + item.j
-    rel = p - np.array([cx, cy], dtype=float)
-    radius = math.hypot(item.i, item.j)
-    a0 = math.atan2(-item.j, -item.i)
-    end = item.end
-    a1 = math.atan2(end[1] - cy, end[0] - cx)
-    sweep = (a1 - a0) % (2 * math.pi) if not item.cw else (a0 - a1) % (2 * math.pi)
-    if sweep == 0:
-        sweep = 2 * math.pi
+    rel = p - np.array(item.center, dtype=float)
+    a0, sweep = item.span
     ang = np.arctan2(rel[:, 1], rel[:, 0])
     off = (ang - a0) % (2 * math.pi) if not item.cw else (a0 - ang) % (2 * math.pi)
-    on_arc = np.abs(np.hypot(rel[:, 0], rel[:, 1]) - radius)
+    on_arc = np.abs(np.hypot(rel[:, 0], rel[:, 1]) - item.radius)
     ends = np.minimum(np.hypot(*(p - np.array(item.start, dtype=float)).T),
-                      np.hypot(*(p - np.array(end, dtype=float)).T))
+                      np.hypot(*(p - np.array(item.end, dtype=float)).T))
     return np.where(off <= sweep, on_arc, ends)
 
 

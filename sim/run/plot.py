@@ -12,12 +12,12 @@ and the D/A output. Every time panel marks each block's start with its G-code li
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from firmware_model.firmware import programmed_feed
 from firmware_model.gcode import Arc, Line
 from sim.run.contour import contour_errors
 from sim.run.runner import RunResult
@@ -46,15 +46,11 @@ def programmed_path(result: RunResult) -> list[np.ndarray]:
         if isinstance(item, Line):
             pieces.append(np.array([item.start, item.end], dtype=float))
         elif isinstance(item, Arc):
-            cx, cy = item.start[0] + item.i, item.start[1] + item.j
-            radius = math.hypot(item.i, item.j)
-            a0 = math.atan2(item.start[1] - cy, item.start[0] - cx)
-            a1 = math.atan2(item.end[1] - cy, item.end[0] - cx)
-            sweep = (a1 - a0) % (2 * math.pi) if not item.cw else -((a0 - a1) % (2 * math.pi))
-            if sweep == 0:
-                sweep = -2 * math.pi if item.cw else 2 * math.pi
-            t = a0 + np.linspace(0, sweep, 720)
-            pieces.append(np.column_stack([cx + radius * np.cos(t), cy + radius * np.sin(t)]))
+            cx, cy = item.center
+            a0, sweep = item.span
+            t = a0 + np.linspace(0, -sweep if item.cw else sweep, 720)
+            pieces.append(np.column_stack([cx + item.radius * np.cos(t),
+                                           cy + item.radius * np.sin(t)]))
     return pieces
 
 
@@ -97,13 +93,6 @@ def _boundaries(ax: Axes, result: RunResult) -> None:
         ax.axvline(t, color="0.5", ls="--", lw=0.8, gid=BOUNDARY)
         ax.text(t, 0.99, f" N{block['line']}", transform=ax.get_xaxis_transform(),
                 va="top", ha="left", fontsize=8, color="0.3")
-
-
-def _feed(result: RunResult, index: int) -> float:
-    """The programmed feed of the program's item ``index`` (mm/min; G00 at the rapid)."""
-    item = result.job.program.items[index]
-    feed = getattr(item, "feed_mm_min", None)
-    return result.job.machine.rapid_mm_min if feed is None else feed
 
 
 def _code(item: Line | Arc) -> str:
@@ -180,17 +169,18 @@ def figure(result: RunResult) -> Figure:
     speed_ax.plot(tx, machine.mm_per_min(vx), lw=0.8, label="x")
     speed_ax.plot(tx, machine.mm_per_min(vy), lw=0.8, label="y")
     speed_ax.plot(tx, machine.mm_per_min(np.hypot(vx, vy)), color="k", lw=1.0, label="path")
+    items = result.job.program.items
+    feeds = [programmed_feed(items[b["index"]], machine) for b in blocks]
     for k, block in enumerate(blocks):
         end = block["end_cycle"] if block["end_cycle"] is not None else cycles[-1] if len(s) \
             else block["start_cycle"]
-        speed_ax.hlines(_feed(result, block["index"]), block["start_cycle"] / clock,
+        speed_ax.hlines(feeds[k], block["start_cycle"] / clock,
                         end / clock, colors="0.4", linestyles=":", lw=1.5,
                         label="programmed feed" if k == 0 else None)
     speed_ax.set(title=f"speeds (position change over {window} samples = "
                        f"{window * period / clock * 1e3:g} ms)",
                  xlabel="time (s)", ylabel="mm/min")
-    speed_ax.set_ylim(top=1.3 * max([speed_ax.get_ylim()[1], *(_feed(result, b["index"])
-                                                                 for b in blocks)]))
+    speed_ax.set_ylim(top=1.3 * max([speed_ax.get_ylim()[1], *feeds]))
     speed_ax.legend(fontsize=8, ncols=4, loc="upper center", bbox_to_anchor=(0.5, 0.93))
 
     for axis in ("x", "y"):

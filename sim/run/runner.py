@@ -29,7 +29,7 @@ from firmware_model.firmware import BlockRecord, Firmware, check_program
 from firmware_model.gcode import Dwell
 from firmware_model.host import Host8085
 from firmware_model.job import AXES, Job
-from hdl.chipset import CHIP_SELECTS, port
+from hdl.chipset import chip_register, port
 from sim.backends.contract import Backend
 from sim.backends.factory import BACKEND_NAMES, make_backend
 from sim.machine.plant import dac_zero
@@ -292,7 +292,7 @@ def _block_report(b: BlockRecord, measure: BlockMeasure) -> dict:
 
 def _axis_report(backend: Backend, axis: str) -> dict:
     chip = f"K3702_{axis.upper()}"
-    status = CHIP_SELECTS[chip][1]["STATUS"]
+    status = chip_register(chip, "STATUS")
     # Read after the run has been timed and counted: the reads cost a cycle each.
     word = backend.bus_read(port(chip, "STATUS"))
     return {"command": backend.get(f"{axis}__command"), "error": backend.get(f"{axis}__error"),
