@@ -268,7 +268,6 @@ class Zoo(wiring.Component):
         return m
 
 
-
 class Combinational(wiring.Component):
     """No clock at all."""
 

@@ -258,7 +258,6 @@ class Backend(abc.ABC):
         self.close()
 
 
-
 def check_count(name: str, n: int) -> None:
     """Refuse a cycle count that is not a non-negative integer."""
     if not isinstance(n, int) or n < 0:

@@ -112,8 +112,6 @@ def write_trace(result: RunResult, path: Path) -> None:
                           for row in chunk.tolist())
 
 
-
-
 def write_outputs(result: RunResult, *, json_path: str | None, trace: Path | None,
                   plot: Path | None, gtkw: Path | None, vcd: Path | None,
                   vcd_start: int = 0, quiet: bool = False) -> None:
