@@ -143,16 +143,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--trace", metavar="PATH.csv", type=Path, help="write the samples as CSV")
     p.add_argument("--plot", metavar="PATH.png", type=Path,
                    help="plot path, contour error, following error, speeds and DAC volts")
-    p.add_argument("--vcd", metavar="PATH", type=Path, help="write a VCD waveform")
+    p.add_argument("--vcd", metavar="PATH", type=Path,
+                   help="write a waveform: VCD, or FST when PATH ends in .fst (GTKWave's "
+                        "compressed format, about a tenth of the size)")
     p.add_argument("--vcd-start", type=int, default=0, metavar="CYCLE",
-                   help="first cycle of the VCD window")
+                   help="first cycle of the waveform window")
     p.add_argument("--vcd-stop", type=int, default=None, metavar="CYCLE",
-                   help="end of the VCD window (exclusive; default: the end of the run)")
+                   help="end of the waveform window (exclusive; default: the end of the run)")
     p.add_argument("--signals", default="", metavar="GLOB[,GLOB...]",
                    help="dump only the signals matching these globs over the dotted paths "
                         "below the top (e.g. 'chipset.k3701.*,x__*'; default: every signal)")
     p.add_argument("--gtkw", metavar="PATH", type=Path,
-                   help="write a GTKWave save file for the VCD (needs --vcd)")
+                   help="write a GTKWave save file for the waveform (needs --vcd)")
     p.add_argument("--stall", action="append", default=[], choices=["x", "y"],
                    help="fault: block this axis's motor")
     p.add_argument("--break-line", action="append", default=[], choices=["x", "y"],

@@ -47,6 +47,7 @@ def _no_simulation(*_: object) -> None:
     (["--json", "."], "--json .: is a folder, not a file"),
     (["--plot", "p.xyz"], "--plot p.xyz: matplotlib cannot write the suffix .xyz; it writes "),
     (["--gtkw", "g.gtkw"], "--gtkw g.gtkw: needs --vcd"),
+    (["--vcd", "v.ghw"], "--vcd v.ghw: the suffix .ghw names no waveform format; use .vcd or .fst"),
     (["--vcd", "v.vcd", "--vcd-start", "500", "--vcd-stop", "400"],
      "--vcd-start 500 must come before --vcd-stop 400"),
     (["--vcd", "v.vcd", "--vcd-start", "400", "--vcd-stop", "400"],
@@ -71,19 +72,20 @@ def test_plot_suffix_error_names_the_formats_matplotlib_writes(tmp_path, monkeyp
     assert {".png", ".pdf", ".svg"} <= set(formats.strip().split(", "))
 
 
+@pytest.mark.parametrize("wave", ["w.vcd", "w.fst"])
 def test_a_waveform_window_the_run_never_reached_leaves_no_file_and_warns(
-        tmp_path, monkeypatch, capsys, job_file):
+        tmp_path, monkeypatch, capsys, job_file, wave):
     monkeypatch.chdir(tmp_path)
     job = job_file("G04 P0.05\nM30")
-    assert main(["run", str(job), "--vcd", "w.vcd", "--vcd-start", "500000", "--gtkw",
+    assert main(["run", str(job), "--vcd", wave, "--vcd-start", "500000", "--gtkw",
                  "w.gtkw", "--json", "r.json", "--max-cycles", "1000000"]) == 0
     report = json.loads(Path("r.json").read_text())
     assert report["cycles"] < 500_000
-    assert report["warnings"] == [f"--vcd w.vcd: the run ended at cycle {report['cycles']:,}, "
+    assert report["warnings"] == [f"--vcd {wave}: the run ended at cycle {report['cycles']:,}, "
                                   f"before --vcd-start 500,000: no waveform written (nor a "
                                   f"GTKWave save file)"]
-    assert not Path("w.vcd").exists() and not Path("w.gtkw").exists()
-    assert "  warning: --vcd w.vcd: the run ended" in capsys.readouterr().out
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["job.toml", "r.json"]
+    assert f"  warning: --vcd {wave}: the run ended" in capsys.readouterr().out
 
 
 def test_ctrl_c_stops_the_run_writes_every_output_as_interrupted_and_exits_130(tmp_path):

@@ -113,3 +113,25 @@ def test_signals_selects_what_is_dumped_with_the_same_values(tmp_path, backend):
     with pytest.raises(OptionError, match=r"--signals nothing\.\*: matches no signal"):
         run_job(demo_job(), RunOptions(backend=backend, max_cycles=10, vcd=part,
                                        signals=("nothing.*",)))
+
+
+@pytest.mark.parametrize("backend", ["pysim", "cxxrtl"])
+def test_fst_holds_the_same_signals_and_changes_as_the_vcd(tmp_path, backend):
+    vcd, fst = tmp_path / "run.vcd", tmp_path / "run.fst"
+    for path in (vcd, fst):
+        run_job(demo_job(), RunOptions(backend=backend, max_cycles=3000, vcd=path,
+                                       vcd_start=500))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.fst", "run.vcd"]  # no partial
+    assert pywellen.Waveform(str(fst)).file_format == "FST"
+    declared = wave_signals(vcd)
+    # FSM states (Amaranth's simulator writes them as text) are FST's width-less strings
+    text = {v.full_name for v in pywellen.Waveform(str(vcd)).all_vars() if v.is_string}
+    assert wave_signals(fst) == {n: 0 if n in text else w for n, w in declared.items()}
+    assert wave_span(fst) == wave_span(vcd)
+    dumped = changes(vcd, set(declared))
+    assert sum(map(len, dumped.values())) > 3 * len(declared)
+    assert changes(fst, set(declared)) == dumped
+    assert fst.stat().st_size * 4 < vcd.stat().st_size
+    shown = write_gtkw(fst, tmp_path / "fst.gtkw")
+    assert shown == write_gtkw(vcd, tmp_path / "vcd.gtkw")
+    assert f'[dumpfile] "{fst.resolve()}"' in (tmp_path / "fst.gtkw").read_text()

@@ -14,7 +14,7 @@ from sim.machine.plant import DAC_VOLTS
 from sim.run.plot import write_plot
 from sim.run.runner import RunResult
 from sim.run.sampler import TRACE_COLUMNS
-from sim.run.waveform import wave_span, write_gtkw
+from sim.run.waveform import WAVE_FORMATS, wave_span, write_gtkw
 
 __all__ = ["OutputError", "check_outputs", "summary", "write_outputs", "write_trace"]
 
@@ -33,7 +33,8 @@ def plot_formats() -> list[str]:
 def check_outputs(*, json_path: str | None, trace: Path | None, plot: Path | None,
                   vcd: Path | None, gtkw: Path | None) -> None:
     """Refuse, before a run, outputs it could not write: a missing folder, a folder where the
-    file should be, a plot format matplotlib does not write, ``--gtkw`` without ``--vcd``."""
+    file should be, a plot format matplotlib does not write, a waveform that is neither VCD nor FST,
+    ``--gtkw`` without ``--vcd``."""
     paths = {"--json": None if json_path in (None, "-") else Path(json_path),
              "--trace": trace, "--plot": plot, "--vcd": vcd, "--gtkw": gtkw}
     for option, path in paths.items():
@@ -44,6 +45,10 @@ def check_outputs(*, json_path: str | None, trace: Path | None, plot: Path | Non
         folder = path.parent
         if not folder.is_dir():
             raise OutputError(f"{option} {path}: the folder {folder} does not exist")
+    if vcd is not None and vcd.suffix.lower() not in WAVE_FORMATS:
+        what = f"the suffix {vcd.suffix}" if vcd.suffix else "a file without a suffix"
+        raise OutputError(f"--vcd {vcd}: {what} names no waveform format; use "
+                          f"{' or '.join(WAVE_FORMATS)}")
     if gtkw is not None and vcd is None:
         raise OutputError(f"--gtkw {gtkw}: needs --vcd (the waveform the save file shows)")
     if plot is not None:

@@ -35,11 +35,13 @@ from sim.backends.factory import BACKEND_NAMES, make_backend
 from sim.machine.plant import dac_zero
 from sim.machine.system import System
 from sim.run.contour import contour_summary
+from sim.run.fst import vcd_to_fst
 from sim.run.jobfile import plant_params
 from sim.run.link import BlockMeasure, BlockMeter, SimulatedLink
 from sim.run.progress import ProgramPlan, Progress
 from sim.run.report import SCHEMA_VERSION, validate
 from sim.run.sampler import TRACE_COLUMNS, Sampler, SampleStore
+from sim.run.waveform import is_fst
 
 __all__ = ["OptionError", "RunOptions", "RunResult", "RunStopped", "build_backend",
            "check_options", "configure_plants", "run_job"]
@@ -208,7 +210,7 @@ def run_job(job: Job, options: RunOptions | None = None,
     configure_plants(backend, job, options.faults)
     if options.vcd is not None:
         try:
-            backend.trace(str(options.vcd), options.vcd_start, options.vcd_stop,
+            backend.trace(str(_traced(Path(options.vcd))), options.vcd_start, options.vcd_stop,
                           options.signals)
         except ValueError as e:
             if owned:
@@ -235,10 +237,25 @@ def run_job(job: Job, options: RunOptions | None = None,
     if options.vcd is not None:
         backend.stop_trace()
         report["warnings"] += _waveform_warnings(options, report["cycles"])
+        _finish_waveform(Path(options.vcd))
     if owned:
         backend.close()
     validate(report)
     return RunResult(report, store, job)
+
+
+def _traced(wave: Path) -> Path:
+    """The VCD a backend writes for the waveform ``wave``: itself, or for an FST a partial VCD
+    beside it, converted when the run ends."""
+    return wave.with_name(wave.name + ".partial.vcd") if is_fst(wave) else wave
+
+
+def _finish_waveform(wave: Path) -> None:
+    """Convert the partial VCD of an FST waveform (if the run wrote one) and remove it."""
+    traced = _traced(wave)
+    if traced != wave and traced.exists():
+        vcd_to_fst(traced, wave)
+        traced.unlink()
 
 
 def _waveform_warnings(options: RunOptions, cycles: int) -> list[str]:
@@ -247,6 +264,7 @@ def _waveform_warnings(options: RunOptions, cycles: int) -> list[str]:
     assert options.vcd is not None
     if cycles > options.vcd_start:
         return []
+    _traced(Path(options.vcd)).unlink(missing_ok=True)
     Path(options.vcd).unlink(missing_ok=True)
     return [f"--vcd {options.vcd}: the run ended at cycle {cycles:,}, before --vcd-start "
             f"{options.vcd_start:,}: no waveform written (nor a GTKWave save file)"]

@@ -1,5 +1,5 @@
-"""Waveform files of ``k37 run``: the signals a VCD declares, its time span, and the
-GTKWave save file that shows the chips' main signals."""
+"""Waveform files of ``k37 run``: the signals a VCD or FST file declares, its time span, and
+the GTKWave save file that shows the chips' main signals."""
 
 from __future__ import annotations
 
@@ -8,8 +8,13 @@ import os
 import re
 from pathlib import Path
 
-__all__ = ["GTKW_GROUPS", "GTKW_WIDTH_PX", "gtkw_flags", "wave_signals", "wave_span",
-           "write_gtkw"]
+from sim.run.fst import fst_signals, fst_span
+
+__all__ = ["GTKW_GROUPS", "GTKW_WIDTH_PX", "WAVE_FORMATS", "gtkw_flags", "is_fst",
+           "wave_signals", "wave_span", "write_gtkw"]
+
+#: The waveform formats ``--vcd`` writes, by file suffix.
+WAVE_FORMATS = (".vcd", ".fst")
 
 #: Signals of the GTKWave save file, grouped per chip and axis: (group, names), a name
 #: followed by ``:s`` being signed (two's complement).
@@ -45,8 +50,15 @@ def gtkw_flags(name: str, width: int, signed: bool) -> int:
     return _RJUSTIFY | _DEC | (_SIGNED if signed else 0)
 
 
+def is_fst(path: Path) -> bool:
+    """Whether a waveform path names an FST file (by its suffix)."""
+    return path.suffix.lower() == ".fst"
+
+
 def wave_signals(path: Path) -> dict[str, int]:
-    """Every ``scope.name`` a VCD file declares, with its width in bits."""
+    """Every ``scope.name`` a VCD or FST file declares, with its width in bits."""
+    if is_fst(path):
+        return fst_signals(path)
     names: dict[str, int] = {}
     scopes: list[str] = []
     with open(path) as f:
@@ -66,7 +78,9 @@ def wave_signals(path: Path) -> dict[str, int]:
 
 
 def wave_span(path: Path) -> tuple[int, int]:
-    """The first and last time stamps of a VCD file, in its time unit (fs)."""
+    """The first and last time stamps of a VCD or FST file, in its time unit (fs)."""
+    if is_fst(path):
+        return fst_span(path)
     stamp = re.compile(rb"^#(\d+)\s*$", re.M)
     with open(path, "rb") as f:
         first = next(int(m[1]) for line in f if (m := stamp.match(line)))
@@ -77,7 +91,7 @@ def wave_span(path: Path) -> tuple[int, int]:
 
 def write_gtkw(wave: Path, path: Path, *, window: tuple[int, int] | None = None,
                width_px: int = GTKW_WIDTH_PX) -> list[str]:
-    """A GTKWave save file for ``wave`` (VCD) showing the chips' main signals, grouped,
+    """A GTKWave save file for ``wave`` (VCD or FST) showing the chips' main signals, grouped,
     zoomed to fit ``window`` (first and last time, default the file's span) into ``width_px``
     pixels. (Amaranth's VCD writer stamps the values at a window's start at time 0.)
 
