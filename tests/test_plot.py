@@ -6,8 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sim.run import plot_data as plot_data_module
 from sim.run.contour import contour_errors
-from sim.run.plot import BOUNDARY, block_contour, figure, windowed_speed
+from sim.run.plot import BOUNDARY, figure, windowed_speed
+from sim.run.plot_data import BlockContour, plot_data
 from sim.run.runner import RunOptions, run_job
 
 GCODE = "G21 G90 F1200\nG01 X60\nG04 P0.2\nG02 X70 Y0 I5 J0\nG00 X0 Y5\nM30"
@@ -81,10 +83,39 @@ def test_windowed_speed_is_the_position_change_over_the_window():
     assert windowed_speed(cycles[:1], cycles[:1], 1e6, 20)[1].size == 0
 
 
-def test_per_block_contour_error_takes_each_blocks_samples(run):
+def test_per_block_contour_error_takes_each_blocks_samples_in_any_chunks(run):
     s = run.samples
     blocks = run.report["blocks"]
     errors = contour_errors(run.job, [(b["index"], b["start_cycle"]) for b in blocks], s)
-    stats = block_contour(s[:, 0], errors, [b["start_cycle"] for b in blocks])
+    starts = [b["start_cycle"] for b in blocks]
+    whole, halves = BlockContour(starts), BlockContour(starts)
+    whole.add(s[:, 0], errors)
+    cut = len(s) // 3
+    halves.add(s[:cut, 0], errors[:cut])
+    halves.add(s[cut:, 0], errors[cut:])
     second = (s[:, 0] >= blocks[1]["start_cycle"]) & (s[:, 0] < blocks[2]["start_cycle"])
-    assert stats[1] == (errors[second].max(), np.sqrt(np.mean(errors[second] ** 2)))
+    peak, rms = whole.stats()[1]
+    assert peak == errors[second].max()
+    assert rms == pytest.approx(np.sqrt(np.mean(errors[second] ** 2)), rel=1e-12)
+    assert np.allclose(halves.stats(), whole.stats(), rtol=1e-12, atol=0)
+
+
+def test_a_long_run_is_plotted_from_buckets_with_every_peak_kept(run, monkeypatch):
+    blocks = [(b["index"], b["start_cycle"]) for b in run.report["blocks"]]
+    full = plot_data(run.job, blocks, run.store)
+    few = plot_data(run.job, blocks, run.store, buckets=50)
+    assert full.bucket == 1 and len(full.rows) == run.report["path"]["samples"]
+    assert few.bucket > 1 and len(few.rows) <= 50
+    for column in ("contour_error", "x_error", "y_dac_volts"):
+        low, high = few.envelope(column)
+        all_low, all_high = full.envelope(column)
+        assert high.max() == all_high.max() and low.min() == all_low.min()
+    assert np.allclose(few.blocks, full.blocks, rtol=1e-12, atol=0)
+    assert max(peak for peak, _ in few.blocks) == run.report["path"]["max_contour_error"]
+    # the figure reads the store in buckets and never loads the whole run
+    monkeypatch.setattr(plot_data_module, "PLOT_BUCKETS", 50)
+    monkeypatch.setattr(type(run.store), "array", lambda _: pytest.fail("loaded it all"))
+    panels = {ax.get_title().split(" (")[0]: ax for ax in figure(run).axes}
+    band = panels["contour error"].collections[0]
+    assert band.get_paths()[0].vertices[:, 1].max() == pytest.approx(
+        run.report["path"]["max_contour_error"], rel=1e-12)

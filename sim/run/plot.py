@@ -19,7 +19,7 @@ import numpy as np
 
 from firmware_model.firmware import programmed_feed
 from firmware_model.gcode import Arc, Line
-from sim.run.contour import contour_errors
+from sim.run.plot_data import PlotData, plot_data
 from sim.run.runner import RunResult
 from sim.run.sampler import TRACE_COLUMNS
 
@@ -27,8 +27,7 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-__all__ = ["SPEED_WINDOW_S", "block_contour", "figure", "programmed_path", "windowed_speed",
-           "write_plot"]
+__all__ = ["SPEED_WINDOW_S", "figure", "programmed_path", "windowed_speed", "write_plot"]
 
 #: The window the speeds are measured over (s): 20 ms, one encoder count in it is
 #: 3 mm/min at 1 um per LSB.
@@ -66,19 +65,6 @@ def windowed_speed(cycles: np.ndarray, position: np.ndarray, clock_hz: float,
             (position[window:] - position[:-window]) / dt)
 
 
-def block_contour(cycles: np.ndarray, errors: np.ndarray,
-                  starts: list[int]) -> list[tuple[float, float]]:
-    """Largest and RMS contour error of each block (LSB) over its samples, from its start to
-    the next block's start (its dwell and settle included); (0, 0) for a block with none."""
-    owner = np.searchsorted(starts, cycles, side="right") - 1
-    stats = []
-    for k in range(len(starts)):
-        mine = errors[owner == k]
-        stats.append((float(mine.max()), float(np.sqrt(np.mean(mine**2)))) if mine.size
-                     else (0.0, 0.0))
-    return stats
-
-
 def _mm_axis(ax: Axes, lsb_mm: float) -> None:
     """A second y axis on the right in mm for an axis in LSB."""
     sec = ax.secondary_yaxis("right", functions=(lambda v: v * lsb_mm, lambda v: v / lsb_mm))
@@ -95,6 +81,16 @@ def _boundaries(ax: Axes, result: RunResult) -> None:
                 va="top", ha="left", fontsize=8, color="0.3")
 
 
+def _series(ax: Axes, t: np.ndarray, data: PlotData, column: str, **style: object) -> None:
+    """One column along the run: its samples, or, when a bucket holds several, the band
+    between each bucket's least and largest value."""
+    low, high = data.envelope(column)
+    if data.bucket == 1:
+        ax.plot(t, high, lw=0.8, **style)
+    else:
+        ax.fill_between(t, low, high, lw=0.8, **style)
+
+
 def _code(item: Line | Arc) -> str:
     """The G code of a move."""
     if isinstance(item, Arc):
@@ -106,13 +102,14 @@ def figure(result: RunResult) -> Figure:
     """The plot of a run as a matplotlib figure (see the module's docstring)."""
     from matplotlib.figure import Figure
 
-    s = result.samples
     clock = result.report["clock_hz"]
     machine = result.job.machine
     lsb_mm = machine.lsb_mm
     blocks = result.report["blocks"]
+    data = plot_data(result.job, [(b["index"], b["start_cycle"]) for b in blocks],
+                     result.store)
+    s = data.rows
     cycles, t = s[:, 0], s[:, 0] / clock
-    errors = contour_errors(result.job, [(b["index"], b["start_cycle"]) for b in blocks], s)
     fig = Figure(figsize=(15, 14), layout="constrained")
     grid = fig.subplots(3, 2)
     (path_ax, bars), (contour_ax, follow), (speed_ax, dac) = grid
@@ -133,8 +130,7 @@ def figure(result: RunResult) -> Figure:
                 xlabel="x (mm)", ylabel="y (mm)")
     path_ax.set_aspect("equal", adjustable="datalim")
 
-    stats = block_contour(cycles, errors, [b["start_cycle"] for b in blocks]) if errors.size \
-        else [(0.0, 0.0)] * len(blocks)
+    stats = data.blocks
     where = np.arange(len(blocks))
     for shift, k, name in ((-0.2, 0, "max"), (0.2, 1, "RMS")):
         bar = bars.bar(where + shift, [st[k] for st in stats], width=0.4, label=name)
@@ -147,15 +143,14 @@ def figure(result: RunResult) -> Figure:
     _mm_axis(bars, lsb_mm)
 
     path = result.report["path"]
-    if errors.size:
-        contour_ax.plot(t, errors, color="C3", lw=0.8)
+    _series(contour_ax, t, data, "contour_error", color="C3")
     contour_ax.set(title=f"contour error (max {path['max_contour_error']:.2f} LSB, "
                          f"RMS {path['rms_contour_error']:.2f} LSB)",
                    xlabel="time (s)", ylabel="distance to the programmed path (LSB)")
     _mm_axis(contour_ax, lsb_mm)
 
     for axis in ("x", "y"):
-        follow.plot(t, s[:, _COL[f"{axis}_error"]], lw=0.8, label=axis)
+        _series(follow, t, data, f"{axis}_error", label=axis)
     follow.set(title="following error (K3702 error counter)", xlabel="time (s)",
                ylabel="command - actual (LSB)")
     follow.legend()
@@ -184,7 +179,7 @@ def figure(result: RunResult) -> Figure:
     speed_ax.legend(fontsize=8, ncols=4, loc="upper center", bbox_to_anchor=(0.5, 0.93))
 
     for axis in ("x", "y"):
-        dac.plot(t, s[:, _COL[f"{axis}_dac_volts"]], lw=0.8, label=axis)
+        _series(dac, t, data, f"{axis}_dac_volts", label=axis)
     dac.set(title="D/A output", xlabel="time (s)", ylabel="V")
     dac.legend()
 
