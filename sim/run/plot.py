@@ -82,13 +82,12 @@ def _boundaries(ax: Axes, result: RunResult) -> None:
 
 
 def _series(ax: Axes, t: np.ndarray, data: PlotData, column: str, **style: object) -> None:
-    """One column along the run: its samples, or, when a bucket holds several, the band
-    between each bucket's least and largest value."""
+    """One column along the run: its samples, or, when a bucket holds several, each bucket's
+    largest value and the band down to its least."""
     low, high = data.envelope(column)
-    if data.bucket == 1:
-        ax.plot(t, high, lw=0.8, **style)
-    else:
-        ax.fill_between(t, low, high, lw=0.8, **style)
+    (line,) = ax.plot(t, high, lw=0.8, **style)
+    if data.bucket > 1:
+        ax.fill_between(t, low, high, color=line.get_color(), lw=0)
 
 
 def _code(item: Line | Arc) -> str:
