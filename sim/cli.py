@@ -90,6 +90,31 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     return 0 if not failed else 1
 
 
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from sim.run.jobfile import JobError
+    from sim.study.studyfile import load_study
+    from sim.study.sweep import SweepError, sweep
+
+    def progress(message: str) -> None:
+        if not args.quiet:
+            print(f"k37 sweep: {message}", file=sys.stderr, flush=True)
+
+    try:
+        study = load_study(args.study)
+        path = sweep(study, Path(args.out), jobs=args.jobs, scheduler=args.scheduler,
+                     report=progress)
+    except (JobError, SweepError, OSError) as e:
+        print(f"k37: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"k37 sweep: interrupted; the finished runs are in {Path(args.out)}/results.csv "
+              f"(run the same command to go on)", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    print(f"k37 sweep: {len(study.runs)} runs of {study.name} ({study.design}) in {path} and "
+          f"{path.with_suffix('.parquet')}")
+    return 0
+
+
 def _cmd_export_verilog(args: argparse.Namespace) -> int:
     from sim.fpga.export import export_verilog
 
@@ -183,6 +208,19 @@ def build_parser() -> argparse.ArgumentParser:
                                     "schema, job keys)")
     p.add_argument("-o", "--output", default="docs", help="folder (default: docs)")
     p.set_defaults(func=_cmd_docs)
+
+    p = sub.add_parser("sweep", help="run a study (a base job, factors, a design) into one "
+                                     "results table")
+    p.add_argument("study", help="study file (.toml)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="folder for results.csv and results.parquet (runs already there are "
+                        "skipped)")
+    p.add_argument("-j", "--jobs", type=_positive_int, default=os.cpu_count() or 1,
+                   help="local worker processes (default: one per core)")
+    p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                   help="run on this Dask distributed scheduler instead of local processes")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    p.set_defaults(func=_cmd_sweep)
 
     p = sub.add_parser("reproduce", help="run the paper's experiments; write figures and "
                                          "report.md (paper vs emulator, pass/fail per row)")

@@ -55,7 +55,8 @@ from firmware_model.job import (
 from hdl.limits import Limit
 from sim.machine.plant import PlantParams
 
-__all__ = ["JobError", "job_keys_markdown", "load_job", "plant_params", "servo_limits"]
+__all__ = ["JobError", "job_from_data", "job_keys_markdown", "load_job", "plant_params",
+           "read_toml", "servo_limits"]
 
 
 class JobError(ValueError):
@@ -106,7 +107,7 @@ def load_job(path: str | PathLike[str] | None) -> Job:
     text = _read(path, str(path))
     if path.suffix.lower() != ".toml":
         return gcode_job(path.stem, text, str(path))
-    return _TomlJob(path, text).job()
+    return _TomlJob(path, read_toml(text, str(path))).job()
 
 
 def _read(path: Path, name: str) -> str:
@@ -123,18 +124,29 @@ def _read(path: Path, name: str) -> str:
 _TOML_POSITION = re.compile(r"^(.*) \(at line (\d+), column (\d+)\)$")
 
 
+def read_toml(text: str, source: str) -> dict[str, Any]:
+    """TOML ``text`` as a dict; a syntax error is a :class:`JobError` at ``source:line:col``."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        m = _TOML_POSITION.match(str(e))
+        where = f"{m.group(2)}:{m.group(3)}: {m.group(1)}" if m else f" {e}"
+        raise JobError(f"{source}:{where}") from None
+
+
+def job_from_data(path: Path, data: dict[str, Any]) -> Job:
+    """The job of TOML ``data`` as if read from ``path`` (its errors name ``path``; a
+    ``program.file`` is relative to its folder)."""
+    return _TomlJob(path, data).job()
+
+
 class _TomlJob:
     """One TOML job file being loaded; every error names the file."""
 
-    def __init__(self, path: Path, text: str):
+    def __init__(self, path: Path, data: dict[str, Any]):
         self.path = path
         self.source = str(path)
-        try:
-            self.data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as e:
-            m = _TOML_POSITION.match(str(e))
-            where = f"{m.group(2)}:{m.group(3)}: {m.group(1)}" if m else f" {e}"
-            raise JobError(f"{self.source}:{where}") from None
+        self.data = data
 
     def fail(self, message: str) -> NoReturn:
         raise JobError(f"{self.source}: {message}") from None

@@ -22,6 +22,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -44,7 +45,7 @@ from sim.run.sampler import TRACE_COLUMNS, Sampler, SampleStore
 from sim.run.waveform import is_fst
 
 __all__ = ["OptionError", "RunOptions", "RunResult", "RunStopped", "build_backend",
-           "check_options", "configure_plants", "run_job"]
+           "check_options", "configure_plants", "run_job", "system_params"]
 
 
 @dataclass
@@ -142,10 +143,15 @@ def configure_plants(backend: Backend, job: Job,
             backend.set(f"{axis}__{name}", value)
 
 
+def system_params(job: Job) -> dict[str, Any]:
+    """What the simulated machine of ``job`` is built with: jobs with equal parameters can
+    share one built backend (reset between runs)."""
+    return {"accel": job.machine.accel, "accel_bits": job.machine.accel_bits}
+
+
 def build_backend(job: Job, kind: str) -> Backend:
     """The simulated machine of ``job`` on backend ``kind`` (one of ``BACKEND_NAMES``)."""
-    system = System(accel=job.machine.accel, accel_bits=job.machine.accel_bits)
-    return make_backend(system, kind)
+    return make_backend(System(**system_params(job)), kind)
 
 
 class _Watch:
