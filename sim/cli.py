@@ -30,14 +30,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from firmware_model.firmware import FirmwareError
     from firmware_model.gcode import GcodeError
     from sim.run.jobfile import JobError, load_job
-    from sim.run.output import OutputError, check_outputs, write_outputs
+    from sim.run.output import OutputError, add_ballbar, check_outputs, write_outputs
     from sim.run.progress import ProgressPrinter
     from sim.run.runner import OptionError, RunOptions, run_job
 
     progress = None if args.quiet else ProgressPrinter(sys.stderr)
     try:
         check_outputs(json_path=args.json, trace=args.trace, plot=args.plot, vcd=args.vcd,
-                      gtkw=args.gtkw)
+                      gtkw=args.gtkw, ballbar=args.ballbar)
         job = load_job(args.job)
         faults = {axis: {"stall": 1} for axis in args.stall}
         for axis in args.break_line:
@@ -59,6 +59,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if progress is not None:
             progress.finish()
     try:
+        if args.ballbar:
+            add_ballbar(result, args.ballbar, args.ballbar_settle)
         write_outputs(result, json_path=args.json, trace=args.trace, plot=args.plot,
                       gtkw=args.gtkw, vcd=args.vcd, vcd_start=args.vcd_start,
                       quiet=args.quiet)
@@ -112,6 +114,42 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         return EXIT_INTERRUPTED
     print(f"k37 sweep: {len(study.runs)} runs of {study.name} ({study.design}) in {path} and "
           f"{path.with_suffix('.parquet')}")
+    return 0
+
+
+def _cmd_effects(args: argparse.Namespace) -> int:
+    import csv
+
+    from sim.study.analysis import AnalysisError, effects_figure, main_effects, response_surface
+
+    table = Path(args.dir) / "results.csv"
+    try:
+        with open(table, newline="") as f:
+            reader = csv.DictReader(f)
+            header = list(reader.fieldnames or [])
+            rows = [r for r in reader if r["status"] == "ok"]
+        factors = args.factors.split(",") if args.factors else header[1:header.index("status")]
+        effects = main_effects(rows, factors, args.metric)
+        print(f"main effects on {args.metric} ({len(rows)} runs with status ok):")
+        for factor, points in effects.items():
+            print(f"  {factor}: " + ", ".join(f"{lv:g} -> {m:.4g}" for lv, m in points))
+        figure = Path(args.dir) / f"effects_{args.metric}.png"
+        effects_figure(effects, args.metric, f"{table}: main effects").savefig(figure, dpi=110)
+        print(f"k37 effects: wrote {figure}")
+        surface = response_surface(rows, factors, args.metric)
+    except (OSError, KeyError, ValueError) as e:
+        print(f"k37: error: {table}: not a results table ({e})", file=sys.stderr)
+        return 2
+    except AnalysisError as e:
+        print(f"k37 effects: no response surface: {e}", file=sys.stderr)
+        return 0
+    print(f"second-order response surface (seed 001 eq (19), coded factors), "
+          f"R^2 = {surface.r_squared:.4f}:")
+    for term, beta in zip(surface.terms, surface.coefficients, strict=True):
+        print(f"  {term:>30s}  {beta:+.5g}")
+    if surface.stationary is not None:
+        print("  stationary point (eq (20)): " + ", ".join(
+            f"{f} = {v:.4g}" for f, v in zip(surface.factors, surface.stationary, strict=True)))
     return 0
 
 
@@ -180,6 +218,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "below the top (e.g. 'chipset.k3701.*,x__*'; default: every signal)")
     p.add_argument("--gtkw", metavar="PATH", type=Path,
                    help="write a GTKWave save file for the waveform (needs --vcd)")
+    p.add_argument("--ballbar", metavar="PATH.png", type=Path,
+                   help="a circular program: write the ballbar polar plot and put the ballbar "
+                        "figures (circularity, 2-theta ellipse, ...) in the report")
+    p.add_argument("--ballbar-settle", type=float, default=0.0, metavar="DEG",
+                   help="leave out the first DEG degrees round the circle (the feed-in)")
     p.add_argument("--stall", action="append", default=[], choices=["x", "y"],
                    help="fault: block this axis's motor")
     p.add_argument("--break-line", action="append", default=[], choices=["x", "y"],
@@ -221,6 +264,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="run on this Dask distributed scheduler instead of local processes")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=_cmd_sweep)
+
+    p = sub.add_parser("effects", help="main effects and a second-order response surface of "
+                                       "a metric over a sweep's factors")
+    p.add_argument("dir", help="a sweep's folder (its results.csv)")
+    p.add_argument("--metric", required=True, help="a column of results.csv")
+    p.add_argument("--factors", help="comma-separated factors (default: all of the study's)")
+    p.set_defaults(func=_cmd_effects)
 
     p = sub.add_parser("reproduce", help="run the paper's experiments; write figures and "
                                          "report.md (paper vs emulator, pass/fail per row)")

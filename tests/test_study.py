@@ -6,14 +6,17 @@ from __future__ import annotations
 
 import csv
 import itertools
+import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from sim.run.ballbar import FIGURES, BallbarError, ballbar
 from sim.run.jobfile import JobError, load_job
 from sim.run.runner import RunOptions, run_job
-from sim.study.ballbar import BallbarError, ballbar
+from sim.study.analysis import AnalysisError, main_effects, response_surface
 from sim.study.design import DesignError, design, orthogonal_array
 from sim.study.studyfile import load_study
 from sim.study.sweep import SweepError, sweep
@@ -212,3 +215,57 @@ def test_a_sweep_on_a_dask_cluster_gives_the_local_table(tmp_path, dask_cluster)
             rows = list(csv.DictReader(f))
         tables.append([{k: v for k, v in r.items() if k != "wall_seconds"} for r in rows])
     assert len(tables[0]) == 4 and tables[0] == tables[1]
+
+
+def test_the_response_surface_recovers_a_quadratic_and_its_stationary_point():
+    # y = 3 + (a - 2)^2 + 2 (b - 5)^2 + 0.5 (a - 2)(b - 5), on a 4 x 4 grid
+    rows = [{"a": str(a), "b": str(b),
+             "y": str(3 + (a - 2) ** 2 + 2 * (b - 5) ** 2 + 0.5 * (a - 2) * (b - 5))}
+            for a, b in itertools.product((0, 1, 3, 4), (3, 4, 6, 8))]
+    surface = response_surface(rows, ["a", "b"], "y")
+    assert surface.r_squared == pytest.approx(1.0)
+    assert surface.stationary == pytest.approx((2.0, 5.0))
+    assert surface.predict((2.0, 5.0)) == pytest.approx(3.0)
+    effects = main_effects(rows, ["a"], "y")["a"]
+    assert [level for level, _ in effects] == [0, 1, 3, 4]
+    assert effects[0][1] == pytest.approx(np.mean([float(r["y"]) for r in rows if r["a"] == "0"]))
+
+
+def test_the_response_surface_says_when_the_runs_are_too_few():
+    rows = [{"a": str(a), "b": str(b), "c": str(c), "y": "1"}
+            for a, b, c in design("L4", [2, 2, 2])]
+    with pytest.raises(AnalysisError, match="10 terms: 4 runs are too few"):
+        response_surface(rows, ["a", "b", "c"], "y")
+
+
+def test_k37_effects_prints_the_main_effects_and_the_surface(tmp_path, capsys):
+    from sim.cli import main
+
+    with open(tmp_path / "results.csv", "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["run", "kp", "feed", "status", "circularity"])
+        for n, (kp, feed) in enumerate(itertools.product((10, 20, 30), (500, 1000, 1500))):
+            writer.writerow([n, kp, feed, "ok", feed / kp])
+    assert main(["effects", str(tmp_path), "--metric", "circularity"]) == 0
+    out = capsys.readouterr().out
+    assert "kp: 10 -> 100, 20 -> 50, 30 -> 33.33" in out and "R^2 = " in out
+    assert (tmp_path / "effects_circularity.png").exists()
+    assert main(["effects", str(tmp_path / "nowhere"), "--metric", "x"]) == 2
+
+
+def test_k37_run_ballbar_writes_the_polar_plot_and_the_figures(tmp_path, job_file):
+    from sim.cli import main
+
+    circle = job_file("G21 G90 F1200\nG03 X0 Y0 I-5 J0\nM30", machine='accel = "none"')
+    assert main(["run", str(circle), "--ballbar", str(tmp_path / "b.png"), "--json",
+                 str(tmp_path / "r.json"), "-q", "--ballbar-settle", "90"]) == 0
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert set(report["ballbar"]) == set(FIGURES) and (tmp_path / "b.png").stat().st_size
+    assert 240 < report["ballbar"]["ballbar_sweep"] < 271  # the first 90 degrees left out
+    line = job_file("G21 G90 F1200\nG01 X1\nM30")
+    assert main(["run", str(line), "--ballbar", str(tmp_path / "c.png"), "--json",
+                 str(tmp_path / "s.json"), "-q"]) == 0
+    report = json.loads((tmp_path / "s.json").read_text())
+    assert "ballbar" not in report and not (tmp_path / "c.png").exists()
+    assert report["warnings"] == [f"--ballbar {tmp_path / 'c.png'}: the program has no arc: a "
+                                  f"ballbar test runs a circle; no ballbar plot written"]

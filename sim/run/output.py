@@ -11,7 +11,9 @@ from pathlib import Path
 
 from sim.backends.contract import CLOCK_PERIOD
 from sim.machine.plant import DAC_VOLTS
+from sim.run.ballbar import BallbarError, ballbar, ballbar_figure
 from sim.run.plot import write_plot
+from sim.run.report import validate
 from sim.run.runner import RunResult
 from sim.run.sampler import TRACE_COLUMNS
 from sim.run.waveform import WAVE_FORMATS, wave_span, write_gtkw
@@ -31,12 +33,13 @@ def plot_formats() -> list[str]:
 
 
 def check_outputs(*, json_path: str | None, trace: Path | None, plot: Path | None,
-                  vcd: Path | None, gtkw: Path | None) -> None:
+                  vcd: Path | None, gtkw: Path | None, ballbar: Path | None = None) -> None:
     """Refuse, before a run, outputs it could not write: a missing folder, a folder where the
     file should be, a plot format matplotlib does not write, a waveform that is neither VCD nor FST,
     ``--gtkw`` without ``--vcd``."""
     paths = {"--json": None if json_path in (None, "-") else Path(json_path),
-             "--trace": trace, "--plot": plot, "--vcd": vcd, "--gtkw": gtkw}
+             "--trace": trace, "--plot": plot, "--vcd": vcd, "--gtkw": gtkw,
+             "--ballbar": ballbar}
     for option, path in paths.items():
         if path is None:
             continue
@@ -51,11 +54,13 @@ def check_outputs(*, json_path: str | None, trace: Path | None, plot: Path | Non
                           f"{' or '.join(WAVE_FORMATS)}")
     if gtkw is not None and vcd is None:
         raise OutputError(f"--gtkw {gtkw}: needs --vcd (the waveform the save file shows)")
-    if plot is not None:
+    for option, figure in (("--plot", plot), ("--ballbar", ballbar)):
+        if figure is None:
+            continue
         formats = plot_formats()
-        if plot.suffix.lower().lstrip(".") not in formats:
-            what = f"the suffix {plot.suffix}" if plot.suffix else "a file without a suffix"
-            raise OutputError(f"--plot {plot}: matplotlib cannot write {what}; it writes "
+        if figure.suffix.lower().lstrip(".") not in formats:
+            what = f"the suffix {figure.suffix}" if figure.suffix else "a file without a suffix"
+            raise OutputError(f"{option} {figure}: matplotlib cannot write {what}; it writes "
                               f"{', '.join('.' + f for f in formats)}")
 
 
@@ -115,6 +120,19 @@ def write_trace(result: RunResult, path: Path) -> None:
             out.writerows([f"{v:.4f}" if is_volts else int(v)
                            for is_volts, v in zip(volts, row, strict=True)]
                           for row in chunk.tolist())
+
+
+def add_ballbar(result: RunResult, path: Path, settle_deg: float = 0.0) -> None:
+    """Write the ballbar plot of ``result`` to ``path`` and its figures into the report (or,
+    for a run that is no circle, a warning)."""
+    try:
+        b = ballbar(result, settle_deg)
+    except BallbarError as e:
+        result.report["warnings"].append(f"--ballbar {path}: {e}; no ballbar plot written")
+        return
+    result.report["ballbar"] = b.figures()
+    validate(result.report)
+    ballbar_figure(b, f"k37 run {result.job.name}").savefig(path, dpi=110)
 
 
 def write_outputs(result: RunResult, *, json_path: str | None, trace: Path | None,

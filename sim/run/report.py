@@ -10,6 +10,7 @@ from __future__ import annotations
 from typing import Any
 
 from sim.backends.factory import BACKENDS
+from sim.run.ballbar import FIGURES
 
 __all__ = ["RUN_SCHEMA", "SCHEMA_VERSION", "schema_markdown", "validate"]
 
@@ -113,7 +114,10 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
     "warnings": {"type": "array", "items": {"type": "string"},
                  "description": "what the run could not do as asked (e.g. a waveform window "
                                 "it never reached)"},
+    "ballbar": _obj("ballbar figures of a circular program (only with --ballbar)",
+                    {name: _num(text) for name, text in FIGURES.items()}),
 })
+RUN_SCHEMA["required"].remove("ballbar")  # present only when asked for
 
 _TYPES = {"object": dict, "array": list, "string": str, "integer": int, "number": (int, float),
           "boolean": bool, "null": type(None)}

@@ -25,9 +25,9 @@ from typing import Any
 
 from firmware_model.job import Job
 from sim.backends.contract import Backend
+from sim.run.ballbar import FIGURES, BallbarError, ballbar
 from sim.run.jobfile import JobError
 from sim.run.runner import OptionError, RunOptions, build_backend, run_job, system_params
-from sim.study.ballbar import FIGURES, BallbarError, ballbar
 from sim.study.studyfile import Study, StudyRun
 
 __all__ = ["METRICS", "SweepError", "run_one", "sweep"]

@@ -14,9 +14,10 @@ around the centre. Figures:
   X and Y makes that ellipse (seed 001 Fig. 8), its long axis at 45 or 135 degrees;
 * ``reversal_spikes``: at each axis reversal (theta = 0, 90, 180, 270 deg) the largest
   |dr - fit| within ``SPIKE_WINDOW_DEG`` of it (a quadrant glitch);
-* ``sweep``: the degrees the data cover; ``path_speed``: the tool's mean speed round the
-  circle over them (LSB/s): the V of the radius-loss and mismatch formulas (the K3701's
-  sqrt(2) control runs a circle some 9% under its programmed feed).
+* ``sweep``: the degrees the data cover; ``path_speed``: the tool's median speed round the
+  circle over 20 ms windows (LSB/s): in a steady circle, the V of the radius-loss and
+  mismatch formulas (the K3701's sqrt(2) control runs a circle some 9% under its programmed
+  feed); with long accel/decel ramps, less.
 """
 
 from __future__ import annotations
@@ -36,11 +37,20 @@ if TYPE_CHECKING:
 
 __all__ = ["FIGURES", "SPIKE_WINDOW_DEG", "Ballbar", "BallbarError", "ballbar", "ballbar_figure"]
 
-#: The names of :meth:`Ballbar.figures`.
-FIGURES = ("nominal_radius", "ballbar_samples", "ballbar_sweep", "path_speed",
-           "mean_radius_deviation",
-           "circularity", "centre_offset", "two_theta_amplitude", "two_theta_angle",
-           "reversal_spike_0", "reversal_spike_90", "reversal_spike_180", "reversal_spike_270")
+#: The figures of :meth:`Ballbar.figures`, with their meaning.
+FIGURES = {
+    "nominal_radius": "the programmed circle's radius (LSB)",
+    "ballbar_samples": "samples analysed",
+    "ballbar_sweep": "degrees the analysed samples cover",
+    "path_speed": "the tool's median speed round the circle (over 20 ms windows, LSB/s)",
+    "mean_radius_deviation": "mean radial deviation (LSB; negative: the circle shrank)",
+    "circularity": "largest minus least radial deviation (LSB)",
+    "centre_offset": "first harmonic of the radial deviation: the centre's offset (LSB)",
+    "two_theta_amplitude": "second harmonic's amplitude: the mismatch ellipse (LSB)",
+    "two_theta_angle": "direction of the ellipse's long axis (degrees, 0-180)",
+    **{f"reversal_spike_{q}": f"largest deviation from the fit within 5 degrees of {q} "
+                              f"degrees (LSB)" for q in (0, 90, 180, 270)},
+}
 #: Half-width of the window around each axis reversal a spike is looked for in (deg).
 SPIKE_WINDOW_DEG = 5.0
 
@@ -68,10 +78,10 @@ class Ballbar:
     deviation: np.ndarray
 
     def figures(self) -> dict[str, float]:
-        """The scalar figures, named as in :data:`FIGURES`, for a report or a results table."""
+        """The scalar figures of :data:`FIGURES`, for a report or a results table."""
         return {"nominal_radius": self.radius, "ballbar_samples": self.samples,
                 "ballbar_sweep": self.sweep, "path_speed": self.path_speed,
-                **{name: getattr(self, name) for name in FIGURES[4:9]},
+                **{name: getattr(self, name) for name in list(FIGURES)[4:9]},
                 **{f"reversal_spike_{q}": s
                    for q, s in zip((0, 90, 180, 270), self.reversal_spikes, strict=True)}}
 
@@ -87,6 +97,16 @@ def _circle(result: RunResult) -> tuple[list[Arc], tuple[int, int], float]:
                                f"{arc.center}, radius {arc.radius:.1f} LSB; line "
                                f"{arcs[0].line_no}: {center}, {radius:.1f})")
     return arcs, center, radius
+
+
+def _steady_speed(t: np.ndarray, angle: np.ndarray, radius: float) -> float:
+    """The median of the tool's speed round the circle over 20 ms windows (LSB/s)."""
+    if t[-1] <= t[0]:
+        return 0.0
+    window = max(1, int(np.searchsorted(t, t[0] + 0.02)))
+    window = min(window, len(t) - 1)
+    rate = (angle[window:] - angle[:-window]) / (t[window:] - t[:-window])
+    return float(np.median(np.abs(rate)) * radius)
 
 
 def ballbar(result: RunResult, settle_deg: float = 0.0) -> Ballbar:
@@ -128,7 +148,7 @@ def ballbar(result: RunResult, settle_deg: float = 0.0) -> Ballbar:
     return Ballbar(
         center=(float(cx), float(cy)), radius=float(radius), samples=len(dr),
         sweep=float(np.degrees(unwrapped.max() - unwrapped.min())),
-        path_speed=float(abs(unwrapped[-1] - unwrapped[0]) * radius / (t[-1] - t[0])),
+        path_speed=_steady_speed(t, unwrapped, radius),
         mean_radius_deviation=float(dr.mean()), circularity=float(dr.max() - dr.min()),
         centre_offset=float(math.hypot(coef[1], coef[2])),
         two_theta_amplitude=float(math.hypot(coef[3], coef[4])),
