@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from firmware_model.gcode import Arc
+from sim.run.report import BALLBAR_FIGURES as FIGURES
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -37,20 +38,6 @@ if TYPE_CHECKING:
 
 __all__ = ["FIGURES", "SPIKE_WINDOW_DEG", "Ballbar", "BallbarError", "ballbar", "ballbar_figure"]
 
-#: The figures of :meth:`Ballbar.figures`, with their meaning.
-FIGURES = {
-    "nominal_radius": "the programmed circle's radius (LSB)",
-    "ballbar_samples": "samples analysed",
-    "ballbar_sweep": "degrees the analysed samples cover",
-    "path_speed": "the tool's median speed round the circle (over 20 ms windows, LSB/s)",
-    "mean_radius_deviation": "mean radial deviation (LSB; negative: the circle shrank)",
-    "circularity": "largest minus least radial deviation (LSB)",
-    "centre_offset": "first harmonic of the radial deviation: the centre's offset (LSB)",
-    "two_theta_amplitude": "second harmonic's amplitude: the mismatch ellipse (LSB)",
-    "two_theta_angle": "direction of the ellipse's long axis (degrees, 0-180)",
-    **{f"reversal_spike_{q}": f"largest deviation from the fit within 5 degrees of {q} "
-                              f"degrees (LSB)" for q in (0, 90, 180, 270)},
-}
 #: Half-width of the window around each axis reversal a spike is looked for in (deg).
 SPIKE_WINDOW_DEG = 5.0
 
