@@ -1,0 +1,93 @@
+"""The speed goals of the compiled backend and of a run's own work, each against its goal.
+
+Run with ``pytest bench/bench_goals.py --benchmark-only -s``; every figure is measured in
+this one run and printed with its goal and the ratio (figure / goal for speeds, goal /
+figure for costs: 1.0 or more meets the goal). Builds are excluded (each machine is built or
+loaded before timing), except in the tiny job, which is a whole ``k37 run`` process with a
+warm cache, start to exit.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from firmware_model.firmware import check_program
+from firmware_model.job import Job, demo_job, gcode_job
+from sim.run.runner import RunOptions, build_backend, run_job
+
+ROOT = Path(__file__).resolve().parent.parent
+#: A line at the K3701's top linear feed (5,454 mm/min at 1 MHz and 1 um per pulse).
+TOP_FEED_GCODE = "G21 G91 F5400\nG01 X100\nM30\n"
+#: The paper's low feed (feed word 0x00FF, 88 FP/s = 5.3 mm/min) on a 1 mm circle.
+LOW_FEED_GCODE = "G21 G91 F5.3\nG03 X0 Y0 I0.5 J0\nM30\n"
+TINY_GCODE = "G21 G91 F600\nG01 X0.1\nM30\n"
+
+
+def _events(report: dict) -> int:
+    """Feed pulses, step pulses and encoder counts of a run (each step moves its encoder by
+    one count, give or take the servo's final lag)."""
+    fp = sum(b["fp_pulses"] for b in report["blocks"])
+    steps = sum(sum(b["steps"].values()) for b in report["blocks"])
+    return fp + 2 * steps
+
+
+def _timed_run(job: Job) -> dict:
+    backend = build_backend(job, "cxxrtl")  # built (or loaded) outside the timing
+    report = run_job(job, RunOptions(backend="cxxrtl"), backend).report
+    backend.close()
+    return report
+
+
+def _show(name: str, figure: float, unit: str, goal: float, higher_is_better: bool) -> None:
+    ratio = figure / goal if higher_is_better else goal / figure
+    print(f"\n{name}: {figure:,.4g} {unit} (goal {'>=' if higher_is_better else '<='} "
+          f"{goal:,.4g} {unit}; ratio {ratio:.3f})")
+
+
+@pytest.mark.parametrize(("name", "gcode", "goal"), [
+    ("demo", None, 5e7), ("top-feed line", TOP_FEED_GCODE, 1e7),
+    ("low-feed circle", LOW_FEED_GCODE, 1e9)])
+def test_cycles_per_second(benchmark, name, gcode, goal):
+    job = demo_job() if gcode is None else gcode_job(name, gcode, f"<{name}>")
+    report = benchmark.pedantic(_timed_run, args=(job,), rounds=1, iterations=1)
+    _show(f"{name}: {report['cycles']:,} cycles", report["cycles_per_second"], "cycles/s", goal,
+          True)
+    if gcode is None:
+        per_event = report["wall_seconds"] / _events(report) * 1e6
+        _show(f"demo, {_events(report):,} events", per_event, "us/event", 0.25, False)
+
+
+def test_tiny_job_with_a_warm_cache_start_to_exit(benchmark, tmp_path):
+    job = tmp_path / "tiny.toml"
+    job.write_text(f'[program]\ngcode = """\n{TINY_GCODE}"""\n')
+    command = [sys.executable, "-m", "sim.cli", "run", str(job), "-q"]
+    env = os.environ | {"PYTHONPATH": str(ROOT)}
+    subprocess.run(command, check=True, env=env)  # warm the cache
+
+    def run() -> float:
+        start = time.perf_counter()
+        subprocess.run(command, check=True, env=env)
+        return time.perf_counter() - start
+
+    seconds = benchmark.pedantic(run, rounds=3, iterations=1)
+    _show("tiny job, k37 run process", min(seconds, benchmark.stats.stats.min), "s", 0.3, False)
+
+
+def test_planning_is_linear_in_the_programs_size(benchmark):
+    def plan(blocks: int) -> float:
+        moves = "\n".join(f"G01 X{(k % 2) * 2} Y{k * 0.01:.3f}\nG02 X{(k % 2) * 2 + 1} "
+                          f"Y{k * 0.01:.3f} I0.5 J0" for k in range(blocks // 2))
+        start = time.perf_counter()
+        check_program(gcode_job("plan", f"G21 G90 F600\n{moves}\nM30\n", "<plan>"))
+        return time.perf_counter() - start
+
+    small = plan(200)
+    large = benchmark.pedantic(plan, args=(2000,), rounds=1, iterations=1)
+    print(f"\nplanning 200 blocks {small:.3f} s, 2,000 blocks {large:.3f} s: "
+          f"x{large / small:.1f} for x10 the blocks (linear: 10)")
