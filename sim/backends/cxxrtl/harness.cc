@@ -328,6 +328,13 @@ void write_state(Model &m, size_t index, uint64_t value) {
 }
 
 using u128 = unsigned __int128;
+using i128 = __int128;
+
+// a / b rounded up (b > 0).
+i128 ceil_div(i128 a, i128 b) {
+	i128 q = a / b;
+	return q + (a % b > 0 ? 1 : 0);
+}
 
 int64_t sign_extend(uint64_t raw, size_t width) {
 	if (width < 64 && (raw >> (width - 1) & 1))
@@ -434,25 +441,80 @@ struct PlantState {
 		return v > 0 ? ((uint64_t(1) << frac_bits) - 1 - offset) / uint64_t(v)
 		             : offset / uint64_t(-v);
 	}
+	// The velocity step of the next update, if it is a ramp step (v moves by it), else 0
+	// (the update lands the velocity: stalled, or the step rounds to 0 and v = vc).
+	int64_t ramp_step() const {
+		if (stall)
+			return 0;
+		uint64_t delta = uint64_t(vc - v) * uint64_t(alpha) + (uint64_t(1) << (alpha_bits - 1));
+		return int64_t(delta) >> alpha_bits;
+	}
+	// For a ramp step s != 0: the updates (>= 1) that all step by s, as vc - v moves by s per
+	// update through the range of differences that round to s.
+	uint64_t ramp_cycles(int64_t s) const {
+		i128 e = i128(vc) - v, scale = i128(1) << alpha_bits, half = scale >> 1;
+		if (s > 0) {  // e * alpha + half >= s * 2^bits: e >= e_min
+			i128 e_min = ceil_div(i128(s) * scale - half, alpha);
+			return uint64_t((e - e_min) / s) + 1;
+		}
+		// e * alpha + half < (s + 1) * 2^bits: e <= e_max
+		i128 e_max = ceil_div((i128(s) + 1) * scale - half, alpha) - 1;
+		return uint64_t((e_max - e) / -s) + 1;
+	}
+	// The position's offset in its count after j ramp steps of s.
+	i128 offset_after(int64_t s, uint64_t j) const {
+		return i128(position - low) + i128(j) * v + i128(s) * i128(j) * i128(j + 1) / 2;
+	}
+	bool offset_keeps(i128 offset) const {
+		return offset >= 0 && offset < (i128(1) << frac_bits);
+	}
+	// Of n ramp steps of s, how many keep the count (every one up to that point does): the
+	// offset is a quadratic in the steps taken, monotonic on each side of its vertex.
+	uint64_t ramp_keeps(int64_t s, uint64_t n) const {
+		// vertex of j v + s j (j + 1) / 2: j* = -v / s - 1/2; split [1, n] there
+		i128 vertex = -i128(v) / s;
+		uint64_t split = vertex < 1 ? 0 : vertex >= i128(n) ? n : uint64_t(vertex);
+		uint64_t lo = 1;
+		for (uint64_t hi : {split, n}) {
+			if (hi < lo)
+				continue;
+			// on [lo, hi] the offset is monotonic: find the first step that leaves the count
+			if (!offset_keeps(offset_after(s, lo)))
+				return lo - 1;
+			if (!offset_keeps(offset_after(s, hi))) {
+				uint64_t good = lo, bad = hi;
+				while (bad - good > 1) {
+					uint64_t mid = good + (bad - good) / 2;
+					(offset_keeps(offset_after(s, mid)) ? good : bad) = mid;
+				}
+				return good;
+			}
+			lo = hi + 1;
+		}
+		return n;
+	}
+	void take_ramp(int64_t s, uint64_t j) {
+		position = low + uint64_t(offset_after(s, j));
+		v += s * int64_t(j);
+	}
 };
 
-// Step the plants natively for up to `limit` cycles, stopping before any count would change
-// (once every velocity is steady, in closed form); writes their state and returns the cycles
-// stepped.
+// Step the plants natively for up to `limit` cycles, stopping before any count would change,
+// and return the cycles stepped (their state written). Exact, and in pieces: while every
+// velocity is steady, in closed form; while each ramps (v += s every cycle for a constant
+// rounded step s), piece by piece, the position a quadratic in the cycles; a cycle that lands
+// a velocity, one at a time.
 uint64_t advance_plants(Model &m, uint64_t limit) {
 	if (m.plants.empty() || limit == 0)
 		return limit;
 	std::vector<PlantState> states;
 	for (const Plant &p : m.plants)
 		states.emplace_back(m, p);
-	std::vector<int64_t> next(states.size());
+	std::vector<int64_t> steps(states.size());
 	uint64_t k = 0;
 	while (k < limit) {
-		// (Whether the velocities have landed, once in a while: it is rare and need not be
-		// seen at once.)
-		if (k % 64 == 0 && std::all_of(states.begin(), states.end(), [](const PlantState &s) {
-			    return s.steady();
-		    })) {
+		if (std::all_of(states.begin(), states.end(),
+		                [](const PlantState &s) { return s.steady(); })) {
 			uint64_t run = limit - k;
 			for (const PlantState &s : states)
 				run = std::min(run, s.steady_cycles());
@@ -461,16 +523,44 @@ uint64_t advance_plants(Model &m, uint64_t limit) {
 			k += run;
 			break;
 		}
-		bool keeps = true;
+		// The longest piece over which each plant's update is the same kind: a ramp step of
+		// constant s, or (steady) none; a landing update is a piece of one cycle.
+		uint64_t run = limit - k;
+		bool landing = false;
 		for (size_t i = 0; i < states.size(); i++) {
-			next[i] = states[i].next_v();
-			keeps &= states[i].keeps_count(next[i]);
+			const PlantState &s = states[i];
+			steps[i] = s.steady() ? 0 : s.ramp_step();
+			if (!s.steady() && steps[i] == 0)
+				landing = true;
+			else if (steps[i] != 0)
+				run = std::min(run, s.ramp_cycles(steps[i]));
 		}
-		if (!keeps)
-			break;
+		if (landing) {
+			bool keeps = true;
+			for (size_t i = 0; i < states.size(); i++) {
+				steps[i] = states[i].next_v();
+				keeps &= states[i].keeps_count(steps[i]);
+			}
+			if (!keeps)
+				break;
+			for (size_t i = 0; i < states.size(); i++)
+				states[i].take(steps[i]);
+			k++;
+			continue;
+		}
+		uint64_t keep = run;
 		for (size_t i = 0; i < states.size(); i++)
-			states[i].take(next[i]);
-		k++;
+			keep = std::min(keep, steps[i] != 0 ? states[i].ramp_keeps(steps[i], run)
+			                                     : std::min(run, states[i].steady_cycles()));
+		for (size_t i = 0; i < states.size(); i++) {
+			if (steps[i] != 0)
+				states[i].take_ramp(steps[i], keep);
+			else
+				states[i].position += uint64_t(states[i].v) * keep;
+		}
+		k += keep;
+		if (keep < run)
+			break;  // the next cycle changes a count
 	}
 	for (size_t i = 0; i < states.size(); i++) {
 		const Plant &p = m.plants[i];
