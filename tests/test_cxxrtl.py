@@ -11,13 +11,14 @@ import re
 from pathlib import Path
 
 import pytest
-from amaranth.hdl import Cat, ClockDomain, ClockSignal, Module, Signal, signed
+from amaranth.hdl import Cat, ClockDomain, ClockSignal, Fragment, Module, Signal, signed
 from amaranth.lib import data, wiring
 from amaranth.lib.wiring import In, Out, connect, flipped
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import simulate
 
+from firmware_model.job import MachineConfig, demo_job
 from hdl import observation
 from hdl.hostbus import Access, HostBus, Register, RegisterBank, RegisterMap
 from hdl.observation import FreeRunning
@@ -27,6 +28,7 @@ from sim.backends.cxxrtl.build import edge_wires, fall_eval
 from sim.backends.factory import BACKENDS, make_backend
 from sim.backends.pysim import PysimBackend
 from sim.machine.system import System
+from sim.run import runner
 
 MAP = RegisterMap("ZOO", 1, (
     Register("VALUE", 0x0, 24, Access.RW, "a signed value; reads back", signed=True),
@@ -550,6 +552,35 @@ def test_second_construction_loads_the_cached_model(backends, capfd):
     again.close()
     with pytest.raises(RuntimeError, match="this CxxrtlBackend is closed"):
         again.step()
+
+
+def test_a_design_key_finds_the_model_without_elaborating_the_design(monkeypatch):
+    job = demo_job()
+    first = runner.build_backend(job, "cxxrtl")  # converts (or finds) and remembers
+    converted = CxxrtlBackend._convert_and_build(System(), first._free.registers(), None)[1]
+    monkeypatch.setattr(Fragment, "get", lambda *_: pytest.fail("elaborated the design"))
+    again = runner.build_backend(job, "cxxrtl")
+    assert again.model.path == first.model.path and not again.model.built
+    assert again._signed == set(converted["signed"]) and "x__error" in again._signed
+    assert again.probe_names() == first.probe_names()
+    first.close()
+    again.close()
+
+
+def test_the_design_key_follows_the_parameters_and_every_source(monkeypatch, make_job):
+    pre, post = make_job("M30"), make_job("M30", MachineConfig(accel="post"))
+    assert runner.design_key(pre) != runner.design_key(post)
+    before = runner.design_key(pre)
+    read = Path.read_bytes
+    monkeypatch.setattr(Path, "read_bytes", lambda path: read(path) + (
+        b"#" if path.name == "plant_model.py" else b""))
+    runner._design_sources.cache_clear()
+    try:
+        assert runner.design_key(pre) != before
+    finally:
+        monkeypatch.undo()
+        runner._design_sources.cache_clear()
+    assert runner.design_key(pre) == before
 
 
 def _busy_then_idle(backend: Backend, seed: int) -> None:

@@ -19,8 +19,12 @@ BACKEND_NAMES = ("auto", *BACKENDS)
 
 
 def make_backend(component: wiring.Component, kind: str = BACKEND_NAMES[0], *,
-                 period: float = CLOCK_PERIOD) -> Backend:
+                 period: float = CLOCK_PERIOD, design_key: str | None = None) -> Backend:
     """A backend for ``component``: one of :data:`BACKEND_NAMES`.
+
+    ``design_key``, if given, names the design by what it is made from (its sources and
+    parameters): the compiled backend then finds a model built before without elaborating
+    the design (:func:`sim.backends.cxxrtl.build.remember_design`).
 
     ``auto`` picks the compiled backend when a C++ compiler is available, and otherwise says
     so in one line on stderr and falls back to Amaranth's simulator.
@@ -38,4 +42,4 @@ def make_backend(component: wiring.Component, kind: str = BACKEND_NAMES[0], *,
         return PysimBackend(component, period=period)
     from sim.backends.cxxrtl.backend import CxxrtlBackend
 
-    return CxxrtlBackend(component, period=period)
+    return CxxrtlBackend(component, period=period, design_key=design_key)

@@ -14,18 +14,22 @@ a run ends within a tick of it, and still reports.
 
 from __future__ import annotations
 
+import hashlib
 import signal
 import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cache, cached_property
+from importlib import metadata
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+import hdl
+import sim.machine
 from firmware_model.firmware import BlockRecord, Firmware, check_program
 from firmware_model.gcode import Dwell
 from firmware_model.host import Host8085
@@ -149,9 +153,27 @@ def system_params(job: Job) -> dict[str, Any]:
     return {"accel": job.machine.accel, "accel_bits": job.machine.accel_bits}
 
 
+@cache
+def _design_sources() -> str:
+    """The hash of every source the simulated machine is elaborated from: the gateware
+    (``hdl``), the plants and the system (``sim.machine``), and Amaranth's version."""
+    digest = hashlib.sha256(metadata.version("amaranth").encode())
+    for package in (hdl, sim.machine):
+        root = Path(package.__file__).parent
+        for path in sorted(root.rglob("*.py")):
+            digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()
+
+
+def design_key(job: Job) -> str:
+    """The simulated machine of ``job`` named by its sources and :func:`system_params`: equal
+    keys elaborate equal designs, so a compiled model is found without elaborating it."""
+    return f"{_design_sources()} {sorted(system_params(job).items())}"
+
+
 def build_backend(job: Job, kind: str) -> Backend:
     """The simulated machine of ``job`` on backend ``kind`` (one of ``BACKEND_NAMES``)."""
-    return make_backend(System(**system_params(job)), kind)
+    return make_backend(System(**system_params(job)), kind, design_key=design_key(job))
 
 
 class _Watch:

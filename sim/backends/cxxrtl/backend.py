@@ -17,7 +17,7 @@ from typing import ClassVar
 
 import numpy as np
 from amaranth.back import rtlil
-from amaranth.hdl import Fragment, Shape
+from amaranth.hdl import Elaboratable, Fragment, Shape
 from amaranth.hdl._ir import PortDirection
 from amaranth.lib import wiring
 
@@ -32,7 +32,8 @@ from sim.backends.contract import (
     select_signals,
     signal_paths,
 )
-from sim.backends.cxxrtl.build import build
+from sim.backends.cxxrtl.build import build, find_design, remember_design
+from sim.backends.toolchain import Model
 
 __all__ = ["CxxrtlBackend"]
 
@@ -104,21 +105,21 @@ class CxxrtlBackend(Backend):
     VCD_SCOPE: ClassVar[str] = "bench top "
 
     def __init__(self, component: wiring.Component, *, period: float = CLOCK_PERIOD,
-                 compiler: str | None = None):
+                 compiler: str | None = None, design_key: str | None = None):
         super().__init__(component)
         self._period = period
-        # As amaranth.back.rtlil.convert does, keeping the design for the probes' shapes.
-        ports = {name: (value, PortDirection.Input if port.is_input else PortDirection.Output)
-                 for name, (port, value) in component_ports(component).items()}
-        start = time.perf_counter()
-        design = Fragment.get(component, None).prepare(ports=ports, hierarchy=("top",))
-        rtlil_text, _ = rtlil.convert_fragment(design, name="top", emit_src=False)
-        rtlil_seconds = time.perf_counter() - start
-        self._check_inputs(_top_inputs(rtlil_text))
         self._free: FreeRunning | None = getattr(component, "free_running", None)
         free = self._free.registers() if self._free is not None else ()
-        self.model = build(rtlil_text, free=free, compiler=compiler)
-        self.model.seconds["rtlil"] = rtlil_seconds
+        known = find_design(design_key, free=free, compiler=compiler) if design_key else None
+        if known is None:
+            self.model, facts = self._convert_and_build(component, free, compiler)
+            if design_key:
+                remember_design(design_key, self.model, facts, free=free, compiler=compiler)
+        else:
+            self.model, facts = known
+            _mark_elaborated(component)
+        self._check_inputs(set(facts["inputs"]))
+        self._signed = set(facts["signed"])
         self._lib = lib = _load(self.model.path)
         self._handle = lib.k37_create()
         self._items = {lib.k37_name(self._handle, i).decode(): i
@@ -126,14 +127,29 @@ class CxxrtlBackend(Backend):
         # CXXRTL separates the hierarchy with spaces; names may hold dots (struct fields).
         self._probes = {name.replace(" ", "."): i for name, i in self._items.items()}
         self._names = {name.replace(" ", "."): name for name in self._items}
-        self._shapes = {path: Shape.cast(signal.shape())
-                        for path, signal in signal_paths(design).items()}
         self._index = {name: self._items[name] for name in self.ports}
         self._k37_get, self._k37_set = lib.k37_get, lib.k37_set
         self._buses: dict[str, tuple[Port, Port, int, int, int, int, int]] = {}
         self._batches: dict[tuple[str, ...], tuple[list[Port], ctypes.Array, ctypes.Array]] = {}
         self._recording: list[Port] | None = None  # the ports k37_record samples
         self._set_inits()
+
+    @staticmethod
+    def _convert_and_build(component: wiring.Component, free: Sequence[str],
+                           compiler: str | None) -> tuple[Model, dict[str, list[str]]]:
+        """Convert the design to RTLIL (as ``amaranth.back.rtlil.convert`` does) and build
+        its model; with the facts the backend needs: the top's inputs, the signed signals."""
+        ports = {name: (value, PortDirection.Input if port.is_input else PortDirection.Output)
+                 for name, (port, value) in component_ports(component).items()}
+        start = time.perf_counter()
+        design = Fragment.get(component, None).prepare(ports=ports, hierarchy=("top",))
+        rtlil_text, _ = rtlil.convert_fragment(design, name="top", emit_src=False)
+        rtlil_seconds = time.perf_counter() - start
+        model = build(rtlil_text, free=free, compiler=compiler)
+        model.seconds["rtlil"] = rtlil_seconds
+        signed = sorted(path for path, signal in signal_paths(design).items()
+                        if Shape.cast(signal.shape()).signed)
+        return model, {"inputs": sorted(_top_inputs(rtlil_text)), "signed": signed}
 
     def reset(self) -> None:
         self._lib.k37_destroy(self._handle)
@@ -291,8 +307,7 @@ class CxxrtlBackend(Backend):
     def _probe_raw(self, path: str) -> tuple[int, int, bool]:
         index = self._probes[path]
         width = self._lib.k37_width(self._handle, index)
-        shape = self._shapes.get(path)  # None for a struct field: unsigned
-        return self._read(index, width), width, shape is not None and shape.signed
+        return self._read(index, width), width, path in self._signed  # struct fields: unsigned
 
     def probe_names(self) -> list[str]:
         return sorted(self._probes)
@@ -361,6 +376,20 @@ class _Closed:
 
     def __call__(self, *args: object) -> None:
         raise RuntimeError("this CxxrtlBackend is closed")
+
+
+def _mark_elaborated(component: wiring.Component) -> None:
+    """Tell Amaranth's unused-elaboratable check that ``component`` and the elaboratables it
+    holds are in use, as elaborating them would have (a design found by its key is not
+    elaborated: its compiled model stands for it)."""
+    stack, seen = [component], set()
+    while stack:
+        obj = stack.pop()
+        if id(obj) in seen:
+            continue
+        seen.add(id(obj))
+        obj._MustUse__used = True  # Amaranth's own flag (amaranth/_unused.py)
+        stack.extend(v for v in vars(obj).values() if isinstance(v, Elaboratable))
 
 
 def _top_inputs(rtlil_text: str) -> set[str]:

@@ -13,6 +13,7 @@ its phases on stderr. Nothing is ever evicted from the cache.
 from __future__ import annotations
 
 import inspect
+import json
 import os
 import re
 import subprocess
@@ -22,6 +23,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
+from typing import Any
 
 from amaranth._toolchain.yosys import find_yosys
 
@@ -104,6 +106,44 @@ def _toolchain(compiler: str | None) -> _Toolchain:
     versions = "\n".join((cxx.stdout.splitlines()[0], f"amaranth {metadata.version('amaranth')}",
                           f"{yosys.__name__} {yosys.version()}"))
     return _Toolchain(compiler, include, versions)
+
+
+def _index(design_key: str, free: Sequence[str], compiler: str | None) -> Path:
+    """Where the model of a design named by ``design_key`` is remembered, with what the
+    backend would otherwise read from its RTLIL and its signals."""
+    tools = _toolchain(compiler)
+    generator = (inspect.getsource(f) for f in (design_main, edge_wires, fall_eval, _clock_as_data))
+    key = sha256(design_key, HARNESS.read_text(), DESIGN_MAIN, " ".join(CXX_FLAGS), tools.versions,
+                 SPLIT_COMMIT, WHOLE_COMMIT, "\n".join(free), *generator)
+    return cache_root("cxxrtl") / "designs" / f"{key}.json"
+
+
+def find_design(design_key: str, *, free: Sequence[str] = (),
+                compiler: str | None = None) -> tuple[Model, dict[str, Any]] | None:
+    """The model remembered for ``design_key`` (see :func:`remember_design`) and its facts,
+    or None: then the design must be converted and :func:`build` run."""
+    index = _index(design_key, free, compiler)
+    try:
+        facts = json.loads(index.read_text())
+    except (OSError, ValueError):
+        return None
+    library = Path(facts.pop("library"))
+    return (Model(library, False, {}), facts) if library.exists() else None
+
+
+def remember_design(design_key: str, model: Model, facts: dict[str, Any], *,
+                    free: Sequence[str] = (), compiler: str | None = None) -> None:
+    """Remember that ``design_key`` builds ``model``, with ``facts`` (JSON-able) about it.
+
+    A design key names the design by what it is made from (its sources and parameters), so
+    that a later run finds its model without elaborating and converting it; the caller
+    vouches that equal keys make equal RTLIL.
+    """
+    index = _index(design_key, free, compiler)
+    index.parent.mkdir(parents=True, exist_ok=True)
+    scratch = index.with_suffix(f".{os.getpid()}.tmp")
+    scratch.write_text(json.dumps({"library": str(model.path), **facts}))
+    os.replace(scratch, index)
 
 
 def build(rtlil_text: str, *, free: Sequence[str] = (), compiler: str | None = None) -> Model:
