@@ -164,6 +164,8 @@ def test_gateware_equals_model_on_the_first_steps_of_large_arcs(i, j, cw, sqrt2,
     # Ends a quarter of the way round: the end point is exact, far beyond the compared steps.
     if i * i + j * j > (1 << 46) - (1 << 23) or (i == 0 and j == 0):
         i, j = i // 2 or 1, j // 2
+    while max(abs(i + j), abs(i - j)) > COORD_MAX:  # the end, relative to the start, fits
+        i, j = i // 2 or 1, j // 2
     x, y = -i, -j
     ex, ey = (-y, x) if not cw else (y, -x)
     block = Block.arc(ex - x, ey - y, i, j, cw=cw, sqrt2=sqrt2)

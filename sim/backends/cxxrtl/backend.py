@@ -118,7 +118,6 @@ class CxxrtlBackend(Backend):
         else:
             self.model, facts = known
             _mark_elaborated(component)
-        self._check_inputs(set(facts["inputs"]))
         self._signed = set(facts["signed"])
         self._lib = lib = _load(self.model.path)
         self._handle = lib.k37_create()
@@ -137,19 +136,24 @@ class CxxrtlBackend(Backend):
     @staticmethod
     def _convert_and_build(component: wiring.Component, free: Sequence[str],
                            compiler: str | None) -> tuple[Model, dict[str, list[str]]]:
-        """Convert the design to RTLIL (as ``amaranth.back.rtlil.convert`` does) and build
-        its model; with the facts the backend needs: the top's inputs, the signed signals."""
+        """Convert the design to RTLIL (as ``amaranth.back.rtlil.convert`` does), check that
+        it has a clock to step, and build its model; with the fact the backend needs of the
+        design itself: which signals are signed."""
         ports = {name: (value, PortDirection.Input if port.is_input else PortDirection.Output)
                  for name, (port, value) in component_ports(component).items()}
         start = time.perf_counter()
         design = Fragment.get(component, None).prepare(ports=ports, hierarchy=("top",))
         rtlil_text, _ = rtlil.convert_fragment(design, name="top", emit_src=False)
         rtlil_seconds = time.perf_counter() - start
+        inputs = _top_inputs(rtlil_text)
+        # Other domains' clocks stay low, as in Amaranth's simulator with one add_clock().
+        if "clk" not in inputs:
+            raise ValueError(f"{type(component).__name__} has no sync clock domain to step")
         model = build(rtlil_text, free=free, compiler=compiler)
         model.seconds["rtlil"] = rtlil_seconds
         signed = sorted(path for path, signal in signal_paths(design).items()
                         if Shape.cast(signal.shape()).signed)
-        return model, {"inputs": sorted(_top_inputs(rtlil_text)), "signed": signed}
+        return model, {"signed": signed}
 
     def reset(self) -> None:
         self._lib.k37_destroy(self._handle)
@@ -283,11 +287,6 @@ class CxxrtlBackend(Backend):
         addr_port, _, i_addr, _, _, i_stb, i_data = self._bus(bus)
         return self._lib.k37_bus_read(self._handle, i_addr, i_stb, i_data,
                                       addr_port.encode(addr))
-
-    def _check_inputs(self, inputs: set[str]) -> None:
-        # Other domains' clocks stay low, as in Amaranth's simulator with one add_clock().
-        if "clk" not in inputs:
-            raise ValueError(f"{type(self.component).__name__} has no sync clock domain to step")
 
     def _set_raw(self, port: Port, raw: int) -> None:
         index = self._items[port.name]
