@@ -19,17 +19,17 @@ runs in the first two and a helix moves the third, the plane's normal, with the 
 from __future__ import annotations
 
 import enum
-from collections.abc import Iterator
 from collections import Counter
+from collections.abc import Iterator
 from dataclasses import dataclass, replace
 
 __all__ = [
     "CIRCLE_SETUP_CYCLES",
     "COORD_MAX",
-    "PLANES",
     "LATENCY_CIRCULAR",
     "LATENCY_LINEAR",
     "MAX_RADIUS_SQUARED",
+    "PLANES",
     "Block",
     "BlockError",
     "CircularPath",
