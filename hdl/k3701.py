@@ -70,7 +70,7 @@ _CTRL = K3701_MAP["CTRL"]
 K3701_MAP_3 = RegisterMap("K3701", 1, (
     *(replace(r, fields=(*r.fields, Field(
         "plane", 5, 2, "the block's axes on the machine's: 0 (X, Y, Z) G17, 1 (Z, X, Y) "
-                       "G18, 2 (Y, Z, X) G19; the arc runs in the first two")))
+                       "G18, 2 (Y, Z, X) G19, 3 as 0; the arc runs in the first two")))
       if r is _CTRL else r for r in K3701_MAP),
     Register("Z", 0x10, 24, Access.RW,
              f"three-axis chip: write: the third coordinate Ze of the end point (a line's, or "
@@ -78,7 +78,7 @@ K3701_MAP_3 = RegisterMap("K3701", 1, (
              f"({_COORD})", signed=True),
     Register("H", 0x13, 24, Access.W,
              "three-axis chip, helix: the arc's step count N, over which the third axis makes "
-             "its |Ze| <= N moves (a DDA on the arc's steps: it ends with the arc)"),
+             "its Ze moves, abs(Ze) <= N (a DDA on the arc's steps: it ends with the arc)"),
 ), doc="Interpolator: linear and circular interpolation of one block, step pulses out. The "
        "three-axis build adds Z, H and CTRL.plane.")
 
