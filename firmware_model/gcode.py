@@ -452,7 +452,9 @@ class _Parser:
             self.fail(anchor.col, f"the K3701 would not reach this arc's end point "
                                   f"({xe}, {ye}) LSB relative to the start: it leaves the end "
                                   f"quadrant first and stops with ERROR")
-        relative = [t - p for t, p in zip(targets, self.machine, strict=True)]
+        relative = [0, 0, 0]  # the block's end on the machine's axes
+        for axis, value in zip(plane_axes, (xe, ye, ze), strict=True):
+            relative[axis] = value
         return Arc(len(self.items), self.line_no, relative[0], relative[1], offsets[0],
                    offsets[1], cw, self.feed, relative[2] if self.axes == 3 else 0, offsets[2],
                    self.plane, start=self.machine, block=block, plan=result)
