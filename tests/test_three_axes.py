@@ -75,3 +75,8 @@ def test_a_z_servo_table_on_a_two_axis_machine_is_one_error_naming_it(job_file, 
     done = k37("run", "-q", str(path))
     assert done.returncode == 2 and "servo.z" in done.stderr
     assert "Traceback" not in done.stderr
+
+
+def test_a_fault_on_z_of_a_two_axis_machine_is_one_error(k37):
+    done = k37("run", "-q", "--stall", "z", "--max-cycles", "1000")
+    assert done.returncode == 2 and "axis z" in done.stderr and "Traceback" not in done.stderr

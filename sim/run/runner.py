@@ -205,6 +205,9 @@ def run_job(job: Job, options: RunOptions | None = None,
     options = options or RunOptions()
     check_program(job)  # refuse what the hardware cannot do before building anything
     check_options(options)
+    for axis in options.faults.keys() - set(job.machine.axis_names):
+        raise OptionError(f"a fault on axis {axis}: the machine has {job.machine.axes} axes "
+                          f"({', '.join(job.machine.axis_names)})")
     owned = backend is None
     backend = backend or build_backend(job, options.backend)
     configure_plants(backend, job, options.faults)
