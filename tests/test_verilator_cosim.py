@@ -27,7 +27,7 @@ from hdl.encoder_model import EncoderModel
 from hdl.feed_rate import DIVIDER_WIDTH, FEED_MAP
 from hdl.hostbus import Register, RegisterMap
 from hdl.hostbus_model import RegisterBankModel
-from hdl.k3701 import K3701_MAP
+from hdl.k3701 import K3701_MAP, K3701_MAP_3
 from hdl.k3701_model import Block, K3701Model, Kind
 from hdl.k3702 import K3702_MAP
 from hdl.k3702_model import K3702Model
@@ -179,6 +179,48 @@ class K3701Chip(Chip):
             bank.write(*write)
         bank.clock()
         names = ("x_pos", "x_neg", "y_pos", "y_neg", "busy", "irq", "error", "overrun")
+        return {n: getattr(out, n) for n in names}, registers
+
+
+class K3701Chip3(K3701Chip):
+    """The three-axis K3701: Z and H registers, CTRL.plane routing, the Z step pulses."""
+
+    name, regmap = "k3701_3axis", K3701_MAP_3
+
+    def reset(self) -> None:
+        super().reset()
+        self.model = K3701Model(axes=3)
+        self.bank = RegisterBankModel(K3701_MAP_3)
+
+    def value(self, reg, rng):
+        if reg.name == "H":  # a helix's step count: small, so that some helices run
+            return rng.randint(0, 40)
+        return super().value(reg, rng)
+
+    def cycle(self, pins, write):
+        bank = self.bank
+        cmd_reg, ctrl_reg = K3701_MAP_3["CMD"], K3701_MAP_3["CTRL"]
+        cmd = bank.values["CMD"] if bank.w_stb("CMD") else 0
+        block = None
+        if cmd_reg.field("start").decode(cmd):
+            v, ctrl = bank.values, bank.values["CTRL"]
+            block = Block(Kind(ctrl_reg.field("circular").decode(ctrl)), v["X"], v["Y"], v["I"],
+                          v["J"], bool(ctrl_reg.field("cw").decode(ctrl)),
+                          bool(ctrl_reg.field("sqrt2").decode(ctrl)),
+                          ctrl_reg.field("quadrant").decode(ctrl) + 1, v["Z"],
+                          ctrl_reg.field("plane").decode(ctrl), v["H"])
+        out = self.model.cycle(fp=bool(pins["fp"]), start=block,
+                               ack=bool(cmd_reg.field("ack").decode(cmd)),
+                               clear=bool(cmd_reg.field("clear").decode(cmd)))
+        status = K3701_MAP_3["STATUS"].encode(busy=out.busy, irq=out.irq, error=out.error,
+                                              overrun=out.overrun)
+        registers = {"X": out.xm, "Y": out.ym, "Z": out.zm, "CTRL": bank.values["CTRL"],
+                     "STATUS": status}
+        if write:
+            bank.write(*write)
+        bank.clock()
+        names = ("x_pos", "x_neg", "y_pos", "y_neg", "z_pos", "z_neg", "busy", "irq", "error",
+                 "overrun")
         return {n: getattr(out, n) for n in names}, registers
 
 
@@ -384,7 +426,7 @@ class FeedRateChip(Chip):
 
 CHIPS = {chip.name: chip for chip in (K3701Chip, K3702Chip, EncoderChip, AccelDecelChip,
                                       AccelDecelAxisChip, RateMultiplierChip, DividerChip,
-                                      DecelControlChip, FeedRateChip)}
+                                      DecelControlChip, FeedRateChip, K3701Chip3)}
 
 
 # --- the co-simulation loop ---------------------------------------------------------------------
