@@ -25,20 +25,21 @@ does.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 from firmware_model.gcode import Arc, Dwell, Item, Line, Program
 from firmware_model.host import Host8085
-from firmware_model.job import AXES, Job, MachineConfig
+from firmware_model.job import Job, MachineConfig
 from hdl.decel_control import BUDGET_WIDTH
 from hdl.divider_model import increment_for
 from hdl.feed_rate import DIVIDER_WIDTH, FEED_BITS
 from hdl.k3701 import block_registers
-from hdl.k3701_model import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
+from hdl.k3701_model import LATENCY_CIRCULAR, LATENCY_LINEAR, Block, Kind
 
 __all__ = ["AlarmEvent", "BlockObserver", "BlockRecord", "Firmware", "FirmwareError",
-           "check_program", "feed_word", "max_feed_mm_min", "planned_seconds", "programmed_feed",
+           "check_program", "feed_word", "loaded_block", "max_feed_mm_min", "planned_seconds",
+           "programmed_feed",
            "rm_clock_hz", "word_feed", "word_rate"]
 
 #: Rate-multiplier input clock: one input clock per linear step time, so the FP stream into
@@ -134,6 +135,18 @@ def programmed_feed(item: Line | Arc, machine: MachineConfig) -> float:
     return item.feed_mm_min
 
 
+def loaded_block(item: Line | Arc) -> Block:
+    """The block the three-axis K3701 is loaded with: the item's, with its third axis (a
+    line's Ze; an arc's travel along its plane's normal, a helix), its plane's CTRL.plane code
+    and a helix's step count H (the plan's)."""
+    if isinstance(item, Line):
+        return replace(item.block, ze=item.ze)
+    normal = item.plane_axes[2]
+    ze = item.end[normal] - item.start[normal]
+    return replace(item.block, ze=ze, plane=item.plane - 17,
+                   helix_steps=item.plan.steps if ze else 0)
+
+
 def check_program(job: Job) -> None:
     """Refuse, before anything is loaded, every block the hardware cannot run."""
     machine, program = job.machine, job.program
@@ -199,7 +212,7 @@ class Firmware:
                                                    f_clk=machine.clock_hz))
         host.write("FEED", "FA_INC", increment_for(machine.accel_fa_hz, width=DIVIDER_WIDTH,
                                                    f_clk=machine.clock_hz))
-        for axis in AXES:
+        for axis in machine.axis_names:
             ctrl, enc = f"K3702_{axis.upper()}", f"ENCODER_{axis.upper()}"
             host.write(enc, "FILTER", machine.encoder_filter)
             host.command(enc, clear=1)
@@ -248,7 +261,8 @@ class Firmware:
         if self.observer is not None:
             self.observer.block_started(record)
         # Load the interpolator, start it, then open the feed with the exact FP budget.
-        for register, value in block_registers(block).items():
+        loaded = loaded_block(item) if machine.axes == 3 else block
+        for register, value in block_registers(loaded, machine.axes).items():
             host.write("K3701", register, value)
         host.command("K3701", start=1, ack=1)
         host.write("FEED", "FEED", word)
@@ -282,7 +296,7 @@ class Firmware:
         """The interrupt routine: alarm first (stop the feed), then the data request."""
         host = self.host
         host.work(host.timing.isr_entry)
-        for axis in AXES:
+        for axis in self.job.machine.axis_names:
             chip = f"K3702_{axis.upper()}"
             if host.status(chip)["irq"]:
                 host.write("DECEL", "CTRL", 1)          # stop feed at once
@@ -313,7 +327,7 @@ class Firmware:
         """Read both encoders' STATUS; a fault (the position is no longer known) stops the
         feed and the program."""
         host = self.host
-        for axis in AXES:
+        for axis in self.job.machine.axis_names:
             chip = f"ENCODER_{axis.upper()}"
             status = host.status(chip)
             faults = [flag for flag in ENCODER_FAULTS if status[flag]]
@@ -335,7 +349,7 @@ class Firmware:
                 self._interrupt(None)
                 return
             done = True
-            for axis, goal in zip(AXES, target, strict=True):
+            for axis, goal in zip(self.job.machine.axis_names, target, strict=True):
                 chip = f"K3702_{axis.upper()}"
                 if not host.status(chip)["in_position"] or host.read(chip, "COMMAND") != goal:
                     done = False

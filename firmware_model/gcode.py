@@ -48,10 +48,10 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from decimal import ROUND_HALF_UP, Decimal
 
-from hdl.k3701_model import COORD_MAX, Block, BlockError, Plan, make_path, plan
+from hdl.k3701_model import COORD_MAX, PLANES, Block, BlockError, Plan, make_path, plan
 from hdl.limits import Limit
 
 __all__ = ["ARC_TOLERANCE", "ARC_TOLERANCE_LIMIT", "INCH_MM", "LSB_MM_LIMIT", "Arc", "Dwell",
@@ -92,10 +92,14 @@ class _Move:
     block: Block = field(kw_only=True)
     plan: Plan = field(kw_only=True)
 
+    #: Machine-axis indices of the block's first, second and third coordinates.
+    plane_axes = PLANES[0]
+
     @property
-    def end(self) -> tuple[int, int]:
-        """Absolute machine position after the move (LSB)."""
-        return self.start[0] + self.plan.end[0], self.start[1] + self.plan.end[1]
+    def end(self) -> tuple[int, ...]:
+        """Absolute machine position after the move (LSB), one value per machine axis."""
+        moved = dict(zip(self.plane_axes, (*self.plan.end, self.plan.ze), strict=True))
+        return tuple(p + moved[k] for k, p in enumerate(self.start))
 
 
 @dataclass(frozen=True)
@@ -112,6 +116,7 @@ class Line(_Move):
 
     feed_mm_min: float | None
     rapid: bool
+    ze: int = 0
 
 
 @dataclass(frozen=True)
@@ -128,16 +133,25 @@ class Arc(_Move):
     j: int
     cw: bool
     feed_mm_min: float
+    ze: int = 0
+    k: int = 0
+    plane: int = 17
+
+    @property
+    def plane_axes(self) -> tuple[int, int, int]:
+        """Machine-axis indices of the plane's first, second and normal axes."""
+        return PLANES[self.plane - 17]
 
     @property
     def center(self) -> tuple[int, int]:
-        """Absolute position of the centre (LSB)."""
-        return self.start[0] + self.i, self.start[1] + self.j
+        """Absolute position of the centre in plane coordinates (LSB)."""
+        a, b, _ = self.plane_axes
+        return self.start[a] + self.block.i, self.start[b] + self.block.j
 
     @property
     def radius(self) -> float:
         """Distance from the centre to the start (LSB)."""
-        return math.hypot(self.i, self.j)
+        return math.hypot(self.block.i, self.block.j)
 
     @property
     def span(self) -> tuple[float, float]:
@@ -145,8 +159,9 @@ class Arc(_Move):
         the direction of travel (radians; the sweep is in (0, 2 pi]: an end at the start is a
         full circle)."""
         cx, cy = self.center
-        a0 = math.atan2(-self.j, -self.i)
-        a1 = math.atan2(self.end[1] - cy, self.end[0] - cx)
+        a, b, _ = self.plane_axes
+        a0 = math.atan2(-self.block.j, -self.block.i)
+        a1 = math.atan2(self.end[b] - cy, self.end[a] - cx)
         return a0, ((a0 - a1) if self.cw else (a1 - a0)) % math.tau or math.tau
 
 
@@ -173,13 +188,15 @@ class Program:
     sqrt2: bool
     arc_tolerance: float
 
+    axes: int = 2
+
     @property
-    def final_position(self) -> tuple[int, int]:
+    def final_position(self) -> tuple[int, ...]:
         """Absolute machine position after the last move (LSB; the start is the origin)."""
         for item in reversed(self.items):
             if not isinstance(item, Dwell):
                 return item.end
-        return 0, 0
+        return (0,) * self.axes
 
     def to_dict(self) -> dict[str, object]:
         """A JSON-able summary: source, settings and item counts."""
@@ -250,7 +267,10 @@ def _integer_code(word: _Word, fail) -> int:
 
 
 class _Parser:
-    def __init__(self, source: str, lsb_mm: float, sqrt2: bool, arc_tolerance: float):
+    def __init__(self, source: str, lsb_mm: float, sqrt2: bool, arc_tolerance: float,
+                 axes: int = 2):
+        self.axes = axes
+        self.plane = 17
         self.source = source
         self.lsb_mm = lsb_mm
         self.lsb_size = Decimal(repr(lsb_mm))
@@ -262,8 +282,8 @@ class _Parser:
         self.inch = False
         self.incremental = False
         self.feed: float | None = None
-        self.prog = (0, 0)     # programmed position
-        self.machine = (0, 0)  # where the K3701 stopped
+        self.prog = (0,) * axes     # programmed position
+        self.machine = (0,) * axes  # where the K3701 stopped
         self.line_no = 0
 
     def fail(self, col: int, message: str):
@@ -293,7 +313,7 @@ class _Parser:
         by_letter: dict[str, _Word] = {}
         gcodes: dict[str, tuple[int, _Word]] = {}
         for w in words:
-            if w.letter not in _SUPPORTED:
+            if w.letter not in _SUPPORTED and not (self.axes == 3 and w.letter in "ZK"):
                 self.fail(w.col, f"unsupported word {w.text}{_HINTS.get(w.letter, '')}")
             if w.letter == "G":
                 self.g_word(w, gcodes)
@@ -308,7 +328,7 @@ class _Parser:
         group = _GROUPS.get(code)
         if group is None:
             self.fail(w.col, f"{w.text} is unsupported")
-        if code in (18, 19):
+        if code in (18, 19) and self.axes == 2:
             self.fail(w.col, f"{w.text} is unsupported: only the XY plane (G17)")
         if group in gcodes:
             self.fail(w.col, f"{gcodes[group][1].text} and {w.text} are in the same modal "
@@ -319,6 +339,8 @@ class _Parser:
         if "N" in words and (words["N"].value < 0
                              or words["N"].value != words["N"].value.to_integral_value()):
             self.fail(words["N"].col, f"{words['N'].text}: N must be a non-negative integer")
+        if "plane" in gcodes:
+            self.plane = gcodes["plane"][0]
         if "units" in gcodes:
             self.inch = gcodes["units"][0] == 20
         if "distance" in gcodes:
@@ -334,7 +356,7 @@ class _Parser:
             if _integer_code(m, self.fail) not in (2, 30):
                 self.fail(m.col, f"{m.text} is unsupported")
             end = m
-        axes = [words[a] for a in _AXES if a in words]
+        axes = [words[a] for a in (*_AXES, "Z", "K") if a in words]
         if "dwell" in gcodes:
             self.dwell(words, gcodes["dwell"][1], axes)
         elif "P" in words:
@@ -371,38 +393,41 @@ class _Parser:
             self.fail(axes[0].col, f"{axes[0].text} without a motion mode (G00/G01/G02/G03)")
         if self.motion in (0, 1):
             for w in axes:
-                if w.letter in "IJ":
+                if w.letter in "IJK":
                     self.fail(w.col, f"{w.text}: {w.letter} is only for arcs (G02/G03)")
-        elif "I" not in words and "J" not in words:
+        elif not {"I", "J", "K"} & words.keys():
             self.fail(anchor.col, f"G0{self.motion} needs I and/or J (the centre offsets)")
         if self.motion != 0 and self.feed is None:
             self.fail(anchor.col, f"G0{self.motion} without a feed rate: program F first")
-        tx = self.target(words.get("X"), 0)
-        ty = self.target(words.get("Y"), 1)
+        targets = tuple(self.target(words.get(a), k) for k, a in enumerate("XYZ"[:self.axes]))
         start = self.machine
-        xe, ye = tx - start[0], ty - start[1]
+        xe, ye, ze = (*(t - p for t, p in zip(targets, start, strict=True)), 0)[:3]
         index, line_no = len(self.items), self.line_no
         if self.motion in (0, 1):
-            block = Block.line(xe, ye, sqrt2=self.sqrt2)
+            block = Block.line(xe, ye, ze, sqrt2=self.sqrt2)
             item: Item = Line(index, line_no, xe, ye, None if self.motion == 0 else self.feed,
-                              self.motion == 0, start=start, block=block, plan=plan(block))
+                              self.motion == 0, ze, start=start, block=block, plan=plan(block))
         else:
-            item = self.arc(words, anchor, (tx, ty), start)
+            item = self.arc(words, anchor, targets, start)
         self.items.append(item)
-        self.prog = (tx, ty)
+        self.prog = targets
         self.machine = item.end
 
-    def arc(self, words: dict[str, _Word], anchor: _Word, target: tuple[int, int],
-            start: tuple[int, int]) -> Arc:
-        centre = []
-        for axis, letter in enumerate("IJ"):
+    def arc(self, words: dict[str, _Word], anchor: _Word, targets: tuple[int, ...],
+            start: tuple[int, ...]) -> Arc:
+        plane_axes = PLANES[self.plane - 17]
+        offsets = [0] * 3  # I, J, K relative to the start
+        for axis, letter in enumerate("IJK"[:self.axes]):
             w = words.get(letter)
             c = self.prog[axis] + (self.lsb(w.value) if w else 0)
             if w is not None:
                 self.check_range(w, c - start[axis], "the centre offset")
-            centre.append(c)
-        i, j = centre[0] - start[0], centre[1] - start[1]
-        if target == self.prog:  # a full circle from wherever the machine is
+            offsets[axis] = c - start[axis]
+        a, b, n = plane_axes
+        i, j = offsets[a], offsets[b]
+        ze = targets[n] - start[n] if n < self.axes else 0
+        target, start = (targets[a], targets[b]), (start[a], start[b])
+        if target == (self.prog[a], self.prog[b]):  # a full circle from wherever it is
             xe = ye = 0
         else:
             xe, ye = target[0] - start[0], target[1] - start[1]
@@ -415,18 +440,24 @@ class _Parser:
                                   f"at the start, {self.mm(r1)} at the end (they differ by "
                                   f"{abs(r1 - r0):.1f} LSB; tolerance {self.tol:g} LSB)")
         try:
-            block = Block.arc(xe, ye, i, j, cw=cw, sqrt2=self.sqrt2)
-            make_path(block)  # the chip's own checks, before the walk of plan()
+            block = Block.arc(xe, ye, i, j, cw=cw, sqrt2=self.sqrt2, ze=ze,
+                              plane=self.plane - 17)
+            make_path(replace(block, ze=0))  # the chip's own checks, before the walk of plan()
+            self.check_sweep(anchor, start, (i, j), (xe, ye), cw)
+            result = plan(block)
         except BlockError as e:
             self.fail(anchor.col, f"the K3701 refuses this arc: {e}")
-        self.check_sweep(anchor, start, (i, j), (xe, ye), cw)
-        result = plan(block)
+        block = replace(block, helix_steps=result.steps if ze else 0)
         if result.error:
             self.fail(anchor.col, f"the K3701 would not reach this arc's end point "
                                   f"({xe}, {ye}) LSB relative to the start: it leaves the end "
                                   f"quadrant first and stops with ERROR")
-        return Arc(len(self.items), self.line_no, xe, ye, i, j, cw, self.feed, start=start,
-                   block=block, plan=result)
+        relative = [0, 0, 0]  # the block's end on the machine's axes
+        for axis, value in zip(plane_axes, (xe, ye, ze), strict=True):
+            relative[axis] = value
+        return Arc(len(self.items), self.line_no, relative[0], relative[1], offsets[0],
+                   offsets[1], cw, self.feed, relative[2] if self.axes == 3 else 0, offsets[2],
+                   self.plane, start=self.machine, block=block, plan=result)
 
     def check_sweep(self, anchor: _Word, start: tuple[int, int], ij: tuple[int, int],
                     end: tuple[int, int], cw: bool) -> None:
@@ -448,7 +479,7 @@ class _Parser:
 
 
 def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: bool = True,
-          arc_tolerance: float = ARC_TOLERANCE) -> Program:
+          arc_tolerance: float = ARC_TOLERANCE, axes: int = 2) -> Program:
     """Parse a G-code program into K3701 blocks.
 
     Parameters
@@ -474,8 +505,9 @@ def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: b
     """
     lsb_mm = LSB_MM_LIMIT.check("lsb_mm", lsb_mm)
     arc_tolerance = ARC_TOLERANCE_LIMIT.check("arc_tolerance", arc_tolerance)
-    parser = _Parser(source, lsb_mm, bool(sqrt2), arc_tolerance)
+    parser = _Parser(source, lsb_mm, bool(sqrt2), arc_tolerance, axes)
     for number, text_line in enumerate(text.split("\n"), start=1):
         parser.line_no = number
         parser.line(text_line)
-    return Program(tuple(parser.items), parser.end, source, lsb_mm, bool(sqrt2), arc_tolerance)
+    return Program(tuple(parser.items), parser.end, source, lsb_mm, bool(sqrt2), arc_tolerance,
+                   axes)

@@ -16,11 +16,11 @@ job loader and the plant check.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any, Protocol
 
-from firmware_model.gcode import LSB_MM_LIMIT, Program, parse
-from hdl.chipset import ACCEL_BITS, AXES, Accel
+from firmware_model.gcode import LSB_MM_LIMIT, Dwell, GcodeError, Program, parse
+from hdl.chipset import ACCEL_BITS, AXES, MACHINE_AXES, Accel, axis_names
 from hdl.divider_model import rate_limit
 from hdl.encoder import ENCODER_MAP
 from hdl.feed_rate import DIVIDER_WIDTH
@@ -28,7 +28,8 @@ from hdl.k3702 import K3702_MAP
 from hdl.limits import Limit
 
 __all__ = ["AXES", "DEMO_GCODE", "Boolean", "Job", "MachineConfig", "OneOf", "OrAbsent",
-           "RunConfig", "ServoConfig", "Valid", "demo_job", "gcode_job"]
+           "RunConfig", "ServoConfig", "Valid", "demo_job", "gcode_job", "moves_z",
+           "parse_for_machine"]
 
 #: The demo: the paper's circle (its photo 6, circular interpolation under FP control), as a
 #: full CCW circle of radius 10 mm starting at its rightmost point, at 1200 mm/min (20 k
@@ -145,6 +146,15 @@ class MachineConfig(_Checked):
     rapid_mm_min: float = _key(3000.0, Limit(0, low_open=True, unit="mm/min"),
                                "feed of G00 moves (mm/min); the default servo follows it with "
                                "a lag of 1667 LSB, inside a 12-bit D/A word's 2048")
+    axes: int = _key(2, MACHINE_AXES,
+                     "axes: 2 (X, Y: the paper's machine) or 3 (X, Y, Z: a third K3702, "
+                     "encoder interface and servo; G18/G19 arcs and helices); absent from a "
+                     "job: 3 if its program moves Z, else 2")
+
+    @property
+    def axis_names(self) -> tuple[str, ...]:
+        """The machine's axes, in order (``("x", "y")`` or ``("x", "y", "z")``)."""
+        return axis_names(self.axes)
 
     @property
     def tau_s(self) -> float:
@@ -196,7 +206,7 @@ class Job:
     def to_dict(self) -> dict[str, Any]:
         """The JSON-able form of the job's configuration (the program as a summary)."""
         return {"name": self.name, "machine": self.machine.to_dict(),
-                "servo": {axis: self.servo[axis].to_dict() for axis in AXES},
+                "servo": {axis: self.servo[axis].to_dict() for axis in self.machine.axis_names},
                 "program": self.program.to_dict(), "run": self.run.to_dict()}
 
 
@@ -206,7 +216,38 @@ def demo_job() -> Job:
 
 
 def gcode_job(name: str, text: str, source: str) -> Job:
-    """G-code ``text`` (``source`` names it in errors) on the default machine and servos."""
-    machine = MachineConfig()
-    program = parse(text, source=source, lsb_mm=machine.lsb_mm, sqrt2=machine.sqrt2)
-    return Job(name, machine, dict.fromkeys(AXES, ServoConfig()), program)
+    """G-code ``text`` (``source`` names it in errors) on the default machine and servos (three
+    axes if the program moves Z: :func:`parse_for_machine`)."""
+    machine, program = parse_for_machine(MachineConfig(), text, source=source)
+    return Job(name, machine, dict.fromkeys(machine.axis_names, ServoConfig()), program)
+
+
+def moves_z(program: Program) -> bool:
+    """Whether a program parsed for three axes needs them: a move of Z, or an arc outside
+    the XY plane."""
+    return any(item.end[2] != item.start[2] or getattr(item, "plane", 17) != 17
+               for item in program.items if not isinstance(item, Dwell))
+
+
+def parse_for_machine(machine: MachineConfig, text: str, *, source: str, axes_given: bool = False,
+                      **options: Any) -> tuple[MachineConfig, Program]:
+    """Parse ``text`` for ``machine``; unless the job set ``machine.axes`` (``axes_given``), a
+    program that moves Z gets the three-axis machine, any other the two-axis one."""
+    def parsed(m: MachineConfig) -> Program:
+        return parse(text, source=source, lsb_mm=m.lsb_mm, sqrt2=m.sqrt2, axes=m.axes,
+                     **options)
+    if not axes_given:
+        try:
+            program = parsed(replace(machine, axes=3))
+        except GcodeError as error:
+            # The two-axis parse's error where it is as far on (a word both refuse: the
+            # message as ever), the three-axis one's where that stopped earlier (at a Z).
+            try:
+                parsed(replace(machine, axes=2))
+            except GcodeError as error2:
+                raise (error2 if error2.line >= error.line else error) from None
+            raise
+        if moves_z(program):
+            return replace(machine, axes=3), program
+        machine = replace(machine, axes=2)
+    return machine, parsed(machine)

@@ -1,20 +1,29 @@
-"""The two-axis chipset (SPEC section 1): every chip on one 8-bit host bus.
+"""The chipset (SPEC section 1): every chip on one 8-bit host bus; two axes (the paper's) or
+three.
 
 Signal flow, with the accel/decel circuit in one of three places::
 
     FEED (rate multiplier) -> DECEL (FP budget) -> [pre: AccelDecel] -> FP -> K3701
     K3701 +-X -> [post: AccelDecel] -> K3702 X -> DAC X      encoder X -> +-FB -> K3702 X
     K3701 +-Y -> [post: AccelDecel] -> K3702 Y -> DAC Y      encoder Y -> +-FB -> K3702 Y
+    K3701 +-Z -> [post: AccelDecel] -> K3702 Z -> DAC Z      encoder Z -> +-FB -> K3702 Z
+                                                             (three-axis chipset only)
 
 Host bus: an 8085 I/O port address is ``chip select << 5 | register address``; the chip
-selects are :data:`CHIP_SELECTS`, the registers each chip's own map. :func:`port` turns a
-(chip, register) pair into the port address, for the firmware and the docs alike.
+selects are :data:`CHIP_SELECTS`, the registers each chip's own map. The three-axis chipset
+adds the Z axis's K3702 and encoder interface on the one select left, 7, which decodes A4 as
+well: the K3702 at 0xe0 (A4 = 0), the encoder interface at 0xf0 (A4 = 1,
+:data:`SUB_WINDOWS`), and its K3701 is the three-axis build (:data:`hdl.k3701.K3701_MAP_3`,
+a superset of the two-axis map). :func:`port` turns a (chip, register) pair into the port
+address, for the firmware and the docs alike.
 """
 
 import enum
+import operator
 from dataclasses import replace
+from functools import reduce
 
-from amaranth.hdl import Array, Cat, Module, Signal, signed
+from amaranth.hdl import Array, Cat, Module, Mux, Signal, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
@@ -23,17 +32,29 @@ from hdl.decel_control import DECEL_MAP, DecelControl
 from hdl.encoder import ENCODER_MAP, EncoderInterface
 from hdl.feed_rate import FEED_MAP, FeedRate
 from hdl.hostbus import HostBus, Register, RegisterMap
-from hdl.k3701 import K3701, K3701_MAP
+from hdl.k3701 import K3701, K3701_MAP, K3701_MAP_3
 from hdl.k3702 import COUNTER_WIDTH, K3702, K3702_MAP
 from hdl.limits import Limit
 from hdl.observation import CarryAccumulator, FreeRunning
 
-__all__ = ["ACCEL_BITS", "AXES", "CHIP_SELECTS", "Accel", "AxisPins", "Chipset", "chip_register",
-           "port"]
+__all__ = ["ACCEL_BITS", "ALL_AXES", "AXES", "CHIP_SELECTS", "MACHINE_AXES", "SUB_WINDOWS",
+           "Accel", "AxisPins", "Chipset", "axis_names", "chip_register", "chip_selects", "port"]
 
 #: Address bits of a register inside a chip; the chip select is above them.
 REG_BITS = 5
-AXES = ("x", "y")
+#: Every axis a chipset can have, in order: a chipset of n axes has the first n.
+ALL_AXES = ("x", "y", "z")
+#: The axis counts a chipset is built with (the job key ``machine.axes``).
+MACHINE_AXES = Limit(2, 3, integer=True)
+
+
+def axis_names(axes: int) -> tuple[str, ...]:
+    """The axes of an ``axes``-axis chipset (``("x", "y")`` or ``("x", "y", "z")``)."""
+    return ALL_AXES[:MACHINE_AXES.check("axes", axes)]
+
+
+#: The paper's two axes (the default machine's).
+AXES = axis_names(2)
 
 
 class Accel(enum.Enum):
@@ -51,7 +72,8 @@ class Accel(enum.Enum):
 ACCEL_BITS = Limit(4, 24, integer=True)
 
 
-#: Chip select of each chip instance, and the register map it answers with.
+#: Chip select of each chip instance of the two-axis chipset, and the register map it
+#: answers with.
 CHIP_SELECTS: dict[str, tuple[int, RegisterMap]] = {
     "K3701": (0, K3701_MAP),
     "K3702_X": (1, K3702_MAP),
@@ -61,13 +83,31 @@ CHIP_SELECTS: dict[str, tuple[int, RegisterMap]] = {
     "FEED": (5, FEED_MAP),
     "DECEL": (6, DECEL_MAP),
 }
+#: The third axis's chips, both on select 7 (A4 tells them apart: :data:`SUB_WINDOWS`).
+_Z_CHIPS: dict[str, tuple[int, RegisterMap]] = {"K3702_Z": (7, K3702_MAP),
+                                                 "ENCODER_Z": (7, ENCODER_MAP)}
+#: Register address offset of a chip sharing its select (its window inside the select's 32
+#: ports); every other chip's is 0.
+SUB_WINDOWS = {"ENCODER_Z": 0x10}
+
+
+def chip_selects(axes: int = 2) -> dict[str, tuple[int, RegisterMap]]:
+    """Chip select and register map of each chip of an ``axes``-axis chipset."""
+    if MACHINE_AXES.check("axes", axes) == 2:
+        return CHIP_SELECTS
+    return {**CHIP_SELECTS, "K3701": (0, K3701_MAP_3), **_Z_CHIPS}
+
+
+#: What the host addresses: every chip of the largest chipset (the two-axis K3701's registers
+#: are at the same ports in the three-axis map).
+_HOST_CHIPS = chip_selects(3)
 
 
 def _chip(chip: str) -> tuple[int, RegisterMap]:
     try:
-        return CHIP_SELECTS[chip]
+        return _HOST_CHIPS[chip]
     except KeyError:
-        raise KeyError(f"no chip {chip!r}; chips are {', '.join(CHIP_SELECTS)}") from None
+        raise KeyError(f"no chip {chip!r}; chips are {', '.join(_HOST_CHIPS)}") from None
 
 
 def chip_register(chip: str, name: str) -> Register:
@@ -81,7 +121,7 @@ def port(chip: str, register: str, byte: int = 0) -> int:
     reg = regmap[register]
     if not 0 <= byte < reg.nbytes:
         raise ValueError(f"{chip} {register} has {reg.nbytes} byte(s), not byte {byte}")
-    return cs << REG_BITS | (reg.addr + byte)
+    return cs << REG_BITS | (SUB_WINDOWS.get(chip, 0) + reg.addr + byte)
 
 
 class AxisPins(wiring.Signature):
@@ -111,10 +151,13 @@ class AxisPins(wiring.Signature):
 
 
 class Chipset(wiring.Component):
-    """K3701, two K3702, two encoder interfaces and the feed path on one host bus.
+    """K3701, a K3702 and an encoder interface per axis and the feed path on one host bus.
 
     Parameters
     ----------
+    axes : int
+        2 (the paper's chipset) or 3 (:data:`MACHINE_AXES`): the three-axis chipset has the
+        three-axis K3701 and a Z axis (its K3702 and encoder interface on chip select 7).
     accel : Accel or str
         Placement of the accel/decel circuit (``"pre"``, ``"post"`` or ``"none"``).
     accel_bits : int
@@ -133,9 +176,9 @@ class Chipset(wiring.Component):
     fp : Out(1)
         Observation: the feed pulses the K3701 receives.
     step_x_pos, step_x_neg, step_y_pos, step_y_neg : Out(1)
-        Observation: the K3701's step pulses.
+        Observation: the K3701's step pulses (and ``step_z_*`` on three axes).
     x, y : Out(AxisPins())
-        The two axes.
+        The axes (and ``z`` on three axes).
 
     Simulation only (attributes, not pins: see :mod:`hdl.observation`)
     ----------------------------------------------------------------
@@ -150,25 +193,31 @@ class Chipset(wiring.Component):
         K3701's latency count.
     """
 
-    #: Observation outputs, not pins of the chipset (the Verilog export keeps them inside):
-    #: the FP into the K3701, its step pulses, and each axis's K3702 inputs and counters.
-    PROBES = ("fp", *(f"step_{axis}_{sign}" for axis in AXES for sign in ("pos", "neg")),
-              *(f"{axis}__{name}" for axis in AXES
-                for name in ("com_pos", "com_neg", "fb_pos", "fb_neg", "command", "error")))
+    @staticmethod
+    def probes(axes: tuple[str, ...]) -> tuple[str, ...]:
+        """Observation outputs, not pins of the chipset (the Verilog export keeps them
+        inside): the FP into the K3701, its step pulses, and each axis's K3702 inputs and
+        counters."""
+        return ("fp", *(f"step_{axis}_{sign}" for axis in axes for sign in ("pos", "neg")),
+                *(f"{axis}__{name}" for axis in axes
+                  for name in ("com_pos", "com_neg", "fb_pos", "fb_neg", "command", "error")))
 
-    def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15):
+    def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15, axes: int = 2):
         try:
             self.accel = Accel(accel)
         except ValueError:
             raise ValueError(f"accel must be one of {', '.join(a.value for a in Accel)}, "
                              f"not {accel!r}") from None
         self.accel_bits = ACCEL_BITS.check("accel_bits", accel_bits)
+        self.axes = axis_names(axes)
+        self.chips = chip_selects(axes)
+        #: See :meth:`probes`.
+        self.PROBES = self.probes(self.axes)
         super().__init__({
             "bus": In(HostBus(8)),
             "irq_interp": Out(1), "irq_alarm": Out(1), "fp": Out(1),
-            "step_x_pos": Out(1), "step_x_neg": Out(1),
-            "step_y_pos": Out(1), "step_y_neg": Out(1),
-            "x": Out(AxisPins()), "y": Out(AxisPins()),
+            **{f"step_{axis}_{sign}": Out(1) for axis in self.axes for sign in ("pos", "neg")},
+            **{axis: Out(AxisPins()) for axis in self.axes},
         })
         self.quiet = Signal()
 
@@ -176,7 +225,7 @@ class Chipset(wiring.Component):
     def free_running(self) -> FreeRunning:
         feed = FeedRate.FREE_RUNNING.under("feed")
         gated = tuple(replace(c, gate="decel.gate_open") for c in feed.counters)
-        accel = {Accel.PRE: ("accel",), Accel.POST: ("accel_x", "accel_y"),
+        accel = {Accel.PRE: ("accel",), Accel.POST: tuple(f"accel_{a}" for a in self.axes),
                  Accel.NONE: ()}[self.accel]
         carries = tuple(CarryAccumulator(path, self.accel_bits, self.accel is Accel.POST,
                                          clock=f"feed.{FeedRate.FA_CLOCK}") for path in accel)
@@ -186,9 +235,9 @@ class Chipset(wiring.Component):
     def elaborate(self, platform) -> Module:
         m = Module()
         chips = {
-            "K3701": K3701(),
-            "K3702_X": K3702(), "K3702_Y": K3702(),
-            "ENCODER_X": EncoderInterface(), "ENCODER_Y": EncoderInterface(),
+            "K3701": K3701(axes=len(self.axes)),
+            **{f"K3702_{a.upper()}": K3702() for a in self.axes},
+            **{f"ENCODER_{a.upper()}": EncoderInterface() for a in self.axes},
             "FEED": FeedRate(), "DECEL": DecelControl(),
         }
         for name, chip in chips.items():
@@ -207,13 +256,14 @@ class Chipset(wiring.Component):
             m.d.comb += interp.fp.eq(decel.out)
         m.d.comb += [
             self.fp.eq(interp.fp),
-            self.step_x_pos.eq(interp.x_pos), self.step_x_neg.eq(interp.x_neg),
-            self.step_y_pos.eq(interp.y_pos), self.step_y_neg.eq(interp.y_neg),
+            *(getattr(self, f"step_{axis}_{sign}").eq(getattr(interp, f"{axis}_{sign}"))
+              for axis in self.axes for sign in ("pos", "neg")),
             self.irq_interp.eq(interp.irq),
-            self.irq_alarm.eq(chips["K3702_X"].irq | chips["K3702_Y"].irq),
+            self.irq_alarm.eq(reduce(operator.or_,
+                                     (chips[f"K3702_{a.upper()}"].irq for a in self.axes))),
         ]
 
-        for axis in AXES:
+        for axis in self.axes:
             pins = getattr(self, axis)
             ctrl = chips[f"K3702_{axis.upper()}"]
             enc = chips[f"ENCODER_{axis.upper()}"]
@@ -244,15 +294,24 @@ class Chipset(wiring.Component):
         with m.If(self.bus.r_stb):
             m.d.sync += read_cs.eq(cs)
         r_data = Array(Signal(8, name=f"r_data_{k}") for k in range(1 << len(cs)))
+        if SUB_WINDOWS.keys() & chips.keys():   # select 7's two windows, told apart by A4
+            read_a4 = Signal()
+            with m.If(self.bus.r_stb):
+                m.d.sync += read_a4.eq(self.bus.addr[REG_BITS - 1])
         for name, chip in chips.items():
-            select = CHIP_SELECTS[name][0]
+            select = self.chips[name][0]
             width = len(chip.bus.addr)
-            hit = (cs == select) & (self.bus.addr[width:REG_BITS] == 0)
+            window = SUB_WINDOWS.get(name, 0)
+            hit = (cs == select) & (self.bus.addr[width:REG_BITS] == window >> width)
             m.d.comb += [
                 chip.bus.addr.eq(self.bus.addr[:width]),
                 chip.bus.w_data.eq(self.bus.w_data),
                 chip.bus.w_stb.eq(self.bus.w_stb & hit),
                 chip.bus.r_stb.eq(self.bus.r_stb & hit),
-                r_data[select].eq(chip.bus.r_data),
             ]
+            if name in SUB_WINDOWS:
+                m.d.comb += r_data[select].eq(Mux(read_a4, chip.bus.r_data,
+                                                  chips["K3702_Z"].bus.r_data))
+            elif name not in _Z_CHIPS:
+                m.d.comb += r_data[select].eq(chip.bus.r_data)
         m.d.comb += self.bus.r_data.eq(r_data[read_cs])

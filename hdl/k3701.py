@@ -4,6 +4,7 @@ The reference model is :mod:`hdl.k3701_model`; this module is tested against it 
 """
 
 from collections.abc import Sequence
+from dataclasses import replace
 from types import SimpleNamespace
 
 from amaranth.hdl import Cat, Const, Module, Mux, Signal, Value, ValueLike, signed
@@ -13,17 +14,19 @@ from amaranth.lib.wiring import In, Out, connect, flipped
 from hdl.hostbus import Access, Field, HostBus, Register, RegisterBank, RegisterMap
 from hdl.k3701_circular import CircularDatapath
 from hdl.k3701_datapath import Datapath, StepSignature, moves
-from hdl.k3701_linear import LinearDatapath
+from hdl.k3701_helix import HelixAxis
+from hdl.k3701_linear import LinearDatapath, LinearDatapath3
 from hdl.k3701_model import (
     CIRCLE_SETUP_CYCLES,
     LATENCY_CIRCULAR,
     LATENCY_LINEAR,
+    PLANES,
     Block,
     Kind,
 )
 from hdl.observation import Countdown, FreeRunning
 
-__all__ = ["K3701", "K3701_MAP", "block_registers"]
+__all__ = ["K3701", "K3701_MAP", "K3701_MAP_3", "block_registers", "k3701_map"]
 
 _COORD = "24-bit two's complement, -(2^23-1)..2^23-1 LSB"
 
@@ -61,16 +64,45 @@ K3701_MAP = RegisterMap("K3701", 1, (
     )),
 ), doc="Interpolator: linear and circular interpolation of one block, step pulses out.")
 
+_CTRL = K3701_MAP["CTRL"]
+#: The three-axis K3701 (``K3701(axes=3)``): the two-axis map, the third axis's Z, a helix's
+#: step count H and CTRL.plane (addresses from 0x10: the two-axis chip's stay as they are).
+K3701_MAP_3 = RegisterMap("K3701", 1, (
+    *(replace(r, fields=(*r.fields, Field(
+        "plane", 5, 2, "the block's axes on the machine's: 0 (X, Y, Z) G17, 1 (Z, X, Y) "
+                       "G18, 2 (Y, Z, X) G19, 3 as 0; the arc runs in the first two")))
+      if r is _CTRL else r for r in K3701_MAP),
+    Register("Z", 0x10, 24, Access.RW,
+             f"three-axis chip: write: the third coordinate Ze of the end point (a line's, or "
+             f"a helix's travel along the plane's normal); read: remaining distance Zm "
+             f"({_COORD})", signed=True),
+    Register("H", 0x13, 24, Access.W,
+             "three-axis chip, helix: the arc's step count N, over which the third axis makes "
+             "its Ze moves, abs(Ze) <= N (a DDA on the arc's steps: it ends with the arc)"),
+), doc="Interpolator: linear and circular interpolation of one block, step pulses out. The "
+       "three-axis build adds Z, H and CTRL.plane.")
 
-def block_registers(block: Block) -> dict[str, int]:
-    """The registers that load ``block``, in the order the host writes them (CTRL last; the
-    block then runs on CMD.start). Lines leave I and J as they are."""
+
+def k3701_map(axes: int) -> RegisterMap:
+    """The register map of the K3701 of a chipset with ``axes`` axes (2 or 3)."""
+    return K3701_MAP if axes == 2 else K3701_MAP_3
+
+
+def block_registers(block: Block, axes: int = 2) -> dict[str, int]:
+    """The registers that load ``block`` into the K3701 of an ``axes``-axis chipset, in the
+    order the host writes them (CTRL last; the block then runs on CMD.start). Lines leave I
+    and J as they are, and plain arcs H."""
     values = {"X": block.xe, "Y": block.ye}
+    if axes == 3:
+        values["Z"] = block.ze
     if block.kind is Kind.CIRCULAR:
         values |= {"I": block.i, "J": block.j}
-    values["CTRL"] = K3701_MAP["CTRL"].encode(
+        if block.ze:
+            values["H"] = block.helix_steps
+    fields = {"plane": block.plane} if axes == 3 else {}
+    values["CTRL"] = k3701_map(axes)["CTRL"].encode(
         circular=int(block.kind), cw=int(block.cw), sqrt2=int(block.sqrt2),
-        quadrant=block.quadrant - 1)
+        quadrant=block.quadrant - 1, **fields)
     return values
 
 
@@ -129,15 +161,24 @@ class K3701(wiring.Component):
         2..32 linear, 6..32 circular.
     circle_setup : int
         Cycles of the circular radius check; must equal 25 (24 squarer cycles plus the check).
+    axes : int
+        2 (the paper's chip) or 3: the three-axis build (:data:`K3701_MAP_3`) steps lines in
+        X, Y and Z (:class:`hdl.k3701_linear.LinearDatapath3`), routes a block's axes to the
+        machine's by CTRL.plane (an arc runs in the plane's two axes) and moves a helix's third
+        axis with the arc's steps (:class:`hdl.k3701_helix.HelixAxis`); its FP credit is in
+        quarter-FP units (a step moving 1, 2, 3 axes costs 1, 1.5, 1.75 FP with sqrt(2)
+        control), the same timing as the two-axis chip for blocks without a third axis.
 
     Members
     -------
-    bus : In(HostBus(K3701_MAP.addr_width))
+    bus : In(HostBus(k3701_map(axes).addr_width))
         Host interface (see :mod:`hdl.hostbus` for its cycle timing).
     fp : In(1)
         Feed pulse, sampled every cycle; each cycle it is high counts as one FP.
     x_pos, x_neg, y_pos, y_neg : Out(1)
         One-cycle step pulses; a diagonal step pulses both axes in the same cycle.
+    z_pos, z_neg : Out(1)
+        Three-axis chip only: the Z axis's step pulses, likewise.
     busy : Out(1)
         A block is running (STATUS.busy).
     irq : Out(1)
@@ -155,23 +196,14 @@ class K3701(wiring.Component):
         The latency count, a :class:`hdl.observation.Countdown` that stops before 1.
     """
 
-    bus: In(HostBus(K3701_MAP.addr_width))
-    fp: In(1)
-    x_pos: Out(1)
-    x_neg: Out(1)
-    y_pos: Out(1)
-    y_neg: Out(1)
-    busy: Out(1)
-    irq: Out(1)
-    error: Out(1)
-    overrun: Out(1)
-
     #: See "Simulation only" above (names local to the K3701).
     FREE_RUNNING = FreeRunning(countdowns=(Countdown("count", stop=1),), quiet="quiet")
 
     def __init__(self, *, latency_linear: int = LATENCY_LINEAR,
                  latency_circular: int = LATENCY_CIRCULAR,
-                 circle_setup: int = CIRCLE_SETUP_CYCLES):
+                 circle_setup: int = CIRCLE_SETUP_CYCLES, axes: int = 2):
+        if axes not in (2, 3):
+            raise ValueError(f"axes must be 2 or 3, not {axes!r}")
         for name, value, kind in (("latency_linear", latency_linear, Kind.LINEAR),
                                   ("latency_circular", latency_circular, Kind.CIRCULAR)):
             low = 2 + _DATAPATHS[kind].STAGES
@@ -183,7 +215,13 @@ class K3701(wiring.Component):
         self.latency_linear = latency_linear
         self.latency_circular = latency_circular
         self.circle_setup = circle_setup
-        super().__init__()
+        self.axes = axes
+        self.regmap = k3701_map(axes)
+        super().__init__({
+            "bus": In(HostBus(self.regmap.addr_width)), "fp": In(1),
+            **{f"{a}_{d}": Out(1) for a in "xyz"[:axes] for d in ("pos", "neg")},
+            "busy": Out(1), "irq": Out(1), "error": Out(1), "overrun": Out(1),
+        })
         self.quiet = Signal()
 
     def elaborate(self, platform) -> Module:
@@ -192,12 +230,14 @@ class K3701(wiring.Component):
         # is used twice or sign-extended): the heavy logic sits under rare conditions, and
         # multi-use values are registers.
         m = Module()
-        m.submodules.regs = regs = RegisterBank(K3701_MAP)
+        m.submodules.regs = regs = RegisterBank(self.regmap)
         connect(m, flipped(self.bus), regs.bus)
-        ctrl = K3701_MAP["CTRL"]
-        cmd = K3701_MAP["CMD"]
+        ctrl = self.regmap["CTRL"]
+        cmd = self.regmap["CMD"]
+        three = self.axes == 3
         latency = {Kind.LINEAR: self.latency_linear, Kind.CIRCULAR: self.latency_circular}
-        datapaths = [_DATAPATHS[k]() for k in Kind]
+        datapaths = ([LinearDatapath3(), CircularDatapath(axes=3)] if three
+                     else [_DATAPATHS[k]() for k in Kind])
         for k, datapath in zip(Kind, datapaths, strict=True):
             m.submodules[k.name.lower()] = datapath
 
@@ -208,7 +248,7 @@ class K3701(wiring.Component):
         ym = Signal(signed(24))
         count = Signal(range(max(latency.values())))
         held = Signal()
-        credit = Signal(3)
+        credit = Signal(4 if three else 3)
 
         word = regs.ctrl.w_data
         new_kind = word[ctrl.field("circular").offset]   # the type of a block starting now
@@ -219,6 +259,14 @@ class K3701(wiring.Component):
             regs.ctrl.r_data.eq(word),
             regs.status.r_data.eq(Cat(self.busy, self.irq, self.error, self.overrun)),
         ]
+        if three:
+            zm = Signal(signed(24))
+            plane = Signal(2)
+            m.submodules.helix = helix = HelixAxis()
+            m.d.comb += [regs.z.r_data.eq(zm), helix.ze.eq(regs.z.w_data),
+                         helix.n.eq(regs.h.w_data),
+                         helix.start.eq(datapaths[Kind.CIRCULAR].start),
+                         helix.advance.eq(datapaths[Kind.CIRCULAR].advance)]
         for k, datapath in zip(Kind, datapaths, strict=True):
             running = (phase == _Phase.RUN) & (kind == k)
             block = datapath.block
@@ -227,6 +275,7 @@ class K3701(wiring.Component):
                 block.i.eq(regs.i.w_data), block.j.eq(regs.j.w_data),
                 block.cw.eq(word[ctrl.field("cw").offset]),
                 block.quadrant.eq(_field(word, ctrl.field("quadrant"))),
+                *([block.ze.eq(regs.z.w_data)] if three else []),
                 datapath.start.eq(start & (phase == _Phase.IDLE) & (new_kind == k)),
                 datapath.advance.eq(running & (count == 1)),
                 *(datapath.stage[s].eq(running & (count == latency[k] - 1 - s))
@@ -237,10 +286,18 @@ class K3701(wiring.Component):
 
         def running_step() -> SimpleNamespace:
             """The running block's next step: its datapath's ``step`` members, as fresh
-            expressions (see ``answer``)."""
-            return SimpleNamespace(**{name: _select(kind, [getattr(d.step, name)
-                                                           for d in datapaths])
-                                      for name in StepSignature().members})
+            expressions (see ``answer``); on the three-axis chip an arc's third axis is the
+            helix's."""
+            steps = [d.step for d in datapaths]
+            if three:
+                arc = SimpleNamespace(**{n: getattr(steps[Kind.CIRCULAR], n) for n in
+                                         StepSignature(2).members},
+                                      z=helix.move, z_neg=helix.neg,
+                                      diag3=steps[Kind.CIRCULAR].diag & helix.move)
+                arc.diag = arc.diag | helix.move  # an arc step moves one plane axis or two
+                steps[Kind.CIRCULAR] = arc
+            return SimpleNamespace(**{name: _select(kind, [getattr(st, name) for st in steps])
+                                      for name in StepSignature(self.axes).members})
 
         def answer(which: Value, port: str, setup: bool) -> Value:
             """A datapath's answer on ``port``, from datapaths with ``SETUP`` == ``setup``
@@ -252,7 +309,8 @@ class K3701(wiring.Component):
         # --- feed intake: hold one FP while the engine is busy, lose (and flag) a second ---
         engine_busy = (phase == _Phase.SETUP) | ((phase == _Phase.RUN) & (count != 0))
 
-        m.d.sync += [self.x_pos.eq(0), self.x_neg.eq(0), self.y_pos.eq(0), self.y_neg.eq(0)]
+        pulses = [getattr(self, f"{a}_{d}") for a in "xyz"[:self.axes] for d in ("pos", "neg")]
+        m.d.sync += [p.eq(0) for p in pulses]
         with m.If(regs.cmd.w_stb & regs.cmd.w_data[cmd.field("ack").offset]):
             m.d.sync += self.irq.eq(0)
         with m.If(regs.cmd.w_stb & regs.cmd.w_data[cmd.field("clear").offset]):
@@ -278,6 +336,8 @@ class K3701(wiring.Component):
                         kind.eq(new_kind),
                         sqrt2.eq(word[ctrl.field("sqrt2").offset]),
                         xm.eq(regs.x.w_data), ym.eq(regs.y.w_data),
+                        *([zm.eq(regs.z.w_data),
+                           plane.eq(_field(word, ctrl.field("plane")))] if three else []),
                         credit.eq(0), held.eq(0), count.eq(0),
                         phase.eq(_select(new_kind, [_Phase.SETUP if d.SETUP else _Phase.RUN
                                                     for d in datapaths])),
@@ -286,16 +346,25 @@ class K3701(wiring.Component):
                     with m.If(answer(new_kind, "end", setup=False)):
                         finish(answer(new_kind, "error", setup=False))
             with m.Case(_Phase.SETUP):
+                ready = answer(kind, "ready", setup=True)
                 with m.If(answer(kind, "end", setup=True)):
                     finish(answer(kind, "error", setup=True))
-                with m.Elif(answer(kind, "ready", setup=True)):
+                if three:  # a helix of more third-axis moves than arc steps is refused
+                    with m.Elif(ready & helix.error):
+                        finish(Const(1))
+                with m.Elif(ready):
                     m.d.sync += phase.eq(_Phase.RUN)
             with m.Case(_Phase.RUN):
                 with m.If(count == 0):
                     take = held | self.fp
                     m.d.sync += held.eq(held & self.fp)
-                    credit2 = credit + 2
-                    cost = Mux(sqrt2 & running_step().diag, 3, 2)
+                    if three:
+                        credit2 = credit + 4
+                        step = running_step()
+                        cost = Mux(sqrt2 & step.diag, Mux(step.diag3, 7, 6), 4)
+                    else:
+                        credit2 = credit + 2
+                        cost = Mux(sqrt2 & running_step().diag, 3, 2)
                     with m.If(take):
                         with m.If(credit2 >= cost):
                             m.d.sync += [credit.eq(credit2 - cost),
@@ -306,12 +375,19 @@ class K3701(wiring.Component):
                     m.d.sync += count.eq(count - 1)
                     with m.If(count == 1):
                         step = running_step()
-                        dx, dy = moves(step)
-                        m.d.sync += [
-                            self.x_pos.eq(step.x & ~step.x_neg), self.x_neg.eq(step.x & step.x_neg),
-                            self.y_pos.eq(step.y & ~step.y_neg), self.y_neg.eq(step.y & step.y_neg),
-                            xm.eq(xm - dx), ym.eq(ym - dy),
-                        ]
+                        if three:
+                            self._pulses_routed(m, step, plane)
+                            dx, dy, dz = moves(step, "xyz")
+                            m.d.sync += [xm.eq(xm - dx), ym.eq(ym - dy), zm.eq(zm - dz)]
+                        else:
+                            dx, dy = moves(step)
+                            m.d.sync += [
+                                self.x_pos.eq(step.x & ~step.x_neg),
+                                self.x_neg.eq(step.x & step.x_neg),
+                                self.y_pos.eq(step.y & ~step.y_neg),
+                                self.y_neg.eq(step.y & step.y_neg),
+                                xm.eq(xm - dx), ym.eq(ym - dy),
+                            ]
                         with m.If(step.final):
                             finish(step.error)
 
@@ -324,3 +400,15 @@ class K3701(wiring.Component):
         with m.If(start & (phase != _Phase.IDLE)):
             m.d.sync += self.error.eq(1)
         return m
+
+    def _pulses_routed(self, m: Module, step: SimpleNamespace, plane: Signal) -> None:
+        """The three-axis chip's step pulses: the block's axes to the machine's, by CTRL.plane
+        (:data:`hdl.k3701_model.PLANES`; code 3 routes as 0)."""
+        for code, axes in enumerate((*PLANES, PLANES[0])):
+            with m.If(plane == code):
+                for block_axis, machine_axis in zip("xyz", axes, strict=True):
+                    move = getattr(step, block_axis)
+                    neg = getattr(step, f"{block_axis}_neg")
+                    out = "xyz"[machine_axis]
+                    m.d.sync += [getattr(self, f"{out}_pos").eq(move & ~neg),
+                                 getattr(self, f"{out}_neg").eq(move & neg)]

@@ -35,10 +35,10 @@ def refused(block: wiring.PureInterface, *names: str) -> Value:
     return reduce(operator.or_, (getattr(block, name) == _MIN_COORD for name in names))
 
 
-def moves(step: Any) -> tuple[Value, Value]:
-    """The X and Y moves (-1, 0 or +1) of ``step`` (with the members of a
-    :class:`StepSignature`)."""
-    return (Mux(step.x, Mux(step.x_neg, -1, 1), 0), Mux(step.y, Mux(step.y_neg, -1, 1), 0))
+def moves(step: Any, axes: str = "xy") -> tuple[Value, ...]:
+    """The moves (-1, 0 or +1) of ``step`` (with the members of a :class:`StepSignature`) on
+    its ``axes``."""
+    return tuple(Mux(getattr(step, a), Mux(getattr(step, f"{a}_neg"), -1, 1), 0) for a in axes)
 
 
 class BlockSignature(wiring.Signature):
@@ -55,11 +55,16 @@ class BlockSignature(wiring.Signature):
         Circular direction: 0 CCW, 1 CW.
     quadrant : Out(2)
         Circular end-point quadrant code (0..3 = quadrant 1..4).
+    ze : Out(signed(24))
+        Three-axis chip only (``axes=3``): the end point's third coordinate (lines).
     """
 
-    def __init__(self) -> None:
-        super().__init__({"xe": Out(signed(24)), "ye": Out(signed(24)), "i": Out(signed(24)),
-                          "j": Out(signed(24)), "cw": Out(1), "quadrant": Out(2)})
+    def __init__(self, axes: int = 2) -> None:
+        members = {"xe": Out(signed(24)), "ye": Out(signed(24)), "i": Out(signed(24)),
+                   "j": Out(signed(24)), "cw": Out(1), "quadrant": Out(2)}
+        if axes == 3:
+            members["ze"] = Out(signed(24))
+        super().__init__(members)
 
 
 class StepSignature(wiring.Signature):
@@ -78,11 +83,17 @@ class StepSignature(wiring.Signature):
         The block ends with this step.
     error : Out(1)
         ... with ERROR (meaningful with ``final``).
+    z, z_neg, diag3 : Out(1)
+        Three-axis chip only: the third axis's move, and all three axes move (``diag`` is
+        then any two or more; with sqrt(2) control such a step costs 1.75 FP, and 1.5 with
+        two).
     """
 
-    def __init__(self) -> None:
-        super().__init__({name: Out(1) for name in
-                          ("x", "x_neg", "y", "y_neg", "diag", "final", "error")})
+    def __init__(self, axes: int = 2) -> None:
+        names = ("x", "x_neg", "y", "y_neg", "diag", "final", "error")
+        if axes == 3:
+            names += ("z", "z_neg", "diag3")
+        super().__init__({name: Out(1) for name in names})
 
 
 class DatapathSignature(wiring.Signature):
@@ -125,11 +136,12 @@ class DatapathSignature(wiring.Signature):
         (they may be decided in the stages).
     """
 
-    def __init__(self, stages: int):
+    def __init__(self, stages: int, axes: int = 2):
         super().__init__({
-            "start": In(1), "block": In(BlockSignature()), "setup": In(1),
+            "start": In(1), "block": In(BlockSignature(axes)), "setup": In(1),
             "stage": In(stages), "advance": In(1),
-            "ready": Out(1), "end": Out(1), "error": Out(1), "step": Out(StepSignature()),
+            "ready": Out(1), "end": Out(1), "error": Out(1),
+            "step": Out(StepSignature(axes)),
         })
 
 
@@ -138,11 +150,12 @@ class Datapath(wiring.Component):
 
     ``SETUP``: whether its blocks have a setup phase. ``STAGES``: how many cycles of a
     step's latency it needs to decide the next step (0: it decides it in the cycle the step
-    is output).
+    is output). ``axes``: the chip's axis count (2 or 3), which decides the signature.
     """
 
     SETUP: ClassVar[bool] = False
     STAGES: ClassVar[int] = 0
 
-    def __init__(self) -> None:
-        super().__init__(DatapathSignature(self.STAGES))
+    def __init__(self, axes: int = 2) -> None:
+        self.axes = axes
+        super().__init__(DatapathSignature(self.STAGES, axes))

@@ -6,15 +6,22 @@ Two layers:
   step, with no notion of time. :func:`plan` runs a whole block through them and is the
   exact FP-count calculator the firmware model uses.
 * :class:`K3701Model` adds the chip's timing, cycle by cycle: BUSY, the step latency, the FP
-  credit in half-FP units, the one-FP hold and the overrun bit. The gateware
-  (:mod:`hdl.k3701`) is tested against it cycle by cycle.
+  credit in half-FP units (quarter-FP units on the three-axis chip), the one-FP hold and the
+  overrun bit. The gateware (:mod:`hdl.k3701`) is tested against it cycle by cycle.
+
+The three-axis K3701 (``axes=3``) takes a block in its own coordinates (first, second,
+third): a line moves all three (:class:`LinearPath` steps the longest of the three), an arc
+runs in the first two and a helix moves the third, the plane's normal, with the arc
+(:class:`HelixPath`); ``Block.plane`` routes the three to the machine's X, Y and Z
+(:func:`route`).
 """
 
 from __future__ import annotations
 
 import enum
+from collections import Counter
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 __all__ = [
     "CIRCLE_SETUP_CYCLES",
@@ -22,9 +29,11 @@ __all__ = [
     "LATENCY_CIRCULAR",
     "LATENCY_LINEAR",
     "MAX_RADIUS_SQUARED",
+    "PLANES",
     "Block",
     "BlockError",
     "CircularPath",
+    "HelixPath",
     "K3701Model",
     "K3701Outputs",
     "Kind",
@@ -34,6 +43,8 @@ __all__ = [
     "make_path",
     "plan",
     "quadrant_of",
+    "route",
+    "step_cost",
     "walk",
 ]
 
@@ -46,6 +57,12 @@ LATENCY_CIRCULAR = 21
 CIRCLE_SETUP_CYCLES = 25
 #: Largest valid I^2 + J^2: the digital circle then stays within +-(2^23 - 1).
 MAX_RADIUS_SQUARED = (1 << 46) - (1 << 23)
+#: CTRL.plane code -> the machine axes (0 X, 1 Y, 2 Z) of a block's first, second and third
+#: coordinates: G17 (X, Y, Z), G18 (Z, X, Y), G19 (Y, Z, X), as LinuxCNC's canon orders them.
+PLANES = ((0, 1, 2), (2, 0, 1), (1, 2, 0))
+#: Step cost in quarter-FP units on the three-axis chip with sqrt(2) control, by the number of
+#: axes a step moves: 1, 1.5 (sqrt 2 = 1.41) and 1.75 (sqrt 3 = 1.73) FP.
+_COST_3 = {1: 4, 2: 6, 3: 7}
 
 
 class Kind(enum.IntEnum):
@@ -61,14 +78,39 @@ class BlockError(ValueError):
 
 @dataclass(frozen=True)
 class Step:
-    """One interpolation step: the moves on each axis (-1, 0, +1)."""
+    """One interpolation step: the moves on each block axis (-1, 0, +1)."""
 
     dx: int
     dy: int
+    dz: int = 0
 
     @property
     def diagonal(self) -> bool:
         return self.dx != 0 and self.dy != 0
+
+    @property
+    def moved(self) -> int:
+        """How many axes the step moves."""
+        return (self.dx != 0) + (self.dy != 0) + (self.dz != 0)
+
+
+def step_cost(step: Step, sqrt2: bool, axes: int = 2) -> int:
+    """A step's cost in credit units: half FP on the two-axis chip (2, or 3 for a diagonal
+    with sqrt(2) control), quarter FP on the three-axis one (4; with sqrt(2) control 6 for two
+    axes, 7 for three)."""
+    if axes == 2:
+        return 3 if sqrt2 and step.diagonal else 2
+    return _COST_3[step.moved] if sqrt2 else 4
+
+
+def route(step: Step, plane: int) -> tuple[int, int, int]:
+    """The machine's (X, Y, Z) moves of a step in block coordinates, for CTRL.plane code
+    ``plane`` (:data:`PLANES`)."""
+    moves = [0, 0, 0]
+    axes = PLANES[plane] if plane < len(PLANES) else PLANES[0]  # code 3 routes as 0
+    for axis, move in zip(axes, (step.dx, step.dy, step.dz), strict=True):
+        moves[axis] = move
+    return moves[0], moves[1], moves[2]
 
 
 # Motion signs (dx, dy) inside each quadrant, for CCW and CW.
@@ -109,6 +151,10 @@ class Block:
 
     ``xe, ye``: end point relative to the start. ``i, j``: centre relative to the start
     (circular only). ``quadrant``: the control word's end-point quadrant (circular only).
+    Three-axis chip only: ``ze``, the travel along the third axis (a line's, or a helix's
+    along the plane's normal); ``plane``, the CTRL.plane code routing the block's axes to the
+    machine's (:data:`PLANES`); ``helix_steps``, the arc's step count N, over which a helix
+    spreads its ``ze`` (the host's plan gives it: :attr:`Plan.steps`).
     """
 
     kind: Kind
@@ -119,16 +165,20 @@ class Block:
     cw: bool = False
     sqrt2: bool = False
     quadrant: int = 1
+    ze: int = 0
+    plane: int = 0
+    helix_steps: int = 0
 
     @classmethod
-    def line(cls, xe: int, ye: int, *, sqrt2: bool = False) -> Block:
-        return cls(Kind.LINEAR, xe, ye, sqrt2=sqrt2)
+    def line(cls, xe: int, ye: int, ze: int = 0, *, sqrt2: bool = False) -> Block:
+        return cls(Kind.LINEAR, xe, ye, sqrt2=sqrt2, ze=ze)
 
     @classmethod
-    def arc(cls, xe: int, ye: int, i: int, j: int, *, cw: bool = False,
-            sqrt2: bool = False) -> Block:
+    def arc(cls, xe: int, ye: int, i: int, j: int, *, cw: bool = False, sqrt2: bool = False,
+            ze: int = 0, plane: int = 0, helix_steps: int = 0) -> Block:
         """An arc with its end-point quadrant computed from the end point (as the host does)."""
-        return cls(Kind.CIRCULAR, xe, ye, i, j, cw, sqrt2, quadrant_of(xe - i, ye - j, cw))
+        return cls(Kind.CIRCULAR, xe, ye, i, j, cw, sqrt2, quadrant_of(xe - i, ye - j, cw),
+                   ze, plane, helix_steps)
 
     @property
     def latency(self) -> int:
@@ -140,44 +190,84 @@ def _check_coord(name: str, value: int) -> None:
         raise BlockError(f"{name} = {value} is outside -(2^23-1)..2^23-1")
 
 
-class LinearPath:
-    """Bresenham/DDA on the long axis (the larger |component|, ties to X).
+class _Dda:
+    """One short axis of a DDA: ``n`` moves spread over ``total`` steps. It moves when its
+    accumulator, started at half the total, reaches the total: the moves fall where the true
+    line crosses a half-LSB, and exactly ``n`` of them come in ``total`` steps."""
 
-    The short axis moves when the accumulator, started at half the long count, reaches the
+    def __init__(self, n: int, total: int):
+        self.n, self.total, self.acc = n, total, total // 2
+
+    def peek(self) -> bool:
+        return self.acc + self.n >= self.total
+
+    def advance(self) -> bool:
+        move = self.peek()
+        self.acc += self.n - (self.total if move else 0)
+        return move
+
+
+class LinearPath:
+    """Bresenham/DDA on the long axis (the largest |component|, ties to X, then Y).
+
+    Each short axis moves when its accumulator, started at half the long count, reaches the
     long count: the short moves fall where the true line crosses a half-LSB, and the block
-    ends exactly at (xe, ye).
+    ends exactly at (xe, ye, ze). A two-axis block has ze = 0.
     """
 
-    def __init__(self, xe: int, ye: int):
+    def __init__(self, xe: int, ye: int, ze: int = 0):
         _check_coord("Xe", xe)
         _check_coord("Ye", ye)
-        self.long_is_x = abs(xe) >= abs(ye)
-        self.n_long = max(abs(xe), abs(ye))
-        self.n_short = min(abs(xe), abs(ye))
-        self.sx = (xe > 0) - (xe < 0)
-        self.sy = (ye > 0) - (ye < 0)
-        self.acc = self.n_long // 2
+        _check_coord("Ze", ze)
+        ends = (xe, ye, ze)
+        mags = [abs(e) for e in ends]
+        self.long = mags.index(max(mags))
+        self.long_is_x = self.long == 0
+        self.n_long = mags[self.long]
+        self.signs = [(e > 0) - (e < 0) for e in ends]
+        self.shorts = {k: _Dda(mags[k], self.n_long) for k in range(3) if k != self.long}
         self.left = self.n_long
+
+    @property
+    def n_short(self) -> int:
+        """The moves of the longer short axis (a two-axis line's short count)."""
+        return max(d.n for d in self.shorts.values())
 
     @property
     def done(self) -> bool:
         return self.left == 0
 
+    def _step(self, moves: dict[int, bool]) -> Step:
+        return Step(*(self.signs[k] if k == self.long or moves[k] else 0 for k in range(3)))
+
     def peek(self) -> Step:
         """The next step (the path must not be done)."""
-        short = self.acc + self.n_short >= self.n_long
-        if self.long_is_x:
-            return Step(self.sx, self.sy if short else 0)
-        return Step(self.sx if short else 0, self.sy)
+        return self._step({k: d.peek() for k, d in self.shorts.items()})
 
     def advance(self) -> tuple[Step, bool, bool]:
         """Take the next step; returns (step, final, error)."""
-        step = self.peek()
-        self.acc += self.n_short
-        if self.acc >= self.n_long:
-            self.acc -= self.n_long
+        step = self._step({k: d.advance() for k, d in self.shorts.items()})
         self.left -= 1
         return step, self.left == 0, False
+
+
+class HelixPath:
+    """A helix's third axis: ``ze`` moves spread over the arc's ``n`` steps (a DDA on the arc's
+    steps, so it ends exactly with the arc). Needs |ze| <= n: at most one move per step."""
+
+    def __init__(self, ze: int, n: int):
+        _check_coord("Ze", ze)
+        if abs(ze) > n:
+            raise BlockError(f"the helix's third axis moves {abs(ze)} LSB in {n} arc steps: "
+                             f"more than one per step")
+        self.sign = (ze > 0) - (ze < 0)
+        self.dda = _Dda(abs(ze), n)
+
+    def peek(self) -> int:
+        return self.sign if self.dda.peek() else 0
+
+    def advance(self) -> int:
+        return self.sign if self.dda.advance() else 0
 
 
 class CircularPath:
@@ -255,11 +345,37 @@ class CircularPath:
         return step, False, False
 
 
-def make_path(block: Block) -> LinearPath | CircularPath:
+class HelicalPath:
+    """An arc (:class:`CircularPath`) whose steps also drive a helix's third axis
+    (:class:`HelixPath`, over ``block.helix_steps`` arc steps)."""
+
+    def __init__(self, arc: CircularPath, helix: HelixPath):
+        self.arc, self.helix = arc, helix
+
+    @property
+    def done(self) -> bool:
+        return self.arc.done
+
+    def peek(self) -> Step:
+        step = self.arc.peek()
+        return Step(step.dx, step.dy, self.helix.peek())
+
+    def advance(self) -> tuple[Step, bool, bool]:
+        step, final, error = self.arc.advance()
+        return Step(step.dx, step.dy, self.helix.advance()), final, error
+
+
+Path = LinearPath | CircularPath | HelicalPath
+
+
+def make_path(block: Block) -> Path:
     """The algorithm for a block; raises :class:`BlockError` for data the chip refuses."""
     if block.kind is Kind.LINEAR:
-        return LinearPath(block.xe, block.ye)
-    return CircularPath(block.xe, block.ye, block.i, block.j, block.cw, block.quadrant)
+        return LinearPath(block.xe, block.ye, block.ze)
+    arc = CircularPath(block.xe, block.ye, block.i, block.j, block.cw, block.quadrant)
+    if block.ze:
+        return HelicalPath(arc, HelixPath(block.ze, block.helix_steps))
+    return arc
 
 
 def walk(block: Block) -> Iterator[Step]:
@@ -277,7 +393,12 @@ def walk(block: Block) -> Iterator[Step]:
 
 @dataclass(frozen=True)
 class Plan:
-    """What a block does: its step counts, the FP it needs and where it ends."""
+    """What a block does: its step counts, the FP it needs and where it ends.
+
+    ``end``: the end in the block's first two coordinates; ``ze``: its travel along the third
+    (a line's Ze or a helix's, exactly). ``diagonal``: the steps that move two axes or more;
+    ``pulses``: per block axis and direction.
+    """
 
     steps: int
     diagonal: int
@@ -285,36 +406,67 @@ class Plan:
     end: tuple[int, int]
     error: bool
     pulses: dict[str, int]
+    ze: int = 0
+
+
+def _coincident(a: _Dda, b: _Dda) -> int:
+    """In how many steps of a line both short axes ``a`` and ``b`` (over the same total) move:
+    each move of the one with fewer moves, checked against the other (no walk of the line)."""
+    if a.n > b.n:
+        a, b = b, a
+    total, h = a.total, a.total // 2
+    both = 0
+    for j in range(1, a.n + 1):
+        s = -(-(j * total - h) // a.n)  # the step (from 1) of a's j-th move
+        both += (h + s * b.n) // total - (h + (s - 1) * b.n) // total
+    return both
+
+
+def _fp(steps: int, two: int, three: int, sqrt2: bool) -> int:
+    """FP of a block with ``two`` and ``three`` steps moving two and three axes: the sum of
+    the step costs over the credit per FP (N_long + ceil(N_diag / 2) for two axes)."""
+    if not sqrt2:
+        return steps
+    return -(-(4 * steps + 2 * two + 3 * three) // 4)
 
 
 def plan(block: Block) -> Plan:
     """Run a block through the algorithm: the exact FP count and final point.
 
-    ``fp`` = N_long + ceil(N_diag / 2) with sqrt(2) control, N_long without it. Raises
-    :class:`BlockError` for data the chip refuses; an arc whose end is not on its path comes
-    back with ``error`` set (the chip would stop it with its ERROR bit).
+    ``fp`` = N_long + ceil(N_diag / 2) with sqrt(2) control for a two-axis block, N_long
+    without it; a three-axis one costs 1, 1.5 or 1.75 FP per step moving 1, 2 or 3 axes
+    (:func:`step_cost`), rounded up over the block. A helix's third axis is spread over the
+    arc's own step count (the ``helix_steps`` the host loads), whatever ``block.helix_steps``
+    says. Raises :class:`BlockError` for data the chip refuses; an arc whose end is not on its
+    path comes back with ``error`` set (the chip would stop it with its ERROR bit).
     """
-    path = make_path(block)
-    if isinstance(path, LinearPath):
-        n, diag, error = path.n_long, path.n_short, False
-        end = (block.xe, block.ye)
-        xp, xn = max(block.xe, 0), max(-block.xe, 0)
-        yp, yn = max(block.ye, 0), max(-block.ye, 0)
-    else:
-        n = diag = xp = xn = yp = yn = 0
-        x0, y0 = path.x, path.y
-        final = error = False
-        while not final:
-            step, final, error = path.advance()
-            n += 1
-            diag += step.dx != 0 and step.dy != 0
-            xp += step.dx > 0
-            xn += step.dx < 0
-            yp += step.dy > 0
-            yn += step.dy < 0
-        end = (path.x - x0, path.y - y0)
-    fp = n + (diag + 1) // 2 if block.sqrt2 else n
-    return Plan(n, diag, fp, end, error, {"x+": xp, "x-": xn, "y+": yp, "y-": yn})
+    if block.kind is Kind.LINEAR:
+        path = LinearPath(block.xe, block.ye, block.ze)
+        a, b = path.shorts.values()
+        three = _coincident(a, b) if a.n and b.n else 0
+        n, diag = path.n_long, a.n + b.n - three
+        ends = (block.xe, block.ye, block.ze)
+        pulses = {f"{axis}{sign}": max(e if sign == "+" else -e, 0)
+                  for axis, e in zip("xyz", ends, strict=True) for sign in "+-"}
+        return Plan(n, diag, _fp(n, diag - three, three, block.sqrt2), ends[:2], False, pulses,
+                    block.ze)
+    path = make_path(replace(block, ze=0))  # the arc; the helix is spread over its steps
+    steps: list[Step] = []
+    final = error = False
+    while not final:
+        step, final, error = path.advance()
+        steps.append(step)
+    if block.ze:
+        helix = HelixPath(block.ze, len(steps))
+        steps = [Step(s.dx, s.dy, helix.advance()) for s in steps]
+    counts = Counter(s.moved for s in steps)
+    pulses = {f"{axis}{sign}": sum(getattr(s, f"d{axis}") == (1 if sign == "+" else -1)
+                                   for s in steps)
+              for axis in "xyz" for sign in "+-"}
+    end = (pulses["x+"] - pulses["x-"], pulses["y+"] - pulses["y-"])
+    return Plan(len(steps), counts[2] + counts[3],
+                _fp(len(steps), counts[2], counts[3], block.sqrt2), end, error, pulses,
+                block.ze)
 
 
 @dataclass
@@ -331,6 +483,9 @@ class K3701Outputs:
     overrun: int = 0
     xm: int = 0
     ym: int = 0
+    z_pos: int = 0
+    z_neg: int = 0
+    zm: int = 0
 
 
 class _Phase(enum.Enum):
@@ -359,16 +514,23 @@ class K3701Model:
       cycle t + L and the engine takes its next FP from that cycle on. Before that, one FP is
       held and a further one sets OVERRUN and is lost.
     * the final step's pulses, BUSY falling and the interrupt rising share one cycle.
+
+    ``axes=3``: the three-axis chip. Credit in quarter-FP units (an FP adds 4, a step costs
+    :func:`step_cost`); the remaining distances xm, ym, zm are in block coordinates and the
+    step pulses go to the machine axes CTRL.plane names (:func:`route`); a helix whose
+    |Ze| exceeds its step count N ends at the radius check with ERROR.
     """
 
     def __init__(self, latency_linear: int = LATENCY_LINEAR,
                  latency_circular: int = LATENCY_CIRCULAR,
-                 circle_setup: int = CIRCLE_SETUP_CYCLES):
+                 circle_setup: int = CIRCLE_SETUP_CYCLES, axes: int = 2):
+        self.axes = axes
+        self.unit = 2 if axes == 2 else 4  # credit units per FP
         self.latency = {Kind.LINEAR: latency_linear, Kind.CIRCULAR: latency_circular}
         self.circle_setup = circle_setup
         self.out = K3701Outputs()
         self.phase = _Phase.IDLE
-        self.path: LinearPath | CircularPath | None = None
+        self.path: Path | None = None
         self.block: Block | None = None
         self.setup_left = 0
         self.count = 0
@@ -386,13 +548,13 @@ class K3701Model:
         nxt.error |= error
 
     def _cost(self) -> int:
-        return 3 if self.block.sqrt2 and self.path.peek().diagonal else 2
+        return step_cost(self.path.peek(), self.block.sqrt2, self.axes)
 
     def cycle(self, fp: bool = False, start: Block | None = None, ack: bool = False,
               clear: bool = False) -> K3701Outputs:
         out = self.out
         nxt = K3701Outputs(busy=out.busy, irq=out.irq, error=out.error, overrun=out.overrun,
-                           xm=out.xm, ym=out.ym)
+                           xm=out.xm, ym=out.ym, zm=out.zm)
         if ack:
             nxt.irq = 0
         if clear:
@@ -432,14 +594,14 @@ class K3701Model:
         self.credit = 0
         self.held = False
         self.count = 0
-        nxt.xm, nxt.ym = block.xe, block.ye
+        nxt.xm, nxt.ym, nxt.zm = block.xe, block.ye, block.ze
         if block.kind is Kind.CIRCULAR:
             self.phase = _Phase.SETUP
             self.setup_left = self.circle_setup
             nxt.busy = 1
             return
         try:
-            self.path = LinearPath(block.xe, block.ye)
+            self.path = LinearPath(block.xe, block.ye, block.ze)
         except BlockError:
             nxt.irq = nxt.error = 1
             return
@@ -456,10 +618,13 @@ class K3701Model:
             self.count -= 1
             if self.count == 0:
                 step, final, error = self.path.advance()
-                nxt.x_pos, nxt.x_neg = int(step.dx > 0), int(step.dx < 0)
-                nxt.y_pos, nxt.y_neg = int(step.dy > 0), int(step.dy < 0)
+                dx, dy, dz = route(step, self.block.plane)
+                nxt.x_pos, nxt.x_neg = int(dx > 0), int(dx < 0)
+                nxt.y_pos, nxt.y_neg = int(dy > 0), int(dy < 0)
+                nxt.z_pos, nxt.z_neg = int(dz > 0), int(dz < 0)
                 nxt.xm -= step.dx
                 nxt.ym -= step.dy
+                nxt.zm -= step.dz
                 if final:
                     self._finish(nxt, error)
             return
@@ -469,7 +634,7 @@ class K3701Model:
         else:
             take = fp
         if take:
-            self.credit += 2
+            self.credit += self.unit
             cost = self._cost()
             if self.credit >= cost:
                 self.credit -= cost

@@ -189,6 +189,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="k37", description="Cycle-accurate emulator of the TOKO KM3701/KM3702 NC chipset.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
+    from hdl.chipset import ALL_AXES
     from sim.backends.factory import BACKEND_NAMES
 
     p = sub.add_parser("run", help="run a job (TOML or G-code); no job: the built-in demo")
@@ -223,9 +224,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "figures (circularity, 2-theta ellipse, ...) in the report")
     p.add_argument("--ballbar-settle", type=float, default=0.0, metavar="DEG",
                    help="leave out the first DEG degrees round the circle (the feed-in)")
-    p.add_argument("--stall", action="append", default=[], choices=["x", "y"],
+    p.add_argument("--stall", action="append", default=[], choices=list(ALL_AXES),
                    help="fault: block this axis's motor")
-    p.add_argument("--break-line", action="append", default=[], choices=["x", "y"],
+    p.add_argument("--break-line", action="append", default=[], choices=list(ALL_AXES),
                    help="fault: break this axis's /A encoder line")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary, no progress line")
     p.set_defaults(func=_cmd_run)

@@ -2,24 +2,34 @@
 
 from __future__ import annotations
 
-from hdl.chipset import CHIP_SELECTS, REG_BITS
+from hdl.chipset import CHIP_SELECTS, REG_BITS, SUB_WINDOWS, chip_selects, port
 from hdl.hostbus import RegisterMap, registers_markdown
 
 __all__ = ["REGISTER_MAPS", "documents", "registers_document"]
 
-#: Every distinct register map, in chip-select order.
+#: The three-axis chipset's chips (the two-axis chipset's are the first seven, with the
+#: two-axis K3701).
+_CHIPS = chip_selects(3)
+#: Every distinct register map, in chip-select order (the K3701's is the three-axis build's,
+#: a superset of the two-axis one).
 REGISTER_MAPS: tuple[RegisterMap, ...] = tuple(
-    {id(m): m for _, m in sorted(CHIP_SELECTS.values(), key=lambda v: v[0])}.values())
+    {id(m): m for _, m in sorted(_CHIPS.values(), key=lambda v: v[0])}.values())
 
 
 def _chip_selects() -> str:
     lines = ["## Chip selects", "",
-             f"An 8085 I/O port address is `chip select << {REG_BITS} | register address`.", "",
-             "| chip | chip select | ports | register map |", "|---|---|---|---|"]
-    for chip, (cs, regmap) in CHIP_SELECTS.items():
-        base = cs << REG_BITS
-        lines.append(f"| {chip} | {cs} | {base:#04x}-{base + regmap.size - 1:#04x} | "
-                     f"{regmap.chip} |")
+             f"An 8085 I/O port address is `chip select << {REG_BITS} | register address`. "
+             f"The three-axis chipset (`machine.axes = 3`) adds the Z axis's chips on chip "
+             f"select 7, which also decodes A4 (a chip's register window starts at its offset "
+             f"in the select), and has the three-axis K3701 (the two-axis chip answers at "
+             f"0x00-0x0e only).", "",
+             "| chip | chip select | ports | register map | chipsets |", "|---|---|---|---|---|"]
+    for chip, (cs, regmap) in _CHIPS.items():
+        first = port(chip, regmap.registers[0].name)
+        which = "both" if chip in CHIP_SELECTS else "three-axis"
+        offset = f" (A4 = 1: offset {SUB_WINDOWS[chip]:#04x})" if chip in SUB_WINDOWS else ""
+        lines.append(f"| {chip} | {cs}{offset} | {first:#04x}-{first + regmap.size - 1:#04x} "
+                     f"| {regmap.chip} | {which} |")
     return "\n".join(lines) + "\n"
 
 

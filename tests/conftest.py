@@ -16,33 +16,44 @@ from pathlib import Path
 import pytest
 
 from firmware_model.gcode import parse
-from firmware_model.job import AXES, Job, MachineConfig, ServoConfig
+from firmware_model.job import Job, MachineConfig, ServoConfig
 
 
 def _make_job(gcode: str, machine: MachineConfig | None = None,
               servo: ServoConfig | None = None, *, name: str = "test",
               source: str | None = None) -> Job:
     """``gcode`` (named ``source`` in errors, default ``<name>``) on ``machine`` (default: the
-    paper's) with ``servo`` on both axes."""
+    paper's) with ``servo`` on every axis."""
     machine = machine or MachineConfig()
     program = parse(gcode, source=source or f"<{name}>", lsb_mm=machine.lsb_mm,
-                    sqrt2=machine.sqrt2)
-    return Job(name, machine, dict.fromkeys(AXES, servo or ServoConfig()), program)
+                    sqrt2=machine.sqrt2, axes=machine.axes)
+    return Job(name, machine, dict.fromkeys(machine.axis_names, servo or ServoConfig()),
+               program)
 
 
-def _random_moves(seed: int, accel: str, *, dwell: bool) -> tuple[Job, dict, float]:
+def _random_moves(seed: int, accel: str, *, dwell: bool, axes: int = 2
+                  ) -> tuple[Job, dict, float]:
     """Three short random lines or full circles (each followed by a 50 to 150 ms dwell if
     ``dwell``) on a random small machine, and random faults: the job, its faults and the
-    seconds of dwell."""
+    seconds of dwell. On three axes (``axes=3``) the lines move Z too and the circles are in
+    a random plane, helical (their normal axis moving) half the time."""
     rng = random.Random(seed)
     lines = [f"G21 G91 F{rng.choice((300, 1200, 2400))}"]
     seconds = 0.0
     for _ in range(3):
         if rng.random() < 0.5:
             x, y = rng.randint(-40, 40) / 1000, rng.randint(-40, 40) / 1000
-            lines.append(f"G01 X{x:.3f} Y{y:.3f}")
+            z = f" Z{rng.randint(-40, 40) / 1000:.3f}" if axes == 3 else ""
+            lines.append(f"G01 X{x:.3f} Y{y:.3f}{z}")
         else:
-            lines.append(f"G0{rng.choice((2, 3))} I{rng.randint(5, 30) / 1000:.3f} J0")
+            arc = f"G0{rng.choice((2, 3))} I{rng.randint(5, 30) / 1000:.3f} J0"
+            if axes == 3:
+                plane, first, normal = rng.choice((("G17", "I", "Z"), ("G18", "K", "Y"),
+                                                   ("G19", "J", "X")))
+                r = rng.randint(5, 30)  # a full circle: 5.6 r steps, more than the helix's r
+                helix = f" {normal}{rng.randint(-r, r) / 1000:.3f}" if rng.random() < 0.5 else ""
+                arc = f"{plane} G0{rng.choice((2, 3))} {first}{r / 1000:.3f}{helix}"
+            lines.append(arc)
         if dwell:
             wait = rng.randint(50, 150) / 1000  # the axes settle in the first 10 to 40 ms
             lines.append(f"G04 P{wait}")
@@ -52,11 +63,11 @@ def _random_moves(seed: int, accel: str, *, dwell: bool) -> tuple[Job, dict, flo
                             sqrt2=rng.random() < 0.5,
                             accel_fa_hz=float(rng.randint(50_000, 400_000)),
                             alarm_limit=rng.choice((30, 20_000)),
-                            encoder_filter=rng.randint(1, 4))
+                            encoder_filter=rng.randint(1, 4), axes=axes)
     servo = ServoConfig(kp=rng.uniform(100, 400), tm=rng.uniform(0.0002, 0.002))
     faults = {}
     if rng.random() < 0.4:
-        faults[rng.choice(AXES)] = {rng.choice(("stall", "break_a")): 1}
+        faults[rng.choice(machine.axis_names)] = {rng.choice(("stall", "break_a")): 1}
     return _make_job("\n".join(lines), machine, servo, name=f"random-{seed}"), faults, seconds
 
 
@@ -69,8 +80,8 @@ def make_job() -> Callable[..., Job]:
 
 @pytest.fixture(scope="session")
 def random_moves() -> Callable[..., tuple[Job, dict, float]]:
-    """``random_moves(seed, accel, *, dwell)``: a random short job, its faults and its dwell
-    seconds (see :func:`_random_moves`)."""
+    """``random_moves(seed, accel, *, dwell, axes=2)``: a random short job, its faults and its
+    dwell seconds (see :func:`_random_moves`)."""
     return _random_moves
 
 

@@ -121,7 +121,7 @@ def test_k37_run_exits_non_zero_with_the_alarm_in_the_json(job_file, k37):
 
 @pytest.mark.parametrize(("content", "message"), [
     ("[machine]\nacel = 'pre'\n[program]\ngcode = 'M30'\n", "unknown key machine.acel"),
-    ("[program]\ngcode = 'G01 X1 Z3 F100'\n", "unsupported word Z3"),
+    ("[machine]\naxes = 2\n[program]\ngcode = 'G01 X1 Z3 F100'\n", "unsupported word Z3"),
     ("[program]\ngcode = 'G01 X1'\n", "F"),
     ("[machine\n", "job.toml:1"),
     ("[program]\ngcode = 'G01 X9000 F100'\n", "outside"),

@@ -65,7 +65,8 @@ def test_an_unknown_block_is_refused_before_anything_is_written(tmp_path):
 
 def test_the_header_names_the_parameters_and_the_register_map_version():
     k3701 = text("k3701")
-    assert "// Parameters: latency_linear = 11, latency_circular = 21, circle_setup = 25." in k3701
+    assert ("// Parameters: latency_linear = 11, latency_circular = 21, circle_setup = 25, "
+            "axes = 2.") in k3701
     assert "// Register map K3701, version 1 (15 bytes;" in k3701
     assert "//   0x0e  STATUS          8 bits  r" in k3701
     assert "// Parameters: n = 15, counter_width = 24, bidirectional = True." in \

@@ -34,7 +34,7 @@ from hdl.encoder_model import EncoderModel
 from hdl.feed_rate import DIVIDER_WIDTH, FEED_MAP
 from hdl.hostbus import Register, RegisterMap
 from hdl.hostbus_model import RegisterBankModel
-from hdl.k3701 import K3701_MAP
+from hdl.k3701 import K3701_MAP, K3701_MAP_3
 from hdl.k3701_model import Block, K3701Model, Kind
 from hdl.k3702 import K3702_MAP
 from hdl.k3702_model import K3702Model
@@ -146,10 +146,12 @@ class Chip:
 
 class K3701Chip(Chip):
     name, regmap, gap = "k3701", K3701_MAP, 30
+    #: The chip's axes (the three-axis build adds Z, H, CTRL.plane and the Z step pulses).
+    axes = "xy"
 
     def reset(self) -> None:
-        self.model = K3701Model()
-        self.bank = RegisterBankModel(K3701_MAP)
+        self.model = K3701Model(axes=len(self.axes))
+        self.bank = RegisterBankModel(self.regmap)
         self.fp_rate = 0.4
 
     def inputs(self, rng):
@@ -162,33 +164,45 @@ class K3701Chip(Chip):
             return rng.choice((1, 1, 3, 7, 2, 4, rng.randrange(256)))
         if reg.name == "CTRL":
             return rng.randrange(256) if rng.random() < 0.2 else rng.randrange(32)
+        if reg.name == "H":  # a helix's step count: small, so that some helices run
+            return rng.randint(0, 40)
         odd = rng.random()  # -2^23 is invalid; a long block runs past the test
         if odd < 0.05:
             return -(1 << 23) if odd < 0.02 else rng.randint(-(1 << 23), (1 << 23) - 1)
         return rng.randint(-12, 12)
 
     def cycle(self, pins, write):
-        bank = self.bank
-        cmd_reg, ctrl_reg = K3701_MAP["CMD"], K3701_MAP["CTRL"]
+        bank, regmap = self.bank, self.regmap
+        cmd_reg, ctrl_reg = regmap["CMD"], regmap["CTRL"]
         cmd = bank.values["CMD"] if bank.w_stb("CMD") else 0
         block = None
         if cmd_reg.field("start").decode(cmd):
             v, ctrl = bank.values, bank.values["CTRL"]
+            third = (v["Z"], ctrl_reg.field("plane").decode(ctrl), v["H"]) if "z" in self.axes \
+                else ()
             block = Block(Kind(ctrl_reg.field("circular").decode(ctrl)), v["X"], v["Y"], v["I"],
                           v["J"], bool(ctrl_reg.field("cw").decode(ctrl)),
                           bool(ctrl_reg.field("sqrt2").decode(ctrl)),
-                          ctrl_reg.field("quadrant").decode(ctrl) + 1)
+                          ctrl_reg.field("quadrant").decode(ctrl) + 1, *third)
         out = self.model.cycle(fp=bool(pins["fp"]), start=block,
                                ack=bool(cmd_reg.field("ack").decode(cmd)),
                                clear=bool(cmd_reg.field("clear").decode(cmd)))
-        status = K3701_MAP["STATUS"].encode(busy=out.busy, irq=out.irq, error=out.error,
-                                            overrun=out.overrun)
-        registers = {"X": out.xm, "Y": out.ym, "CTRL": bank.values["CTRL"], "STATUS": status}
+        status = regmap["STATUS"].encode(busy=out.busy, irq=out.irq, error=out.error,
+                                         overrun=out.overrun)
+        registers = {**{a.upper(): getattr(out, f"{a}m") for a in self.axes},
+                     "CTRL": bank.values["CTRL"], "STATUS": status}
         if write:
             bank.write(*write)
         bank.clock()
-        names = ("x_pos", "x_neg", "y_pos", "y_neg", "busy", "irq", "error", "overrun")
+        names = (*(f"{a}_{d}" for a in self.axes for d in ("pos", "neg")), "busy", "irq",
+                 "error", "overrun")
         return {n: getattr(out, n) for n in names}, registers
+
+
+class K3701Chip3(K3701Chip):
+    """The three-axis K3701: Z and H registers, CTRL.plane routing, the Z step pulses."""
+
+    name, regmap, axes = "k3701_3axis", K3701_MAP_3, "xyz"
 
 
 class K3702Chip(Chip):
@@ -393,7 +407,7 @@ class FeedRateChip(Chip):
 
 CHIPS = {chip.name: chip for chip in (K3701Chip, K3702Chip, EncoderChip, AccelDecelChip,
                                       AccelDecelAxisChip, RateMultiplierChip, DividerChip,
-                                      DecelControlChip, FeedRateChip)}
+                                      DecelControlChip, FeedRateChip, K3701Chip3)}
 
 
 # --- the co-simulation loop ---------------------------------------------------------------------

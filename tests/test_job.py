@@ -91,8 +91,8 @@ def test_a_gcode_file_runs_on_the_default_machine(tmp_path, suffix):
 
 
 def test_a_bad_gcode_file_names_its_line_and_column(tmp_path):
-    path = write(tmp_path, "G17\nG01 X1 Z2 F1\n", "part.ngc")
-    with pytest.raises(GcodeError, match=r"^.*part\.ngc:2:8: unsupported word Z2 "):
+    path = write(tmp_path, "G17\nG01 X1 A2 F1\n", "part.ngc")
+    with pytest.raises(GcodeError, match=r"^.*part\.ngc:2:8: unsupported word A2 "):
         load_job(path)
 
 
@@ -177,7 +177,7 @@ def test_a_gcode_error_in_an_inline_program_names_the_job_key(tmp_path):
     ("[machine]\nacel = 'pre'\n" + PROGRAM, "machine.acel"),
     ("[servo]\nkpp = 1\n" + PROGRAM, "servo.kpp"),
     ("[servo.x]\nkp = 1\nkpp = 1\n" + PROGRAM, "servo.x.kpp"),
-    ("[servo.z]\nkp = 1\n" + PROGRAM, "servo.z"),
+    ("[servo.w]\nkp = 1\n" + PROGRAM, "servo.w"),
     ("[run]\nmax_time = 1\n" + PROGRAM, "run.max_time"),
     (PROGRAM + "tolerance = 1\n", "program.tolerance"),
     ("[machnie]\n" + PROGRAM, "machnie"),
@@ -297,6 +297,7 @@ def test_the_ranges_are_the_blocks():
         "machine.alarm_limit": "in 0..16777215",
         "machine.encoder_filter": "in 1..255",
         "machine.rapid_mm_min": "> 0 mm/min",
+        "machine.axes": "in 2..3",
         "servo.kp": "> 0 and < 1000000 1/s (32-bit gain at clock_hz)",
         "servo.tm": ">= 0 and <= 16.777216 s (24-bit alpha at clock_hz)",
         "servo.max_speed": "> 0 and < 3932160000 mm/min (48-bit speed limit at clock_hz and "

@@ -38,6 +38,7 @@ from amaranth.back import verilog
 from amaranth.hdl import Shape
 from amaranth.lib import wiring
 
+from hdl.chipset import SUB_WINDOWS
 from hdl.hostbus import HostBus, RegisterMap
 
 __all__ = [
@@ -74,8 +75,9 @@ class Exportable:
 
     @property
     def probes(self) -> tuple[str, ...]:
-        """The block's observation outputs (its class's ``PROBES``), kept out of the pins."""
-        return getattr(self._class(), "PROBES", ())
+        """The block's observation outputs (its ``PROBES``, those of the instance built with
+        ``params``), kept out of the pins."""
+        return getattr(self.component(), "PROBES", ())
 
     def _module(self):
         return importlib.import_module(self.factory.split(":")[0])
@@ -92,10 +94,22 @@ class Exportable:
         return {name: self.params.get(name, p.default) for name, p in sig.parameters.items()
                 if name != "self" and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)}
 
+    def chip_selects(self) -> dict[str, tuple[int, RegisterMap]] | None:
+        """A chipset top's chips: select and register map of each (its ``chips``)."""
+        return getattr(self.component(), "chips", None)
+
     def register_maps(self) -> list[RegisterMap]:
-        """The register maps defined in or imported by the block's module, by chip name."""
-        found = {id(v): v for v in vars(self._module()).values() if isinstance(v, RegisterMap)}
-        return sorted(found.values(), key=lambda rm: rm.chip)
+        """The block's register maps, by chip name: its chips' (a chipset top), its own
+        ``regmap`` (a chip built in more than one form), else those defined in or imported by
+        its module."""
+        component, selects = self.component(), self.chip_selects()
+        if selects is not None:
+            maps = [m for _, m in selects.values()]
+        elif isinstance(getattr(component, "regmap", None), RegisterMap):
+            maps = [component.regmap]
+        else:
+            maps = [v for v in vars(self._module()).values() if isinstance(v, RegisterMap)]
+        return sorted({id(m): m for m in maps}.values(), key=lambda rm: rm.chip)
 
 
 def _params(**kwargs: Any) -> MappingProxyType:
@@ -103,7 +117,7 @@ def _params(**kwargs: Any) -> MappingProxyType:
 
 
 #: Every exportable block, in the order the files are written; ``top=True`` marks the
-#: two-axis chipset top.
+#: chipset tops (the two-axis one first: synthesis reports it as the total).
 BLOCKS: tuple[Exportable, ...] = (
     Exportable("k3701", "hdl.k3701:K3701", "KM3701 two-axis interpolator"),
     Exportable("k3702", "hdl.k3702:K3702", "KM3702 position controller (one axis)"),
@@ -121,6 +135,10 @@ BLOCKS: tuple[Exportable, ...] = (
     Exportable("feed_rate", "hdl.feed_rate:FeedRate",
                "feed-rate generator (rate multiplier and its two dividers on the host bus)"),
     Exportable("chipset", "hdl.chipset:Chipset", "two-axis chipset top", top=True),
+    Exportable("k3701_3axis", "hdl.k3701:K3701", "KM3701 three-axis build (3-D lines, planes, "
+               "helices)", params=_params(axes=3)),
+    Exportable("chipset_3axis", "hdl.chipset:Chipset", "three-axis chipset top (machine.axes = "
+               "3)", params=_params(axes=3), top=True),
 )
 
 
@@ -342,11 +360,13 @@ def _header(entry: Exportable, buses: list[_Bus], probes: list[str]) -> list[str
         "Parameters: " + (", ".join(f"{k} = {_literal(v)}" for k, v in params.items())
                           or "none") + ".",
     ]
-    selects = getattr(entry._module(), "CHIP_SELECTS", None)
+    selects = entry.chip_selects()
     if selects:
         text += ["", "Chip selects (the high address bits; the register maps below give the "
                      "low ones): " + ", ".join(f"{chip}={cs}" for chip, (cs, _) in
                                                selects.items()) + "."]
+        text += [f"{chip} answers from register address {window:#04x} of its select (A4)."
+                 for chip, window in SUB_WINDOWS.items() if chip in selects]
     for rm in entry.register_maps():
         text += ["", f"Register map {rm.chip}, version {rm.version} ({rm.size} bytes; the "
                      f"fields are in docs/registers.md):"]

@@ -9,7 +9,7 @@ from amaranth.hdl import Module, Mux, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.chipset import AXES, Accel, Chipset
+from hdl.chipset import Accel, Chipset
 from hdl.hostbus import HostBus
 from hdl.k3702 import COUNTER_WIDTH
 from hdl.observation import FreeRunning
@@ -54,7 +54,8 @@ class AxisProbe(wiring.Signature):
 
 
 class System(wiring.Component):
-    """Chipset + plants. See :class:`hdl.chipset.Chipset` for ``accel`` and ``accel_bits``.
+    """Chipset + plants. See :class:`hdl.chipset.Chipset` for ``accel``, ``accel_bits`` and
+    ``axes`` (one plant per axis).
 
     Members
     -------
@@ -69,7 +70,7 @@ class System(wiring.Component):
     quiet : Out(1)
         The chipset's ``quiet``: its free-running state and the plants may run on alone.
     x, y : Out(AxisProbe())
-        Per-axis plant settings, faults and observations.
+        Per-axis plant settings, faults and observations (and ``z`` on three axes).
 
     ``free_running`` (:mod:`hdl.observation`) is what runs on while the machine stands still:
     the chipset's (the feed-rate generator's dividers and rate multiplier, the accel/decel
@@ -78,14 +79,16 @@ class System(wiring.Component):
     of every move: the compiled backend's idle skipping advances them up to the next event.
     """
 
-    def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15):
-        self.chipset = Chipset(accel=accel, accel_bits=accel_bits)
+    def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15, axes: int = 2):
+        self.chipset = Chipset(accel=accel, accel_bits=accel_bits, axes=axes)
+        self.axes = self.chipset.axes
         self.free_running: FreeRunning = self.chipset.free_running.under("chipset").merge(
-            *(ServoPlant.FREE_RUNNING.under(f"plant_{axis}") for axis in AXES), quiet="quiet")
+            *(ServoPlant.FREE_RUNNING.under(f"plant_{axis}") for axis in self.axes),
+            quiet="quiet")
         super().__init__({
             "bus": In(HostBus(8)), "irq": Out(1), "irq_interp": Out(1), "irq_alarm": Out(1),
             "fp_total": Out(32), "quiet": Out(1),
-            "x": Out(AxisProbe()), "y": Out(AxisProbe()),
+            **{axis: Out(AxisProbe()) for axis in self.axes},
         })
 
     def elaborate(self, platform) -> Module:
@@ -99,7 +102,7 @@ class System(wiring.Component):
         ]
         with m.If(chip.fp):
             m.d.sync += self.fp_total.eq(self.fp_total + 1)
-        for axis in AXES:
+        for axis in self.axes:
             probe, pins = getattr(self, axis), getattr(chip, axis)
             plant = m.submodules[f"plant_{axis}"] = ServoPlant()
             m.d.comb += [

@@ -79,7 +79,7 @@ def _circle(result: RunResult) -> tuple[list[Arc], tuple[int, int], float]:
         raise BallbarError("the program has no arc: a ballbar test runs a circle")
     center, radius = arcs[0].center, arcs[0].radius
     for arc in arcs[1:]:
-        if arc.center != center or abs(arc.radius - radius) > 2:
+        if arc.plane != arcs[0].plane or arc.center != center or abs(arc.radius - radius) > 2:
             raise BallbarError(f"the arcs are not on one circle (line {arc.line_no}: centre "
                                f"{arc.center}, radius {arc.radius:.1f} LSB; line "
                                f"{arcs[0].line_no}: {center}, {radius:.1f})")
@@ -107,12 +107,17 @@ def ballbar(result: RunResult, settle_deg: float = 0.0) -> Ballbar:
     if not spans:
         raise BallbarError("no arc block ran")
     first, last = spans[0][0], spans[-1][1]
+    names = result.job.machine.axis_names
+    first_axis, second_axis, _ = arcs[0].plane_axes
+    columns = result.store.columns
+    cx_col = columns.index(f"{names[first_axis]}_actual")
+    cy_col = columns.index(f"{names[second_axis]}_actual")
     t, x, y = [], [], []
     for chunk in result.store.chunks():
         mine = (chunk[:, 0] >= first) & (chunk[:, 0] <= last)
         t.append(chunk[mine, 0] / result.report["clock_hz"])
-        x.append(chunk[mine, 3])
-        y.append(chunk[mine, 4])
+        x.append(chunk[mine, cx_col])
+        y.append(chunk[mine, cy_col])
     t, px, py = np.concatenate(t), np.concatenate(x) - cx, np.concatenate(y) - cy
     if len(px) and settle_deg > 0:
         travelled = np.abs(np.unwrap(np.arctan2(py, px)) - math.atan2(py[0], px[0]))

@@ -1,9 +1,12 @@
-"""The contour error: distance of each sampled actual position to the programmed path."""
+"""The contour error: distance of each sampled actual position to the programmed path (in the
+plane on two axes, in space on three: a helix's normal axis is expected to rise in proportion
+to the angle swept)."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from functools import reduce
 
 import numpy as np
 
@@ -17,23 +20,31 @@ __all__ = ["BlockStart", "contour_errors", "contour_summary"]
 BlockStart = tuple[int, int]
 
 
-def _segment_distance(p: np.ndarray, a: tuple[int, int], b: tuple[int, int]) -> np.ndarray:
-    ax, ay = a
-    d = np.array([b[0] - ax, b[1] - ay], dtype=float)
-    rel = p - np.array([ax, ay], dtype=float)
+def _norm(v: np.ndarray) -> np.ndarray:
+    """The length of each row of ``v`` (hypot over its columns)."""
+    return reduce(np.hypot, v.T)
+
+
+def _segment_distance(p: np.ndarray, a: tuple[int, ...], b: tuple[int, ...]) -> np.ndarray:
+    d = np.array(b, dtype=float) - np.array(a, dtype=float)
+    rel = p - np.array(a, dtype=float)
     length2 = float(d @ d)
     t = np.zeros(len(p)) if length2 == 0 else np.clip(rel @ d / length2, 0.0, 1.0)
-    return np.hypot(*(rel - np.outer(t, d)).T)
+    return _norm(rel - np.outer(t, d))
 
 
 def _arc_distance(p: np.ndarray, item: Arc) -> np.ndarray:
-    rel = p - np.array(item.center, dtype=float)
+    first, second, normal = item.plane_axes
+    rel = p[:, [first, second]] - np.array(item.center, dtype=float)
     a0, sweep = item.span
     ang = np.arctan2(rel[:, 1], rel[:, 0])
     off = (ang - a0) % (2 * math.pi) if not item.cw else (a0 - ang) % (2 * math.pi)
     on_arc = np.abs(np.hypot(rel[:, 0], rel[:, 1]) - item.radius)
-    ends = np.minimum(np.hypot(*(p - np.array(item.start, dtype=float)).T),
-                      np.hypot(*(p - np.array(item.end, dtype=float)).T))
+    if normal < p.shape[1]:  # three axes: the normal axis against the helix at that angle
+        rise = (item.end[normal] - item.start[normal]) * np.minimum(off, sweep) / sweep
+        on_arc = np.hypot(on_arc, p[:, normal] - (item.start[normal] + rise))
+    ends = np.minimum(_norm(p - np.array(item.start, dtype=float)),
+                      _norm(p - np.array(item.end, dtype=float)))
     return np.where(off <= sweep, on_arc, ends)
 
 
@@ -47,7 +58,8 @@ def contour_errors(job: Job, blocks: Sequence[BlockStart], samples: np.ndarray) 
     moves = [it for it in job.program.items if not isinstance(it, Dwell)]
     if not len(samples) or not moves or not blocks:
         return np.zeros(0)
-    cycles, pts = samples[:, 0], samples[:, 3:5]
+    n = job.machine.axes
+    cycles, pts = samples[:, 0], samples[:, 1 + n:1 + 2 * n]  # the actual positions
     move_of = {it.index: k for k, it in enumerate(moves)}
     block_move = np.array([move_of[index] for index, _ in blocks])
     running = np.searchsorted([start for _, start in blocks], cycles, side="right") - 1
@@ -67,7 +79,7 @@ def contour_errors(job: Job, blocks: Sequence[BlockStart], samples: np.ndarray) 
         best[near] = np.minimum(best[near], dist)
     # Samples before the first block: distance to the start point.
     before = ~np.isfinite(best)
-    best[before] = np.hypot(*(pts[before] - np.array(moves[0].start, dtype=float)).T)
+    best[before] = _norm(pts[before] - np.array(moves[0].start, dtype=float))
     return best
 
 

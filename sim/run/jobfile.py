@@ -40,9 +40,8 @@ from os import PathLike
 from pathlib import Path
 from typing import Any, NoReturn
 
-from firmware_model.gcode import ARC_TOLERANCE, ARC_TOLERANCE_LIMIT, Program, parse
+from firmware_model.gcode import ARC_TOLERANCE, ARC_TOLERANCE_LIMIT, Program
 from firmware_model.job import (
-    AXES,
     Job,
     MachineConfig,
     OrAbsent,
@@ -51,7 +50,9 @@ from firmware_model.job import (
     Valid,
     demo_job,
     gcode_job,
+    parse_for_machine,
 )
+from hdl.chipset import ALL_AXES
 from hdl.limits import Limit
 from sim.machine.plant import PlantParams
 
@@ -175,21 +176,28 @@ class _TomlJob:
         name = self.data.get("name", self.path.stem)
         if not isinstance(name, str) or not name:
             self.fail(f"name must be a non-empty string, not {name!r}")
-        machine = self.build(MachineConfig, self.table(self.data, "machine",
-                                                       _names(MachineConfig)), "machine.")
+        table = self.table(self.data, "machine", _names(MachineConfig))
+        machine = self.build(MachineConfig, table, "machine.")
+        machine, program = self.program(machine, axes_given="axes" in table)
         servo = self.servo(machine)
         run = self.build(RunConfig, self.table(self.data, "run", _names(RunConfig)), "run.")
-        return Job(name, machine, servo, self.program(machine), run)
+        return Job(name, machine, servo, program, run)
 
     def servo(self, machine: MachineConfig) -> dict[str, ServoConfig]:
-        """Both axes' servos: ``[servo]``, each key overridden by ``[servo.x]``/``[servo.y]``;
-        each table is checked against the plant on ``machine``, naming its own keys."""
-        table = self.table(self.data, "servo", (*_names(ServoConfig), *AXES))
-        common = {k: v for k, v in table.items() if k not in AXES}
+        """Every axis's servo: ``[servo]``, each key overridden by ``[servo.x]``,
+        ``[servo.y]`` (and ``[servo.z]`` on three axes); each table is checked against the
+        plant on ``machine``, naming its own keys."""
+        names = machine.axis_names
+        table = self.table(self.data, "servo", (*_names(ServoConfig), *ALL_AXES))
+        for axis in ALL_AXES:
+            if axis in table and axis not in names:
+                self.fail(f"servo.{axis}: the machine has {machine.axes} axes "
+                          f"({', '.join(names)}); set machine.axes = 3 for a Z axis")
+        common = {k: v for k, v in table.items() if k not in ALL_AXES}
         self.plant(machine, common, "servo.")
-        axes = {axis: self.table(table, axis, _names(ServoConfig), "servo.") for axis in AXES}
+        axes = {axis: self.table(table, axis, _names(ServoConfig), "servo.") for axis in names}
         return {axis: self.plant(machine, {**common, **axes[axis]}, f"servo.{axis}.")
-                for axis in AXES}
+                for axis in names}
 
     def plant(self, machine: MachineConfig, values: dict, prefix: str) -> ServoConfig:
         servo = self.build(ServoConfig, values, prefix)
@@ -199,7 +207,10 @@ class _TomlJob:
             self.fail(f"{prefix}{e}")
         return servo
 
-    def program(self, machine: MachineConfig) -> Program:
+    def program(self, machine: MachineConfig, axes_given: bool
+                ) -> tuple[MachineConfig, Program]:
+        """The program, and the machine it runs on (see
+        :func:`firmware_model.job.parse_for_machine` for ``axes_given``)."""
         if "program" not in self.data:
             self.fail("missing [program] table (give gcode or file)")
         table = self.table(self.data, "program", ("gcode", "file", "arc_tolerance"))
@@ -219,8 +230,8 @@ class _TomlJob:
             file = self.path.parent / table["file"]
             source = str(file)
             text = _read(file, f"{self.source}: program.file {source}")
-        return parse(text, source=source, lsb_mm=machine.lsb_mm, sqrt2=machine.sqrt2,
-                     arc_tolerance=tolerance)
+        return parse_for_machine(machine, text, source=source, axes_given=axes_given,
+                                 arc_tolerance=tolerance)
 
 
 def _names(cls: type) -> tuple[str, ...]:
@@ -249,8 +260,8 @@ def job_keys_markdown() -> str:
             default = "absent" if f.default is None else _toml_value(f.default)
             rows.append(f"| {table}.{f.name} | {default} | {valid.describe()} | "
                         f"{f.metadata['doc']} |")
-    rows += ["| servo.x.*, servo.y.* | the [servo] values | as in [servo] | per-axis servo "
-             "overrides |",
+    rows += ["| servo.x.*, servo.y.*, servo.z.* | the [servo] values | as in [servo] | per-axis "
+             "servo overrides (servo.z on three axes) |",
              "| program.gcode | | a string | the program, inline (give gcode or file) |",
              "| program.file | | a string | the program's file, relative to the job file |",
              f"| program.arc_tolerance | {ARC_TOLERANCE!r} | {ARC_TOLERANCE_LIMIT.describe()} | "

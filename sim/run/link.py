@@ -48,9 +48,10 @@ class SimulatedLink:
                           bool(self.sampler.get("irq_alarm")))
 
 
-#: The step-pulse counters of each axis, by the report's names.
-_PULSES = {f"{axis}{sign}": f"{axis}__pulses_{name}"
-           for axis in AXES for sign, name in (("+", "pos"), ("-", "neg"))}
+def _pulses(axes: tuple[str, ...]) -> dict[str, str]:
+    """The step-pulse counters of each axis, by the report's names."""
+    return {f"{axis}{sign}": f"{axis}__pulses_{name}"
+            for axis in axes for sign, name in (("+", "pos"), ("-", "neg"))}
 
 
 @dataclass
@@ -59,22 +60,25 @@ class BlockMeasure:
     and direction, and the interpolated end position those pulses make."""
 
     fp_pulses: int = 0
-    steps: dict[str, int] = field(default_factory=lambda: dict.fromkeys(_PULSES, 0))
+    steps: dict[str, int] = field(default_factory=lambda: dict.fromkeys(_pulses(AXES), 0))
     end_command: tuple[int, ...] | None = None
 
 
 class BlockMeter:
-    """Reads the observation counters at the firmware's block trace points."""
+    """Reads the observation counters at the firmware's block trace points, on a machine
+    with ``axes``."""
 
-    def __init__(self, sampler: Sampler):
+    def __init__(self, sampler: Sampler, axes: tuple[str, ...] = AXES):
         self.sampler = sampler
+        self.axes = axes
+        self._pulses = _pulses(axes)
         self.measures: dict[int, BlockMeasure] = {}
         self._marks: dict[str, int] = {}
         self._running: int | None = None  # the index of the block started and not ended
 
     def _counters(self) -> dict[str, int]:
         return {"fp": self.sampler.get("fp_total"),
-                **{key: self.sampler.get(port) for key, port in _PULSES.items()}}
+                **{key: self.sampler.get(port) for key, port in self._pulses.items()}}
 
     def block_started(self, record: BlockRecord) -> None:
         self._marks = self._counters()
@@ -84,10 +88,10 @@ class BlockMeter:
     def block_ended(self, record: BlockRecord) -> None:
         now = self._counters()
         delta = {key: now[key] - self._marks[key] for key in now}
-        steps = {key: delta[key] for key in _PULSES}
+        steps = {key: delta[key] for key in self._pulses}
         self.measures[record.index] = BlockMeasure(
             delta["fp"], steps,
-            tuple(now[f"{axis}+"] - now[f"{axis}-"] for axis in AXES))
+            tuple(now[f"{axis}+"] - now[f"{axis}-"] for axis in self.axes))
         self._running = None
 
     def done(self, index: int, fp: int) -> float:
@@ -99,4 +103,5 @@ class BlockMeter:
 
     def of(self, record: BlockRecord) -> BlockMeasure:
         """The measure of a block the firmware ran (zeros if it never ended)."""
-        return self.measures.get(record.index, BlockMeasure())
+        return self.measures.get(
+            record.index, BlockMeasure(steps=dict.fromkeys(self._pulses, 0)))

@@ -15,7 +15,6 @@ from sim.run.ballbar import BallbarError, ballbar, ballbar_figure
 from sim.run.plot import write_plot
 from sim.run.report import validate
 from sim.run.runner import RunResult
-from sim.run.sampler import TRACE_COLUMNS
 from sim.run.waveform import WAVE_FORMATS, wave_span, write_gtkw
 
 __all__ = ["OutputError", "check_outputs", "summary", "write_outputs", "write_trace"]
@@ -110,12 +109,13 @@ def summary(result: RunResult) -> str:
 
 
 def write_trace(result: RunResult, path: Path) -> None:
-    """The samples as CSV, one row per sample, columns :data:`sim.run.TRACE_COLUMNS` (read
-    from the store a chunk at a time)."""
+    """The samples as CSV, one row per sample, columns :func:`sim.run.sampler.trace_columns`
+    of the machine's axes (read from the store a chunk at a time)."""
+    columns = result.store.columns
     with open(path, "w", newline="") as f:
         out = csv.writer(f)
-        out.writerow(TRACE_COLUMNS)
-        volts = ["volts" in name for name in TRACE_COLUMNS]
+        out.writerow(columns)
+        volts = ["volts" in name for name in columns]
         for chunk in result.store.chunks():
             out.writerows([f"{v:.4f}" if is_volts else int(v)
                            for is_volts, v in zip(volts, row, strict=True)]

@@ -12,6 +12,7 @@ and the D/A output. Every time panel marks each block's start with its G-code li
 
 from __future__ import annotations
 
+from functools import reduce
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -21,7 +22,6 @@ from firmware_model.firmware import programmed_feed
 from firmware_model.gcode import Arc, Line
 from sim.run.plot_data import PlotData, plot_data
 from sim.run.runner import RunResult
-from sim.run.sampler import TRACE_COLUMNS
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -35,11 +35,9 @@ SPEED_WINDOW_S = 0.02
 #: The gid of the block boundary lines (tests find them by it).
 BOUNDARY = "block boundary"
 
-_COL = {name: k for k, name in enumerate(TRACE_COLUMNS)}
-
-
 def programmed_path(result: RunResult) -> list[np.ndarray]:
-    """The program's moves as polylines (LSB), one array of (x, y) rows per move."""
+    """The program's moves as polylines (LSB), one array of machine-axis rows ((x, y) or
+    (x, y, z)) per move; an arc in its plane, a helix rising along the normal with the angle."""
     pieces = []
     for item in result.job.program.items:
         if isinstance(item, Line):
@@ -48,8 +46,13 @@ def programmed_path(result: RunResult) -> list[np.ndarray]:
             cx, cy = item.center
             a0, sweep = item.span
             t = a0 + np.linspace(0, -sweep if item.cw else sweep, 720)
-            pieces.append(np.column_stack([cx + item.radius * np.cos(t),
-                                           cy + item.radius * np.sin(t)]))
+            first, second, normal = item.plane_axes
+            piece = np.zeros((len(t), len(item.start)))
+            piece[:, first] = cx + item.radius * np.cos(t)
+            piece[:, second] = cy + item.radius * np.sin(t)
+            if normal < len(item.start):
+                piece[:, normal] = np.linspace(item.start[normal], item.end[normal], len(t))
+            pieces.append(piece)
     return pieces
 
 
@@ -101,6 +104,8 @@ def figure(result: RunResult) -> Figure:
     """The plot of a run as a matplotlib figure (see the module's docstring)."""
     from matplotlib.figure import Figure
 
+    col = {name: k for k, name in enumerate(result.store.columns)}
+    axes = result.job.machine.axis_names
     clock = result.report["clock_hz"]
     machine = result.job.machine
     lsb_mm = machine.lsb_mm
@@ -117,15 +122,16 @@ def figure(result: RunResult) -> Figure:
 
     for piece in programmed_path(result):
         path_ax.plot(piece[:, 0] * lsb_mm, piece[:, 1] * lsb_mm, color="0.7", lw=3)
-    path_ax.plot(s[:, _COL["x_actual"]] * lsb_mm, s[:, _COL["y_actual"]] * lsb_mm, color="C0",
+    path_ax.plot(s[:, col["x_actual"]] * lsb_mm, s[:, col["y_actual"]] * lsb_mm, color="C0",
                  lw=0.9, label="actual")
     items = {item.index: item for item in result.job.program.items}
     for block in blocks:
-        x0, y0 = items[block["index"]].start
+        x0, y0 = items[block["index"]].start[:2]
         path_ax.plot(x0 * lsb_mm, y0 * lsb_mm, "k.", ms=5)
         path_ax.annotate(f"N{block['line']}", (x0 * lsb_mm, y0 * lsb_mm), fontsize=8,
                          xytext=(3, 3), textcoords="offset points")
-    path_ax.set(title="path: programmed (grey) and actual (blue); dots: block starts",
+    path_ax.set(title="path: programmed (grey) and actual (blue); dots: block starts"
+                      + (" (XY projection)" if len(axes) == 3 else ""),
                 xlabel="x (mm)", ylabel="y (mm)")
     path_ax.set_aspect("equal", adjustable="datalim")
 
@@ -148,7 +154,7 @@ def figure(result: RunResult) -> Figure:
                    xlabel="time (s)", ylabel="distance to the programmed path (LSB)")
     _mm_axis(contour_ax, lsb_mm)
 
-    for axis in ("x", "y"):
+    for axis in axes:
         _series(follow, t, data, f"{axis}_error", label=axis)
     follow.set(title="following error (K3702 error counter)", xlabel="time (s)",
                ylabel="command - actual (LSB)")
@@ -157,12 +163,13 @@ def figure(result: RunResult) -> Figure:
 
     period = cycles[1] - cycles[0] if len(s) > 1 else 1.0  # the sampling period (cycles)
     window = max(1, round(SPEED_WINDOW_S * clock / period))
-    speeds = {axis: windowed_speed(cycles, s[:, _COL[f"{axis}_actual"]], clock, window)
-              for axis in ("x", "y")}
-    (tx, vx), (_, vy) = speeds["x"], speeds["y"]
-    speed_ax.plot(tx, machine.mm_per_min(vx), lw=0.8, label="x")
-    speed_ax.plot(tx, machine.mm_per_min(vy), lw=0.8, label="y")
-    speed_ax.plot(tx, machine.mm_per_min(np.hypot(vx, vy)), color="k", lw=1.0, label="path")
+    speeds = {axis: windowed_speed(cycles, s[:, col[f"{axis}_actual"]], clock, window)
+              for axis in axes}
+    tx = speeds["x"][0]
+    for axis in axes:
+        speed_ax.plot(tx, machine.mm_per_min(speeds[axis][1]), lw=0.8, label=axis)
+    path_speed = reduce(np.hypot, [v for _, v in speeds.values()])
+    speed_ax.plot(tx, machine.mm_per_min(path_speed), color="k", lw=1.0, label="path")
     items = result.job.program.items
     feeds = [programmed_feed(items[b["index"]], machine) for b in blocks]
     for k, block in enumerate(blocks):
@@ -177,7 +184,7 @@ def figure(result: RunResult) -> Figure:
     speed_ax.set_ylim(top=1.3 * max([speed_ax.get_ylim()[1], *feeds]))
     speed_ax.legend(fontsize=8, ncols=4, loc="upper center", bbox_to_anchor=(0.5, 0.93))
 
-    for axis in ("x", "y"):
+    for axis in axes:
         _series(dac, t, data, f"{axis}_dac_volts", label=axis)
     dac.set(title="D/A output", xlabel="time (s)", ylabel="V")
     dac.legend()

@@ -18,14 +18,12 @@ import numpy as np
 
 from firmware_model.job import Job
 from sim.run.contour import BlockStart, contour_errors
-from sim.run.sampler import CHUNK_ROWS, TRACE_COLUMNS, SampleStore
+from sim.run.sampler import CHUNK_ROWS, SampleStore
 
-__all__ = ["ENVELOPE_COLUMNS", "PLOT_BUCKETS", "BlockContour", "PlotData", "plot_data"]
+__all__ = ["PLOT_BUCKETS", "BlockContour", "PlotData", "plot_data"]
 
 #: The most buckets a plot draws per series.
 PLOT_BUCKETS = 100_000
-#: The enveloped columns: the trace's, then the contour error.
-ENVELOPE_COLUMNS = (*TRACE_COLUMNS, "contour_error")
 
 
 class BlockContour:
@@ -58,11 +56,12 @@ class PlotData:
     """A run's samples as a plot draws them.
 
     ``bucket``: samples per bucket (1: every sample); ``rows``: the first sample of each
-    bucket (columns of :data:`~sim.run.sampler.TRACE_COLUMNS`); ``low``, ``high``: each
-    bucket's least and largest value of :data:`ENVELOPE_COLUMNS`; ``blocks``: (largest, RMS)
-    contour error of each block; ``samples``: the samples read.
+    bucket (the store's columns); ``low``, ``high``: each bucket's least and largest value of
+    ``columns`` (the store's, then ``contour_error``); ``blocks``: (largest, RMS) contour error
+    of each block; ``samples``: the samples read.
     """
 
+    columns: tuple[str, ...]
     bucket: int
     rows: np.ndarray
     low: np.ndarray
@@ -72,7 +71,7 @@ class PlotData:
 
     def envelope(self, column: str) -> tuple[np.ndarray, np.ndarray]:
         """The least and largest value of ``column`` per bucket."""
-        k = ENVELOPE_COLUMNS.index(column)
+        k = self.columns.index(column)
         return self.low[:, k], self.high[:, k]
 
 
@@ -95,8 +94,9 @@ def plot_data(job: Job, blocks: Sequence[BlockStart], store: SampleStore,
         rows.append(chunk[firsts])
         low.append(np.minimum.reduceat(values, firsts))
         high.append(np.maximum.reduceat(values, firsts))
-    width = len(ENVELOPE_COLUMNS)
-    return PlotData(bucket, np.vstack(rows) if rows else np.zeros((0, width - 1)),
+    columns = (*store.columns, "contour_error")
+    width = len(columns)
+    return PlotData(columns, bucket, np.vstack(rows) if rows else np.zeros((0, width - 1)),
                     np.vstack(low) if low else np.zeros((0, width)),
                     np.vstack(high) if high else np.zeros((0, width)),
                     per_block.stats(), store.rows)

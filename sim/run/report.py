@@ -51,8 +51,10 @@ def _xy(description: str) -> dict:
     return {"type": "array", "description": description, "items": {"type": "integer"}}
 
 
-_STEPS = _obj("step pulses the K3701 emitted in the block, per axis and direction",
-              {k: _int(f"{k} pulses") for k in ("x+", "x-", "y+", "y-")})
+_STEPS = _obj("step pulses the K3701 emitted in the block, per axis and direction (z+ and "
+              "z- on three axes)",
+              {k: _int(f"{k} pulses") for k in ("x+", "x-", "y+", "y-", "z+", "z-")},
+              required=["x+", "x-", "y+", "y-"])
 
 _AXIS = _obj("one axis at the end of the run", {
     "command": _int("K3702 command counter (LSB)"),
@@ -102,10 +104,11 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
                                    "description": "interpolated position at the block's end "
                                                   "(LSB, from the step pulses)"},
                })},
-    "axes": _obj("per-axis state", {"x": _AXIS, "y": _AXIS}),
+    "axes": _obj("per-axis state (z on a three-axis machine, job.machine.axes = 3)",
+                 {"x": _AXIS, "y": _AXIS, "z": _AXIS}, required=["x", "y"]),
     "end_point": _obj("whether the machine reached the program's end point", {
-        "programmed": _xy("the last move's end (LSB)"),
-        "actual": _xy("the plants' encoder counts at the end of the run (LSB)"),
+        "programmed": _xy("the last move's end (LSB), one value per axis"),
+        "actual": _xy("the plants' encoder counts at the end of the run (LSB), one per axis"),
         "program_ran": {"type": "boolean", "description": "every block of the program ran to "
                                                           "its end"},
         "reached": {"type": "boolean", "description": "program_ran, and every axis within the "
@@ -119,7 +122,7 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
     }),
     "alarms": {"type": "array", "description": "alarms and faults, in order",
                "items": _obj("an alarm or fault", {
-                   "axis": {"type": ["string", "null"], "description": "x, y or null"},
+                   "axis": {"type": ["string", "null"], "description": "x, y, z or null"},
                    "cycle": _int("cycle the firmware saw it"),
                    "kind": {"type": "string", "description": "alarm, interpolator_error, "
                             "fp_overrun, encoder_line_fault_a, encoder_line_fault_b, "

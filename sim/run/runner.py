@@ -33,7 +33,7 @@ import sim.machine
 from firmware_model.firmware import BlockRecord, Firmware, check_program
 from firmware_model.gcode import Dwell
 from firmware_model.host import Host8085
-from firmware_model.job import AXES, Job
+from firmware_model.job import Job
 from hdl.chipset import chip_register, port
 from sim.backends.contract import Backend
 from sim.backends.factory import BACKEND_NAMES, make_backend
@@ -45,7 +45,7 @@ from sim.run.jobfile import plant_params
 from sim.run.link import BlockMeasure, BlockMeter, SimulatedLink
 from sim.run.progress import ProgramPlan, Progress
 from sim.run.report import SCHEMA_VERSION, validate
-from sim.run.sampler import TRACE_COLUMNS, Sampler, SampleStore
+from sim.run.sampler import Sampler, SampleStore
 from sim.run.waveform import is_fst
 
 __all__ = ["OptionError", "RunOptions", "RunResult", "RunStopped", "build_backend",
@@ -90,14 +90,15 @@ class RunResult:
 
     @cached_property
     def samples(self) -> np.ndarray:
-        """Every sample, a row of :data:`sim.run.sampler.TRACE_COLUMNS` each (in memory)."""
+        """Every sample, a row of the store's ``columns`` each (in memory; the two-axis
+        machine's are :data:`sim.run.sampler.TRACE_COLUMNS`)."""
         return self.store.array()
 
     @cached_property
     def traces(self) -> dict[str, np.ndarray]:
-        """Every sample by column of :data:`sim.run.sampler.TRACE_COLUMNS` (the CSV's
-        columns): ``traces["x_error"]`` is the X following error at each sample (LSB)."""
-        return {name: self.samples[:, k] for k, name in enumerate(TRACE_COLUMNS)}
+        """Every sample by column (the CSV's columns): ``traces["x_error"]`` is the X
+        following error at each sample (LSB)."""
+        return {name: self.samples[:, k] for k, name in enumerate(self.store.columns)}
 
     @property
     def ok(self) -> bool:
@@ -137,7 +138,7 @@ def configure_plants(backend: Backend, job: Job,
     a plant input, ``stall`` or ``break_a``, and its value)."""
     faults = faults or {}
     machine = job.machine
-    for axis in AXES:
+    for axis in machine.axis_names:
         params = plant_params(machine, job.servo[axis])
         backend.set(f"{axis}__gain", params.gain)
         backend.set(f"{axis}__alpha", params.alpha)
@@ -150,7 +151,8 @@ def configure_plants(backend: Backend, job: Job,
 def system_params(job: Job) -> dict[str, Any]:
     """What the simulated machine of ``job`` is built with: jobs with equal parameters can
     share one built backend (reset between runs)."""
-    return {"accel": job.machine.accel, "accel_bits": job.machine.accel_bits}
+    return {"accel": job.machine.accel, "accel_bits": job.machine.accel_bits,
+            "axes": job.machine.axes}
 
 
 @cache
@@ -233,6 +235,9 @@ def run_job(job: Job, options: RunOptions | None = None,
     options = options or RunOptions()
     check_program(job)  # refuse what the hardware cannot do before building anything
     check_options(options)
+    for axis in options.faults.keys() - set(job.machine.axis_names):
+        raise OptionError(f"a fault on axis {axis}: the machine has {job.machine.axes} axes "
+                          f"({', '.join(job.machine.axis_names)})")
     owned = backend is None
     backend = backend or build_backend(job, options.backend)
     configure_plants(backend, job, options.faults)
@@ -244,10 +249,10 @@ def run_job(job: Job, options: RunOptions | None = None,
             if owned:
                 backend.close()
             raise OptionError(str(e)) from None
-    store = SampleStore(job.machine.dac_bits)
+    store = SampleStore(job.machine.dac_bits, job.machine.axis_names)
     sampler = Sampler(backend, options.sample_every, store, skip_idle=options.skip_idle)
     host = Host8085(SimulatedLink(sampler), clock_hz=job.machine.clock_hz)
-    meter = BlockMeter(sampler)
+    meter = BlockMeter(sampler, job.machine.axis_names)
     firmware = Firmware(host, job, budget_offset=options.budget_offset, observer=meter)
     stop = options.stop or threading.Event()
     sampler.tick = watch = _Watch(options, stop, sampler, firmware, meter)
@@ -349,7 +354,7 @@ def _axis_report(backend: Backend, axis: str) -> dict:
 
 def _end_point(job: Job, firmware: Firmware, axes: dict[str, dict]) -> dict:
     programmed = list(job.program.final_position)
-    actual = [axes[axis]["actual"] for axis in AXES]
+    actual = [axes[axis]["actual"] for axis in job.machine.axis_names]
     zone = job.machine.in_position
     moves = sum(not isinstance(item, Dwell) for item in job.program.items)
     ran = len(firmware.blocks) == moves and all(b.end_cycle is not None for b in firmware.blocks)
@@ -364,7 +369,7 @@ def _report(job: Job, backend: Backend, firmware: Firmware, meter: BlockMeter,
     clock = job.machine.clock_hz
     max_contour, rms_contour = contour_summary(
         job, [(b.index, b.start_cycle) for b in firmware.blocks], store)
-    axes = {axis: _axis_report(backend, axis) for axis in AXES}
+    axes = {axis: _axis_report(backend, axis) for axis in job.machine.axis_names}
     return {
         "schema_version": SCHEMA_VERSION,
         "job": job.to_dict(),

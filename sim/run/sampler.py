@@ -17,18 +17,32 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
+from hdl.chipset import AXES
 from sim.backends.contract import Backend
 from sim.machine.plant import DAC_VOLTS
 
 __all__ = ["CHUNK_ROWS", "PROGRESS_CYCLES", "SAMPLED_PORTS", "TRACE_COLUMNS", "SampleStore",
-           "Sampler"]
+           "Sampler", "sampled_ports", "trace_columns"]
 
-#: Columns of the trace (CSV) and of :attr:`sim.run.runner.RunResult.samples`.
-TRACE_COLUMNS = ("cycle", "x_command", "y_command", "x_actual", "y_actual", "x_error",
-                 "y_error", "x_dac_volts", "y_dac_volts", "fp_total")
-#: The ports behind those columns (after "cycle"; the D/A words become volts).
-SAMPLED_PORTS = ("x__command", "y__command", "x__count", "y__count", "x__error", "y__error",
-                 "x__dac", "y__dac", "fp_total")
+#: Each sampled quantity: its trace column (after the axis name) and its port.
+_QUANTITIES = (("command", "command"), ("actual", "count"), ("error", "error"),
+               ("dac_volts", "dac"))
+
+
+def trace_columns(axes: tuple[str, ...] = AXES) -> tuple[str, ...]:
+    """Columns of the trace (CSV) and of :attr:`sim.run.runner.RunResult.samples` on a
+    machine with ``axes``: the cycle, each quantity per axis, the FP total."""
+    return ("cycle", *(f"{a}_{column}" for column, _ in _QUANTITIES for a in axes), "fp_total")
+
+
+def sampled_ports(axes: tuple[str, ...] = AXES) -> tuple[str, ...]:
+    """The ports behind :func:`trace_columns` (after "cycle"; the D/A words become volts)."""
+    return (*(f"{a}__{port}" for _, port in _QUANTITIES for a in axes), "fp_total")
+
+
+#: The two-axis machine's columns and ports.
+TRACE_COLUMNS = trace_columns()
+SAMPLED_PORTS = sampled_ports()
 #: Samples held in memory at a time, on the way in and on the way out.
 CHUNK_ROWS = 1 << 16
 #: The longest a backend that records the samples itself runs between ticks (cycles).
@@ -37,37 +51,38 @@ PROGRESS_CYCLES = 1_000_000
 SLOW_TICK_CYCLES = 10_000
 NEVER = 1 << 63
 
-_WIDTH = len(TRACE_COLUMNS)
-_ROW_BYTES = 8 * _WIDTH
-_VOLTS = slice(TRACE_COLUMNS.index("x_dac_volts"), TRACE_COLUMNS.index("y_dac_volts") + 1)
-
-
 class SampleStore:
-    """Samples appended as raw rows (the cycle and :data:`SAMPLED_PORTS`, integers) to an
-    anonymous temporary file, read back as rows of :data:`TRACE_COLUMNS` (D/A words in volts
-    for a ``dac_bits`` D/A converter)."""
+    """Samples appended as raw rows (the cycle and :attr:`ports`, integers) to an anonymous
+    temporary file, read back as rows of :attr:`columns` (D/A words in volts for a
+    ``dac_bits`` D/A converter), for a machine with ``axes``."""
 
-    def __init__(self, dac_bits: int):
+    def __init__(self, dac_bits: int, axes: tuple[str, ...] = AXES):
         self._file = tempfile.TemporaryFile()  # noqa: SIM115 (open as long as the store)
         self._closer = weakref.finalize(self, self._file.close)  # deleted with the store
         self._half = 1 << (dac_bits - 1)
+        #: The columns of a row, and the ports sampled for them.
+        self.columns = trace_columns(axes)
+        self.ports = sampled_ports(axes)
+        self._width = len(self.columns)
+        self._volts = [k for k, name in enumerate(self.columns) if name.endswith("_volts")]
         #: Samples stored.
         self.rows = 0
 
     def append(self, raw: np.ndarray) -> None:
-        """Store ``raw``: integer rows of the cycle and :data:`SAMPLED_PORTS`."""
+        """Store ``raw``: integer rows of the cycle and :attr:`ports`."""
         if len(raw):
             self._file.seek(0, os.SEEK_END)
             self._file.write(np.ascontiguousarray(raw, dtype=np.int64).tobytes())
             self.rows += len(raw)
 
     def read(self, start: int, stop: int) -> np.ndarray:
-        """Samples ``start`` to ``stop`` (exclusive), a row of :data:`TRACE_COLUMNS` each."""
+        """Samples ``start`` to ``stop`` (exclusive), a row of :attr:`columns` each."""
         start, stop = max(0, start), min(stop, self.rows)
-        self._file.seek(start * _ROW_BYTES)
-        data = self._file.read(max(0, stop - start) * _ROW_BYTES)
-        samples = np.frombuffer(data, dtype=np.int64).reshape(-1, _WIDTH).astype(float)
-        samples[:, _VOLTS] = DAC_VOLTS * (samples[:, _VOLTS] - self._half) / self._half
+        self._file.seek(start * 8 * self._width)
+        data = self._file.read(max(0, stop - start) * 8 * self._width)
+        samples = np.frombuffer(data, dtype=np.int64).reshape(-1, self._width).astype(float)
+        volts = self._volts
+        samples[:, volts] = DAC_VOLTS * (samples[:, volts] - self._half) / self._half
         return samples
 
     def chunks(self, rows: int = CHUNK_ROWS) -> Iterator[np.ndarray]:
@@ -109,8 +124,8 @@ class Sampler:
         self.store = store
         self.skip_idle = skip_idle
         self.tick = tick
-        self.rows: list[list[int]] = []  # raw samples taken here: cycle and SAMPLED_PORTS
-        self.native = backend.record(SAMPLED_PORTS, every)
+        self.rows: list[list[int]] = []  # raw samples taken here: cycle and the ports
+        self.native = backend.record(store.ports, every)
         self.tick_every = (min(PROGRESS_CYCLES, every * CHUNK_ROWS) if self.native
                            else SLOW_TICK_CYCLES)
         self.next_sample = NEVER if self.native else every
@@ -137,7 +152,7 @@ class Sampler:
         if cycle < self.next:
             return
         if cycle >= self.next_sample:
-            self.rows.append([cycle, *self.backend.get_many(SAMPLED_PORTS)])
+            self.rows.append([cycle, *self.backend.get_many(self.store.ports)])
             self.next_sample += self.every
             if len(self.rows) >= CHUNK_ROWS:
                 self.flush()

@@ -8,6 +8,7 @@ import os
 import re
 from pathlib import Path
 
+from hdl.chipset import ALL_AXES
 from sim.run.fst import fst_signals, fst_span
 
 __all__ = ["GTKW_GROUPS", "GTKW_WIDTH_PX", "WAVE_FORMATS", "gtkw_flags", "is_fst",
@@ -17,16 +18,16 @@ __all__ = ["GTKW_GROUPS", "GTKW_WIDTH_PX", "WAVE_FORMATS", "gtkw_flags", "is_fst
 WAVE_FORMATS = (".vcd", ".fst")
 
 #: Signals of the GTKWave save file, grouped per chip and axis: (group, names), a name
-#: followed by ``:s`` being signed (two's complement).
+#: followed by ``:s`` being signed (two's complement). The Z axis's are in the file where the
+#: machine has one (a name the VCD does not declare is left out, a group without any too).
 GTKW_GROUPS = (
     ("host bus", ("bus__addr", "bus__w_stb", "bus__w_data", "bus__r_stb", "bus__r_data",
                   "irq_interp", "irq_alarm")),
     ("feed", ("fp", "fp_total")),
-    ("K3701", ("step_x_pos", "step_x_neg", "step_y_pos", "step_y_neg")),
-    ("K3702 x", ("x__command:s", "x__error:s", "x__dac", "x__alarm_n")),
-    ("K3702 y", ("y__command:s", "y__error:s", "y__dac", "y__alarm_n")),
-    ("plant x", ("x__count:s",)),
-    ("plant y", ("y__count:s",)),
+    ("K3701", tuple(f"step_{a}_{d}" for a in ALL_AXES for d in ("pos", "neg"))),
+    *((f"K3702 {a}", (f"{a}__command:s", f"{a}__error:s", f"{a}__dac", f"{a}__alarm_n"))
+      for a in ALL_AXES),
+    *((f"plant {a}", (f"{a}__count:s",)) for a in ALL_AXES),
 )
 
 #: Width in pixels of the wave pane the save file's zoom fits the traced window into.
