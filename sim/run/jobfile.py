@@ -17,7 +17,8 @@ TOML job::
 
     [program]                       # exactly one of gcode (inline) and file
     file = "square.ngc"             # relative to the TOML file
-    arc_tolerance = 2.0             # LSB, optional
+    arc_tolerance = 2.0             # LSB, optional (default: LinuxCNC's 0.028 mm)
+    tools = { 1 = 25.0 }            # tool lengths (mm) for G43, optional
 
     [run]                           # optional
     max_time_s = 10.0
@@ -40,7 +41,8 @@ from os import PathLike
 from pathlib import Path
 from typing import Any, NoReturn
 
-from firmware_model.gcode import ARC_TOLERANCE, ARC_TOLERANCE_LIMIT, Program, parse
+from firmware_model.canon import FRONTENDS
+from firmware_model.gcode import ARC_TOLERANCE_LIMIT, ARC_TOLERANCE_MM, Program
 from firmware_model.job import (
     AXES,
     Job,
@@ -90,8 +92,11 @@ def plant_params(machine: MachineConfig, servo: ServoConfig) -> PlantParams:
     return PlantParams(clock_hz=machine.clock_hz, **values)
 
 
-def load_job(path: str | PathLike[str] | None) -> Job:
+def load_job(path: str | PathLike[str] | None, *, frontend: str = "builtin",
+             arc_tolerance: float | None = None) -> Job:
     """Load a TOML job, or a G-code file run on the default machine; None: the demo.
+    ``frontend`` reads the program (:data:`firmware_model.canon.FRONTENDS`);
+    ``arc_tolerance`` (LSB), if given, replaces the job's.
 
     Raises
     ------
@@ -105,8 +110,9 @@ def load_job(path: str | PathLike[str] | None) -> Job:
     path = Path(path)
     text = _read(path, str(path))
     if path.suffix.lower() != ".toml":
-        return gcode_job(path.stem, text, str(path))
-    return _TomlJob(path, text).job()
+        return gcode_job(path.stem, text, str(path), frontend=frontend,
+                         arc_tolerance=arc_tolerance)
+    return _TomlJob(path, text, frontend, arc_tolerance).job()
 
 
 def _read(path: Path, name: str) -> str:
@@ -126,9 +132,13 @@ _TOML_POSITION = re.compile(r"^(.*) \(at line (\d+), column (\d+)\)$")
 class _TomlJob:
     """One TOML job file being loaded; every error names the file."""
 
-    def __init__(self, path: Path, text: str):
+    def __init__(self, path: Path, text: str, frontend: str = "builtin",
+                 arc_tolerance: float | None = None):
         self.path = path
+        self.frontend = frontend
+        self.arc_tolerance = arc_tolerance
         self.source = str(path)
+        self.text = text
         try:
             self.data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as e:
@@ -190,25 +200,59 @@ class _TomlJob:
     def program(self, machine: MachineConfig) -> Program:
         if "program" not in self.data:
             self.fail("missing [program] table (give gcode or file)")
-        table = self.table(self.data, "program", ("gcode", "file", "arc_tolerance"))
+        table = self.table(self.data, "program", ("gcode", "file", "arc_tolerance", "tools"))
         if ("gcode" in table) == ("file" in table):
             self.fail("program must give exactly one of gcode (inline) and file")
-        tolerance = table.get("arc_tolerance", ARC_TOLERANCE)
         try:
-            tolerance = ARC_TOLERANCE_LIMIT.check("arc_tolerance", tolerance)
+            tolerance = OrAbsent(ARC_TOLERANCE_LIMIT).check(
+                "arc_tolerance", table.get("arc_tolerance", self.arc_tolerance))
+            if self.arc_tolerance is not None:
+                tolerance = self.arc_tolerance
         except (TypeError, ValueError) as e:
             self.fail(f"program.{e}")
+        tools = self.tools(table.get("tools", {}))
         key = "gcode" if "gcode" in table else "file"
         if not isinstance(table[key], str):
             self.fail(f"program.{key} must be a string, not {table[key]!r}")
+        origin = None
         if key == "gcode":
             text, source = table["gcode"], f"{self.source}:program.gcode"
+            origin = self.source, _inline_program_line(self.text)
         else:
             file = self.path.parent / table["file"]
             source = str(file)
             text = _read(file, f"{self.source}: program.file {source}")
-        return parse(text, source=source, lsb_mm=machine.lsb_mm, sqrt2=machine.sqrt2,
-                     arc_tolerance=tolerance)
+        kwargs = {"tools": tools} if tools else {}
+        return FRONTENDS[self.frontend](text, source=source, lsb_mm=machine.lsb_mm,
+                                        sqrt2=machine.sqrt2, arc_tolerance=tolerance,
+                                        origin=origin, **kwargs)
+
+    def tools(self, table: Any) -> dict[int, float]:
+        """``program.tools``: tool number -> length (mm)."""
+        if not isinstance(table, dict):
+            self.fail(f"program.tools must be a table of tool number = length (mm), not "
+                      f"{table!r}")
+        tools = {}
+        for number, length in table.items():
+            if not (number.isascii() and number.isdigit()):
+                self.fail(f"program.tools.{number}: a tool number is a non-negative integer")
+            try:
+                tools[int(number)] = Limit(unit="mm").check(f"program.tools.{number}", length)
+            except (TypeError, ValueError) as e:
+                self.fail(str(e))
+        return tools
+
+_INLINE_PROGRAM = re.compile(r"""^[ \t]*gcode[ \t]*=[ \t]*("{3}|'{3}|"|')(\r?\n)?""", re.M)
+
+
+def _inline_program_line(text: str) -> int:
+    """The TOML file's line of an inline program's first line (a multi-line string starts
+    on the line after its quotes when they end their line)."""
+    section = re.search(r"^[ \t]*\[program\]", text, re.M)
+    match = _INLINE_PROGRAM.search(text, section.end() if section else 0)
+    if match is None:
+        return 1
+    return text.count("\n", 0, match.start()) + 1 + (match.group(2) is not None)
 
 
 def _names(cls: type) -> tuple[str, ...]:
@@ -241,6 +285,10 @@ def job_keys_markdown() -> str:
              "overrides |",
              "| program.gcode | | a string | the program, inline (give gcode or file) |",
              "| program.file | | a string | the program's file, relative to the job file |",
-             f"| program.arc_tolerance | {ARC_TOLERANCE!r} | {ARC_TOLERANCE_LIMIT.describe()} | "
-             f"largest difference (LSB) between an arc's start and end radii |"]
+             f"| program.arc_tolerance | absent | {ARC_TOLERANCE_LIMIT.describe()}, or absent | "
+             f"largest difference (LSB) between an arc's start and end radii; absent: "
+             f"LinuxCNC's, {ARC_TOLERANCE_MM[False]:g} mm in G21, "
+             f"{ARC_TOLERANCE_MM[True] / 25.4:g} in in G20 |",
+             "| program.tools | absent | a table of tool number = length (mm) | tool lengths "
+             "for G43 (a tool not in it is an error); absent: every length zero |"]
     return "\n".join(rows) + "\n"

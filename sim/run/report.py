@@ -113,7 +113,19 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
     "warnings": {"type": "array", "items": {"type": "string"},
                  "description": "what the run could not do as asked (e.g. a waveform window "
                                 "it never reached)"},
-})
+    "events": {"type": "array", "description": "words with no hardware here (spindle, coolant, "
+                                               "tool change, stops), in order; only when the "
+                                               "program has some",
+               "items": _obj("an event", {
+                   "line": _int("G-code line number"),
+                   "word": {"type": "string", "description": "the word, as written (M03, T2)"},
+                   "kind": {"type": "string", "description": "its meaning (docs/gcode.md)"},
+                   "value": {"type": ["number", "null"], "description": "S or T value"},
+                   "cycle": _int("cycle the firmware reached it at"),
+               })},
+}, required=["schema_version", "job", "status", "reason", "backend", "cycles", "clock_hz",
+             "machine_seconds", "wall_seconds", "cycles_per_second", "skipped_cycles",
+             "blocks", "axes", "end_point", "path", "alarms", "warnings"])
 
 _TYPES = {"object": dict, "array": list, "string": str, "integer": int, "number": (int, float),
           "boolean": bool, "null": type(None)}
