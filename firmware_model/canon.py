@@ -22,6 +22,7 @@ import re
 import shutil
 import subprocess
 import tempfile
+from collections.abc import Mapping
 from decimal import ROUND_HALF_UP, Decimal
 from pathlib import Path
 
@@ -62,7 +63,8 @@ _SKIPPED = {"SET_FEED_REFERENCE", "ON_RESET", "SET_MOTION_CONTROL_MODE", "SET_NA
             "SET_TRAVERSE_RATE", "START_SPEED_FEED_SYNCH", "STOP_SPEED_FEED_SYNCH",
             "SET_SPINDLE_FORCE", "ORIENT_SPINDLE", "WAIT_SPINDLE_ORIENT_COMPLETE",
             "USE_NO_SPINDLE_FORCE", "SET_TOOL_TABLE_ENTRY", "CHANGE_TOOL_NUMBER",
-            "SET_BLOCK_DELETE", "SET_OPTIONAL_PROGRAM_STOP", "TURN_PROBE_OFF", "TURN_PROBE_ON"}
+            "SET_BLOCK_DELETE", "SET_OPTIONAL_PROGRAM_STOP", "TURN_PROBE_OFF", "TURN_PROBE_ON",
+            "START_CHANGE", "SET_XY_ROTATION_DONE"}
 
 
 class _CanonError(ValueError):
@@ -182,9 +184,10 @@ def parse_canon(canon: str, *, source: str = "<canon>", lsb_mm: float = 0.001,
                    arc_tolerance, axes, origin)
 
 
-def rs274_canon(text: str, *, source: str = "<gcode>",
-                origin: tuple[str, int] | None = None) -> str:
-    """Run LinuxCNC's ``rs274`` on a program; its canonical commands. Raises
+def rs274_canon(text: str, *, source: str = "<gcode>", origin: tuple[str, int] | None = None,
+                tools: Mapping[int, float] | None = None) -> str:
+    """Run LinuxCNC's ``rs274`` on a program; its canonical commands. ``tools``: tool lengths
+    (mm) by number, written as ``rs274``'s tool table (which it reads in inches). Raises
     :class:`~firmware_model.gcode.GcodeError` when it is not installed or refuses the
     program (its message, at the line of the block it quotes)."""
     name, first = origin or (source, 1)
@@ -196,8 +199,12 @@ def rs274_canon(text: str, *, source: str = "<gcode>",
     with tempfile.TemporaryDirectory(prefix="k37-rs274-") as tmp:
         program, out = Path(tmp) / "program.ngc", Path(tmp) / "canon.txt"
         program.write_text(text.removeprefix("\ufeff"), encoding="utf-8")
+        table = Path(tmp) / "tools.tbl"
+        table.write_text("".join(f"T{n} P{n} Z{Decimal(repr(length)) / INCH_MM} ;\n"
+                                 for n, length in (tools or {}).items()))
         try:
-            run = subprocess.run([exe, "-g", str(program), str(out)], stdin=subprocess.DEVNULL,
+            run = subprocess.run([exe, "-t", str(table), "-g", str(program), str(out)],
+                                 stdin=subprocess.DEVNULL,
                                  capture_output=True, text=True, timeout=RS274_TIMEOUT_S,
                                  cwd=tmp, check=False)
         except subprocess.TimeoutExpired:
@@ -223,13 +230,11 @@ def _rs274_error(output: str, text: str) -> tuple[int, int, str]:
     return line, 1, f"rs274: {message}"
 
 
-def parse_linuxcnc(text: str, *, source: str = "<gcode>", **kwargs) -> Program:
+def parse_linuxcnc(text: str, *, source: str = "<gcode>",
+                   tools: Mapping[int, float] | None = None, **kwargs) -> Program:
     """:func:`parse_canon` of ``rs274``'s output for the program ``text``; the keywords as
-    :func:`firmware_model.gcode.parse`'s (``tools`` is refused: ``rs274`` has its own)."""
-    if kwargs.pop("tools", None):
-        raise GcodeError(source, [(1, 1, "program.tools is for the built-in front end; "
-                                         "rs274 reads its own tool table")])
-    canon = rs274_canon(text, source=source, origin=kwargs.get("origin"))
+    :func:`firmware_model.gcode.parse`'s."""
+    canon = rs274_canon(text, source=source, origin=kwargs.get("origin"), tools=tools)
     return parse_canon(canon, source=source, **kwargs)
 
 

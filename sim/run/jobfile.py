@@ -222,10 +222,9 @@ class _TomlJob:
             file = self.path.parent / table["file"]
             source = str(file)
             text = _read(file, f"{self.source}: program.file {source}")
-        kwargs = {"tools": tools} if tools else {}
         return FRONTENDS[self.frontend](text, source=source, lsb_mm=machine.lsb_mm,
                                         sqrt2=machine.sqrt2, arc_tolerance=tolerance,
-                                        origin=origin, **kwargs)
+                                        origin=origin, tools=tools)
 
     def tools(self, table: Any) -> dict[int, float]:
         """``program.tools``: tool number -> length (mm)."""

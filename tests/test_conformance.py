@@ -1,0 +1,98 @@
+"""Conformance of the built-in G-code front end with LinuxCNC's interpreter, ``rs274``.
+
+Every program of ``tests/gcode_corpus`` (small programs written in the styles of LinuxCNC's
+examples, grbl and UGS test files, Fusion 360 and CamBam posts) is parsed by the built-in
+front end (on a three-axis machine) and by ``rs274`` (``--frontend linuxcnc``); the motion end
+points must agree within 1 LSB on every axis. Where ``rs274`` is not installed the comparison
+is skipped, saying so. ``python tests/test_conformance.py`` prints the corpus table.
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+from pathlib import Path
+
+import pytest
+
+from firmware_model.canon import RS274, parse_linuxcnc
+from firmware_model.gcode import GcodeError, Program, parse
+
+CORPUS = Path(__file__).parent / "gcode_corpus"
+FILES = sorted(p for p in CORPUS.iterdir() if p.is_file())
+#: Corpus programs only RS-274/NGC (the LinuxCNC front end) runs, and why.
+NGC_ONLY = {"ngc_subroutine.ngc": "O-words, parameters, expressions"}
+HAVE_RS274 = shutil.which(RS274) is not None
+#: The tool table both front ends get (mm; whole hundredths of an inch, as rs274 reads them).
+TOOLS = {1: 12.7, 2: 25.4}
+
+
+def programmed_ends(program: Program) -> list[tuple[int, ...]]:
+    """The machine position after each programmed move (an arc's correction line counted
+    with its arc), consecutive repeats (zero-length moves) merged."""
+    ends: list[tuple[int, ...]] = []
+    for move in program.moves:
+        if getattr(move, "correction", False):
+            ends[-1] = move.end
+        elif not ends or ends[-1] != move.end:
+            ends.append(move.end)
+    return [end for k, end in enumerate(ends) if k == 0 or end != ends[k - 1]]
+
+
+def largest_difference(a: list[tuple[int, ...]], b: list[tuple[int, ...]]) -> int | None:
+    """The largest per-axis difference between two lists of end points (None: they differ in
+    length)."""
+    if len(a) != len(b):
+        return None
+    return max((abs(p - q) for ea, eb in zip(a, b, strict=True)
+                for p, q in zip(ea, eb, strict=True)), default=0)
+
+
+def corpus_row(path: Path) -> tuple[str, str, int | None]:
+    """(file, outcome, largest end-point difference to rs274 in LSB)."""
+    text = path.read_text()
+    try:
+        ours = parse(text, source=path.name, axes=3, tools=TOOLS)
+        outcome = "ok"
+    except GcodeError as e:
+        return path.name, f"clear error ({e.message})", None
+    if not HAVE_RS274:
+        return path.name, outcome, None
+    try:
+        theirs = parse_linuxcnc(text, source=path.name, axes=3, tools=TOOLS)
+    except GcodeError as e:
+        return path.name, f"{outcome}; rs274 front end: {e}", None
+    return path.name, outcome, largest_difference(programmed_ends(ours),
+                                                  programmed_ends(theirs))
+
+
+@pytest.mark.parametrize("path", FILES, ids=[p.name for p in FILES])
+def test_the_builtin_front_end_runs_the_corpus_as_published(path):
+    if path.name in NGC_ONLY:
+        with pytest.raises(GcodeError, match="--frontend linuxcnc"):
+            parse(path.read_text(), axes=3, tools=TOOLS)
+        return
+    assert parse(path.read_text(), source=path.name, axes=3, tools=TOOLS).moves
+
+
+@pytest.mark.skipif(not HAVE_RS274, reason="LinuxCNC's rs274 is not installed (Debian: "
+                                           "apt-get install linuxcnc-uspace): no comparison")
+@pytest.mark.parametrize("path", FILES, ids=[p.name for p in FILES])
+def test_every_end_point_equals_rs274s_within_one_lsb(path):
+    text = path.read_text()
+    theirs = programmed_ends(parse_linuxcnc(text, source=path.name, axes=3, tools=TOOLS))
+    if path.name in NGC_ONLY:
+        assert theirs
+        return
+    ours = programmed_ends(parse(text, source=path.name, axes=3, tools=TOOLS))
+    assert largest_difference(ours, theirs) is not None, (ours, theirs)
+    assert largest_difference(ours, theirs) <= 1
+
+
+if __name__ == "__main__":
+    print("| file | built-in front end | largest difference to rs274 (LSB) |")
+    print("|---|---|---|")
+    for name, outcome, diff in map(corpus_row, FILES):
+        shown = "-" if diff is None else diff
+        print(f"| {name} | {outcome} | {shown} |")
+    sys.exit(0)
