@@ -91,7 +91,7 @@ def words_of(text: str) -> list[Word]:
             m = _NUMBER.match(text, pos + 1)
             if m is None:
                 after = text[pos + 1:].lstrip(" \t")
-                if after and not after[0].isascii():
+                if after and (not after[0].isascii() or after[0] in NGC_ONLY):
                     raise _bad(after[0], len(text) - len(after) + 1)
                 raise LexError(pos + 1, f"word {c.upper()} has no number")
             number = re.sub(r"[ \t]", "", m.group(1))
