@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import pytest
+from test_gcode import error_of
 
 from firmware_model.gcode import MAX_ERRORS, Arc, Dwell, Event, GcodeError, Line, parse
 from firmware_model.gcode_words import G_CODES, M_CODES, markdown
@@ -15,12 +16,6 @@ from sim.run.runner import RunOptions, run_job
 
 def ends(text: str, **kwargs) -> list[tuple[int, ...]]:
     return [m.end for m in parse(text, **kwargs).moves]
-
-
-def error_of(text: str, **kwargs) -> str:
-    with pytest.raises(GcodeError) as info:
-        parse(text, source="t.ngc", **kwargs)
-    return str(info.value)
 
 
 # --- events ---------------------------------------------------------------------------------
