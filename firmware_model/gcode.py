@@ -28,7 +28,9 @@ Semantics (RS-274/NGC's, as LinuxCNC's ``rs274``; the decisions are in the READM
   or helical arc, a canned cycle) is an error naming ``machine.axes = 3``.
 
 Every error of a program is reported (up to :data:`MAX_ERRORS`), each ``file:line:col:
-message``; a line with an error does nothing else. Errors are :class:`GcodeError`.
+message``; a line with an error does nothing else. RS-274/NGC's constructs (O-words,
+parameters, expressions) are one error, at the first, saying how to run them. Errors are
+:class:`GcodeError`.
 """
 
 from __future__ import annotations
@@ -37,7 +39,7 @@ import math
 from collections.abc import Mapping
 from decimal import ROUND_HALF_UP, Decimal
 
-from firmware_model.gcode_lex import LexError, Word, words_of
+from firmware_model.gcode_lex import NGC_HINT, LexError, Word, words_of
 from firmware_model.gcode_words import G_CODES, LETTERS, M_CODES, code_key
 from firmware_model.program import (
     PLANE_AXES,
@@ -557,6 +559,8 @@ def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: b
             if words:
                 interp.block(words)
         except (LexError, _BlockError) as e:
+            if NGC_HINT in e.message and any(NGC_HINT in m for _, _, m in errors):
+                continue  # how to run RS-274/NGC is said once
             errors.append((number, e.col, e.message))
             if len(errors) == MAX_ERRORS:
                 errors.append((number, 1, f"stopped after {MAX_ERRORS} errors"))

@@ -193,6 +193,13 @@ def test_every_error_of_a_program_is_reported_with_its_place():
     assert (info.value.line, info.value.col) == (1, 1) and len(info.value.errors) == 4
 
 
+def test_rs274_ngc_constructs_are_one_error_saying_how_to_run_them():
+    with pytest.raises(GcodeError) as info:
+        parse("#1 = 2\nG01 X#1 F1\no100 sub\nG05")
+    assert [(line, col) for line, col, _ in info.value.errors] == [(1, 1), (4, 1)]
+    assert "--frontend linuxcnc" in info.value.errors[0][2]
+
+
 def test_errors_stop_at_the_limit():
     with pytest.raises(GcodeError) as info:
         parse("G05\n" * 100)
