@@ -64,7 +64,9 @@ _SKIPPED = {"SET_FEED_REFERENCE", "ON_RESET", "SET_MOTION_CONTROL_MODE", "SET_NA
             "SET_SPINDLE_FORCE", "ORIENT_SPINDLE", "WAIT_SPINDLE_ORIENT_COMPLETE",
             "USE_NO_SPINDLE_FORCE", "SET_TOOL_TABLE_ENTRY", "CHANGE_TOOL_NUMBER",
             "SET_BLOCK_DELETE", "SET_OPTIONAL_PROGRAM_STOP", "TURN_PROBE_OFF", "TURN_PROBE_ON",
-            "START_CHANGE", "SET_XY_ROTATION_DONE"}
+            "START_CHANGE", "FINISH", "LOGOPEN", "LOGAPPEND", "LOGCLOSE", "LOG"}
+#: Tool numbers written to rs274's tool table (length zero) when a job gives none.
+_DEFAULT_TOOLS = range(1000)
 
 
 class _CanonError(ValueError):
@@ -187,7 +189,8 @@ def parse_canon(canon: str, *, source: str = "<canon>", lsb_mm: float = 0.001,
 def rs274_canon(text: str, *, source: str = "<gcode>", origin: tuple[str, int] | None = None,
                 tools: Mapping[int, float] | None = None) -> str:
     """Run LinuxCNC's ``rs274`` on a program; its canonical commands. ``tools``: tool lengths
-    (mm) by number, written as ``rs274``'s tool table (which it reads in inches). Raises
+    (mm) by number, written as ``rs274``'s tool table (which it reads in inches); none: tools
+    0 to 999 of length zero, as the built-in front end's. Raises
     :class:`~firmware_model.gcode.GcodeError` when it is not installed or refuses the
     program (its message, at the line of the block it quotes)."""
     name, first = origin or (source, 1)
@@ -201,7 +204,8 @@ def rs274_canon(text: str, *, source: str = "<gcode>", origin: tuple[str, int] |
         program.write_text(text.removeprefix("\ufeff"), encoding="utf-8")
         table = Path(tmp) / "tools.tbl"
         table.write_text("".join(f"T{n} P{n} Z{Decimal(repr(length)) / INCH_MM} ;\n"
-                                 for n, length in (tools or {}).items()))
+                                 for n, length in (tools or dict.fromkeys(_DEFAULT_TOOLS, 0.0))
+                                 .items()))
         try:
             run = subprocess.run([exe, "-t", str(table), "-g", str(program), str(out)],
                                  stdin=subprocess.DEVNULL,

@@ -276,7 +276,7 @@ class _Interpreter:
 
     def dwell(self, b: _Block) -> None:
         g4 = b.g["non-modal"][1]
-        for letter in _AXIS_LETTERS:
+        for letter in _AXIS_LETTERS if "motion" not in b.g else "":  # else: the motion's
             if b.word(letter) is not None:
                 w = b.word(letter)
                 raise _BlockError(w.col, f"{w.text}: G04 takes only P (seconds)")

@@ -113,6 +113,8 @@ NGC_ONLY = {
     "O": "O-words (subroutines, loops)",
     "#": "parameters (#)",
     "[": "expressions ([...])",
+    "@": "polar coordinates (@, ^)",
+    "^": "polar coordinates (@, ^)",
 }
 
 

@@ -30,13 +30,13 @@ TOOLS = {1: 12.7, 2: 25.4}
 def programmed_ends(program: Program) -> list[tuple[int, ...]]:
     """The machine position after each programmed move (an arc's correction line counted
     with its arc), consecutive repeats (zero-length moves) merged."""
-    ends: list[tuple[int, ...]] = []
+    ends: list[tuple[int, ...]] = [(0,) * program.axes]  # the start, merged with repeats
     for move in program.moves:
         if getattr(move, "correction", False):
             ends[-1] = move.end
-        elif not ends or ends[-1] != move.end:
+        elif ends[-1] != move.end:
             ends.append(move.end)
-    return [end for k, end in enumerate(ends) if k == 0 or end != ends[k - 1]]
+    return ends[1:]
 
 
 def largest_difference(a: list[tuple[int, ...]], b: list[tuple[int, ...]]) -> int | None:
