@@ -134,5 +134,5 @@ def markdown() -> str:
     rows += ["", "| word | meaning |", "|---|---|"]
     rows += [f"| {letter} | {doc} |" for letter, doc in LETTERS.items()]
     rows += ["", "Refused with a hint to `--frontend linuxcnc`: "
-             + ", ".join(NGC_ONLY.values()) + ".", ""]
+             + ", ".join(dict.fromkeys(NGC_ONLY.values())) + ".", ""]
     return "\n".join(rows)
