@@ -35,7 +35,7 @@ from firmware_model.gcode import (
     GcodeError,
     parse,
 )
-from firmware_model.program import PlanError, Planner, Program
+from firmware_model.program import Planner, Program
 
 __all__ = ["FRONTENDS", "RS274", "parse_canon", "parse_linuxcnc", "rs274_canon"]
 
@@ -177,7 +177,7 @@ def parse_canon(canon: str, *, source: str = "<canon>", lsb_mm: float = 0.001,
         line = int(n_word) if n_word.isdigit() else int(m.group(1))
         try:
             canon_state.command(line, m.group(3), m.group(4))
-        except (PlanError, _CanonError, ArithmeticError, IndexError, KeyError) as e:
+        except (ArithmeticError, LookupError, ValueError) as e:  # PlanError, _CanonError too
             errors.append((number, 1, f"{m.group(3)}: {e}"))
     name = origin[0] if origin else source
     if errors:

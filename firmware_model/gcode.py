@@ -40,7 +40,7 @@ from collections.abc import Mapping
 from decimal import ROUND_HALF_UP, Decimal
 
 from firmware_model.gcode_lex import NGC_HINT, LexError, Word, words_of
-from firmware_model.gcode_words import G_CODES, LETTERS, M_CODES, code_key
+from firmware_model.gcode_words import G_CODES, LETTERS, M_CODES, REFUSED_G, code_key
 from firmware_model.program import (
     PLANE_AXES,
     Arc,
@@ -126,9 +126,8 @@ class _Block:
         key = code_key(w.value) if w.letter == "G" else None
         if w.letter == "M" and w.value == w.value.to_integral_value():
             key = int(w.value)
-        if w.letter == "G" and w.value == 93:
-            raise _BlockError(w.col, "G93 (inverse time feed) is unsupported: K37 takes feeds in "
-                               "units per minute (G94)")
+        if w.letter == "G" and key in REFUSED_G:
+            raise _BlockError(w.col, f"{w.text}: {REFUSED_G[key]}")
         if key is None or key not in table or w.value * 10 != int(w.value * 10):
             raise _BlockError(w.col, f"{w.text} is unsupported")
         group = table[key].group

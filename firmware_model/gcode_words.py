@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from decimal import Decimal
 
-__all__ = ["G_CODES", "LETTERS", "M_CODES", "NGC_ONLY", "Code", "code_key", "markdown"]
+__all__ = ["G_CODES", "LETTERS", "M_CODES", "NGC_ONLY", "REFUSED_G", "Code", "code_key", "markdown"]
 
 
 @dataclass(frozen=True)
@@ -108,6 +108,16 @@ LETTERS: dict[str, str] = {
     "Q": "peck depth (G83); G64's tolerance (ignored)",
 }
 
+#: G codes refused with a reason (by table key).
+REFUSED_G: dict[int, str] = {
+    **dict.fromkeys((410, 411, 420, 421), "cutter radius compensation is unsupported: K37 "
+                                          "runs the programmed path (compensate in the CAM)"),
+    930: "inverse time feed is unsupported: K37 takes feeds in units per minute (G94)",
+    **dict.fromkeys((382, 383, 384, 385), "probing is unsupported: K37 has no probe input"),
+    100: "G10 (setting offsets and tools) is unsupported: G54-G59 offsets are zero, tool "
+         "lengths come from the job's program.tools",
+}
+
 #: What only a full RS-274/NGC interpreter runs, and why it is refused here.
 NGC_ONLY = {
     "O": "O-words (subroutines, loops)",
@@ -133,6 +143,8 @@ def markdown() -> str:
     rows += [f"| M{k:02d} | {c.group} | {c.doc} |" for k, c in M_CODES.items()]
     rows += ["", "| word | meaning |", "|---|---|"]
     rows += [f"| {letter} | {doc} |" for letter, doc in LETTERS.items()]
+    rows += ["", "| refused | why |", "|---|---|"]
+    rows += [f"| {code('G', k)} | {why} |" for k, why in REFUSED_G.items()]
     rows += ["", "Refused with a hint to `--frontend linuxcnc`: "
              + ", ".join(dict.fromkeys(NGC_ONLY.values())) + ".", ""]
     return "\n".join(rows)

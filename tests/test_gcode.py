@@ -305,8 +305,10 @@ def test_motion_errors_name_line_and_column(text, message):
     ("G01 X1 A3", "1:8: unsupported word A3 (K37's axes are X, Y and Z)"),
     ("#1 = 2", "1:1: parameters (#): an RS-274/NGC construct: run it with `k37 run --frontend "
                "linuxcnc` (LinuxCNC's interpreter rs274: apt-get install linuxcnc-uspace)"),
-    ("G93", "1:1: G93 (inverse time feed) is unsupported: K37 takes feeds in units per minute "
+    ("G93", "1:1: G93: inverse time feed is unsupported: K37 takes feeds in units per minute "
             "(G94)"),
+    ("G41 D1", "1:1: G41: cutter radius compensation is unsupported: K37 runs the programmed "
+               "path (compensate in the CAM)"),
     ("G01 X", "1:5: word X has no number"),
     ("G01 X1 (open", "1:8: comment '(' is not closed on its line"),
     ("G01 G00 X1", "1:5: G01 and G00 are in the same modal group (motion)"),

@@ -113,6 +113,27 @@ def test_the_front_end_never_raises_anything_but_a_gcode_error(text, axes):
     assert message and all(line.count(":") >= 3 for line in message.splitlines())
 
 
+_CANON = st.sampled_from([
+    "STRAIGHT_FEED(1.0, 2.0, 0.0, 0, 0, 0)", "STRAIGHT_TRAVERSE(x)", "ARC_FEED(1, 0)",
+    "ARC_FEED(1, 0, 0.5, 0, 1, 0, 0, 0, 0)", "ARC_FEED(1e400, 0, 0.5, 0, 1, 0)", "DWELL(abc)",
+    "SET_FEED_RATE(0)", "SET_FEED_RATE(100)", "SELECT_PLANE(CANON_PLANE_XZ)",
+    "SELECT_PLANE(FOO)", "USE_LENGTH_UNITS(CANON_UNITS_INCHES)", "SET_G92_OFFSET()",
+    "SET_XY_ROTATION(5)", "SET_SPINDLE_SPEED(0, 100)", "START_SPINDLE_CLOCKWISE(0)",
+    "NURBS_FEED(1)"])
+
+
+@settings(max_examples=100, deadline=None)
+@given(commands=st.lists(st.tuples(st.sampled_from(["N.....", "N12", "N"]), _CANON),
+                         max_size=8), axes=st.sampled_from([2, 3]))
+def test_the_canonical_command_reader_never_raises_anything_but_a_gcode_error(commands,
+                                                                                axes):
+    text = "\n".join(f"   {k} {n} {c}" for k, (n, c) in enumerate(commands, start=1))
+    try:
+        canon.parse_canon(text, axes=axes)
+    except GcodeError as e:
+        assert str(e).startswith("<canon> (rs274 output):")  # noqa: PT017
+
+
 @settings(max_examples=25, deadline=None)
 @given(text=_LINES)
 def test_plan_exits_0_or_2_on_any_program(tmp_path_factory, text):
