@@ -187,7 +187,8 @@ class Firmware:
     """The host program of Fig. 10, run against the chipset through ``host``.
 
     :meth:`run` executes a whole program and returns when it ended, an alarm stopped it, or
-    ``max_cycles`` ran out; ``blocks`` and ``alarms`` say what happened.
+    ``max_cycles`` ran out; ``blocks`` and ``alarms`` say what happened, and ``events`` the
+    cycle each of the program's events (words with no hardware here) was reached at.
     """
 
     def __init__(self, host: Host8085, job: Job, *, budget_offset: int = 0,
