@@ -170,7 +170,8 @@ class _Interpreter:
 
     @property
     def pos(self) -> tuple[int, int, int]:
-        return self.planner.position
+        """The programmed position (the machine's may be up to 1 LSB off after an arc)."""
+        return self.planner.programmed
 
     def lsb(self, value: Decimal, inch: bool | None = None) -> int:
         mm = value * INCH_MM if (self.inch if inch is None else inch) else value

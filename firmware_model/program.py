@@ -7,14 +7,16 @@ are absolute machine LSB, one int per machine axis (X, Y, and Z on a three-axis 
 the program starts at the origin.
 
 :class:`Planner` turns moves to absolute targets into items. Every block starts where the
-previous one ended and ends exactly on its target (integer LSB, so nothing accumulates). An
-arc's chip end can differ from its programmed end by an LSB or two (the K3701 stops where its
-digital path reaches the end's long-axis coordinate, SPEC section 3): the planner then adds a
+previous one really ended and runs to its programmed target, an absolute position in integer
+LSB, so nothing accumulates. A line ends exactly on its target. An arc's chip end can differ
+from its programmed end (the K3701 stops where its digital path reaches the end's long-axis
+coordinate, SPEC section 3): within :data:`CORRECTION_MAX` LSB on every axis (SPEC's
+promise) it is left, and the next block starts there; farther, the planner adds a
 *correction line*, a short linear block at the arc's feed from the chip's end to the
 programmed end (``Line.correction``). If the chip would stop far from the programmed end (a
 tiny arc whose digital path runs a full extra turn, or leaves the end quadrant with ERROR),
 the block's end point is moved to the grid point near the programmed end whose chip end is
-closest to it, within :data:`REPAIR_REACH` LSB, and the correction line follows.
+closest to it, within :data:`REPAIR_REACH` LSB, and the correction line follows if needed.
 """
 
 from __future__ import annotations
@@ -25,13 +27,16 @@ from dataclasses import dataclass, field
 from firmware_model.arc_plan import plan_block
 from hdl.k3701_model import COORD_MAX, MAX_RADIUS_SQUARED, Block, BlockError, Plan
 
-__all__ = ["PLANE_AXES", "REPAIR_REACH", "Arc", "Dwell", "Event", "Item", "Line", "Move",
-           "PlanError", "Planner", "Program"]
+__all__ = ["CORRECTION_MAX", "PLANE_AXES", "REPAIR_REACH", "Arc", "Dwell", "Event", "Item",
+           "Line", "Move", "PlanError", "Planner", "Program"]
 
 #: Machine-axis indices of a plane's first, second and normal axes (as LinuxCNC's canon).
 PLANE_AXES = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
 #: How far (LSB, each axis) from the programmed end a repaired arc's block end may be moved.
 REPAIR_REACH = 3
+#: How far (LSB, each axis) an arc's chip end may stay from its programmed end without a
+#: correction line: SPEC section 3's 1 LSB.
+CORRECTION_MAX = 1
 _AXIS_NAMES = "XYZ"
 
 
@@ -218,8 +223,9 @@ class PlanError(ValueError):
 class Planner:
     """Builds the items of a program from moves to absolute machine targets (LSB).
 
-    ``position`` is the machine position (three ints; Z stays 0 on a two-axis machine).
-    Methods raise :class:`PlanError` for a move the K3701 cannot run.
+    ``position`` is the machine position and ``programmed`` the programmed one (three ints
+    each; Z stays 0 on a two-axis machine): they differ by at most :data:`CORRECTION_MAX`
+    after an arc. Methods raise :class:`PlanError` for a move the K3701 cannot run.
     """
 
     def __init__(self, *, axes: int, sqrt2: bool, lsb_mm: float):
@@ -228,6 +234,7 @@ class Planner:
         self.lsb_mm = lsb_mm
         self.items: list[Item] = []
         self.position = (0, 0, 0)
+        self.programmed = (0, 0, 0)
 
     def mm(self, lsb: float) -> str:
         """A length in LSB as mm, to the LSB's resolution."""
@@ -262,7 +269,7 @@ class Planner:
         self.items.append(Line(len(self.items), line_no, xe, ye, feed, feed is None, ze=ze,
                                start=self._start(), block=block, plan=result,
                                feed_source=feed_source, correction=correction))
-        self.position = target
+        self.position = self.programmed = target
 
     def dwell(self, line_no: int, seconds: float) -> None:
         self.items.append(Dwell(len(self.items), line_no, seconds))
@@ -284,6 +291,8 @@ class Planner:
         start = self.position
         i, j = centre[0] - start[first], centre[1] - start[second]
         end = (target[first] - start[first], target[second] - start[second])
+        if (target[first], target[second]) == (self.programmed[first], self.programmed[second]):
+            end = (0, 0)  # a full circle from wherever the machine is
         if i == 0 and j == 0:
             raise PlanError("the arc's centre is its start point (radius 0)")
         r0, r1 = math.hypot(i, j), math.hypot(end[0] - i, end[1] - j)
@@ -301,7 +310,8 @@ class Planner:
                               start=self._start(), block=block, plan=result,
                               feed_source=feed_source))
         self.position = tuple(self.items[-1].end) + (0,) * (3 - self.axes)
-        if self.position != target:
+        self.programmed = target
+        if max(abs(p - t) for p, t in zip(self.position, target, strict=True)) > CORRECTION_MAX:
             self.line(line_no, target, feed, feed_source=feed_source, correction=True)
 
     def _arc_block(self, end: tuple[int, int], i: int, j: int, cw: bool) -> tuple[Block, Plan]:

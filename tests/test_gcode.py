@@ -231,11 +231,12 @@ def test_every_block_starts_where_the_previous_one_really_ended():
 def test_an_arc_the_k3701_would_not_finish_gets_a_block_end_it_reaches():
     # Radius 1 LSB: (0, 1) is within the tolerance but not on the digital path, and the chip
     # would leave the end quadrant without reaching it: the block's end moves to a grid point
-    # the chip stops on, and the correction line goes on to the programmed end.
-    arc, fix = parse("G02 X0 Y0.001 I-0.001 J0 F100").items
+    # the chip stops on; 1 LSB from the programmed end (SPEC section 3), it needs no
+    # correction line, and the next block runs to its programmed point.
+    arc, line = parse("G02 X0 Y0.001 I-0.001 J0 F100\nG01 X0.002").items
     assert plan(Block.arc(0, 1, -1, 0, cw=True, sqrt2=True)).error
     assert not arc.plan.error and arc.plan.end == (arc.block.xe, arc.block.ye) == (-1, 1)
-    assert fix.end == (0, 1)
+    assert (line.start, line.end, line.correction) == ((-1, 1), (2, 1), False)
 
 
 def test_an_arc_of_radius_zero_is_an_error():

@@ -230,6 +230,15 @@ def test_chained_off_grid_arcs_never_drift():
         assert arc.radius == pytest.approx(921)
 
 
+def test_an_arc_stopping_within_1_lsb_needs_no_correction_and_nothing_drifts():
+    # a 45 degree arc of radius 100 LSB: the chip stops at (-29, 70), 1 LSB from (-29, 71);
+    # incremental moves after it are from the programmed point, not from the stop
+    prog = parse("G21 G91 F100\nG03 X-0.029 Y0.071 I-0.100 J0\nG01 X0.029 Y-0.071\nX1")
+    arc, back, line = prog.items
+    assert arc.end == (-29, 70) and not back.correction
+    assert (back.start, back.end, line.end) == ((-29, 70), (0, 0), (1000, 0))
+
+
 def test_a_correction_line_is_a_short_line_at_the_arcs_feed():
     prog = parse("G21 F600\nG03 X-0.014 Y-0.012 I-0.006 J-0.006")
     arc, fix = prog.items
