@@ -156,7 +156,7 @@ class _Interpreter:
         self.incremental = False
         self.arc_absolute = False
         self.plane = 17
-        self.retract_r = False
+        self.retract_r = True  # G99, rs274's initial retract mode
         self.feed: float | None = None
         self.feed_source: tuple[int, int, str] | None = None
         self.g92 = [0, 0, 0]
@@ -164,6 +164,7 @@ class _Interpreter:
         self.selected: int | None = None
         self.tool: int | None = None
         self.cycle: dict[str, Decimal] = {}
+        self.cycle_planes: tuple[int, int, int] | None = None
         self.line_no = 0
 
     # -- helpers ----------------------------------------------------------------------------
@@ -356,7 +357,7 @@ class _Interpreter:
         g = b.g.get("motion")
         if g is not None:
             if g[0] != self.motion:
-                self.cycle = {}
+                self.cycle, self.cycle_planes = {}, None
             self.motion = None if g[0] == 800 else g[0]
         if "non-modal" in b.g and b.g["non-modal"][0] in (280, 300, 920):
             return  # their axis words are theirs
@@ -472,14 +473,19 @@ class _Interpreter:
         if self.motion == 830 and self.cycle["Q"] <= 0:
             raise _BlockError(anchor.col, f"G83: the peck Q{self.cycle['Q']} must be positive")
         old_z = self.pos[2]
-        if self.incremental:
-            r = old_z + self.lsb(self.cycle["R"])
-            bottom = r + self.lsb(self.cycle["Z"])
-        else:
-            r = self.offset(2) + self.lsb(self.cycle["R"])
-            bottom = self.offset(2) + self.lsb(self.cycle["Z"])
+        if self.cycle_planes is None or "motion" in b.g or b.word("R") or b.word("Z"):
+            # R and Z as of the cycle's first block (in G91: from the Z there), kept for its
+            # repeats, with that block's Z for G98's retract
+            if self.incremental:
+                r = old_z + self.lsb(self.cycle["R"])
+                bottom = r + self.lsb(self.cycle["Z"])
+            else:
+                r = self.offset(2) + self.lsb(self.cycle["R"])
+                bottom = self.offset(2) + self.lsb(self.cycle["Z"])
+            self.cycle_planes = r, bottom, old_z
+        r, bottom, start_z = self.cycle_planes
         xy = self.target(_Block([w for w in (b.word("X"), b.word("Y")) if w is not None]))
-        clear = r if self.retract_r else max(r, old_z)
+        clear = r if self.retract_r else max(r, start_z)
         if self.planner.axes == 2 and (r != old_z or bottom != old_z):
             raise _BlockError(anchor.col, f"G{self.motion // 10} moves Z: this machine has two "
                                           f"axes (machine.axes = 3 runs it)")

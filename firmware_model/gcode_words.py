@@ -71,8 +71,8 @@ G_CODES: dict[int, Code] = {
     _g(92.1): Code("non-modal", "clear the G92 offset"),
     _g(94): Code("feed mode", "feed in units per minute (the only feed mode; G93 inverse "
                               "time is refused)"),
-    _g(98): Code("retract", "canned cycles retract to the start Z (or R if higher)"),
-    _g(99): Code("retract", "canned cycles retract to R"),
+    _g(98): Code("retract", "canned cycles retract to the Z before the cycle (or R if higher)"),
+    _g(99): Code("retract", "canned cycles retract to R (the initial mode, as rs274's)"),
 }
 
 M_CODES: dict[int, Code] = {
