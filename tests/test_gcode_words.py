@@ -11,6 +11,8 @@ from test_gcode import error_of
 from firmware_model.gcode import MAX_ERRORS, Arc, Dwell, Event, GcodeError, Line, parse
 from firmware_model.gcode_words import G_CODES, M_CODES, markdown
 from firmware_model.job import gcode_job
+from sim.run.jobfile import load_job
+from sim.run.report import validate
 from sim.run.runner import RunOptions, run_job
 
 
@@ -43,6 +45,7 @@ def test_the_firmware_records_each_event_at_its_cycle():
     job = gcode_job("ev", "G21 F600 M3 S1000\nG01 X0.05\nM5\nM30", "<ev>")
     report = run_job(job, RunOptions(backend="cxxrtl", max_cycles=2_000_000)).report
     assert report["status"] == "ok"
+    validate(report)
     events = report["events"]
     assert [(e["line"], e["word"]) for e in events] == [(1, "S1000"), (1, "M3"), (3, "M5")]
     (block,) = report["blocks"]
@@ -155,8 +158,11 @@ def test_a_canned_cycle_needs_its_words_and_three_axes():
 
 # --- the lexer -------------------------------------------------------------------------------
 
-def test_a_utf8_byte_order_mark_and_percent_lines_are_skipped():
+def test_a_utf8_byte_order_mark_and_percent_lines_are_skipped(tmp_path):
     assert ends("\ufeff%\nG00 X1\n%") == [(1000, 0)]
+    path = tmp_path / "job.toml"
+    path.write_bytes(b'\xef\xbb\xbf[program]\ngcode = "G00 X1"\n')
+    assert load_job(path).program.final_position == (1000, 0)
 
 
 def test_spaces_and_tabs_may_stand_inside_a_word_and_its_number():

@@ -117,7 +117,7 @@ def load_job(path: str | PathLike[str] | None, *, frontend: str = "builtin",
 
 def _read(path: Path, name: str) -> str:
     try:
-        return path.read_text(encoding="utf-8")
+        return path.read_text(encoding="utf-8-sig")  # a UTF-8 byte-order mark is skipped
     except UnicodeDecodeError as e:
         raise JobError(f"{name}: not UTF-8 text (byte {e.start})") from None
     except OSError as e:
