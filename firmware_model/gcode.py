@@ -40,7 +40,7 @@ from collections.abc import Mapping
 from decimal import ROUND_HALF_UP, Decimal
 
 from firmware_model.gcode_lex import NGC_HINT, LexError, Word, words_of
-from firmware_model.gcode_words import G_CODES, LETTERS, M_CODES, REFUSED_G, code_key
+from firmware_model.gcode_words import G_CODES, LETTERS, M_CODES, REFUSED_G, Code, code_key
 from firmware_model.program import (
     PLANE_AXES,
     Arc,
@@ -80,6 +80,8 @@ _HINTS = {**dict.fromkeys("ABC", " (K37's axes are X, Y and Z)"),
           **dict.fromkeys("UVW", " (K37's axes are X, Y and Z)"),
           "D": " (no cutter radius compensation: G40 only)",
           "L": " (no G10 or canned-cycle repeats)", "E": ""}
+#: What R and Q are for (in the error for one used elsewhere).
+_USES = {"R": "arcs and canned cycles", "Q": "G83 (peck depth) and G64"}
 _OFFSET_LETTERS = "IJK"
 _AXIS_LETTERS = "XYZ"
 
@@ -122,7 +124,7 @@ class _Block:
                 self.words[w.letter] = w
 
     @staticmethod
-    def _code(w: Word, table, found) -> None:
+    def _code(w: Word, table: dict[int, Code], found: dict[str, tuple[int, Word]]) -> None:
         key = code_key(w.value) if w.letter == "G" else None
         if w.letter == "M" and w.value == w.value.to_integral_value():
             key = int(w.value)
@@ -132,8 +134,8 @@ class _Block:
             raise _BlockError(w.col, f"{w.text} is unsupported")
         group = table[key].group
         if group in found:
-            raise _BlockError(w.col, f"{found[group][1].text} and {w.text} are in the same modal "
-                               f"group ({group})")
+            raise _BlockError(w.col, f"{found[group][1].text} and {w.text} are in the same "
+                                     f"modal group ({group})")
         found[group] = key, w
 
     def code(self, group: str) -> int | None:
@@ -509,8 +511,6 @@ class _Interpreter:
             self.planner.dwell(self.line_no, float(self.cycle["P"]))
         self.plan(anchor.col, self.planner.line, (xy[0], xy[1], clear), None)
 
-
-_USES = {"R": "arcs and canned cycles", "Q": "G83 (peck depth) and G64"}
 
 
 def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: bool = True,
