@@ -568,6 +568,8 @@ def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: b
             if NGC_HINT in e.message and any(NGC_HINT in m for _, _, m in errors):
                 continue  # how to run RS-274/NGC is said once
             errors.append((number, e.col, e.message))
+            if interp.end:
+                break  # the first block after the program end is enough said
             if len(errors) == MAX_ERRORS:
                 errors.append((number, 1, f"stopped after {MAX_ERRORS} errors"))
                 break

@@ -206,6 +206,12 @@ def test_rs274_ngc_constructs_are_one_error_saying_how_to_run_them():
     assert "--frontend linuxcnc" in info.value.errors[0][2]
 
 
+def test_blocks_after_the_program_end_are_one_error():
+    with pytest.raises(GcodeError) as info:
+        parse("M30\nG00 X1\nG00 X2\nG05")
+    assert info.value.errors == [(2, 1, "block after the program end (M02/M30)")]
+
+
 def test_errors_stop_at_the_limit():
     with pytest.raises(GcodeError) as info:
         parse("G05\n" * 100)
