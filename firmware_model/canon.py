@@ -210,7 +210,7 @@ def rs274_canon(text: str, *, source: str = "<gcode>", origin: tuple[str, int] |
             run = subprocess.run([exe, "-t", str(table), "-g", str(program), str(out)],
                                  stdin=subprocess.DEVNULL,
                                  capture_output=True, text=True, timeout=RS274_TIMEOUT_S,
-                                 cwd=tmp, check=False)
+                                 cwd=_folder(name) or tmp, check=False)
         except subprocess.TimeoutExpired:
             raise GcodeError(name, [(first, 1, f"rs274 took more than {RS274_TIMEOUT_S} s")]) \
                 from None
@@ -219,6 +219,13 @@ def rs274_canon(text: str, *, source: str = "<gcode>", origin: tuple[str, int] |
         line, col, message = _rs274_error(run.stdout + run.stderr, text)
         raise GcodeError(name, [(line + first - 1, col, message)])
     return canon
+
+
+def _folder(name: str) -> Path | None:
+    """The folder of the file a program is written in (``rs274`` looks for subroutine files,
+    ``o<name> call``, in its working folder), or None."""
+    path = Path(name)
+    return path.parent if path.is_file() else None
 
 
 def _rs274_error(output: str, text: str) -> tuple[int, int, str]:

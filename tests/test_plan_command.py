@@ -88,6 +88,18 @@ def test_the_linuxcnc_front_end_runs_rs274_nc_and_places_its_errors(tmp_path, ca
         f"k37: error: {path}:3:1: rs274: Radius to end of arc differs from radius to start")
 
 
+@pytest.mark.skipif(not HAVE_RS274, reason="LinuxCNC's rs274 is not installed (Debian: "
+                                           "apt-get install linuxcnc-uspace)")
+def test_rs274_finds_subroutine_files_beside_the_program(tmp_path, capsys):
+    (tmp_path / "square.ngc").write_text("o<square> sub\nG91 G01 X#1\nY#1\nX-#1\nY-#1\n"
+                                         "G90\no<square> endsub\nM2\n")
+    path = tmp_path / "p.ngc"
+    path.write_text("G21 F600\no<square> call [2]\nM2\n")
+    assert main(["plan", "--json", "--frontend", "linuxcnc", str(path)]) == 0
+    ends = [it["end"] for it in json.loads(capsys.readouterr().out)["items"] if "end" in it]
+    assert ends == [[2000, 0], [2000, 2000], [0, 2000], [0, 0]]
+
+
 _WORDS = st.sampled_from(
     ["G0", "G1", "G2", "G3", "G4", "G17", "G18", "G19", "G20", "G21", "G28", "G30", "G40",
      "G43", "G49", "G53", "G54", "G61", "G64", "G80", "G81", "G82", "G83", "G90", "G91",
