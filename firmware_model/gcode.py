@@ -464,6 +464,9 @@ class _Interpreter:
 
     def canned_cycle(self, b: _Block, anchor: Word) -> None:
         """G81/G82/G83 at the block's X/Y, expanded as LinuxCNC's interpreter does."""
+        if self.plane != 17:
+            raise _BlockError(anchor.col, f"G{self.motion // 10} in G{self.plane} is "
+                                          f"unsupported: canned cycles drill along Z, in G17")
         for letter in "ZRPQ":
             w = b.word(letter)
             if w is not None:
@@ -486,6 +489,9 @@ class _Interpreter:
                 bottom = self.offset(2) + self.lsb(self.cycle["Z"])
             self.cycle_planes = r, bottom, old_z
         r, bottom, start_z = self.cycle_planes
+        if r < bottom:
+            raise _BlockError(anchor.col, f"G{self.motion // 10}: the retract plane R is below "
+                                          f"the bottom Z")
         xy = self.target(_Block([w for w in (b.word("X"), b.word("Y")) if w is not None]))
         clear = r if self.retract_r else max(r, start_z)
         if self.planner.axes == 2 and (r != old_z or bottom != old_z):

@@ -5,16 +5,20 @@ examples, grbl and UGS test files, Fusion 360 and CamBam posts) is parsed by the
 front end (on a three-axis machine) and by ``rs274`` (``--frontend linuxcnc``); the motion end
 points of K37's plan (where the K3701 really stops) must equal ``rs274``'s canonical end
 points within 1 LSB on every axis. Where ``rs274`` is not installed the comparison
-is skipped, saying so. ``python tests/test_conformance.py`` prints the corpus table.
+is skipped, saying so. A slow test does the same on random programs (moves, I/J and R arcs,
+drilling, mode changes). ``python tests/test_conformance.py`` prints the corpus table.
 """
 
 from __future__ import annotations
 
+import random
 import shutil
 import sys
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from firmware_model.canon import RS274, parse_linuxcnc
 from firmware_model.gcode import Arc, GcodeError, Program, parse
@@ -95,6 +99,50 @@ def test_every_end_point_equals_rs274s_within_one_lsb(path):
     ours = programmed_ends(parse(text, source=path.name, axes=3, tools=TOOLS))
     assert largest_difference(ours, theirs) is not None, (ours, theirs)
     assert largest_difference(ours, theirs) <= 1
+
+
+def random_program(rng: random.Random) -> str:
+    """A random program of moves, arcs (I/J and R), drilling and mode changes."""
+    inch = rng.random() < 0.5
+    scale = 0.05 if inch else 1.0
+    lines = [f"{'G20' if inch else 'G21'} F50"]
+
+    def num() -> str:
+        return f"{rng.uniform(-20, 20) * scale:.{rng.choice([0, 1, 2, 3])}f}"
+
+    for _ in range(rng.randint(3, 12)):
+        k = rng.random()
+        if k < 0.1:
+            lines.append(rng.choice(["G90", "G91", "G92 X0 Y0", "G92.1", "G98", "G99", "G17",
+                                     "G18", "G19", "G90.1", "G91.1", "G54", "G55"]))
+        elif k < 0.4:
+            z = f" Z{num()}" if rng.random() < 0.3 else ""
+            lines.append(f"G{rng.choice('01')} X{num()} Y{num()}{z}")
+        elif k < 0.6:
+            lines.append(f"G{rng.choice('23')} X{num()} Y{num()} R{num()}")
+        elif k < 0.8:
+            lines.append(f"G{rng.choice('23')} I{num()} J{num()}")
+        elif k < 0.9:
+            lines += [f"G17 G81 X{num()} Y{num()} Z{num()} R{num()}", "G80"]
+        else:
+            lines.append(f"G28 X{num()}")
+    return "\n".join([*lines, "M2"])
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not HAVE_RS274, reason="LinuxCNC's rs274 is not installed (Debian: "
+                                           "apt-get install linuxcnc-uspace): no comparison")
+@settings(max_examples=150, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**32))
+def test_random_programs_run_as_rs274_runs_them(seed):
+    text = random_program(random.Random(seed))
+    try:
+        theirs = programmed_ends(parse_linuxcnc(text, axes=3), targets=True)
+    except GcodeError:
+        return  # rs274 refuses it (an R arc too short for its chord...): so do we, or more
+    ours = programmed_ends(parse(text, axes=3))
+    assert largest_difference(ours, theirs) is not None, text
+    assert largest_difference(ours, theirs) <= 1, text
 
 
 if __name__ == "__main__":

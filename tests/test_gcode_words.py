@@ -154,6 +154,10 @@ def test_a_canned_cycle_needs_its_words_and_three_axes():
     assert error_of("G81 X1 Y1 Z-1 R1 F1") == (
         "t.ngc:1:1: G81 moves Z: this machine has two axes (machine.axes = 3 runs it)")
     assert "Q-1 must be positive" in error_of("G83 X1 Z-1 R1 Q-1 F1", axes=3)
+    assert error_of("G81 X1 Z2 R1 F1", axes=3) == (
+        "t.ngc:1:1: G81: the retract plane R is below the bottom Z")
+    assert error_of("G19 G81 X1 Z-1 R1 F1", axes=3) == (
+        "t.ngc:1:5: G81 in G19 is unsupported: canned cycles drill along Z, in G17")
 
 
 # --- the lexer -------------------------------------------------------------------------------
