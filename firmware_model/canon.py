@@ -90,12 +90,15 @@ class _Canon:
         self.tool = [Decimal(0)] * 3
         self.end = False
 
-    def lsb(self, value: Decimal) -> int:
-        mm = value * INCH_MM if self.inch else value
-        return int((mm / self.lsb_size).to_integral_value(rounding=ROUND_HALF_UP))
+    def mm(self, value: Decimal) -> Decimal:
+        """A length in the program's units, in mm."""
+        return value * INCH_MM if self.inch else value
 
     def machine(self, axis: int, value: Decimal) -> int:
-        return self.lsb(value + self.g5x[axis] + self.g92[axis] + self.tool[axis])
+        """The machine position (LSB) of a canonical coordinate: plus the offsets (kept in
+        mm: they stay where they were set when the units change)."""
+        mm = self.mm(value) + self.g5x[axis] + self.g92[axis] + self.tool[axis]
+        return int((mm / self.lsb_size).to_integral_value(rounding=ROUND_HALF_UP))
 
     def command(self, line: int, name: str, args: str) -> None:
         planner = self.planner
@@ -116,11 +119,11 @@ class _Canon:
         elif name == "SELECT_PLANE":
             self.plane = _PLANES[args.strip()]
         elif name == "SET_G5X_OFFSET":
-            self.g5x = _numbers(args)[1:4]
+            self.g5x = [self.mm(v) for v in _numbers(args)[1:4]]
         elif name == "SET_G92_OFFSET":
-            self.g92 = _numbers(args)[:3]
+            self.g92 = [self.mm(v) for v in _numbers(args)[:3]]
         elif name == "USE_TOOL_LENGTH_OFFSET":
-            self.tool = _numbers(args)[:3]
+            self.tool = [self.mm(v) for v in _numbers(args)[:3]]
         elif name == "SET_XY_ROTATION":
             if _numbers(args)[0] != 0:
                 raise _CanonError("a rotated coordinate system (G10 R) is unsupported")

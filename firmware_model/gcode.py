@@ -383,6 +383,9 @@ class _Interpreter:
         machine = "non-modal" in b.g and b.g["non-modal"][0] == 530
         if machine and self.motion not in (0, 10):
             raise _BlockError(b.g["non-modal"][1].col, "G53 is only for G00/G01 moves")
+        if machine and self.incremental:
+            raise _BlockError(b.g["non-modal"][1].col, "G53 takes absolute machine "
+                                                      "coordinates: not in G91")
         if self.motion in (0, 10):
             target = self.target(b, machine=machine, incremental=False if machine else None)
             self.plan(anchor.col, self.planner.line, target,

@@ -62,6 +62,8 @@ def test_g92_offsets_the_coordinates_and_g92_1_clears_them():
 def test_g53_moves_in_machine_coordinates_for_its_block_only():
     assert ends("G00 X5\nG92 X0\nG53 G00 X1\nG00 X1") == [(5000, 0), (1000, 0), (6000, 0)]
     assert "G53 is only for G00/G01" in error_of("G53 G02 X1 I1 F1")
+    assert error_of("G91 G53 G00 X1") == (
+        "t.ngc:1:5: G53 takes absolute machine coordinates: not in G91")
 
 
 def test_g28_and_g30_go_to_the_origin_through_the_programmed_point():

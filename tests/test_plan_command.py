@@ -100,6 +100,15 @@ def test_rs274_finds_subroutine_files_beside_the_program(tmp_path, capsys):
     assert ends == [[2000, 0], [2000, 2000], [0, 2000], [0, 0]]
 
 
+def test_canonical_offsets_keep_their_length_when_the_units_change():
+    text = ("   1 N..... USE_LENGTH_UNITS(CANON_UNITS_MM)\n"
+            "   2 N..... SET_G92_OFFSET(-1.0000, -2.0000, 0.0000, 0.0000, 0.0000, 0.0000)\n"
+            "   3 N..... USE_LENGTH_UNITS(CANON_UNITS_INCHES)\n"
+            "   4 N..... STRAIGHT_TRAVERSE(1.0000, 0.0000, 0.0000, 0.0000, 0.0000, 0.0000)\n")
+    (line,) = canon.parse_canon(text).moves
+    assert line.end == (25_400 - 1_000, -2_000) and line.line_no == 4
+
+
 _WORDS = st.sampled_from(
     ["G0", "G1", "G2", "G3", "G4", "G17", "G18", "G19", "G20", "G21", "G28", "G30", "G40",
      "G43", "G49", "G53", "G54", "G61", "G64", "G80", "G81", "G82", "G83", "G90", "G91",
