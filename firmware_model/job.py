@@ -19,6 +19,7 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any, Protocol
 
+from firmware_model.canon import FRONTENDS
 from firmware_model.gcode import LSB_MM_LIMIT, Program
 from hdl.chipset import ACCEL_BITS, AXES, Accel
 from hdl.divider_model import rate_limit
@@ -209,8 +210,6 @@ def gcode_job(name: str, text: str, source: str, *, frontend: str = "builtin",
               arc_tolerance: float | None = None) -> Job:
     """G-code ``text`` (``source`` names it in errors) on the default machine and servos,
     read by the front end ``frontend`` (:data:`firmware_model.canon.FRONTENDS`)."""
-    from firmware_model.canon import FRONTENDS
-
     machine = MachineConfig()
     program = FRONTENDS[frontend](text, source=source, lsb_mm=machine.lsb_mm,
                                   sqrt2=machine.sqrt2, arc_tolerance=arc_tolerance)
