@@ -25,21 +25,21 @@ does.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Protocol
 
-from firmware_model.gcode import Arc, Dwell, Item, Line, Program
+from firmware_model.gcode import Arc, Dwell, Event, Item, Line, Program
 from firmware_model.host import Host8085
 from firmware_model.job import Job, MachineConfig
 from hdl.decel_control import BUDGET_WIDTH
 from hdl.divider_model import increment_for
 from hdl.feed_rate import DIVIDER_WIDTH, FEED_BITS
 from hdl.k3701 import block_registers
-from hdl.k3701_model import LATENCY_CIRCULAR, LATENCY_LINEAR, Block, Kind
+from hdl.k3701_model import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
 
-__all__ = ["AlarmEvent", "BlockObserver", "BlockRecord", "Firmware", "FirmwareError",
-           "check_program", "feed_word", "loaded_block", "max_feed_mm_min", "planned_seconds",
-           "programmed_feed",
+__all__ = ["AlarmEvent", "BlockObserver", "BlockRecord", "EventRecord", "Firmware",
+           "FirmwareError", "check_program", "feed_word", "max_feed_mm_min",
+           "planned_seconds", "programmed_feed",
            "rm_clock_hz", "word_feed", "word_rate"]
 
 #: Rate-multiplier input clock: one input clock per linear step time, so the FP stream into
@@ -89,6 +89,15 @@ class AlarmEvent:
     kind: str
 
 
+@dataclass
+class EventRecord:
+    """A word with no hardware here (:class:`firmware_model.gcode.Event`) and the cycle the
+    firmware reached it at."""
+
+    event: Event
+    cycle: int
+
+
 def rm_clock_hz(machine: MachineConfig) -> float:
     """The rate multiplier's input clock."""
     return machine.clock_hz / RM_CLOCK_DIVISOR
@@ -120,11 +129,13 @@ def planned_seconds(item: Item, machine: MachineConfig) -> float:
     rate (the accel/decel circuit's lag not counted)."""
     if isinstance(item, Dwell):
         return item.seconds
+    if isinstance(item, Event):
+        return 0.0
     return item.plan.fp / word_rate(machine, feed_word(machine, programmed_feed(item, machine)))
 
 
 def _where(item: Item, program: Program) -> str:
-    return f"{program.source}:{item.line_no}"
+    return program.locate(item.line_no)
 
 
 def programmed_feed(item: Line | Arc, machine: MachineConfig) -> float:
@@ -133,18 +144,6 @@ def programmed_feed(item: Line | Arc, machine: MachineConfig) -> float:
         return machine.rapid_mm_min
     assert item.feed_mm_min is not None
     return item.feed_mm_min
-
-
-def loaded_block(item: Line | Arc) -> Block:
-    """The block the three-axis K3701 is loaded with: the item's, with its third axis (a
-    line's Ze; an arc's travel along its plane's normal, a helix), its plane's CTRL.plane code
-    and a helix's step count H (the plan's)."""
-    if isinstance(item, Line):
-        return replace(item.block, ze=item.ze)
-    normal = item.plane_axes[2]
-    ze = item.end[normal] - item.start[normal]
-    return replace(item.block, ze=ze, plane=item.plane - 17,
-                   helix_steps=item.plan.steps if ze else 0)
 
 
 def check_program(job: Job) -> None:
@@ -159,14 +158,23 @@ def check_program(job: Job) -> None:
                     f"clock can count (2^{CYCLE_COUNTER_BITS} cycles, {counter:.3g} s at "
                     f"{machine.clock_hz / 1e6:g} MHz)")
             continue
+        if isinstance(item, Event):
+            continue
         feed = programmed_feed(item, machine)
         limit = max_feed_mm_min(machine, item.block.kind)
         if feed > limit:
             what = "a line" if item.block.kind is Kind.LINEAR else "an arc"
+            rapid = isinstance(item, Line) and item.rapid
+            where, word = _where(item, program), "machine.rapid_mm_min"
+            if not rapid and item.feed_source is not None:
+                line, col, word = item.feed_source
+                where = program.locate(line, col)
             raise FirmwareError(
-                f"{_where(item, program)}: feed {feed:g} mm/min is above the K3701's maximum "
-                f"for {what}, {math.floor(limit * 100) / 100:.2f} mm/min (one step per "
-                f"{item.block.latency} cycles at {machine.clock_hz / 1e6:g} MHz)")
+                f"{where}: feed {feed:g} mm/min is above the K3701's maximum for {what}, "
+                f"{math.floor(limit * 100) / 100:.2f} mm/min (one step per "
+                f"{item.block.latency} cycles at {machine.clock_hz / 1e6:g} MHz; the block at "
+                f"line {item.line_no}): lower {word}, or raise machine.clock_hz or "
+                f"machine.lsb_mm")
         if feed_word(machine, feed) < 1:
             raise FirmwareError(f"{_where(item, program)}: feed {feed:g} mm/min is below the "
                                 f"rate multiplier's resolution, {word_feed(machine, 1):.3g} "
@@ -180,7 +188,8 @@ class Firmware:
     """The host program of Fig. 10, run against the chipset through ``host``.
 
     :meth:`run` executes a whole program and returns when it ended, an alarm stopped it, or
-    ``max_cycles`` ran out; ``blocks`` and ``alarms`` say what happened.
+    ``max_cycles`` ran out; ``blocks`` and ``alarms`` say what happened, and ``events`` the
+    cycle each of the program's events (words with no hardware here) was reached at.
     """
 
     def __init__(self, host: Host8085, job: Job, *, budget_offset: int = 0,
@@ -194,6 +203,7 @@ class Firmware:
         self.budget_offset = budget_offset
         self.blocks: list[BlockRecord] = []
         self.alarms: list[AlarmEvent] = []
+        self.events: list[EventRecord] = []
         self.stopped = False
         self.timed_out = False
         #: The program item running (None before the first) and the cycle it began.
@@ -233,6 +243,8 @@ class Firmware:
             self.item, self.item_cycle = item, self.host.cycle
             if isinstance(item, Dwell):
                 self._dwell(item)
+            elif isinstance(item, Event):  # no hardware: recorded, nothing is accessed
+                self.events.append(EventRecord(item, self.host.cycle))
             else:
                 self._block(item)
         if not self.stopped and self.host.cycle < self.limit:
@@ -261,8 +273,7 @@ class Firmware:
         if self.observer is not None:
             self.observer.block_started(record)
         # Load the interpolator, start it, then open the feed with the exact FP budget.
-        loaded = loaded_block(item) if machine.axes == 3 else block
-        for register, value in block_registers(loaded, machine.axes).items():
+        for register, value in block_registers(block, machine.axes).items():
             host.write("K3701", register, value)
         host.command("K3701", start=1, ack=1)
         host.write("FEED", "FEED", word)

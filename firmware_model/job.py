@@ -19,7 +19,8 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any, Protocol
 
-from firmware_model.gcode import LSB_MM_LIMIT, Dwell, GcodeError, Program, parse
+from firmware_model.canon import FRONTENDS
+from firmware_model.gcode import LSB_MM_LIMIT, GcodeError, Program
 from hdl.chipset import ACCEL_BITS, AXES, MACHINE_AXES, Accel, axis_names
 from hdl.divider_model import rate_limit
 from hdl.encoder import ENCODER_MAP
@@ -215,10 +216,13 @@ def demo_job() -> Job:
     return gcode_job("demo", DEMO_GCODE, "<demo>")
 
 
-def gcode_job(name: str, text: str, source: str) -> Job:
+def gcode_job(name: str, text: str, source: str, *, frontend: str = "builtin",
+              arc_tolerance: float | None = None) -> Job:
     """G-code ``text`` (``source`` names it in errors) on the default machine and servos (three
-    axes if the program moves Z: :func:`parse_for_machine`)."""
-    machine, program = parse_for_machine(MachineConfig(), text, source=source)
+    axes if the program moves Z: :func:`parse_for_machine`), read by the front end
+    ``frontend`` (:data:`firmware_model.canon.FRONTENDS`)."""
+    machine, program = parse_for_machine(MachineConfig(), text, source=source,
+                                         frontend=frontend, arc_tolerance=arc_tolerance)
     return Job(name, machine, dict.fromkeys(machine.axis_names, ServoConfig()), program)
 
 
@@ -226,16 +230,18 @@ def moves_z(program: Program) -> bool:
     """Whether a program parsed for three axes needs them: a move of Z, or an arc outside
     the XY plane."""
     return any(item.end[2] != item.start[2] or getattr(item, "plane", 17) != 17
-               for item in program.items if not isinstance(item, Dwell))
+               for item in program.moves)
 
 
 def parse_for_machine(machine: MachineConfig, text: str, *, source: str, axes_given: bool = False,
-                      **options: Any) -> tuple[MachineConfig, Program]:
-    """Parse ``text`` for ``machine``; unless the job set ``machine.axes`` (``axes_given``), a
-    program that moves Z gets the three-axis machine, any other the two-axis one."""
+                      frontend: str = "builtin", **options: Any
+                      ) -> tuple[MachineConfig, Program]:
+    """Parse ``text`` with the front end ``frontend`` for ``machine``; unless the job set
+    ``machine.axes`` (``axes_given``), a program that moves Z gets the three-axis machine, any
+    other the two-axis one."""
     def parsed(m: MachineConfig) -> Program:
-        return parse(text, source=source, lsb_mm=m.lsb_mm, sqrt2=m.sqrt2, axes=m.axes,
-                     **options)
+        return FRONTENDS[frontend](text, source=source, lsb_mm=m.lsb_mm, sqrt2=m.sqrt2,
+                                   axes=m.axes, **options)
     if not axes_given:
         try:
             program = parsed(replace(machine, axes=3))

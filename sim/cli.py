@@ -38,7 +38,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     try:
         check_outputs(json_path=args.json, trace=args.trace, plot=args.plot, vcd=args.vcd,
                       gtkw=args.gtkw, ballbar=args.ballbar)
-        job = load_job(args.job)
+        job = load_job(args.job, frontend=args.frontend, arc_tolerance=args.arc_tolerance)
         faults = {axis: {"stall": 1} for axis in args.stall}
         for axis in args.break_line:
             faults.setdefault(axis, {})["break_a"] = 1
@@ -50,7 +50,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                              sigint=True)
         result = run_job(job, options)
     except (OutputError, OptionError, JobError, GcodeError, FirmwareError) as e:
-        print(f"k37: error: {e}", file=sys.stderr)
+        _print_error(e)
         return 2
     except KeyboardInterrupt:  # outside the run itself (building the machine, the report)
         print("k37: interrupted; nothing written", file=sys.stderr)
@@ -72,6 +72,33 @@ def _cmd_run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return EXIT_INTERRUPTED
     return 0 if result.ok else 1
+
+
+def _print_error(e: Exception) -> None:
+    """One ``k37: error:`` line per error (a program's errors come all at once)."""
+    for line in str(e).splitlines() or [""]:
+        print(f"k37: error: {line}", file=sys.stderr)
+
+
+def _cmd_plan(args: argparse.Namespace) -> int:
+    import json
+
+    from firmware_model.firmware import FirmwareError, check_program
+    from firmware_model.gcode import GcodeError
+    from sim.run.jobfile import JobError, load_job
+    from sim.run.plan import plan_rows, plan_table
+
+    try:
+        job = load_job(args.job, frontend=args.frontend, arc_tolerance=args.arc_tolerance)
+        check_program(job)
+    except (JobError, GcodeError, FirmwareError) as e:
+        _print_error(e)
+        return 2
+    if args.json:
+        print(json.dumps({"program": job.program.to_dict(), "items": plan_rows(job)}))
+    else:
+        print(plan_table(job), end="")
+    return 0
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
@@ -229,7 +256,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--break-line", action="append", default=[], choices=list(ALL_AXES),
                    help="fault: break this axis's /A encoder line")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary, no progress line")
+    _program_options(p)
     p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser("plan", help="parse and plan a job's program only: its blocks, lines, "
+                                    "end points, FP counts and events")
+    p.add_argument("job", nargs="?", help="job file: .toml, or G-code (default: the demo)")
+    p.add_argument("--json", action="store_true", help="JSON on stdout instead of a table")
+    _program_options(p)
+    p.set_defaults(func=_cmd_plan)
 
     from sim.fpga.export import BLOCKS
     from sim.fpga.synth import DEVICES
@@ -282,6 +317,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=_cmd_reproduce)
     return parser
+
+
+def _program_options(p: argparse.ArgumentParser) -> None:
+    from firmware_model.canon import FRONTENDS
+
+    p.add_argument("--frontend", choices=list(FRONTENDS), default="builtin",
+                   help="G-code front end: builtin (default), or linuxcnc (full RS-274/NGC "
+                        "through LinuxCNC's rs274, Debian package linuxcnc-uspace)")
+    p.add_argument("--arc-tolerance", type=_tolerance, default=None, metavar="LSB",
+                   help="largest difference between an arc's start and end radii (default: "
+                        "LinuxCNC's, 0.028 mm in G21, 0.0028 in in G20)")
+
+
+def _tolerance(text: str) -> float:
+    from firmware_model.gcode import ARC_TOLERANCE_LIMIT
+
+    try:
+        return ARC_TOLERANCE_LIMIT.check("arc tolerance", float(text))
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from firmware_model.gcode_words import markdown as gcode_markdown
 from hdl.chipset import CHIP_SELECTS, REG_BITS, SUB_WINDOWS, chip_selects, port
 from hdl.hostbus import RegisterMap, registers_markdown
 
@@ -45,4 +46,4 @@ def documents() -> dict[str, str]:
     from sim.run.report import schema_markdown
 
     return {"registers.md": registers_document(), "run-json.md": schema_markdown(),
-            "job-keys.md": job_keys_markdown()}
+            "job-keys.md": job_keys_markdown(), "gcode.md": gcode_markdown()}

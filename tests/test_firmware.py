@@ -91,9 +91,10 @@ def test_maximum_feeds_follow_the_step_latencies():
 
 
 @pytest.mark.parametrize(("gcode", "message"), [
-    ("G01 X1 F6000", r"t.ngc:1: feed 6000 mm/min is above the K3701's maximum for a line, "
-                     r"5454.54 mm/min"),
-    ("G01 X1 F5455", r"t.ngc:1: feed 5455 mm/min is above the K3701's maximum for a line, "
+    ("G01 X1 F6000", r"t.ngc:1:8: feed 6000 mm/min is above the K3701's maximum for a line, "
+                     r"5454.54 mm/min .*: lower F6000, or raise machine.clock_hz or "
+                     r"machine.lsb_mm$"),
+    ("G01 X1 F5455", r"t.ngc:1:8: feed 5455 mm/min is above the K3701's maximum for a line, "
                      r"5454.54 mm/min"),
     ("G01 X1 F0.01", r"t.ngc:1: feed 0.01 mm/min is below the rate multiplier's resolution, "
                      r"0.0208 mm/min"),

@@ -12,7 +12,7 @@ from hdl.k3701_model import COORD_MAX, Block, Kind, plan, quadrant_of
 
 def moves(text: str, **kwargs) -> list[tuple[int, int]]:
     """The (xe, ye) of every move of a program."""
-    return [(it.xe, it.ye) for it in parse(text, **kwargs).items if not isinstance(it, Dwell)]
+    return [(it.xe, it.ye) for it in parse(text, **kwargs).moves]
 
 
 def error_of(text: str, **kwargs) -> str:
@@ -192,15 +192,16 @@ def test_arcs_cross_quadrants(cw):
     assert sum(arc.plan.pulses.values()) > 3 * 1000  # more than a quarter
 
 
-def test_arc_end_within_the_tolerance_is_accepted():
-    # The end is 1.5 LSB outside the circle: accepted, and the machine stops on the digital
-    # path near it.
-    (arc,) = parse("G03 X-0.014 Y-0.012 I-0.006 J-0.006 F100").items
+def test_arc_end_within_the_tolerance_is_accepted_and_corrected_to_the_programmed_end():
+    # The end is 1.5 LSB outside the circle: accepted; the chip stops on its digital path
+    # near it and the host's correction line takes the machine to the programmed end.
+    arc, fix = parse("G03 X-0.014 Y-0.012 I-0.006 J-0.006 F100").items
     assert math.hypot(arc.xe - arc.i, arc.ye - arc.j) - math.hypot(arc.i, arc.j) == (
         pytest.approx(1.51, abs=0.01))
     assert not arc.plan.error
-    assert arc.plan.end != (arc.xe, arc.ye)
     assert arc.plan.end == (-12, -12)
+    assert isinstance(fix, Line) and fix.correction and fix.feed_mm_min == arc.feed_mm_min
+    assert (fix.start, fix.end, fix.line_no) == (arc.end, (-14, -12), arc.line_no)
 
 
 def test_arc_end_beyond_the_tolerance_is_an_error():
@@ -209,28 +210,33 @@ def test_arc_end_beyond_the_tolerance_is_an_error():
         "at the end (they differ by 1.5 LSB; tolerance 1 LSB)")
     assert error_of("G02 X10 I3 F100") == (
         "t.ngc:1:1: the arc's end is not on its circle: radius 3.000 mm at the start, 7.000 mm "
-        "at the end (they differ by 4000.0 LSB; tolerance 2 LSB)")
+        "at the end (they differ by 4000.0 LSB; tolerance 28 LSB)")
+    # LinuxCNC's default tolerance: 0.028 mm in G21, 0.0028 in in G20
+    assert "tolerance 71.12 LSB" in error_of("G20 G02 X1 I0.3 F1")
 
 
-def test_the_machine_position_follows_where_an_arc_really_stops():
+def test_every_block_starts_where_the_previous_one_really_ended():
     prog = parse("G03 X-0.014 Y-0.012 I-0.006 J-0.006 F100\nG01 X0.010 Y0.010")
-    arc, line = prog.items
-    assert line.start == arc.end
-    assert line.end == (10, 10)  # the programmed target, whatever the arc's error
+    _, fix, line = prog.items
+    assert line.start == fix.end == (-14, -12)
+    assert line.end == (10, 10)
     # A full circle after it stays a full circle around the programmed centre.
     prog = parse("G03 X-0.014 Y-0.012 I-0.006 J-0.006 F100\nG02 I0.003")
-    arc, circle = prog.items
-    assert circle.start == arc.end == (-12, -12)
+    _, fix, circle = prog.items
+    assert circle.start == fix.end == (-14, -12)
     assert (circle.xe, circle.ye) == (0, 0)
     assert (circle.start[0] + circle.i, circle.start[1] + circle.j) == (-14 + 3, -12)
 
 
-def test_an_arc_the_k3701_cannot_finish_is_an_error():
+def test_an_arc_the_k3701_would_not_finish_gets_a_block_end_it_reaches():
     # Radius 1 LSB: (0, 1) is within the tolerance but not on the digital path, and the chip
-    # would leave the end quadrant without reaching it.
-    assert error_of("G02 X0 Y0.001 I-0.001 J0 F100") == (
-        "t.ngc:1:1: the K3701 would not reach this arc's end point (0, 1) LSB relative to the "
-        "start: it leaves the end quadrant first and stops with ERROR")
+    # would leave the end quadrant without reaching it: the block's end moves to a grid point
+    # the chip stops on; 1 LSB from the programmed end (SPEC section 3), it needs no
+    # correction line, and the next block runs to its programmed point.
+    arc, line = parse("G02 X0 Y0.001 I-0.001 J0 F100\nG01 X0.002").items
+    assert plan(Block.arc(0, 1, -1, 0, cw=True, sqrt2=True)).error
+    assert not arc.plan.error and arc.plan.end == (arc.block.xe, arc.block.ye) == (-1, 1)
+    assert (line.start, line.end, line.correction) == ((-1, 1), (2, 1), False)
 
 
 def test_an_arc_of_radius_zero_is_an_error():
@@ -279,7 +285,7 @@ def test_out_of_range_coordinates_are_errors(text, message):
     ("G01 X1", "1:1: G01 without a feed rate: program F first"),
     ("G00 X1\nG01 F0 X2", "2:5: F0: the feed must be positive"),
     ("G00 X1\nG02 X2 I0.5", "2:1: G02 without a feed rate: program F first"),
-    ("G01 F1\nG03 X1 Y1", "2:1: G03 needs I and/or J (the centre offsets)"),
+    ("G01 F1\nG03 X1 Y1", "2:1: G03 needs I and/or J (the centre offsets) or R"),
     ("G01 X1 I1 F1", "1:8: I1: I is only for arcs (G02/G03)"),
     ("X5 Y1", "1:1: X5 without a motion mode (G00/G01/G02/G03)"),
     ("G00 X1\n  J2", "2:3: J2: J is only for arcs (G02/G03)"),
@@ -289,32 +295,34 @@ def test_motion_errors_name_line_and_column(text, message):
 
 
 @pytest.mark.parametrize(("text", "message"), [
-    ("G18", "1:1: G18 is unsupported: only the XY plane (G17)"),
-    ("G17 G19", "1:5: G19 is unsupported: only the XY plane (G17)"),
-    ("G28", "1:1: G28 is unsupported"),
+    ("G18 G02 X1 I1 F1", "1:5: G02 in G18 moves Z: this machine has two axes (machine.axes "
+                         "= 3 runs it)"),
+    ("G17 G19", "1:5: G17 and G19 are in the same modal group (plane)"),
     ("G17.1", "1:1: G17.1 is unsupported"),
-    ("M03", "1:1: M03 is unsupported"),
-    ("G01 X1 Z5 F1", "1:8: unsupported word Z5 (K37 has two axes, X and Y)"),
-    ("G02 X1 R1 F1", "1:8: unsupported word R1 (arcs take I and J centre offsets)"),
-    ("G02 X1 K1 F1", "1:8: unsupported word K1 (only the XY plane, G17: arcs take I and J)"),
-    ("S1000", "1:1: unsupported word S1000 (no spindle control)"),
-    ("T1", "1:1: unsupported word T1 (no tool control)"),
+    ("M03.5", "1:1: M03.5 is unsupported"),
+    ("G01 X1 Z5 F1", "1:8: Z5 moves Z: this machine has two axes (machine.axes = 3 runs it)"),
+    ("G02 X1 K1 F1", "1:8: K1: a G17 arc takes I and J"),
     ("G01 X1E3", "1:7: unsupported word E3"),
-    ("#1 = 2", "1:1: unexpected character '#'"),
-    ("/G01 X1", "1:1: unexpected character '/'"),
+    ("G01 X1 A3", "1:8: unsupported word A3 (K37's axes are X, Y and Z)"),
+    ("#1 = 2", "1:1: parameters (#): an RS-274/NGC construct: run it with `k37 run --frontend "
+               "linuxcnc` (LinuxCNC's interpreter rs274: apt-get install linuxcnc-uspace)"),
+    ("G93", "1:1: G93: inverse time feed is unsupported: K37 takes feeds in units per minute "
+            "(G94)"),
+    ("G41 D1", "1:1: G41: cutter radius compensation is unsupported: K37 runs the programmed "
+               "path (compensate in the CAM)"),
     ("G01 X", "1:5: word X has no number"),
     ("G01 X1 (open", "1:8: comment '(' is not closed on its line"),
     ("G01 G00 X1", "1:5: G01 and G00 are in the same modal group (motion)"),
     ("G20 G21", "1:5: G20 and G21 are in the same modal group (units)"),
     ("G90 G91", "1:5: G90 and G91 are in the same modal group (distance)"),
     ("G01 X1 X2 F1", "1:8: X appears twice in one block"),
-    ("M02 M30", "1:5: M appears twice in one block"),
+    ("M02 M30", "1:5: M02 and M30 are in the same modal group (stop)"),
     ("N-1 G00 X1", "1:1: N-1: N must be a non-negative integer"),
     ("N1.5 G00 X1", "1:1: N1.5: N must be a non-negative integer"),
     ("G04", "1:1: G04 needs P (the dwell in seconds)"),
     ("G04 P-1", "1:5: P-1: the dwell must not be negative"),
     ("G04 P1 X2", "1:8: X2: G04 takes only P (seconds)"),
-    ("G01 X1 P2 F1", "1:8: P2: P is only for G04 (dwell)"),
+    ("G01 X1 P2 F1", "1:8: P2: P is only for G04 (dwell), G82, G64 and arcs"),
     ("G00 X1\nM30\n\n(trailing comment)\nG00 X0", "5:1: block after the program end (M02/M30)"),
 ])
 def test_word_errors_name_line_and_column(text, message):
@@ -333,7 +341,7 @@ def test_errors_are_one_line_with_their_position_as_attributes():
 
 def test_the_default_source_name_is_gcode():
     with pytest.raises(GcodeError, match=r"^<gcode>:1:1: "):
-        parse("G28")
+        parse("G28.5")
 
 
 @pytest.mark.parametrize(("kwargs", "message"), [

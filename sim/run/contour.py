@@ -10,7 +10,7 @@ from functools import reduce
 
 import numpy as np
 
-from firmware_model.gcode import Arc, Dwell, Line
+from firmware_model.gcode import Arc, Line
 from firmware_model.job import Job
 from sim.run.sampler import CHUNK_ROWS, SampleStore
 
@@ -55,7 +55,7 @@ def contour_errors(job: Job, blocks: Sequence[BlockStart], samples: np.ndarray) 
     A sample is compared with the block running at its cycle and its neighbours (a lagging
     axis is still on the block before).
     """
-    moves = [it for it in job.program.items if not isinstance(it, Dwell)]
+    moves = list(job.program.moves)
     if not len(samples) or not moves or not blocks:
         return np.zeros(0)
     n = job.machine.axes

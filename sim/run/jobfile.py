@@ -17,7 +17,8 @@ TOML job::
 
     [program]                       # exactly one of gcode (inline) and file
     file = "square.ngc"             # relative to the TOML file
-    arc_tolerance = 2.0             # LSB, optional
+    arc_tolerance = 2.0             # LSB, optional (default: LinuxCNC's 0.028 mm)
+    tools = { 1 = 25.0 }            # tool lengths (mm) for G43, optional
 
     [run]                           # optional
     max_time_s = 10.0
@@ -40,7 +41,7 @@ from os import PathLike
 from pathlib import Path
 from typing import Any, NoReturn
 
-from firmware_model.gcode import ARC_TOLERANCE, ARC_TOLERANCE_LIMIT, Program
+from firmware_model.gcode import ARC_TOLERANCE_LIMIT, ARC_TOLERANCE_MM, Program
 from firmware_model.job import (
     Job,
     MachineConfig,
@@ -92,8 +93,11 @@ def plant_params(machine: MachineConfig, servo: ServoConfig) -> PlantParams:
     return PlantParams(clock_hz=machine.clock_hz, **values)
 
 
-def load_job(path: str | PathLike[str] | None) -> Job:
+def load_job(path: str | PathLike[str] | None, *, frontend: str = "builtin",
+             arc_tolerance: float | None = None) -> Job:
     """Load a TOML job, or a G-code file run on the default machine; None: the demo.
+    ``frontend`` reads the program (:data:`firmware_model.canon.FRONTENDS`);
+    ``arc_tolerance`` (LSB), if given, replaces the job's.
 
     Raises
     ------
@@ -107,13 +111,14 @@ def load_job(path: str | PathLike[str] | None) -> Job:
     path = Path(path)
     text = _read(path, str(path))
     if path.suffix.lower() != ".toml":
-        return gcode_job(path.stem, text, str(path))
-    return _TomlJob(path, read_toml(text, str(path))).job()
+        return gcode_job(path.stem, text, str(path), frontend=frontend,
+                         arc_tolerance=arc_tolerance)
+    return _TomlJob(path, read_toml(text, str(path)), text, frontend, arc_tolerance).job()
 
 
 def _read(path: Path, name: str) -> str:
     try:
-        return path.read_text(encoding="utf-8")
+        return path.read_text(encoding="utf-8-sig")  # a UTF-8 byte-order mark is skipped
     except UnicodeDecodeError as e:
         raise JobError(f"{name}: not UTF-8 text (byte {e.start})") from None
     except OSError as e:
@@ -144,10 +149,14 @@ def job_from_data(path: Path, data: dict[str, Any]) -> Job:
 class _TomlJob:
     """One TOML job file being loaded; every error names the file."""
 
-    def __init__(self, path: Path, data: dict[str, Any]):
+    def __init__(self, path: Path, data: dict[str, Any], text: str | None = None,
+                 frontend: str = "builtin", arc_tolerance: float | None = None):
         self.path = path
+        self.frontend = frontend
+        self.arc_tolerance = arc_tolerance
         self.source = str(path)
         self.data = data
+        self.text = text  # the file's text, when there is one (for an inline program's lines)
 
     def fail(self, message: str) -> NoReturn:
         raise JobError(f"{self.source}: {message}") from None
@@ -213,25 +222,59 @@ class _TomlJob:
         :func:`firmware_model.job.parse_for_machine` for ``axes_given``)."""
         if "program" not in self.data:
             self.fail("missing [program] table (give gcode or file)")
-        table = self.table(self.data, "program", ("gcode", "file", "arc_tolerance"))
+        table = self.table(self.data, "program", ("gcode", "file", "arc_tolerance", "tools"))
         if ("gcode" in table) == ("file" in table):
             self.fail("program must give exactly one of gcode (inline) and file")
-        tolerance = table.get("arc_tolerance", ARC_TOLERANCE)
         try:
-            tolerance = ARC_TOLERANCE_LIMIT.check("arc_tolerance", tolerance)
+            tolerance = OrAbsent(ARC_TOLERANCE_LIMIT).check(
+                "arc_tolerance", table.get("arc_tolerance", self.arc_tolerance))
+            if self.arc_tolerance is not None:
+                tolerance = self.arc_tolerance
         except (TypeError, ValueError) as e:
             self.fail(f"program.{e}")
+        tools = self.tools(table.get("tools", {}))
         key = "gcode" if "gcode" in table else "file"
         if not isinstance(table[key], str):
             self.fail(f"program.{key} must be a string, not {table[key]!r}")
+        origin = None
         if key == "gcode":
             text, source = table["gcode"], f"{self.source}:program.gcode"
+            if self.text is not None:
+                origin = self.source, _inline_program_line(self.text)
         else:
             file = self.path.parent / table["file"]
             source = str(file)
             text = _read(file, f"{self.source}: program.file {source}")
         return parse_for_machine(machine, text, source=source, axes_given=axes_given,
-                                 arc_tolerance=tolerance)
+                                 frontend=self.frontend, arc_tolerance=tolerance,
+                                 origin=origin, tools=tools)
+
+    def tools(self, table: Any) -> dict[int, float]:
+        """``program.tools``: tool number -> length (mm)."""
+        if not isinstance(table, dict):
+            self.fail(f"program.tools must be a table of tool number = length (mm), not "
+                      f"{table!r}")
+        tools = {}
+        for number, length in table.items():
+            if not (number.isascii() and number.isdigit()):
+                self.fail(f"program.tools.{number}: a tool number is a non-negative integer")
+            try:
+                tools[int(number)] = Limit(unit="mm").check(f"program.tools.{number}", length)
+            except (TypeError, ValueError) as e:
+                self.fail(str(e))
+        return tools
+
+_INLINE_PROGRAM = re.compile(r"""^[ \t]*gcode[ \t]*=[ \t]*("{3}|'{3}|"|')(\r?\n)?""", re.M)
+
+
+def _inline_program_line(text: str) -> int:
+    """The TOML file's line of an inline program's first line (a multi-line string starts
+    on the line after its quotes when they end their line)."""
+    section = re.search(r"^[ \t]*\[program\]", text, re.M)
+    match = _INLINE_PROGRAM.search(text, section.end() if section else 0)
+    if match is None:
+        return 1
+    return text.count("\n", 0, match.start()) + 1 + (match.group(2) is not None)
 
 
 def _names(cls: type) -> tuple[str, ...]:
@@ -264,6 +307,10 @@ def job_keys_markdown() -> str:
              "servo overrides (servo.z on three axes) |",
              "| program.gcode | | a string | the program, inline (give gcode or file) |",
              "| program.file | | a string | the program's file, relative to the job file |",
-             f"| program.arc_tolerance | {ARC_TOLERANCE!r} | {ARC_TOLERANCE_LIMIT.describe()} | "
-             f"largest difference (LSB) between an arc's start and end radii |"]
+             f"| program.arc_tolerance | absent | {ARC_TOLERANCE_LIMIT.describe()}, or absent | "
+             f"largest difference (LSB) between an arc's start and end radii; absent: "
+             f"LinuxCNC's, {ARC_TOLERANCE_MM[False]:g} mm in G21, "
+             f"{ARC_TOLERANCE_MM[True] / 25.4:g} in in G20 |",
+             "| program.tools | absent | a table of tool number = length (mm) | tool lengths "
+             "for G43 (a tool not in it is an error); absent: every length zero |"]
     return "\n".join(rows) + "\n"

@@ -133,8 +133,20 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
                                 "it never reached)"},
     "ballbar": _obj("ballbar figures of a circular program (only with --ballbar)",
                     {name: _num(text) for name, text in BALLBAR_FIGURES.items()}),
+    "events": {"type": "array", "description": "words with no hardware here (spindle, coolant, "
+                                               "tool change, stops), in order; only when the "
+                                               "program has some",
+               "items": _obj("an event", {
+                   "line": _int("G-code line number"),
+                   "word": {"type": "string", "description": "the word, as written (M03, T2)"},
+                   "kind": {"type": "string", "description": "its meaning (docs/gcode.md)"},
+                   "value": {"type": ["number", "null"], "description": "S or T value"},
+                   "cycle": _int("cycle the firmware reached it at"),
+               })},
 })
-RUN_SCHEMA["required"].remove("ballbar")  # present only when asked for
+#: Present only when asked for (ballbar) or when there are some (events).
+OPTIONAL = ("ballbar", "events")
+RUN_SCHEMA["required"] = [key for key in RUN_SCHEMA["required"] if key not in OPTIONAL]
 
 _TYPES = {"object": dict, "array": list, "string": str, "integer": int, "number": (int, float),
           "boolean": bool, "null": type(None)}

@@ -31,7 +31,7 @@ import numpy as np
 import hdl
 import sim.machine
 from firmware_model.firmware import BlockRecord, Firmware, check_program
-from firmware_model.gcode import Dwell
+from firmware_model.gcode import Dwell, Event
 from firmware_model.host import Host8085
 from firmware_model.job import Job
 from hdl.chipset import chip_register, port
@@ -205,6 +205,8 @@ class _Watch:
             done = 0.0
         elif isinstance(item, Dwell):
             done = self.plan.dwell_done(item, cycle - self.firmware.item_cycle)
+        elif isinstance(item, Event):
+            done = 1.0
         else:
             done = self.meter.done(item.index, item.plan.fp)
         return self.plan.progress(item, done, cycle, wall)
@@ -356,7 +358,7 @@ def _end_point(job: Job, firmware: Firmware, axes: dict[str, dict]) -> dict:
     programmed = list(job.program.final_position)
     actual = [axes[axis]["actual"] for axis in job.machine.axis_names]
     zone = job.machine.in_position
-    moves = sum(not isinstance(item, Dwell) for item in job.program.items)
+    moves = len(job.program.moves)
     ran = len(firmware.blocks) == moves and all(b.end_cycle is not None for b in firmware.blocks)
     return {"programmed": programmed, "actual": actual, "program_ran": ran,
             "reached": ran and all(abs(a - p) <= zone
@@ -392,4 +394,7 @@ def _report(job: Job, backend: Backend, firmware: Firmware, meter: BlockMeter,
         },
         "alarms": [{"axis": a.axis, "cycle": a.cycle, "kind": a.kind} for a in firmware.alarms],
         "warnings": [],
+        **({"events": [{"line": r.event.line_no, "word": r.event.word, "kind": r.event.kind,
+                        "value": r.event.value, "cycle": r.cycle} for r in firmware.events]}
+           if job.program.events else {}),
     }

@@ -1,0 +1,21 @@
+%
+(Written for K37's corpus in the style of a Fusion 360 post: 3-D adaptive-style moves)
+G90 G94 G17 G91.1
+G21
+T2 M6
+S12000 M3
+G0 X12.5 Y-4.2
+G43 Z15. H2
+G0 Z5.
+G1 Z0.5 F600.
+G1 X12.431 Y-4.131 Z0.41
+G1 X12.236 Y-3.936 Z0.165
+G1 X11.948 Y-3.648 Z-0.5
+G2 X11.2 Y-2.3748 Z-0.62 I-1.1 J0.21
+G1 X10.104 Y-1.904 F1500.
+G3 X8.702 Y-0.313 I-0.151 J1.278
+G1 X7.5 Y0.
+G0 Z15.
+M5
+M30
+%

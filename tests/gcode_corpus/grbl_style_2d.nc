@@ -1,0 +1,20 @@
+; Written for K37's corpus in the style of a grbl test file: 2-D, R-form arcs
+G21 G90 G94
+G17
+M3 S1000
+G0 X0 Y0
+G1 X20 Y0 F600
+G2 X30 Y10 R10
+G1 Y20
+G3 X20 Y30 R10
+G1 X10
+G2 X0 Y20 R-10
+G1 Y0
+G0 X5 Y5
+G91
+G1 X5 Y5
+G1 X-5 Y5
+G90
+G0 X0 Y0
+M5
+M2

@@ -1,0 +1,63 @@
+"""The host's fast arc plan equals the reference walk exactly, and is fast."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from firmware_model.arc_plan import plan_block
+from hdl.k3701_model import Block, BlockError, plan
+
+
+def _both(xe, ye, i, j, cw, sqrt2):
+    try:
+        block = Block.arc(xe, ye, i, j, cw=cw, sqrt2=sqrt2)
+        expected = plan(block)
+    except BlockError:
+        with pytest.raises(BlockError):
+            plan_block(Block.arc(xe, ye, i, j, cw=cw, sqrt2=sqrt2))
+        return
+    assert plan_block(block) == expected, block
+
+
+def test_the_fast_plan_equals_the_walk_for_every_small_arc():
+    # every centre within 4 LSB and every end within 6 LSB of the start, both directions
+    for i in range(-4, 5):
+        for j in range(-4, 5):
+            if i == j == 0:
+                continue
+            for xe in range(-6, 7, 2):
+                for ye in range(-6, 7, 3):
+                    _both(xe, ye, i, j, cw=(xe + ye) % 2 == 0, sqrt2=True)
+
+
+@settings(max_examples=300, deadline=None)
+@given(radius=st.integers(1, 3000), start=st.floats(0, math.tau), end=st.floats(0, math.tau),
+       jitter=st.tuples(st.integers(-2, 2), st.integers(-2, 2)), full=st.booleans(),
+       cw=st.booleans(), sqrt2=st.booleans())
+def test_the_fast_plan_equals_the_walk_on_random_arcs(radius, start, end, jitter, full, cw,
+                                                      sqrt2):
+    i, j = round(-radius * math.cos(start)), round(-radius * math.sin(start))
+    if i == j == 0:
+        return
+    if full:
+        xe = ye = 0
+    else:
+        xe = i + round(radius * math.cos(end)) + jitter[0]
+        ye = j + round(radius * math.sin(end)) + jitter[1]
+    _both(xe, ye, i, j, cw, sqrt2)
+
+
+def test_a_large_circle_plans_in_milliseconds():
+    # a full circle of radius 200,000 LSB: about 1.1 million steps for the walk
+    block = Block.arc(0, 0, -200_000, 0, sqrt2=True)
+    t0 = time.perf_counter()
+    result = plan_block(block)
+    assert time.perf_counter() - t0 < 0.05
+    assert result.end == (0, 0) and not result.error
+    assert result.steps == sum(result.pulses.values()) - result.diagonal
+    assert result.fp == result.steps + (result.diagonal + 1) // 2
