@@ -10,6 +10,7 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from hdl.accel_decel_model import check_params
+from hdl.observation import CarryAccumulator, FreeRunning
 
 __all__ = ["AccelDecel"]
 
@@ -70,6 +71,13 @@ class AccelDecel(wiring.Component):
         Probe: output pulses owed and not yet sent.
     idle : Out(1)
         Drained: ``x == 0`` and ``pending == 0`` (``y`` keeps its residue).
+
+    Simulation only (see :mod:`hdl.observation`)
+    --------------------------------------------
+    quiet : Signal(1)
+        No output pulse pending: until the accumulator's next carry only ``y`` changes.
+    free_running : FreeRunning
+        The accumulator, adding ``x`` at each ``add`` (its clock named by the parent).
     """
 
     #: Observation outputs, not pins of the chip (the Verilog export keeps them inside).
@@ -85,6 +93,9 @@ class AccelDecel(wiring.Component):
                   if bidirectional else {"inp": In(1), "out": Out(1)})
         super().__init__({**pulses, "add": In(1), "x": Out(shape), "y": Out(n),
                           "pending": Out(shape), "idle": Out(1)})
+        self.quiet = Signal()
+        self.free_running = FreeRunning(carries=(CarryAccumulator("", n, bidirectional),),
+                                        quiet="quiet")
 
     def elaborate(self, platform) -> Module:
         m = Module()
@@ -103,5 +114,6 @@ class AccelDecel(wiring.Component):
             m.d.sync += self.y.eq(total)
         m.d.sync += [self.x.eq(self.x - carry + net_in),
                      self.pending.eq(self.pending - net_out + carry)]
-        m.d.comb += self.idle.eq((self.x == 0) & (self.pending == 0))
+        m.d.comb += [self.idle.eq((self.x == 0) & (self.pending == 0)),
+                     self.quiet.eq(self.pending == 0)]
         return m

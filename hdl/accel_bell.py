@@ -1,0 +1,89 @@
+"""Bell-shaped accel/decel circuit: the linear circuit, then the exponential one.
+
+The reference model is :class:`hdl.accel_bell_model.AccelBellModel`.
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Module, Signal
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out
+
+from hdl.accel_decel import AccelDecel
+from hdl.accel_linear import AccelLinear
+from hdl.accel_linear_model import check_bins
+from hdl.observation import FreeRunning
+
+__all__ = ["AccelBell"]
+
+
+class AccelBell(wiring.Component):
+    """Bell accel/decel (seed 000 eq. (40)): :class:`hdl.accel_linear.AccelLinear` (moving
+    average over T = 2**n / fa) feeding :class:`hdl.accel_decel.AccelDecel` (tau = 2**n / fa).
+
+    Cycle timing: an output pulse of the linear stage in cycle *t* is an input pulse of the
+    exponential stage in cycle *t* (combinational), so each stage's timing holds as it is
+    documented there; both take the same ``add``.
+
+    Parameters
+    ----------
+    n, counter_width, bidirectional, bins_bits
+        As :class:`hdl.accel_linear.AccelLinear` (both stages have the same n).
+
+    Members
+    -------
+    inp, out (unidirectional); inp_pos, inp_neg, out_pos, out_neg (bidirectional) : In/Out(1)
+        The cascade's input and output pulses, as the stages' own.
+    add : In(1)
+        Addition clock fa of both stages.
+    x, y, pending : Out
+        Probes: the exponential stage's counter, accumulator and pending count.
+    idle : Out(1)
+        Both stages drained.
+
+    Simulation only (see :mod:`hdl.observation`)
+    --------------------------------------------
+    quiet : Signal(1)
+        Both stages quiet: the linear one drained, the exponential one with nothing pending.
+    free_running : FreeRunning
+        The exponential stage's accumulator (submodule ``exponential``).
+    """
+
+    PROBES = ("x", "y", "pending")
+
+    def __init__(self, n: int = 15, counter_width: int = 24, bidirectional: bool = False,
+                 bins_bits: int = 4):
+        check_bins(n, bins_bits)
+        self.linear = AccelLinear(n, counter_width, bidirectional, bins_bits)
+        self.exponential = AccelDecel(n, counter_width, bidirectional)
+        self.n = n
+        self.counter_width = counter_width
+        self.bidirectional = bidirectional
+        self.bins_bits = bins_bits
+        exp = self.exponential.signature.members
+        pulses = (("inp_pos", "inp_neg", "out_pos", "out_neg") if bidirectional
+                  else ("inp", "out"))
+        super().__init__({**{name: In(1) if name.startswith("inp") else Out(1)
+                             for name in pulses},
+                          "add": In(1), "x": exp["x"], "y": exp["y"],
+                          "pending": exp["pending"], "idle": Out(1)})
+        self.quiet = Signal()
+        self.free_running = self.exponential.free_running.under("exponential").merge(
+            quiet="quiet")
+
+    def elaborate(self, platform) -> Module:
+        m = Module()
+        m.submodules.linear = linear = self.linear
+        m.submodules.exponential = exp = self.exponential
+        if self.bidirectional:
+            m.d.comb += [linear.inp_pos.eq(self.inp_pos), linear.inp_neg.eq(self.inp_neg),
+                         exp.inp_pos.eq(linear.out_pos), exp.inp_neg.eq(linear.out_neg),
+                         self.out_pos.eq(exp.out_pos), self.out_neg.eq(exp.out_neg)]
+        else:
+            m.d.comb += [linear.inp.eq(self.inp), exp.inp.eq(linear.out),
+                         self.out.eq(exp.out)]
+        m.d.comb += [linear.add.eq(self.add), exp.add.eq(self.add),
+                     self.x.eq(exp.x), self.y.eq(exp.y), self.pending.eq(exp.pending),
+                     self.idle.eq(linear.idle & exp.idle),
+                     self.quiet.eq(linear.quiet & exp.quiet)]
+        return m
