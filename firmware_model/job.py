@@ -20,15 +20,15 @@ from dataclasses import asdict, dataclass, field, fields
 from typing import Any, Protocol
 
 from firmware_model.gcode import LSB_MM_LIMIT, Program, parse
-from hdl.chipset import ACCEL_BITS, AXES, Accel
+from hdl.chipset import ACCEL_BITS, AXES, Accel, AccelShape
 from hdl.divider_model import rate_limit
 from hdl.encoder import ENCODER_MAP
 from hdl.feed_rate import DIVIDER_WIDTH
 from hdl.k3702 import K3702_MAP
 from hdl.limits import Limit
 
-__all__ = ["AXES", "DEMO_GCODE", "Boolean", "Job", "MachineConfig", "OneOf", "OrAbsent",
-           "RunConfig", "ServoConfig", "Valid", "demo_job", "gcode_job"]
+__all__ = ["AXES", "DEMO_GCODE", "AxisAccelConfig", "Boolean", "Job", "MachineConfig", "OneOf",
+           "OrAbsent", "RunConfig", "ServoConfig", "Valid", "demo_job", "gcode_job"]
 
 #: The demo: the paper's circle (its photo 6, circular interpolation under FP control), as a
 #: full CCW circle of radius 10 mm starting at its rightmost point, at 1200 mm/min (20 k
@@ -128,6 +128,11 @@ class MachineConfig(_Checked):
     accel: str = _key(Accel.PRE.value, OneOf(tuple(a.value for a in Accel)),
                       "accel/decel placement: before the K3701 (FP control), per axis after "
                       "it, or none")
+    accel_shape: str = _key(AccelShape.EXPONENTIAL.value,
+                            OneOf(tuple(a.value for a in AccelShape)),
+                            "accel/decel circuit: the paper's exponential one, a moving average "
+                            "over T = 2^n/fa (linear: a ramp), or the moving average then the "
+                            "exponential (bell)")
     accel_bits: int = _key(15, ACCEL_BITS, "accumulator width n of the accel/decel circuit; "
                                            "paper: 15")
     accel_fa_hz: float = _key(2**15 / 0.3,
@@ -161,6 +166,23 @@ class MachineConfig(_Checked):
 
 
 @dataclass(frozen=True)
+class AxisAccelConfig(_Checked):
+    """One axis's own accel/decel circuit (``[machine.x]``, ...; ``accel = "post"`` only):
+    what is absent is the machine's. The addition clock fa is the machine's, shared."""
+
+    accel_shape: str | None = _key(None, OrAbsent(OneOf(tuple(a.value for a in AccelShape))),
+                                   "this axis's accel/decel circuit; absent: machine.accel_shape")
+    accel_bits: int | None = _key(None, OrAbsent(ACCEL_BITS),
+                                  "this axis's accumulator width n (tau = 2^n/fa); absent: "
+                                  "machine.accel_bits")
+
+    def circuit(self, machine: MachineConfig) -> tuple[str, int]:
+        """(shape, bits) of the axis's circuit on ``machine``."""
+        return (machine.accel_shape if self.accel_shape is None else self.accel_shape,
+                machine.accel_bits if self.accel_bits is None else self.accel_bits)
+
+
+@dataclass(frozen=True)
 class ServoConfig(_Checked):
     """One axis's servo drive and motor (the simulation plant).
 
@@ -185,17 +207,30 @@ class RunConfig(_Checked):
 
 @dataclass(frozen=True)
 class Job:
-    """A machine, its two servos and a parsed program."""
+    """A machine, its servos and a parsed program; ``axis_accel``: the axes that have their own
+    accel/decel circuit (``[machine.x]``, ...)."""
 
     name: str
     machine: MachineConfig
     servo: dict[str, ServoConfig]
     program: Program
     run: RunConfig = field(default_factory=RunConfig)
+    axis_accel: dict[str, AxisAccelConfig] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.axis_accel and self.machine.accel != Accel.POST.value:
+            raise ValueError(f"per-axis accel/decel ([machine.{next(iter(self.axis_accel))}]) "
+                             f"needs machine.accel = \"post\", not {self.machine.accel!r}")
+
+    def accel_circuits(self) -> dict[str, tuple[str, int]]:
+        """Each axis's own accel/decel circuit as (shape, bits), for the chipset."""
+        return {axis: config.circuit(self.machine) for axis, config in self.axis_accel.items()}
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON-able form of the job's configuration (the program as a summary)."""
-        return {"name": self.name, "machine": self.machine.to_dict(),
+        machine = {**self.machine.to_dict(),
+                   **{axis: config.to_dict() for axis, config in self.axis_accel.items()}}
+        return {"name": self.name, "machine": machine,
                 "servo": {axis: self.servo[axis].to_dict() for axis in AXES},
                 "program": self.program.to_dict(), "run": self.run.to_dict()}
 

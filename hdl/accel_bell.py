@@ -12,7 +12,6 @@ from amaranth.lib.wiring import In, Out
 from hdl.accel_decel import AccelDecel
 from hdl.accel_linear import AccelLinear
 from hdl.accel_linear_model import check_bins
-from hdl.observation import FreeRunning
 
 __all__ = ["AccelBell"]
 

@@ -9,7 +9,7 @@ from amaranth.hdl import Module, Mux, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.chipset import AXES, Accel, Chipset
+from hdl.chipset import AXES, Accel, AccelShape, Chipset
 from hdl.hostbus import HostBus
 from hdl.k3702 import COUNTER_WIDTH
 from hdl.observation import FreeRunning
@@ -54,7 +54,8 @@ class AxisProbe(wiring.Signature):
 
 
 class System(wiring.Component):
-    """Chipset + plants. See :class:`hdl.chipset.Chipset` for ``accel`` and ``accel_bits``.
+    """Chipset + plants. See :class:`hdl.chipset.Chipset` for ``accel``, ``accel_bits``,
+    ``accel_shape`` and ``axis_accel``.
 
     Members
     -------
@@ -78,8 +79,11 @@ class System(wiring.Component):
     of every move: the compiled backend's idle skipping advances them up to the next event.
     """
 
-    def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15):
-        self.chipset = Chipset(accel=accel, accel_bits=accel_bits)
+    def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15,
+                 accel_shape: AccelShape | str = AccelShape.EXPONENTIAL,
+                 axis_accel: dict[str, tuple[AccelShape | str, int]] | None = None):
+        self.chipset = Chipset(accel=accel, accel_bits=accel_bits, accel_shape=accel_shape,
+                               axis_accel=axis_accel)
         self.free_running: FreeRunning = self.chipset.free_running.under("chipset").merge(
             *(ServoPlant.FREE_RUNNING.under(f"plant_{axis}") for axis in AXES), quiet="quiet")
         super().__init__({

@@ -8,7 +8,10 @@ TOML job::
 
     [machine]                       # every key optional (defaults: MachineConfig)
     clock_hz = 1_000_000
-    accel = "pre"                   # "pre" | "post" | "none"
+    accel = "post"                  # "pre" | "post" | "none"
+    accel_shape = "linear"          # "exponential" | "linear" | "bell"
+    [machine.y]                     # per-axis accel/decel circuit (accel = "post" only)
+    accel_bits = 14
 
     [servo]                         # both axes (defaults: ServoConfig)
     kp = 30.0
@@ -43,6 +46,7 @@ from typing import Any, NoReturn
 from firmware_model.gcode import ARC_TOLERANCE, ARC_TOLERANCE_LIMIT, Program, parse
 from firmware_model.job import (
     AXES,
+    AxisAccelConfig,
     Job,
     MachineConfig,
     OrAbsent,
@@ -163,11 +167,19 @@ class _TomlJob:
         name = self.data.get("name", self.path.stem)
         if not isinstance(name, str) or not name:
             self.fail(f"name must be a non-empty string, not {name!r}")
-        machine = self.build(MachineConfig, self.table(self.data, "machine",
-                                                       _names(MachineConfig)), "machine.")
+        table = self.table(self.data, "machine", (*_names(MachineConfig), *AXES))
+        machine = self.build(MachineConfig, {k: v for k, v in table.items() if k not in AXES},
+                             "machine.")
+        axis_accel = {axis: self.build(AxisAccelConfig,
+                                       self.table(table, axis, _names(AxisAccelConfig),
+                                                  "machine."), f"machine.{axis}.")
+                      for axis in AXES if axis in table}
         servo = self.servo(machine)
         run = self.build(RunConfig, self.table(self.data, "run", _names(RunConfig)), "run.")
-        return Job(name, machine, servo, self.program(machine), run)
+        try:
+            return Job(name, machine, servo, self.program(machine), run, axis_accel)
+        except ValueError as e:
+            self.fail(str(e))
 
     def servo(self, machine: MachineConfig) -> dict[str, ServoConfig]:
         """Both axes' servos: ``[servo]``, each key overridden by ``[servo.x]``/``[servo.y]``;
@@ -237,8 +249,11 @@ def job_keys_markdown() -> str:
             default = "absent" if f.default is None else _toml_value(f.default)
             rows.append(f"| {table}.{f.name} | {default} | {valid.describe()} | "
                         f"{f.metadata['doc']} |")
-    rows += ["| servo.x.*, servo.y.* | the [servo] values | as in [servo] | per-axis servo "
-             "overrides |",
+    for f in fields(AxisAccelConfig):
+        rows.append(f"| machine.{'/'.join(AXES)}.{f.name} | the [machine] value | "
+                    f"{AxisAccelConfig().valid(f.name).describe()} | {f.metadata['doc']} |")
+    rows += [f"| servo.{'.*, servo.'.join(AXES)}.* | the [servo] values | as in [servo] | "
+             "per-axis servo overrides |",
              "| program.gcode | | a string | the program, inline (give gcode or file) |",
              "| program.file | | a string | the program's file, relative to the job file |",
              f"| program.arc_tolerance | {ARC_TOLERANCE!r} | {ARC_TOLERANCE_LIMIT.describe()} | "

@@ -142,7 +142,8 @@ def configure_plants(backend: Backend, job: Job,
 
 def build_backend(job: Job, kind: str) -> Backend:
     """The simulated machine of ``job`` on backend ``kind`` (one of ``BACKEND_NAMES``)."""
-    system = System(accel=job.machine.accel, accel_bits=job.machine.accel_bits)
+    system = System(accel=job.machine.accel, accel_bits=job.machine.accel_bits,
+                    accel_shape=job.machine.accel_shape, axis_accel=job.accel_circuits())
     return make_backend(system, kind)
 
 
