@@ -11,12 +11,13 @@ import random
 import subprocess
 import sys
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
 from firmware_model.gcode import parse
-from firmware_model.job import AXES, Job, MachineConfig, ServoConfig
+from firmware_model.job import AXES, AxisAccelConfig, Job, MachineConfig, ServoConfig
 
 
 def _make_job(gcode: str, machine: MachineConfig | None = None,
@@ -30,10 +31,13 @@ def _make_job(gcode: str, machine: MachineConfig | None = None,
     return Job(name, machine, dict.fromkeys(AXES, servo or ServoConfig()), program)
 
 
-def _random_moves(seed: int, accel: str, *, dwell: bool) -> tuple[Job, dict, float]:
+def _random_moves(seed: int, accel: str, *, dwell: bool, shape: str = "exponential",
+                  axis_shapes: dict[str, str] | None = None,
+                  servo: dict | None = None) -> tuple[Job, dict, float]:
     """Three short random lines or full circles (each followed by a 50 to 150 ms dwell if
     ``dwell``) on a random small machine, and random faults: the job, its faults and the
-    seconds of dwell."""
+    seconds of dwell. ``shape``: the accel/decel circuit; ``axis_shapes``: per-axis circuits
+    (post placement) with their own random widths; ``servo``: servo keys beside Kp and Tm."""
     rng = random.Random(seed)
     lines = [f"G21 G91 F{rng.choice((300, 1200, 2400))}"]
     seconds = 0.0
@@ -48,16 +52,21 @@ def _random_moves(seed: int, accel: str, *, dwell: bool) -> tuple[Job, dict, flo
             lines.append(f"G04 P{wait}")
             seconds += wait
     lines.append("M30")
-    machine = MachineConfig(accel=accel, accel_bits=rng.choice((4, 6, 8)),
+    machine = MachineConfig(accel=accel, accel_bits=rng.choice((4, 6, 8)), accel_shape=shape,
                             sqrt2=rng.random() < 0.5,
                             accel_fa_hz=float(rng.randint(50_000, 400_000)),
                             alarm_limit=rng.choice((30, 20_000)),
                             encoder_filter=rng.randint(1, 4))
-    servo = ServoConfig(kp=rng.uniform(100, 400), tm=rng.uniform(0.0002, 0.002))
+    plant = ServoConfig(kp=rng.uniform(100, 400), tm=rng.uniform(0.0002, 0.002), **(servo or {}))
     faults = {}
     if rng.random() < 0.4:
         faults[rng.choice(AXES)] = {rng.choice(("stall", "break_a")): 1}
-    return _make_job("\n".join(lines), machine, servo, name=f"random-{seed}"), faults, seconds
+    job = _make_job("\n".join(lines), machine, plant, name=f"random-{seed}")
+    if axis_shapes:
+        job = replace(job, axis_accel={
+            axis: AxisAccelConfig(accel_shape=s, accel_bits=rng.choice((4, 5, 7)))
+            for axis, s in axis_shapes.items()})
+    return job, faults, seconds
 
 
 @pytest.fixture(scope="session")

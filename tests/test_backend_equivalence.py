@@ -23,6 +23,17 @@ def comparable(report: dict) -> dict:
 @pytest.mark.parametrize("seed", [pytest.param(1, marks=pytest.mark.slow), 2])
 def test_backends_give_identical_reports_and_traces(accel, seed, random_moves):
     job, faults, _ = random_moves(seed * 10 + len(accel), accel, dwell=False)
+    same_on_both_backends(job, faults)
+
+
+@pytest.mark.parametrize(("accel", "shape", "axis_shapes"), [
+    ("post", "linear", {"y": "bell"}), pytest.param("pre", "bell", None, marks=pytest.mark.slow)])
+def test_backends_agree_with_linear_and_bell_circuits(accel, shape, axis_shapes, random_moves):
+    job, faults, _ = random_moves(3, accel, dwell=False, shape=shape, axis_shapes=axis_shapes)
+    same_on_both_backends(job, faults)
+
+
+def same_on_both_backends(job, faults) -> None:
     results = {}
     for backend in ("pysim", "cxxrtl"):
         results[backend] = run_job(job, RunOptions(backend=backend, max_cycles=4000,

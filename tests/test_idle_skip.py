@@ -63,6 +63,20 @@ def test_skipping_idle_cycles_changes_no_signal_of_the_machine(accel, seed, samp
     assert skipped[3] > 0.5 * dwell * job.machine.clock_hz
 
 
+@pytest.mark.parametrize(("accel", "shape", "axis_shapes"), [
+    ("post", "exponential", {"x": "linear", "y": "bell"}),
+    pytest.param("pre", "linear", None, marks=pytest.mark.slow),
+    pytest.param("pre", "bell", None, marks=pytest.mark.slow)])
+def test_skipping_with_linear_and_bell_circuits_changes_no_signal(accel, shape, axis_shapes,
+                                                                  random_moves):
+    # A linear or bell circuit is quiet only when drained (its bin timer runs while it holds
+    # pulses): the skips come in the dwells, after the circuits drain.
+    job, faults, dwell = random_moves(3, accel, dwell=True, shape=shape,
+                                      axis_shapes=axis_shapes)
+    _, skipped = skipped_equals_stepped(job, faults, 1009)
+    assert skipped[3] > 0.5 * dwell * job.machine.clock_hz
+
+
 @pytest.mark.slow
 def test_a_skipping_compiled_run_equals_amaranths_simulator(random_moves):
     job, faults, _ = random_moves(1, "pre", dwell=True)
