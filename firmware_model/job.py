@@ -194,6 +194,21 @@ class ServoConfig(_Checked):
     tm: float = _key(0.01, Limit(), "velocity loop time constant Tm (s); 0: none")
     max_speed: float | None = _key(None, OrAbsent(Limit()),
                                    "motor speed limit (mm/min); absent: no limit")
+    kf: float = _key(0.0, Limit(), "velocity feedforward Kf: the drive adds Kf times the "
+                                   "command pulse rate to its velocity command (seed 003)")
+    drive: str = _key("first_order", OneOf(("first_order", "torque")),
+                      "servo drive model: a first-order velocity lag Tm, or the torque drive "
+                      "(velocity loop Vg/Ti, Kt, Ja, friction; tm then unused)")
+    kt: float = _key(0.5, Limit(), "torque drive: motor torque constant Kt (N m/A)")
+    ja: float = _key(1e-3, Limit(), "torque drive: load inertia Ja at the motor (kg m^2)")
+    vg: float = _key(0.2, Limit(), "torque drive: velocity loop gain Vg (A s/rad); the loop's "
+                                   "lag is Ja/(Kt Vg), 10 ms by default")
+    ti: float = _key(0.0, Limit(), "torque drive: velocity loop integral time Ti (s); 0: P only")
+    d: float = _key(0.0, Limit(), "torque drive: viscous friction D at the motor (N m s/rad)")
+    fc: float = _key(0.0, Limit(), "torque drive: Coulomb friction torque (N m)")
+    load: float = _key(0.0, Limit(), "torque drive: constant disturbance torque (N m)")
+    counts_per_rev: float = _key(10_000.0, Limit(),
+                                 "torque drive: encoder counts (LSB) per motor revolution")
 
 
 @dataclass(frozen=True)

@@ -58,8 +58,13 @@ from firmware_model.job import (
 )
 from hdl.limits import Limit
 from sim.machine.plant import PlantParams
+from sim.machine.torque_drive import TorqueParams
 
-__all__ = ["JobError", "job_keys_markdown", "load_job", "plant_params", "servo_limits"]
+__all__ = ["JobError", "job_keys_markdown", "load_job", "load_step_fault", "plant_params",
+           "servo_limits", "torque_params"]
+
+#: The torque drive's keys (used only with ``drive = "torque"``).
+TORQUE_KEYS = tuple(TorqueParams.limits())
 
 
 class JobError(ValueError):
@@ -72,7 +77,8 @@ def servo_limits(machine: MachineConfig) -> dict[str, Limit]:
     limits = PlantParams.limits(machine.clock_hz)
     speed = limits["max_speed"]
     return {**limits, "max_speed": speed.scaled(machine.mm_per_min(1.0), "mm/min",
-                                                f"{speed.note} and lsb_mm")}
+                                                f"{speed.note} and lsb_mm"),
+            **TorqueParams.limits()}
 
 
 def plant_params(machine: MachineConfig, servo: ServoConfig) -> PlantParams:
@@ -84,7 +90,7 @@ def plant_params(machine: MachineConfig, servo: ServoConfig) -> PlantParams:
         A servo key is out of the plant's range (checked in the plant's units), naming the
         key, its value and its range in the job's units (:func:`servo_limits`).
     """
-    values = {"kp": servo.kp, "tm": servo.tm,
+    values = {"kp": servo.kp, "tm": servo.tm, "kf": servo.kf,
               "max_speed": None if servo.max_speed is None else machine.lsb_per_s(servo.max_speed)}
     limits = PlantParams.limits(machine.clock_hz)
     for name, value in values.items():
@@ -92,6 +98,30 @@ def plant_params(machine: MachineConfig, servo: ServoConfig) -> PlantParams:
             raise ValueError(f"{name} must be {servo_limits(machine)[name].describe()}, "
                              f"not {getattr(servo, name)!r}")
     return PlantParams(clock_hz=machine.clock_hz, **values)
+
+
+def torque_params(machine: MachineConfig, servo: ServoConfig) -> TorqueParams:
+    """The torque drive of one axis's ``servo`` on ``machine`` (ValueError naming a bad key)."""
+    return TorqueParams(clock_hz=machine.clock_hz,
+                        **{name: getattr(servo, name) for name in TORQUE_KEYS})
+
+
+def load_step_fault(job: Job, axis: str, torque: float, at_s: float) -> dict[str, int]:
+    """The plant inputs of a load step of ``torque`` (N m) on ``axis`` at ``at_s`` seconds
+    (the axis must have the torque drive); ValueError naming what is wrong."""
+    if axis not in AXES:
+        raise ValueError(f"no axis {axis!r}; axes are {', '.join(AXES)}")
+    servo = job.servo[axis]
+    if servo.drive != "torque":
+        raise ValueError(f"a load step needs servo.{axis}.drive = \"torque\", not "
+                         f"{servo.drive!r}")
+    Limit(unit="N m").check("load step torque", torque)
+    Limit(0, unit="s").check("load step time", at_s)
+    params = torque_params(job.machine, servo)
+    word = params.torque_word(torque)
+    if word == 0 or abs(word) + abs(params.torque_word(params.load)) >= 1 << 39:
+        raise ValueError(f"load step {torque!r} N m is 0 or beyond the drive's torque range")
+    return {"load_step": word, "load_after": round(at_s * job.machine.clock_hz)}
 
 
 def load_job(path: str | PathLike[str] | None) -> Job:
@@ -195,8 +225,14 @@ class _TomlJob:
         servo = self.build(ServoConfig, values, prefix)
         try:
             plant_params(machine, servo)
-        except ValueError as e:
+            torque_params(machine, servo)
+        except (TypeError, ValueError) as e:
             self.fail(f"{prefix}{e}")
+        if servo.drive != "torque":
+            for key in TORQUE_KEYS:
+                if key in values:
+                    self.fail(f"{prefix}{key} is a key of the torque drive; set "
+                              f"{prefix}drive = \"torque\" (or leave it out)")
         return servo
 
     def program(self, machine: MachineConfig) -> Program:
@@ -244,7 +280,7 @@ def job_keys_markdown() -> str:
     for table, config in (("machine", machine), ("servo", ServoConfig()), ("run", RunConfig())):
         for f in fields(config):
             valid: Valid = config.valid(f.name)
-            if table == "servo":  # the type is checked there, the range is the plant's
+            if table == "servo" and f.name in plant:  # type checked there, range the plant's
                 valid = OrAbsent(plant[f.name]) if f.default is None else plant[f.name]
             default = "absent" if f.default is None else _toml_value(f.default)
             rows.append(f"| {table}.{f.name} | {default} | {valid.describe()} | "
