@@ -31,8 +31,14 @@ class AccelBell(wiring.Component):
 
     Members
     -------
-    inp, out (unidirectional); inp_pos, inp_neg, out_pos, out_neg (bidirectional) : In/Out(1)
-        The cascade's input and output pulses, as the stages' own.
+    inp : In(1), unidirectional
+        Input pulse fi (into the linear stage).
+    inp_pos, inp_neg : In(1), bidirectional
+        Signed input pulses; both high in one cycle count +1 and -1.
+    out : Out(1), unidirectional
+        Output pulse (the exponential stage's).
+    out_pos, out_neg : Out(1), bidirectional
+        Signed output pulses (the exponential stage's).
     add : In(1)
         Addition clock fa of both stages.
     x, y, pending : Out

@@ -18,7 +18,9 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
+from hdl.accel_bell_model import AccelBellModel
 from hdl.accel_decel_model import AccelDecelModel
+from hdl.accel_linear_model import AccelLinearModel
 from hdl.decel_control import DECEL_MAP
 from hdl.decel_control_model import DecelControlModel
 from hdl.divider_model import PhaseDividerModel
@@ -261,9 +263,10 @@ class EncoderChip(Chip):
 class AccelDecelChip(Chip):
     name = "accel_decel"
     bidirectional = False
+    model_class: type = AccelDecelModel
 
     def reset(self) -> None:
-        self.model = AccelDecelModel(bidirectional=self.bidirectional)
+        self.model = self.model_class(bidirectional=self.bidirectional)
         self.sign = 1
 
     def inputs(self, rng):
@@ -288,6 +291,22 @@ class AccelDecelChip(Chip):
 class AccelDecelAxisChip(AccelDecelChip):
     name = "accel_decel_axis"
     bidirectional = True
+
+
+class AccelLinearChip(AccelDecelChip):
+    name, model_class = "accel_linear", AccelLinearModel
+
+
+class AccelLinearAxisChip(AccelDecelChip):
+    name, model_class, bidirectional = "accel_linear_axis", AccelLinearModel, True
+
+
+class AccelBellChip(AccelDecelChip):
+    name, model_class = "accel_bell", AccelBellModel
+
+
+class AccelBellAxisChip(AccelDecelChip):
+    name, model_class, bidirectional = "accel_bell_axis", AccelBellModel, True
 
 
 class RateMultiplierChip(Chip):
@@ -383,7 +402,9 @@ class FeedRateChip(Chip):
 
 
 CHIPS = {chip.name: chip for chip in (K3701Chip, K3702Chip, EncoderChip, AccelDecelChip,
-                                      AccelDecelAxisChip, RateMultiplierChip, DividerChip,
+                                      AccelDecelAxisChip, AccelLinearChip, AccelLinearAxisChip,
+                                      AccelBellChip, AccelBellAxisChip, RateMultiplierChip,
+                                      DividerChip,
                                       DecelControlChip, FeedRateChip)}
 
 
