@@ -128,11 +128,6 @@ class MachineConfig(_Checked):
     accel: str = _key(Accel.PRE.value, OneOf(tuple(a.value for a in Accel)),
                       "accel/decel placement: before the K3701 (FP control), per axis after "
                       "it, or none")
-    accel_shape: str = _key(AccelShape.EXPONENTIAL.value,
-                            OneOf(tuple(a.value for a in AccelShape)),
-                            "accel/decel circuit: the paper's exponential one, a moving average "
-                            "over T = 2^n/fa (linear: a ramp), or the moving average then the "
-                            "exponential (bell)")
     accel_bits: int = _key(15, ACCEL_BITS, "accumulator width n of the accel/decel circuit; "
                                            "paper: 15")
     accel_fa_hz: float = _key(2**15 / 0.3,
@@ -150,6 +145,11 @@ class MachineConfig(_Checked):
     rapid_mm_min: float = _key(3000.0, Limit(0, low_open=True, unit="mm/min"),
                                "feed of G00 moves (mm/min); the default servo follows it with "
                                "a lag of 1667 LSB, inside a 12-bit D/A word's 2048")
+    accel_shape: str = _key(AccelShape.EXPONENTIAL.value,
+                            OneOf(tuple(a.value for a in AccelShape)),
+                            "accel/decel circuit: the paper's exponential one, a moving average "
+                            "over T = 2^n/fa (linear: a ramp), or the moving average then the "
+                            "exponential (bell)")
 
     @property
     def tau_s(self) -> float:

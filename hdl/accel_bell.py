@@ -5,13 +5,15 @@ The reference model is :class:`hdl.accel_bell_model.AccelBellModel`.
 
 from __future__ import annotations
 
-from amaranth.hdl import Module, Signal
+from amaranth.hdl import Module, Signal, signed, unsigned
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from hdl.accel_decel import AccelDecel
+from hdl.accel_decel_model import check_params
 from hdl.accel_linear import AccelLinear
 from hdl.accel_linear_model import check_bins
+from hdl.observation import FreeRunning
 
 __all__ = ["AccelBell"]
 
@@ -58,28 +60,31 @@ class AccelBell(wiring.Component):
 
     def __init__(self, n: int = 15, counter_width: int = 24, bidirectional: bool = False,
                  bins_bits: int = 4):
+        check_params(n, counter_width, bidirectional)
         check_bins(n, bins_bits)
-        self.linear = AccelLinear(n, counter_width, bidirectional, bins_bits)
-        self.exponential = AccelDecel(n, counter_width, bidirectional)
         self.n = n
         self.counter_width = counter_width
         self.bidirectional = bidirectional
         self.bins_bits = bins_bits
-        exp = self.exponential.signature.members
-        pulses = (("inp_pos", "inp_neg", "out_pos", "out_neg") if bidirectional
-                  else ("inp", "out"))
-        super().__init__({**{name: In(1) if name.startswith("inp") else Out(1)
-                             for name in pulses},
-                          "add": In(1), "x": exp["x"], "y": exp["y"],
-                          "pending": exp["pending"], "idle": Out(1)})
+        shape = signed(counter_width) if bidirectional else unsigned(counter_width)
+        pulses = ({"inp_pos": In(1), "inp_neg": In(1), "out_pos": Out(1), "out_neg": Out(1)}
+                  if bidirectional else {"inp": In(1), "out": Out(1)})
+        super().__init__({**pulses, "add": In(1), "x": Out(shape), "y": Out(n),
+                          "pending": Out(shape), "idle": Out(1)})
         self.quiet = Signal()
-        self.free_running = self.exponential.free_running.under("exponential").merge(
-            quiet="quiet")
+        self.free_running = self.declare(n, bidirectional)
+
+    @staticmethod
+    def declare(n: int, bidirectional: bool) -> FreeRunning:
+        """The exponential stage's accumulator, as :meth:`hdl.accel_decel.AccelDecel.declare`."""
+        return AccelDecel.declare(n, bidirectional).under("exponential").merge(quiet="quiet")
 
     def elaborate(self, platform) -> Module:
         m = Module()
-        m.submodules.linear = linear = self.linear
-        m.submodules.exponential = exp = self.exponential
+        m.submodules.linear = linear = AccelLinear(self.n, self.counter_width,
+                                                   self.bidirectional, self.bins_bits)
+        m.submodules.exponential = exp = AccelDecel(self.n, self.counter_width,
+                                                    self.bidirectional)
         if self.bidirectional:
             m.d.comb += [linear.inp_pos.eq(self.inp_pos), linear.inp_neg.eq(self.inp_neg),
                          exp.inp_pos.eq(linear.out_pos), exp.inp_neg.eq(linear.out_neg),

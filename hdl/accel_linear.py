@@ -10,6 +10,7 @@ from amaranth.hdl import Cat, Module, Mux, Signal, signed, unsigned
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
+from hdl.accel_decel import carry_and_pulses
 from hdl.accel_decel_model import check_params
 from hdl.accel_linear_model import check_bins
 from hdl.observation import FreeRunning
@@ -93,7 +94,13 @@ class AccelLinear(wiring.Component):
         super().__init__({**pulses, "add": In(1), "x": Out(shape), "y": Out(n),
                           "pending": Out(shape), "idle": Out(1)})
         self.quiet = Signal()
-        self.free_running = FreeRunning(quiet="quiet")
+        self.free_running = self.declare(n, bidirectional)
+
+    @staticmethod
+    def declare(n: int, bidirectional: bool) -> FreeRunning:  # noqa: ARG004 (the family's call)
+        """The free-running declaration (nothing but ``quiet``), as
+        :meth:`hdl.accel_decel.AccelDecel.declare`."""
+        return FreeRunning(quiet="quiet")
 
     def elaborate(self, platform) -> Module:
         m = Module()
@@ -105,17 +112,7 @@ class AccelLinear(wiring.Component):
         active = Signal()
         m.d.comb += active.eq((open_bin != 0) | (live != 0))
 
-        total = Signal((self.y + self.x).shape())
-        carry = Signal((total >> self.n).shape())
-        m.d.comb += [total.eq(self.y + self.x), carry.eq(Mux(self.add, total >> self.n, 0))]
-        if self.bidirectional:
-            net_in = self.inp_pos - self.inp_neg
-            net_out = self.out_pos - self.out_neg
-            m.d.comb += [self.out_pos.eq(self.pending > 0), self.out_neg.eq(self.pending < 0)]
-        else:
-            net_in = self.inp
-            net_out = self.out
-            m.d.comb += self.out.eq(self.pending != 0)
+        total, carry, net_in, net_out = carry_and_pulses(m, self)
         m.d.sync += [self.pending.eq(self.pending - net_out + carry),
                      open_bin.eq(open_bin + net_in)]
         with m.If(self.add):

@@ -203,12 +203,13 @@ class Chipset(wiring.Component):
             axis: (_enum(AccelShape, f"{axis}.accel_shape", axis_accel[axis][0]),
                    ACCEL_BITS.check(f"{axis}.accel_bits", axis_accel[axis][1]))
             if axis in axis_accel else (self.accel_shape, self.accel_bits) for axis in AXES}
-        self._accel: dict[str, wiring.Component] = {}
+        #: The accel/decel circuits by submodule name: (class, bits, bidirectional).
+        self._accel: dict[str, tuple[type, int, bool]] = {}
         if self.accel is Accel.PRE:
-            self._accel["accel"] = _ACCEL_CIRCUITS[self.accel_shape](self.accel_bits)
+            self._accel["accel"] = (_ACCEL_CIRCUITS[self.accel_shape], self.accel_bits, False)
         elif self.accel is Accel.POST:
             for axis, (shape, bits) in self.axis_accel.items():
-                self._accel[f"accel_{axis}"] = _ACCEL_CIRCUITS[shape](bits, bidirectional=True)
+                self._accel[f"accel_{axis}"] = (_ACCEL_CIRCUITS[shape], bits, True)
         super().__init__({
             "bus": In(HostBus(8)),
             "irq_interp": Out(1), "irq_alarm": Out(1), "fp": Out(1),
@@ -223,7 +224,8 @@ class Chipset(wiring.Component):
         feed = FeedRate.FREE_RUNNING.under("feed")
         gated = tuple(replace(c, gate="decel.gate_open") for c in feed.counters)
         fa = f"feed.{FeedRate.FA_CLOCK}"
-        accel = (circuit.free_running.under(path) for path, circuit in self._accel.items())
+        accel = (cls.declare(bits, bidirectional).under(path)
+                 for path, (cls, bits, bidirectional) in self._accel.items())
         carries = tuple(replace(c, clock=fa) for a in accel for c in a.carries)
         return replace(feed, counters=gated).merge(
             FreeRunning(carries=carries), K3701.FREE_RUNNING.under("k3701"), quiet="quiet")
@@ -243,12 +245,13 @@ class Chipset(wiring.Component):
 
         m.d.comb += decel.inp.eq(feed.out)
         quiet = [interp.quiet]  # and every accel/decel circuit's
-        for path, circuit in self._accel.items():
-            m.submodules[path] = circuit
+        circuits = {}
+        for path, (cls, bits, bidirectional) in self._accel.items():
+            m.submodules[path] = circuits[path] = circuit = cls(bits, bidirectional=bidirectional)
             m.d.comb += circuit.add.eq(feed.fa)
             quiet.append(circuit.quiet)
         if self.accel is Accel.PRE:
-            accel = self._accel["accel"]
+            accel = circuits["accel"]
             m.d.comb += [accel.inp.eq(decel.out), interp.fp.eq(accel.out)]
         else:
             m.d.comb += interp.fp.eq(decel.out)
@@ -266,7 +269,7 @@ class Chipset(wiring.Component):
             enc = chips[f"ENCODER_{axis.upper()}"]
             step_pos, step_neg = getattr(interp, f"{axis}_pos"), getattr(interp, f"{axis}_neg")
             if self.accel is Accel.POST:
-                post = self._accel[f"accel_{axis}"]
+                post = circuits[f"accel_{axis}"]
                 m.d.comb += [post.inp_pos.eq(step_pos), post.inp_neg.eq(step_neg)]
                 step_pos, step_neg = post.out_pos, post.out_neg
             m.d.comb += [

@@ -301,6 +301,10 @@ def test_the_ranges_are_the_blocks():
         "servo.tm": ">= 0 and <= 16.777216 s (24-bit alpha at clock_hz)",
         "servo.max_speed": "> 0 and < 3932160000 mm/min (48-bit speed limit at clock_hz and "
                            "lsb_mm)",
+        "servo.kf": ">= 0 and <= 2 (fraction of the command rate)",
+        "servo.kt": "> 0 N m/A", "servo.ja": "> 0 kg m^2", "servo.vg": "> 0 A s/rad",
+        "servo.ti": ">= 0 s", "servo.d": ">= 0 N m s/rad", "servo.fc": ">= 0 N m",
+        "servo.load": "a number N m", "servo.counts_per_rev": "> 0 counts",
     }
 
 

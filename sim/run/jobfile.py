@@ -206,8 +206,9 @@ class _TomlJob:
                       for axis in AXES if axis in table}
         servo = self.servo(machine)
         run = self.build(RunConfig, self.table(self.data, "run", _names(RunConfig)), "run.")
+        program = self.program(machine)
         try:
-            return Job(name, machine, servo, self.program(machine), run, axis_accel)
+            return Job(name, machine, servo, program, run, axis_accel)
         except ValueError as e:
             self.fail(str(e))
 
@@ -225,14 +226,12 @@ class _TomlJob:
         servo = self.build(ServoConfig, values, prefix)
         try:
             plant_params(machine, servo)
-            torque_params(machine, servo)
+            for name, limit in TorqueParams.limits().items():
+                limit.check(name, getattr(servo, name))
+            if servo.drive == "torque":  # its fixed point (the keys are unused otherwise)
+                torque_params(machine, servo)
         except (TypeError, ValueError) as e:
             self.fail(f"{prefix}{e}")
-        if servo.drive != "torque":
-            for key in TORQUE_KEYS:
-                if key in values:
-                    self.fail(f"{prefix}{key} is a key of the torque drive; set "
-                              f"{prefix}drive = \"torque\" (or leave it out)")
         return servo
 
     def program(self, machine: MachineConfig) -> Program:
