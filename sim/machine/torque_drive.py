@@ -72,10 +72,10 @@ class TorqueParams:
     def __post_init__(self) -> None:
         for name, limit in self.limits().items():
             limit.check(name, getattr(self, name))
-        for name in ("alpha", "beta"):
-            if getattr(self, name) >= 1 << ALPHA_BITS:
-                raise ValueError(f"{name} = {getattr(self, name)} of the torque drive must be "
-                                 f"below 2^{ALPHA_BITS} (a loop faster than the clock)")
+        for name, rate in (("kt * vg / ja", self.rate), ("d / ja", self.d / self.ja)):
+            if rate / self.clock_hz * (1 << ALPHA_BITS) >= (1 << ALPHA_BITS) - 0.5:
+                raise ValueError(f"{name} = {rate:g} 1/s must be below clock_hz (the torque "
+                                 f"drive's {ALPHA_BITS}-bit coefficients)")
         if self.ki >= 1 << KI_BITS:
             raise ValueError("ti is too short for the clock (ki must fit in 32 bits)")
         if self.fc_word >= 1 << ACCEL_BITS or abs(self.torque_word(self.load)) >= 1 << (
