@@ -2,9 +2,11 @@
 
 Signal flow, with the accel/decel circuit in one of three places::
 
-    FEED (rate multiplier) -> DECEL (FP budget) -> [pre: AccelDecel] -> FP -> K3701
-    K3701 +-X -> [post: AccelDecel] -> K3702 X -> DAC X      encoder X -> +-FB -> K3702 X
-    K3701 +-Y -> [post: AccelDecel] -> K3702 Y -> DAC Y      encoder Y -> +-FB -> K3702 Y
+    FEED (rate multiplier) -> DECEL (FP budget) -> [pre: ACCEL] -> FP -> K3701
+    K3701 +-X -> [post: ACCEL] -> K3702 X -> DAC X      encoder X -> +-FB -> K3702 X
+    K3701 +-Y -> [post: ACCEL] -> K3702 Y -> DAC Y      encoder Y -> +-FB -> K3702 Y
+
+where ACCEL is the accel/decel circuit of the chosen :class:`AccelShape` (per axis in post).
 
 Host bus: an 8085 I/O port address is ``chip select << 5 | register address``; the chip
 selects are :data:`CHIP_SELECTS`, the registers each chip's own map. :func:`port` turns a
@@ -170,14 +172,14 @@ class Chipset(wiring.Component):
     Simulation only (attributes, not pins: see :mod:`hdl.observation`)
     ----------------------------------------------------------------
     quiet : Signal(1)
-        No accel/decel circuit has an output pulse pending in this cycle and the K3701 is
-        ``quiet``, so the free-running state changes nothing else until the next feed pulse
-        through the open decel gate, an accumulator's next carry or the K3701's latency count
-        reaching 1; combinational.
+        Every accel/decel circuit is ``quiet`` (no output pulse pending; a linear or bell
+        circuit drained) and the K3701 is ``quiet``, so the free-running state changes nothing
+        else until the next feed pulse through the open decel gate, an accumulator's next
+        carry or the K3701's latency count reaching 1; combinational.
     free_running : FreeRunning
         The feed-rate generator's dividers and rate multiplier (whose pulses matter while the
-        decel gate is open), each accel/decel accumulator (adding x at each fa) and the
-        K3701's latency count.
+        decel gate is open), each exponential accel/decel accumulator (adding x at each fa)
+        and the K3701's latency count.
     """
 
     #: Observation outputs, not pins of the chipset (the Verilog export keeps them inside):
