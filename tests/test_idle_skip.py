@@ -65,8 +65,9 @@ def test_skipping_idle_cycles_changes_no_signal_of_the_machine(accel, seed, samp
 
 @pytest.mark.parametrize(("accel", "shape", "axis_shapes", "servo"), [
     ("post", "exponential", {"x": "linear", "y": "bell"}, {"kf": 0.7}),
-    ("pre", "exponential", None, {"drive": "torque", "vg": 2.0, "kf": 0.6, "d": 0.02,
-                                  "fc": 0.002}),
+    pytest.param("pre", "exponential", None, {"drive": "torque", "vg": 2.0, "kf": 0.6,
+                                              "d": 0.02, "fc": 0.002},
+                 marks=pytest.mark.slow),
     pytest.param("pre", "linear", None, None, marks=pytest.mark.slow),
     pytest.param("pre", "bell", None, None, marks=pytest.mark.slow)])
 def test_skipping_with_new_circuits_feedforward_and_torque_drive_changes_no_signal(
