@@ -21,15 +21,15 @@ from typing import Any, Protocol
 
 from firmware_model.canon import FRONTENDS
 from firmware_model.gcode import LSB_MM_LIMIT, GcodeError, Program
-from hdl.chipset import ACCEL_BITS, AXES, MACHINE_AXES, Accel, axis_names
+from hdl.chipset import ACCEL_BITS, AXES, MACHINE_AXES, Accel, AccelShape, axis_names
 from hdl.divider_model import rate_limit
 from hdl.encoder import ENCODER_MAP
 from hdl.feed_rate import DIVIDER_WIDTH
 from hdl.k3702 import K3702_MAP
 from hdl.limits import Limit
 
-__all__ = ["AXES", "DEMO_GCODE", "Boolean", "Job", "MachineConfig", "OneOf", "OrAbsent",
-           "RunConfig", "ServoConfig", "Valid", "demo_job", "gcode_job", "moves_z",
+__all__ = ["AXES", "DEMO_GCODE", "AxisAccelConfig", "Boolean", "Job", "MachineConfig", "OneOf",
+           "OrAbsent", "RunConfig", "ServoConfig", "Valid", "demo_job", "gcode_job", "moves_z",
            "parse_for_machine"]
 
 #: The demo: the paper's circle (its photo 6, circular interpolation under FP control), as a
@@ -151,6 +151,11 @@ class MachineConfig(_Checked):
                      "axes: 2 (X, Y: the paper's machine) or 3 (X, Y, Z: a third K3702, "
                      "encoder interface and servo; G18/G19 arcs and helices); absent from a "
                      "job: 3 if its program moves Z, else 2")
+    accel_shape: str = _key(AccelShape.EXPONENTIAL.value,
+                            OneOf(tuple(a.value for a in AccelShape)),
+                            "accel/decel circuit: the paper's exponential one, a moving average "
+                            "over T = 2^n/fa (linear: a ramp), or the moving average then the "
+                            "exponential (bell)")
 
     @property
     def axis_names(self) -> tuple[str, ...]:
@@ -172,6 +177,23 @@ class MachineConfig(_Checked):
 
 
 @dataclass(frozen=True)
+class AxisAccelConfig(_Checked):
+    """One axis's own accel/decel circuit (``[machine.x]``, ...; ``accel = "post"`` only):
+    what is absent is the machine's. The addition clock fa is the machine's, shared."""
+
+    accel_shape: str | None = _key(None, OrAbsent(OneOf(tuple(a.value for a in AccelShape))),
+                                   "this axis's accel/decel circuit; absent: machine.accel_shape")
+    accel_bits: int | None = _key(None, OrAbsent(ACCEL_BITS),
+                                  "this axis's accumulator width n (tau = 2^n/fa); absent: "
+                                  "machine.accel_bits")
+
+    def circuit(self, machine: MachineConfig) -> tuple[str, int]:
+        """(shape, bits) of the axis's circuit on ``machine``."""
+        return (machine.accel_shape if self.accel_shape is None else self.accel_shape,
+                machine.accel_bits if self.accel_bits is None else self.accel_bits)
+
+
+@dataclass(frozen=True)
 class ServoConfig(_Checked):
     """One axis's servo drive and motor (the simulation plant).
 
@@ -183,6 +205,21 @@ class ServoConfig(_Checked):
     tm: float = _key(0.01, Limit(), "velocity loop time constant Tm (s); 0: none")
     max_speed: float | None = _key(None, OrAbsent(Limit()),
                                    "motor speed limit (mm/min); absent: no limit")
+    kf: float = _key(0.0, Limit(), "velocity feedforward Kf: the drive adds Kf times the "
+                                   "command pulse rate to its velocity command (seed 003)")
+    drive: str = _key("first_order", OneOf(("first_order", "torque")),
+                      "servo drive model: a first-order velocity lag Tm, or the torque drive "
+                      "(velocity loop Vg/Ti, Kt, Ja, friction; tm then unused)")
+    kt: float = _key(0.5, Limit(), "torque drive: motor torque constant Kt (N m/A)")
+    ja: float = _key(1e-3, Limit(), "torque drive: load inertia Ja at the motor (kg m^2)")
+    vg: float = _key(0.2, Limit(), "torque drive: velocity loop gain Vg (A s/rad); the loop's "
+                                   "lag is Ja/(Kt Vg), 10 ms by default")
+    ti: float = _key(0.0, Limit(), "torque drive: velocity loop integral time Ti (s); 0: P only")
+    d: float = _key(0.0, Limit(), "torque drive: viscous friction D at the motor (N m s/rad)")
+    fc: float = _key(0.0, Limit(), "torque drive: Coulomb friction torque (N m)")
+    load: float = _key(0.0, Limit(), "torque drive: constant disturbance torque (N m)")
+    counts_per_rev: float = _key(10_000.0, Limit(),
+                                 "torque drive: encoder counts (LSB) per motor revolution")
 
 
 @dataclass(frozen=True)
@@ -196,17 +233,30 @@ class RunConfig(_Checked):
 
 @dataclass(frozen=True)
 class Job:
-    """A machine, its two servos and a parsed program."""
+    """A machine, its servos and a parsed program; ``axis_accel``: the axes that have their own
+    accel/decel circuit (``[machine.x]``, ...)."""
 
     name: str
     machine: MachineConfig
     servo: dict[str, ServoConfig]
     program: Program
     run: RunConfig = field(default_factory=RunConfig)
+    axis_accel: dict[str, AxisAccelConfig] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.axis_accel and self.machine.accel != Accel.POST.value:
+            raise ValueError(f"per-axis accel/decel ([machine.{next(iter(self.axis_accel))}]) "
+                             f"needs machine.accel = \"post\", not {self.machine.accel!r}")
+
+    def accel_circuits(self) -> dict[str, tuple[str, int]]:
+        """Each axis's own accel/decel circuit as (shape, bits), for the chipset."""
+        return {axis: config.circuit(self.machine) for axis, config in self.axis_accel.items()}
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON-able form of the job's configuration (the program as a summary)."""
-        return {"name": self.name, "machine": self.machine.to_dict(),
+        machine = {**self.machine.to_dict(),
+                   **{axis: config.to_dict() for axis, config in self.axis_accel.items()}}
+        return {"name": self.name, "machine": machine,
                 "servo": {axis: self.servo[axis].to_dict() for axis in self.machine.axis_names},
                 "program": self.program.to_dict(), "run": self.run.to_dict()}
 

@@ -10,8 +10,27 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from hdl.accel_decel_model import check_params
+from hdl.observation import CarryAccumulator, FreeRunning
 
-__all__ = ["AccelDecel"]
+__all__ = ["AccelDecel", "carry_and_pulses"]
+
+
+def carry_and_pulses(m: Module, circuit: wiring.Component):
+    """What every accel/decel circuit of this family shares: the addition ``y + x`` of an
+    ``n``-bit accumulator, its carry (0 in a cycle without ``add``), the output pulses from
+    ``pending`` and the net input and output pulses. Returns (total, carry, net_in, net_out);
+    the circuit updates its registers from them."""
+    total = Signal((circuit.y + circuit.x).shape())
+    carry = Signal((total >> circuit.n).shape())
+    m.d.comb += [total.eq(circuit.y + circuit.x),
+                 carry.eq(Mux(circuit.add, total >> circuit.n, 0))]
+    if circuit.bidirectional:
+        m.d.comb += [circuit.out_pos.eq(circuit.pending > 0),
+                     circuit.out_neg.eq(circuit.pending < 0)]
+        return (total, carry, circuit.inp_pos - circuit.inp_neg,
+                circuit.out_pos - circuit.out_neg)
+    m.d.comb += circuit.out.eq(circuit.pending != 0)
+    return total, carry, circuit.inp, circuit.out
 
 
 class AccelDecel(wiring.Component):
@@ -70,6 +89,13 @@ class AccelDecel(wiring.Component):
         Probe: output pulses owed and not yet sent.
     idle : Out(1)
         Drained: ``x == 0`` and ``pending == 0`` (``y`` keeps its residue).
+
+    Simulation only (see :mod:`hdl.observation`)
+    --------------------------------------------
+    quiet : Signal(1)
+        No output pulse pending: until the accumulator's next carry only ``y`` changes.
+    free_running : FreeRunning
+        The accumulator, adding ``x`` at each ``add`` (its clock named by the parent).
     """
 
     #: Observation outputs, not pins of the chip (the Verilog export keeps them inside).
@@ -85,23 +111,22 @@ class AccelDecel(wiring.Component):
                   if bidirectional else {"inp": In(1), "out": Out(1)})
         super().__init__({**pulses, "add": In(1), "x": Out(shape), "y": Out(n),
                           "pending": Out(shape), "idle": Out(1)})
+        self.quiet = Signal()
+        self.free_running = self.declare(n, bidirectional)
+
+    @staticmethod
+    def declare(n: int, bidirectional: bool) -> FreeRunning:
+        """The free-running declaration of a circuit with these parameters (no instance
+        needed: a parent declares it before it builds the circuit)."""
+        return FreeRunning(carries=(CarryAccumulator("", n, bidirectional),), quiet="quiet")
 
     def elaborate(self, platform) -> Module:
         m = Module()
-        total = Signal((self.y + self.x).shape())
-        carry = Signal((total >> self.n).shape())
-        m.d.comb += [total.eq(self.y + self.x), carry.eq(Mux(self.add, total >> self.n, 0))]
-        if self.bidirectional:
-            net_in = self.inp_pos - self.inp_neg
-            net_out = self.out_pos - self.out_neg
-            m.d.comb += [self.out_pos.eq(self.pending > 0), self.out_neg.eq(self.pending < 0)]
-        else:
-            net_in = self.inp
-            net_out = self.out
-            m.d.comb += self.out.eq(self.pending != 0)
+        total, carry, net_in, net_out = carry_and_pulses(m, self)
         with m.If(self.add):
             m.d.sync += self.y.eq(total)
         m.d.sync += [self.x.eq(self.x - carry + net_in),
                      self.pending.eq(self.pending - net_out + carry)]
-        m.d.comb += self.idle.eq((self.x == 0) & (self.pending == 0))
+        m.d.comb += [self.idle.eq((self.x == 0) & (self.pending == 0)),
+                     self.quiet.eq(self.pending == 0)]
         return m

@@ -17,7 +17,7 @@ import numpy as np
 
 from hdl.divider_model import positive_int
 
-__all__ = ["AccelDecelModel", "check_params"]
+__all__ = ["AccelDecelModel", "check_inp", "check_params", "sign", "wrap"]
 
 
 def check_params(n: int, counter_width: int, bidirectional: bool) -> None:
@@ -28,8 +28,24 @@ def check_params(n: int, counter_width: int, bidirectional: bool) -> None:
         raise TypeError(f"bidirectional must be a bool, not {bidirectional!r}")
 
 
-def _sign(v: int) -> int:
+def check_inp(inp: int, bidirectional: bool) -> None:
+    """Refuse an input pulse the circuit cannot take: 0 or 1, or -1, 0, 1 bidirectional."""
+    allowed = (-1, 0, 1) if bidirectional else (0, 1)
+    if inp not in allowed:
+        raise ValueError(f"inp must be one of {allowed}, not {inp!r}")
+
+
+def sign(v: int) -> int:
+    """-1, 0 or 1: the net output pulse a pending count sends."""
     return (v > 0) - (v < 0)
+
+
+def wrap(v: int, width: int, signed: bool) -> int:
+    """Counter arithmetic: ``width`` bits, two's complement when ``signed``."""
+    v &= (1 << width) - 1
+    if signed and v >> (width - 1):
+        v -= 1 << width
+    return v
 
 
 class AccelDecelModel:
@@ -54,16 +70,10 @@ class AccelDecelModel:
         return self.x == 0 and self.pending == 0
 
     def _wrap(self, v: int) -> int:
-        """Counter arithmetic: ``counter_width`` bits, two's complement when bidirectional."""
-        v &= (1 << self.counter_width) - 1
-        if self.bidirectional and v >> (self.counter_width - 1):
-            v -= 1 << self.counter_width
-        return v
+        return wrap(v, self.counter_width, self.bidirectional)
 
     def _check_inp(self, inp: int) -> None:
-        allowed = (-1, 0, 1) if self.bidirectional else (0, 1)
-        if inp not in allowed:
-            raise ValueError(f"inp must be one of {allowed}, not {inp!r}")
+        check_inp(inp, self.bidirectional)
 
     def _add(self) -> int:
         """The addition: returns the carry, y and x updated (x without this cycle's input)."""
@@ -76,7 +86,7 @@ class AccelDecelModel:
     def step(self, inp: int, add: bool) -> int:
         """One cycle with input pulse ``inp`` and addition clock ``add``; returns the output."""
         self._check_inp(inp)
-        out = _sign(self.pending)
+        out = sign(self.pending)
         carry = self._add() if add else 0
         self.x = self._wrap(self.x + inp)
         self.pending = self._wrap(self.pending - out + carry)
@@ -101,10 +111,10 @@ class AccelDecelModel:
         for ta in [*np.flatnonzero(add).tolist(), cycles]:
             # Cycles t..ta: pending pulses leave (the addition cycle still sends an old one).
             last = min(ta + 1, cycles)
-            sign = _sign(self.pending)
+            direction = sign(self.pending)
             k = min(abs(self.pending), last - t)
-            out[t:t + k] = sign
-            self.pending -= sign * k
+            out[t:t + k] = direction
+            self.pending -= direction * k
             if ta == cycles:
                 self.x = self._wrap(self.x + int(counted[cycles] - counted[t]))
                 break

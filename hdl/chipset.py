@@ -3,11 +3,13 @@ three.
 
 Signal flow, with the accel/decel circuit in one of three places::
 
-    FEED (rate multiplier) -> DECEL (FP budget) -> [pre: AccelDecel] -> FP -> K3701
-    K3701 +-X -> [post: AccelDecel] -> K3702 X -> DAC X      encoder X -> +-FB -> K3702 X
-    K3701 +-Y -> [post: AccelDecel] -> K3702 Y -> DAC Y      encoder Y -> +-FB -> K3702 Y
-    K3701 +-Z -> [post: AccelDecel] -> K3702 Z -> DAC Z      encoder Z -> +-FB -> K3702 Z
-                                                             (three-axis chipset only)
+    FEED (rate multiplier) -> DECEL (FP budget) -> [pre: ACCEL] -> FP -> K3701
+    K3701 +-X -> [post: ACCEL] -> K3702 X -> DAC X      encoder X -> +-FB -> K3702 X
+    K3701 +-Y -> [post: ACCEL] -> K3702 Y -> DAC Y      encoder Y -> +-FB -> K3702 Y
+    K3701 +-Z -> [post: ACCEL] -> K3702 Z -> DAC Z      encoder Z -> +-FB -> K3702 Z
+                                                        (three-axis chipset only)
+
+where ACCEL is the accel/decel circuit of the chosen :class:`AccelShape` (per axis in post).
 
 Host bus: an 8085 I/O port address is ``chip select << 5 | register address``; the chip
 selects are :data:`CHIP_SELECTS`, the registers each chip's own map. The three-axis chipset
@@ -27,7 +29,9 @@ from amaranth.hdl import Array, Cat, Module, Mux, Signal, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
+from hdl.accel_bell import AccelBell
 from hdl.accel_decel import AccelDecel
+from hdl.accel_linear import AccelLinear
 from hdl.decel_control import DECEL_MAP, DecelControl
 from hdl.encoder import ENCODER_MAP, EncoderInterface
 from hdl.feed_rate import FEED_MAP, FeedRate
@@ -35,10 +39,11 @@ from hdl.hostbus import HostBus, Register, RegisterMap
 from hdl.k3701 import K3701, K3701_MAP, K3701_MAP_3
 from hdl.k3702 import COUNTER_WIDTH, K3702, K3702_MAP
 from hdl.limits import Limit
-from hdl.observation import CarryAccumulator, FreeRunning
+from hdl.observation import FreeRunning
 
 __all__ = ["ACCEL_BITS", "ALL_AXES", "AXES", "CHIP_SELECTS", "MACHINE_AXES", "SUB_WINDOWS",
-           "Accel", "AxisPins", "Chipset", "axis_names", "chip_register", "chip_selects", "port"]
+           "Accel", "AccelShape", "AxisPins", "Chipset", "axis_names", "chip_register",
+           "chip_selects", "port"]
 
 #: Address bits of a register inside a chip; the chip select is above them.
 REG_BITS = 5
@@ -58,7 +63,7 @@ AXES = axis_names(2)
 
 
 class Accel(enum.Enum):
-    """Where the exponential accel/decel circuit sits."""
+    """Where the accel/decel circuit sits."""
 
     #: Before the interpolator, on FP ("FP control", the paper's choice).
     PRE = "pre"
@@ -68,8 +73,31 @@ class Accel(enum.Enum):
     NONE = "none"
 
 
+class AccelShape(enum.Enum):
+    """Which accel/decel circuit: the velocity profile a step of the input rate takes."""
+
+    #: The paper's up/down counter + accumulator, fo = fi (1 - exp(-t / tau)).
+    EXPONENTIAL = "exponential"
+    #: A moving average over T = 2^n / fa (:class:`hdl.accel_linear.AccelLinear`): a ramp.
+    LINEAR = "linear"
+    #: The moving average, then the exponential circuit (:class:`hdl.accel_bell.AccelBell`).
+    BELL = "bell"
+
+
+#: The circuit of each shape; each takes (n, counter_width, bidirectional).
+_ACCEL_CIRCUITS = {AccelShape.EXPONENTIAL: AccelDecel, AccelShape.LINEAR: AccelLinear,
+                   AccelShape.BELL: AccelBell}
+
 #: The accumulator widths n the chipset's accel/decel circuits are built with.
 ACCEL_BITS = Limit(4, 24, integer=True)
+
+
+def _enum(kind: type[enum.Enum], name: str, value: object) -> enum.Enum:
+    try:
+        return kind(value)
+    except ValueError:
+        raise ValueError(f"{name} must be one of {', '.join(k.value for k in kind)}, "
+                         f"not {value!r}") from None
 
 
 #: Chip select of each chip instance of the two-axis chipset, and the register map it
@@ -163,6 +191,11 @@ class Chipset(wiring.Component):
     accel_bits : int
         Accumulator width n of the accel/decel circuit(s) (tau = 2^n / fa), in
         :data:`ACCEL_BITS`.
+    accel_shape : AccelShape or str
+        The accel/decel circuit: ``"exponential"`` (the paper's), ``"linear"`` or ``"bell"``.
+    axis_accel : dict
+        Post placement only: per axis, a ``(shape, bits)`` pair that replaces ``accel_shape``
+        and ``accel_bits`` for that axis's circuit (axes not named keep them).
 
     Members
     -------
@@ -183,14 +216,14 @@ class Chipset(wiring.Component):
     Simulation only (attributes, not pins: see :mod:`hdl.observation`)
     ----------------------------------------------------------------
     quiet : Signal(1)
-        No accel/decel circuit has an output pulse pending in this cycle and the K3701 is
-        ``quiet``, so the free-running state changes nothing else until the next feed pulse
-        through the open decel gate, an accumulator's next carry or the K3701's latency count
-        reaching 1; combinational.
+        Every accel/decel circuit is ``quiet`` (no output pulse pending; a linear or bell
+        circuit drained) and the K3701 is ``quiet``, so the free-running state changes nothing
+        else until the next feed pulse through the open decel gate, an accumulator's next
+        carry or the K3701's latency count reaching 1; combinational.
     free_running : FreeRunning
         The feed-rate generator's dividers and rate multiplier (whose pulses matter while the
-        decel gate is open), each accel/decel accumulator (adding x at each fa) and the
-        K3701's latency count.
+        decel gate is open), each exponential accel/decel accumulator (adding x at each fa)
+        and the K3701's latency count.
     """
 
     @staticmethod
@@ -202,17 +235,35 @@ class Chipset(wiring.Component):
                 *(f"{axis}__{name}" for axis in axes
                   for name in ("com_pos", "com_neg", "fb_pos", "fb_neg", "command", "error")))
 
-    def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15, axes: int = 2):
-        try:
-            self.accel = Accel(accel)
-        except ValueError:
-            raise ValueError(f"accel must be one of {', '.join(a.value for a in Accel)}, "
-                             f"not {accel!r}") from None
+    def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15, axes: int = 2,
+                 accel_shape: AccelShape | str = AccelShape.EXPONENTIAL,
+                 axis_accel: dict[str, tuple[AccelShape | str, int]] | None = None):
+        self.accel = _enum(Accel, "accel", accel)
         self.accel_bits = ACCEL_BITS.check("accel_bits", accel_bits)
         self.axes = axis_names(axes)
         self.chips = chip_selects(axes)
         #: See :meth:`probes`.
         self.PROBES = self.probes(self.axes)
+        self.accel_shape = _enum(AccelShape, "accel_shape", accel_shape)
+        axis_accel = axis_accel or {}
+        for axis in axis_accel:
+            if axis not in self.axes:
+                raise ValueError(f"axis_accel: no axis {axis!r}; axes are "
+                                 f"{', '.join(self.axes)}")
+        if axis_accel and self.accel is not Accel.POST:
+            raise ValueError("axis_accel needs accel = post (one circuit per axis)")
+        #: Each axis's circuit (post placement), as (shape, bits).
+        self.axis_accel = {
+            axis: (_enum(AccelShape, f"{axis}.accel_shape", axis_accel[axis][0]),
+                   ACCEL_BITS.check(f"{axis}.accel_bits", axis_accel[axis][1]))
+            if axis in axis_accel else (self.accel_shape, self.accel_bits) for axis in self.axes}
+        #: The accel/decel circuits by submodule name: (class, bits, bidirectional).
+        self._accel: dict[str, tuple[type, int, bool]] = {}
+        if self.accel is Accel.PRE:
+            self._accel["accel"] = (_ACCEL_CIRCUITS[self.accel_shape], self.accel_bits, False)
+        elif self.accel is Accel.POST:
+            for axis, (shape, bits) in self.axis_accel.items():
+                self._accel[f"accel_{axis}"] = (_ACCEL_CIRCUITS[shape], bits, True)
         super().__init__({
             "bus": In(HostBus(8)),
             "irq_interp": Out(1), "irq_alarm": Out(1), "fp": Out(1),
@@ -225,10 +276,10 @@ class Chipset(wiring.Component):
     def free_running(self) -> FreeRunning:
         feed = FeedRate.FREE_RUNNING.under("feed")
         gated = tuple(replace(c, gate="decel.gate_open") for c in feed.counters)
-        accel = {Accel.PRE: ("accel",), Accel.POST: tuple(f"accel_{a}" for a in self.axes),
-                 Accel.NONE: ()}[self.accel]
-        carries = tuple(CarryAccumulator(path, self.accel_bits, self.accel is Accel.POST,
-                                         clock=f"feed.{FeedRate.FA_CLOCK}") for path in accel)
+        fa = f"feed.{FeedRate.FA_CLOCK}"
+        accel = (cls.declare(bits, bidirectional).under(path)
+                 for path, (cls, bits, bidirectional) in self._accel.items())
+        carries = tuple(replace(c, clock=fa) for a in accel for c in a.carries)
         return replace(feed, counters=gated).merge(
             FreeRunning(carries=carries), K3701.FREE_RUNNING.under("k3701"), quiet="quiet")
 
@@ -246,12 +297,15 @@ class Chipset(wiring.Component):
         interp, feed, decel = chips["K3701"], chips["FEED"], chips["DECEL"]
 
         m.d.comb += decel.inp.eq(feed.out)
-        quiet = [interp.quiet]  # and no accel/decel output pulse pending
+        quiet = [interp.quiet]  # and every accel/decel circuit's
+        circuits = {}
+        for path, (cls, bits, bidirectional) in self._accel.items():
+            m.submodules[path] = circuits[path] = circuit = cls(bits, bidirectional=bidirectional)
+            m.d.comb += circuit.add.eq(feed.fa)
+            quiet.append(circuit.quiet)
         if self.accel is Accel.PRE:
-            m.submodules.accel = accel = AccelDecel(n=self.accel_bits)
-            m.d.comb += [accel.inp.eq(decel.out), accel.add.eq(feed.fa),
-                         interp.fp.eq(accel.out)]
-            quiet.append(accel.pending == 0)
+            accel = circuits["accel"]
+            m.d.comb += [accel.inp.eq(decel.out), interp.fp.eq(accel.out)]
         else:
             m.d.comb += interp.fp.eq(decel.out)
         m.d.comb += [
@@ -269,12 +323,9 @@ class Chipset(wiring.Component):
             enc = chips[f"ENCODER_{axis.upper()}"]
             step_pos, step_neg = getattr(interp, f"{axis}_pos"), getattr(interp, f"{axis}_neg")
             if self.accel is Accel.POST:
-                post = AccelDecel(n=self.accel_bits, bidirectional=True)
-                m.submodules[f"accel_{axis}"] = post
-                m.d.comb += [post.inp_pos.eq(step_pos), post.inp_neg.eq(step_neg),
-                             post.add.eq(feed.fa)]
+                post = circuits[f"accel_{axis}"]
+                m.d.comb += [post.inp_pos.eq(step_pos), post.inp_neg.eq(step_neg)]
                 step_pos, step_neg = post.out_pos, post.out_neg
-                quiet.append(post.pending == 0)
             m.d.comb += [
                 ctrl.com_pos.eq(step_pos), ctrl.com_neg.eq(step_neg),
                 enc.a.eq(pins.a), enc.a_n.eq(pins.a_n), enc.b.eq(pins.b), enc.b_n.eq(pins.b_n),

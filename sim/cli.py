@@ -22,6 +22,17 @@ def _cmd_docs(args: argparse.Namespace) -> int:
     return 0
 
 
+def _load_step(text: str) -> tuple[str, float, float]:
+    """``AXIS:NM@SECONDS`` of ``--load-step``."""
+    try:
+        axis, rest = text.split(":", 1)
+        torque, at_s = rest.split("@", 1)
+        return axis, float(torque), float(at_s)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not AXIS:NM@SECONDS (e.g. x:0.05@1.5)") \
+            from None
+
+
 #: Exit code of a run stopped by Ctrl-C (128 + SIGINT, as a shell reports it).
 EXIT_INTERRUPTED = 130
 
@@ -29,7 +40,7 @@ EXIT_INTERRUPTED = 130
 def _cmd_run(args: argparse.Namespace) -> int:
     from firmware_model.firmware import FirmwareError
     from firmware_model.gcode import GcodeError
-    from sim.run.jobfile import JobError, load_job
+    from sim.run.jobfile import JobError, load_job, load_step_fault
     from sim.run.output import OutputError, add_ballbar, check_outputs, write_outputs
     from sim.run.progress import ProgressPrinter
     from sim.run.runner import OptionError, RunOptions, run_job
@@ -42,6 +53,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
         faults = {axis: {"stall": 1} for axis in args.stall}
         for axis in args.break_line:
             faults.setdefault(axis, {})["break_a"] = 1
+        for axis, torque, at_s in args.load_step:
+            try:
+                faults.setdefault(axis, {}).update(load_step_fault(job, axis, torque, at_s))
+            except ValueError as e:
+                raise OptionError(f"--load-step {axis}:{torque:g}@{at_s:g}: {e}") from None
         options = RunOptions(backend=args.backend, max_cycles=args.max_cycles,
                              sample_every=args.sample_every, vcd=args.vcd,
                              vcd_start=args.vcd_start, vcd_stop=args.vcd_stop,
@@ -255,6 +271,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="fault: block this axis's motor")
     p.add_argument("--break-line", action="append", default=[], choices=list(ALL_AXES),
                    help="fault: break this axis's /A encoder line")
+    p.add_argument("--load-step", action="append", default=[], type=_load_step,
+                   metavar="AXIS:NM@SECONDS",
+                   help="fault: a load torque step on this axis's torque drive at this time "
+                        "(e.g. x:0.05@1.5)")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary, no progress line")
     _program_options(p)
     p.set_defaults(func=_cmd_run)

@@ -11,12 +11,13 @@ import random
 import subprocess
 import sys
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
 from firmware_model.gcode import parse
-from firmware_model.job import Job, MachineConfig, ServoConfig
+from firmware_model.job import AxisAccelConfig, Job, MachineConfig, ServoConfig
 
 
 def _make_job(gcode: str, machine: MachineConfig | None = None,
@@ -31,12 +32,15 @@ def _make_job(gcode: str, machine: MachineConfig | None = None,
                program)
 
 
-def _random_moves(seed: int, accel: str, *, dwell: bool, axes: int = 2
-                  ) -> tuple[Job, dict, float]:
+def _random_moves(seed: int, accel: str, *, dwell: bool, axes: int = 2,
+                  shape: str = "exponential", axis_shapes: dict[str, str] | None = None,
+                  servo: dict | None = None) -> tuple[Job, dict, float]:
     """Three short random lines or full circles (each followed by a 50 to 150 ms dwell if
     ``dwell``) on a random small machine, and random faults: the job, its faults and the
     seconds of dwell. On three axes (``axes=3``) the lines move Z too and the circles are in
-    a random plane, helical (their normal axis moving) half the time."""
+    a random plane, helical (their normal axis moving) half the time. ``shape``: the
+    accel/decel circuit; ``axis_shapes``: per-axis circuits (post placement) with their own
+    random widths; ``servo``: servo keys beside Kp and Tm."""
     rng = random.Random(seed)
     lines = [f"G21 G91 F{rng.choice((300, 1200, 2400))}"]
     seconds = 0.0
@@ -59,16 +63,21 @@ def _random_moves(seed: int, accel: str, *, dwell: bool, axes: int = 2
             lines.append(f"G04 P{wait}")
             seconds += wait
     lines.append("M30")
-    machine = MachineConfig(accel=accel, accel_bits=rng.choice((4, 6, 8)),
+    machine = MachineConfig(accel=accel, accel_bits=rng.choice((4, 6, 8)), accel_shape=shape,
                             sqrt2=rng.random() < 0.5,
                             accel_fa_hz=float(rng.randint(50_000, 400_000)),
                             alarm_limit=rng.choice((30, 20_000)),
                             encoder_filter=rng.randint(1, 4), axes=axes)
-    servo = ServoConfig(kp=rng.uniform(100, 400), tm=rng.uniform(0.0002, 0.002))
+    plant = ServoConfig(kp=rng.uniform(100, 400), tm=rng.uniform(0.0002, 0.002), **(servo or {}))
     faults = {}
     if rng.random() < 0.4:
         faults[rng.choice(machine.axis_names)] = {rng.choice(("stall", "break_a")): 1}
-    return _make_job("\n".join(lines), machine, servo, name=f"random-{seed}"), faults, seconds
+    job = _make_job("\n".join(lines), machine, plant, name=f"random-{seed}")
+    if axis_shapes:
+        job = replace(job, axis_accel={
+            axis: AxisAccelConfig(accel_shape=s, accel_bits=rng.choice((4, 5, 7)))
+            for axis, s in axis_shapes.items()})
+    return job, faults, seconds
 
 
 @pytest.fixture(scope="session")

@@ -23,6 +23,26 @@ def comparable(report: dict) -> dict:
 @pytest.mark.parametrize("seed", [pytest.param(1, marks=pytest.mark.slow), 2])
 def test_backends_give_identical_reports_and_traces(accel, seed, random_moves):
     job, faults, _ = random_moves(seed * 10 + len(accel), accel, dwell=False)
+    same_on_both_backends(job, faults)
+
+
+#: The torque drive with every term (a 1 ms velocity loop, so that any Kp is stable).
+TORQUE = {"drive": "torque", "vg": 2.0, "kf": 0.6, "ti": 0.01, "d": 0.02, "fc": 0.002,
+          "load": 0.001}
+
+
+@pytest.mark.parametrize(("accel", "shape", "axis_shapes", "servo"), [
+    ("post", "linear", {"y": "bell"}, {"kf": 0.7}),
+    ("pre", "exponential", None, TORQUE),
+    pytest.param("pre", "bell", None, None, marks=pytest.mark.slow)])
+def test_backends_agree_with_linear_and_bell_circuits_feedforward_and_the_torque_drive(
+        accel, shape, axis_shapes, servo, random_moves):
+    job, faults, _ = random_moves(3, accel, dwell=False, shape=shape, axis_shapes=axis_shapes,
+                                  servo=servo)
+    same_on_both_backends(job, faults)
+
+
+def same_on_both_backends(job, faults) -> None:
     results = {}
     for backend in ("pysim", "cxxrtl"):
         results[backend] = run_job(job, RunOptions(backend=backend, max_cycles=4000,

@@ -24,7 +24,9 @@ import pytest
 from amaranth.hdl import ClockDomain, Module
 from amaranth.sim import Simulator
 
+from hdl.accel_bell_model import AccelBellModel
 from hdl.accel_decel_model import AccelDecelModel
+from hdl.accel_linear_model import AccelLinearModel
 from hdl.chipset import CHIP_SELECTS, REG_BITS
 from hdl.decel_control import DECEL_MAP
 from hdl.decel_control_model import DecelControlModel
@@ -284,9 +286,10 @@ class EncoderChip(Chip):
 class AccelDecelChip(Chip):
     name = "accel_decel"
     bidirectional = False
+    model_class: type = AccelDecelModel
 
     def reset(self) -> None:
-        self.model = AccelDecelModel(bidirectional=self.bidirectional)
+        self.model = self.model_class(bidirectional=self.bidirectional)
         self.sign = 1
 
     def inputs(self, rng):
@@ -311,6 +314,22 @@ class AccelDecelChip(Chip):
 class AccelDecelAxisChip(AccelDecelChip):
     name = "accel_decel_axis"
     bidirectional = True
+
+
+class AccelLinearChip(AccelDecelChip):
+    name, model_class = "accel_linear", AccelLinearModel
+
+
+class AccelLinearAxisChip(AccelDecelChip):
+    name, model_class, bidirectional = "accel_linear_axis", AccelLinearModel, True
+
+
+class AccelBellChip(AccelDecelChip):
+    name, model_class = "accel_bell", AccelBellModel
+
+
+class AccelBellAxisChip(AccelDecelChip):
+    name, model_class, bidirectional = "accel_bell_axis", AccelBellModel, True
 
 
 class RateMultiplierChip(Chip):
@@ -406,8 +425,9 @@ class FeedRateChip(Chip):
 
 
 CHIPS = {chip.name: chip for chip in (K3701Chip, K3702Chip, EncoderChip, AccelDecelChip,
-                                      AccelDecelAxisChip, RateMultiplierChip, DividerChip,
-                                      DecelControlChip, FeedRateChip, K3701Chip3)}
+                                      AccelDecelAxisChip, AccelLinearChip, AccelLinearAxisChip,
+                                      AccelBellChip, AccelBellAxisChip, RateMultiplierChip,
+                                      DividerChip, DecelControlChip, FeedRateChip, K3701Chip3)}
 
 
 # --- the co-simulation loop ---------------------------------------------------------------------

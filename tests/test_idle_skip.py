@@ -63,6 +63,24 @@ def test_skipping_idle_cycles_changes_no_signal_of_the_machine(accel, seed, samp
     assert skipped[3] > 0.5 * dwell * job.machine.clock_hz
 
 
+@pytest.mark.parametrize(("accel", "shape", "axis_shapes", "servo"), [
+    ("post", "exponential", {"x": "linear", "y": "bell"}, {"kf": 0.7}),
+    pytest.param("pre", "exponential", None, {"drive": "torque", "vg": 2.0, "kf": 0.6,
+                                              "d": 0.02, "fc": 0.002},
+                 marks=pytest.mark.slow),
+    pytest.param("pre", "linear", None, None, marks=pytest.mark.slow),
+    pytest.param("pre", "bell", None, None, marks=pytest.mark.slow)])
+def test_skipping_with_new_circuits_feedforward_and_torque_drive_changes_no_signal(
+        accel, shape, axis_shapes, servo, random_moves):
+    # A linear or bell circuit is quiet only when drained (its bin timer runs while it holds
+    # pulses), and the torque drive is stepped while it moves (Coulomb friction brings it to
+    # rest exactly): the skips come in the dwells.
+    job, faults, dwell = random_moves(3, accel, dwell=True, shape=shape,
+                                      axis_shapes=axis_shapes, servo=servo)
+    _, skipped = skipped_equals_stepped(job, faults, 1009)
+    assert skipped[3] > 0.5 * dwell * job.machine.clock_hz
+
+
 @pytest.mark.slow
 def test_a_skipping_compiled_run_equals_amaranths_simulator(random_moves):
     job, faults, _ = random_moves(1, "pre", dwell=True)

@@ -305,6 +305,10 @@ def test_the_ranges_are_the_blocks():
         "servo.tm": ">= 0 and <= 16.777216 s (24-bit alpha at clock_hz)",
         "servo.max_speed": "> 0 and < 3932160000 mm/min (48-bit speed limit at clock_hz and "
                            "lsb_mm)",
+        "servo.kf": ">= 0 and <= 2 (fraction of the command rate)",
+        "servo.kt": "> 0 N m/A", "servo.ja": "> 0 kg m^2", "servo.vg": "> 0 A s/rad",
+        "servo.ti": ">= 0 s", "servo.d": ">= 0 N m s/rad", "servo.fc": ">= 0 N m",
+        "servo.load": "a number N m", "servo.counts_per_rev": "> 0 counts",
     }
 
 
@@ -486,3 +490,33 @@ def test_the_square_example_runs_its_file_with_a_softer_y_servo():
     lines = job.program.items
     assert all(isinstance(it, Line) for it in lines)
     assert [it.rapid for it in lines] == [True, False, False, False, False, True]
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ('[machine]\n[machine.x]\naccel_bits = 12\n',
+     'per-axis accel/decel ([machine.x]) needs machine.accel = "post", not \'pre\''),
+    ('[machine]\naccel = "post"\n[machine.y]\naccel_bits = 30\n',
+     "machine.y.accel_bits must be in 4..24, not 30"),
+    ('[machine]\naccel = "post"\n[machine.y]\ntau = 1\n', "unknown key machine.y.tau"),
+    ('[machine]\naccel = "post"\n[machine.w]\naccel_bits = 5\n', "unknown key machine.w"),
+    ('[machine]\naccel_shape = "scurve"\n',
+     "machine.accel_shape must be one of 'exponential', 'linear', 'bell', not 'scurve'"),
+    ('[servo]\ndrive = "hydraulic"\n',
+     "servo.drive must be one of 'first_order', 'torque', not 'hydraulic'"),
+    ('[servo.x]\nkf = 3\n', "servo.x.kf must be >= 0 and <= 2 (fraction of the command rate), "
+                            "not 3.0"),
+    ('[servo]\ndrive = "torque"\nja = 1e-9\n', "servo.kt * vg / ja = 1e+08 1/s must be below "
+                                               "clock_hz (the torque drive's 24-bit coefficients)"),
+])
+def test_bad_accel_shape_per_axis_and_drive_keys_are_one_error_line(tmp_path, text, message):
+    assert load_error(tmp_path, text + PROGRAM) == f": {message}"
+
+
+def test_per_axis_accel_and_the_drive_reach_the_job(tmp_path):
+    job = load_job(write(tmp_path, '[machine]\naccel = "post"\naccel_shape = "linear"\n'
+                                   '[machine.y]\naccel_shape = "bell"\naccel_bits = 13\n'
+                                   '[servo.x]\ndrive = "torque"\nkf = 0.5\n' + PROGRAM))
+    assert job.accel_circuits() == {"y": ("bell", 13)}
+    assert job.to_dict()["machine"]["y"] == {"accel_shape": "bell", "accel_bits": 13}
+    assert (job.servo["x"].drive, job.servo["x"].kf, job.servo["y"].drive) == \
+        ("torque", 0.5, "first_order")

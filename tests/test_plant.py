@@ -12,22 +12,32 @@ from sim.machine.plant import ALPHA_BITS, FRAC_BITS, PlantParams, ServoPlant, da
 from sim.machine.plant_model import ServoPlantModel
 
 
-def compare_with_model(params: PlantParams, dac_bits: int,
-                       stimulus: list[tuple[int, bool]]) -> ServoPlantModel:
-    """Drive gateware and model with (dac, stall) per cycle, asserting equal outputs each cycle."""
-    dut = ServoPlant()
-    model = ServoPlantModel(params.gain, params.alpha, params.vmax, dac_bits)
+def compare_with_model(params: PlantParams, dac_bits: int, stimulus: list[tuple],
+                       dut: ServoPlant | None = None,
+                       model: ServoPlantModel | None = None, **inputs: int) -> ServoPlantModel:
+    """Drive gateware and model with (dac, stall) or (dac, stall, com) per cycle (com: the net
+    command pulse), asserting equal outputs each cycle; ``inputs``: more constant ports (the
+    model has them as fields)."""
+    dut = dut or ServoPlant()
+    model = model or ServoPlantModel(params.gain, params.alpha, params.vmax, dac_bits,
+                                     params.kf_word)
 
     async def bench(ctx):
         ctx.set(dut.gain, params.gain)
         ctx.set(dut.alpha, params.alpha)
         ctx.set(dut.vmax, params.vmax)
+        ctx.set(dut.kf, params.kf_word)
         ctx.set(dut.dac_zero, dac_zero(dac_bits))
-        for t, (dac, stall) in enumerate(stimulus):
+        for name, value in inputs.items():
+            ctx.set(getattr(dut, name), value)
+        for t, (dac, stall, *com) in enumerate(stimulus):
             ctx.set(dut.dac, dac)
             ctx.set(dut.stall, stall)
+            pulse = com[0] if com else 0
+            ctx.set(dut.com_pos, pulse > 0)
+            ctx.set(dut.com_neg, pulse < 0)
             await ctx.tick()
-            model.cycle(dac, stall)
+            model.cycle(dac, stall, pulse)
             assert ctx.get(dut.velocity) == model.velocity, t
             assert ctx.get(dut.count) == model.count, t
             a, b = model.quadrature()
@@ -50,6 +60,27 @@ def test_plant_gateware_equals_model_cycle_by_cycle(kp, tm, vmax, dac_bits, seed
             dac = rng.randrange(1 << dac_bits)
         stimulus.append((dac, rng.random() < 0.05))
     compare_with_model(PlantParams(kp=kp, tm=tm, max_speed=vmax), dac_bits, stimulus)
+
+
+@settings(max_examples=6, deadline=None, derandomize=True)
+@given(kf=st.floats(0, 2), tm=st.sampled_from([0.0, 0.0005]), seed=st.integers(0, 2**32))
+def test_feedforward_gateware_equals_model_with_command_pulses(kf, tm, seed):
+    rng = random.Random(seed)
+    stimulus = [(2048 + rng.randrange(-50, 50), False, rng.choice((-1, 0, 0, 1)))
+                for _ in range(300)]
+    compare_with_model(PlantParams(kp=50.0, tm=tm, kf=kf), 12, stimulus)
+
+
+def test_feedforward_adds_kf_times_the_command_pulse_rate_to_the_velocity():
+    params = PlantParams(kp=30.0, tm=0.002, kf=0.75)
+    model = ServoPlantModel(params.gain, params.alpha, dac_bits=12, kf=params.kf_word)
+    start = None
+    for t in range(60_000):  # a pulse every 4th cycle (250k counts/s) with the D/A at 0 V
+        model.cycle(2048, com=int(t % 4 == 0))
+        if t == 20_000:
+            start = model.position
+    speed = (model.position - start) / 40_000 / (1 << FRAC_BITS) * 1e6
+    assert speed == pytest.approx(0.75 * 250_000, rel=1e-4)
 
 
 def test_velocity_lands_exactly_on_the_command_in_gateware_and_model():

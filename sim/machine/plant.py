@@ -18,8 +18,9 @@ from amaranth.lib.wiring import In, Out
 from hdl.limits import Limit
 from hdl.observation import FreeRunning, PlantState
 
-__all__ = ["ALPHA_BITS", "COUNT_BITS", "FRAC_BITS", "GAIN_BITS", "POSITION_BITS", "PRODUCT_BITS",
-           "VC_BITS", "VC_MAX", "VMAX_BITS", "PlantParams", "ServoPlant", "dac_zero"]
+__all__ = ["ALPHA_BITS", "COUNT_BITS", "FRAC_BITS", "GAIN_BITS", "KF_BITS", "KF_LIMIT",
+           "POSITION_BITS", "PRODUCT_BITS", "VC_BITS", "VC_MAX", "VMAX_BITS", "PlantParams",
+           "ServoPlant", "dac_zero"]
 
 #: Fraction bits of position and velocity.
 FRAC_BITS = 32
@@ -37,6 +38,10 @@ COUNT_BITS = 32
 POSITION_BITS = COUNT_BITS + FRAC_BITS
 #: Width of the velocity update's product: two machine words of a compiled simulator.
 PRODUCT_BITS = 64
+#: Width of the feedforward port: Kf counts/cycle per command pulse, FRAC_BITS fraction bits.
+KF_BITS = FRAC_BITS + 2
+#: Velocity feedforward gain Kf (a fraction of the command pulse rate).
+KF_LIMIT = Limit(0, 2, unit="", note="fraction of the command rate")
 #: Full-scale D/A voltage.
 DAC_VOLTS = 10.0
 
@@ -58,19 +63,21 @@ class PlantParams:
 
     ``kp``: position-loop gain (1/s); the amplifier's Kv = kp * 2^(N-1) / 10 V follows
     from it (SPEC section 9). ``tm``: velocity-loop time constant (s, 0 for none).
-    ``max_speed``: speed limit (counts/s, None for none). ``clock_hz``: system clock. Each
-    must be in its :meth:`limits`.
+    ``max_speed``: speed limit (counts/s, None for none). ``kf``: velocity feedforward, the
+    fraction of the command pulse rate the drive adds to its velocity command.
+    ``clock_hz``: system clock. Each must be in its :meth:`limits`.
     """
 
     kp: float
     tm: float
     max_speed: float | None = None
     clock_hz: float = 1e6
+    kf: float = 0.0
 
     def __post_init__(self) -> None:
         Limit(0, low_open=True, unit="Hz").check("clock_hz", self.clock_hz)
         limits = self.limits(self.clock_hz)
-        for name in ("kp", "tm", "max_speed"):
+        for name in ("kp", "tm", "max_speed", "kf"):
             value = getattr(self, name)
             if value is not None:
                 limits[name].check(name, value)
@@ -89,6 +96,7 @@ class PlantParams:
                         note=f"{ALPHA_BITS}-bit alpha at clock_hz"),
             "max_speed": Limit(0, (1 << VMAX_BITS) * per_lsb, low_open=True, high_open=True,
                                unit="counts/s", note=f"{VMAX_BITS}-bit speed limit at clock_hz"),
+            "kf": KF_LIMIT,
         }
 
     @property
@@ -108,6 +116,12 @@ class PlantParams:
         return _saturate((1 << ALPHA_BITS) / (self.tm * self.clock_hz), ALPHA_BITS)
 
     @property
+    def kf_word(self) -> int:
+        """Kf in counts/cycle << FRAC_BITS: what one command pulse adds to the velocity
+        command in its cycle (a rate of one count per cycle, times Kf)."""
+        return round(self.kf * (1 << FRAC_BITS))
+
+    @property
     def vmax(self) -> int:
         """Speed limit in counts/cycle << FRAC_BITS (0: none)."""
         if self.max_speed is None:
@@ -122,7 +136,10 @@ class PlantParams:
 class ServoPlant(wiring.Component):
     """Servo amplifier + motor (first-order velocity lag) + incremental encoder.
 
-    Every cycle: e = dac - dac_zero; vc = clamp(e * gain, +-vmax) (vmax 0: 2^37 - 1);
+    Every cycle: e = dac - dac_zero; vc = clamp(e * gain + ff, +-vmax) (vmax 0: 2^37 - 1),
+    where the velocity feedforward ff is +kf in a cycle with a command pulse com_pos, -kf with
+    com_neg (an F/V converter's input: its mean is Kf times the command pulse rate, and the
+    motor's own lag smooths it);
     v += round((vc - v) * alpha / 2^ALPHA_BITS), or v = vc when that step rounds to 0 (v = 0
     while stalled); p += v; the encoder count is
     floor(p) and A/B are its Gray code (count 0: A=0 B=0, 1: 1 0, 2: 1 1, 3: 0 1), so
@@ -137,8 +154,12 @@ class ServoPlant(wiring.Component):
     dac_zero : In(16)
         The code of 0 V, 2^(N-1) for an N-bit converter (:func:`dac_zero`); given as a
         number rather than N, so that the model needs no shifter.
-    gain, alpha, vmax : In(GAIN_BITS), In(ALPHA_BITS), In(VMAX_BITS)
+    gain, alpha, vmax, kf : In(GAIN_BITS), In(ALPHA_BITS), In(VMAX_BITS), In(KF_BITS)
         Fixed-point parameters, see :class:`PlantParams`.
+    com_pos, com_neg : In(1)
+        The K3702's command pulses (for the feedforward), combinational into ``vc``. They
+        are events, so they are 0 all through an idle skip, and a skip's native plant update
+        (which leaves ff out) is exact.
     stall : In(1)
         Fault: the axis is blocked (velocity held at 0).
     glitch_a, glitch_b : In(1)
@@ -158,6 +179,9 @@ class ServoPlant(wiring.Component):
     gain: In(GAIN_BITS)
     alpha: In(ALPHA_BITS)
     vmax: In(VMAX_BITS)
+    kf: In(KF_BITS)
+    com_pos: In(1)
+    com_neg: In(1)
     stall: In(1)
     glitch_a: In(1)
     glitch_b: In(1)
@@ -175,27 +199,9 @@ class ServoPlant(wiring.Component):
 
     def elaborate(self, platform) -> Module:
         m = Module()
-        err = Signal(signed(17))
-        m.d.comb += err.eq(self.dac - self.dac_zero)
-        # Every value fits in PRODUCT_BITS = 64 bits, so that compiled simulators compute it in
-        # at most two machine words: |vc|, |v| < 2^VC_BITS and alpha < 2^ALPHA_BITS, so
-        # |(vc - v) * alpha| < 2^62.
-        vc_raw = Signal(signed(len(err) + GAIN_BITS + 1))
-        m.d.comb += vc_raw.eq(err * self.gain)
-        vmax = Signal(VC_BITS)
-        m.d.comb += vmax.eq(Mux((self.vmax == 0) | (self.vmax > VC_MAX), VC_MAX, self.vmax))
-        vc = Signal(signed(VC_BITS + 1))
-        m.d.comb += vc.eq(Mux(vc_raw > vmax, vmax, Mux(vc_raw < -vmax, -vmax, vc_raw)))
-        delta = Signal(signed(PRODUCT_BITS))
-        m.d.comb += delta.eq((vc - self.velocity) * self.alpha + (1 << (ALPHA_BITS - 1)))
+        m.d.sync += self.velocity.eq(self.next_velocity(m, self.velocity_command(m)))
         # p += v_next is kept as before = p - v (so before += v): each register's next value
         # is then one expression, which compiled simulators evaluate only at the clock edge.
-        # An update that rounds to 0 lands on vc: the lag ends exactly, so an axis at rest
-        # has velocity 0 (no creep from a residue the rounding can never remove).
-        step = Signal(signed(PRODUCT_BITS - ALPHA_BITS))
-        m.d.comb += step.eq(delta.shift_right(ALPHA_BITS))
-        m.d.sync += self.velocity.eq(
-            Mux(self.stall, 0, Mux(step == 0, vc, self.velocity + step)))
         before = Signal(signed(POSITION_BITS))
         m.d.sync += before.eq(before + self.velocity)
         position = Signal(signed(POSITION_BITS))
@@ -218,3 +224,29 @@ class ServoPlant(wiring.Component):
             self.b_n.eq(~b),
         ]
         return m
+
+    def velocity_command(self, m: Module) -> Signal:
+        """vc: the drive's velocity command, clamped to the speed limit (combinational)."""
+        err = Signal(signed(17))
+        m.d.comb += err.eq(self.dac - self.dac_zero)
+        vc_raw = Signal(signed(len(err) + GAIN_BITS + 2))
+        feedforward = Mux(self.com_pos == self.com_neg, 0, Mux(self.com_pos, self.kf, -self.kf))
+        m.d.comb += vc_raw.eq(err * self.gain + feedforward)
+        vmax = Signal(VC_BITS)
+        m.d.comb += vmax.eq(Mux((self.vmax == 0) | (self.vmax > VC_MAX), VC_MAX, self.vmax))
+        vc = Signal(signed(VC_BITS + 1))
+        m.d.comb += vc.eq(Mux(vc_raw > vmax, vmax, Mux(vc_raw < -vmax, -vmax, vc_raw)))
+        return vc
+
+    def next_velocity(self, m: Module, vc: Signal):
+        """The velocity after this cycle: the first-order lag towards ``vc``."""
+        # Every value fits in PRODUCT_BITS = 64 bits, so that compiled simulators compute it in
+        # at most two machine words: |vc|, |v| < 2^VC_BITS and alpha < 2^ALPHA_BITS, so
+        # |(vc - v) * alpha| < 2^62.
+        delta = Signal(signed(PRODUCT_BITS))
+        m.d.comb += delta.eq((vc - self.velocity) * self.alpha + (1 << (ALPHA_BITS - 1)))
+        # An update that rounds to 0 lands on vc: the lag ends exactly, so an axis at rest
+        # has velocity 0 (no creep from a residue the rounding can never remove).
+        step = Signal(signed(PRODUCT_BITS - ALPHA_BITS))
+        m.d.comb += step.eq(delta.shift_right(ALPHA_BITS))
+        return Mux(self.stall, 0, Mux(step == 0, vc, self.velocity + step))

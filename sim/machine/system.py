@@ -9,13 +9,26 @@ from amaranth.hdl import Module, Mux, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.chipset import Accel, Chipset
+from hdl.chipset import Accel, AccelShape, Chipset
 from hdl.hostbus import HostBus
 from hdl.k3702 import COUNTER_WIDTH
 from hdl.observation import FreeRunning
-from sim.machine.plant import ALPHA_BITS, COUNT_BITS, GAIN_BITS, VMAX_BITS, ServoPlant
+from sim.machine.plant import (
+    ALPHA_BITS,
+    COUNT_BITS,
+    GAIN_BITS,
+    KF_BITS,
+    VMAX_BITS,
+    ServoPlant,
+)
+from sim.machine.torque_drive import ACCEL_BITS, AFTER_BITS, KI_BITS, TorqueDrive
 
-__all__ = ["AxisProbe", "System"]
+#: The servo drive of each ``drive`` name: the first-order plant, or the torque drive.
+DRIVES: dict[str, type[ServoPlant]] = {"first_order": ServoPlant, "torque": TorqueDrive}
+#: The torque drive's own inputs (zero and unused on a first-order axis).
+TORQUE_INPUTS = ("beta", "ki", "fc", "load", "load_step", "load_after")
+
+__all__ = ["DRIVES", "TORQUE_INPUTS", "AxisProbe", "System"]
 
 
 class AxisProbe(wiring.Signature):
@@ -23,9 +36,12 @@ class AxisProbe(wiring.Signature):
 
     Members
     -------
-    gain, alpha, vmax, dac_zero : In
+    gain, alpha, vmax, kf, dac_zero : In
         Plant parameters (:class:`sim.machine.plant.PlantParams`; ``dac_zero`` from
         :func:`sim.machine.plant.dac_zero` of the K3702's DAC_BITS).
+    beta, ki, fc, load, load_step, load_after : In
+        The torque drive's parameters (:class:`sim.machine.torque_drive.TorqueDrive`); not
+        connected on a first-order axis.
     stall, glitch_a, glitch_b, break_a : In(1)
         Fault injection (see :class:`sim.machine.plant.ServoPlant`).
     command, error : Out(signed(COUNTER_WIDTH))
@@ -45,7 +61,10 @@ class AxisProbe(wiring.Signature):
     def __init__(self):
         super().__init__({
             "gain": In(GAIN_BITS), "alpha": In(ALPHA_BITS), "vmax": In(VMAX_BITS),
-            "dac_zero": In(16),
+            "kf": In(KF_BITS), "dac_zero": In(16),
+            "beta": In(ALPHA_BITS), "ki": In(KI_BITS), "fc": In(ACCEL_BITS),
+            "load": In(signed(ACCEL_BITS)), "load_step": In(signed(ACCEL_BITS)),
+            "load_after": In(AFTER_BITS),
             "stall": In(1), "glitch_a": In(1), "glitch_b": In(1), "break_a": In(1),
             "command": Out(signed(COUNTER_WIDTH)), "error": Out(signed(COUNTER_WIDTH)),
             "count": Out(signed(COUNT_BITS)), "dac": Out(16), "max_abs_error": Out(COUNTER_WIDTH),
@@ -54,8 +73,9 @@ class AxisProbe(wiring.Signature):
 
 
 class System(wiring.Component):
-    """Chipset + plants. See :class:`hdl.chipset.Chipset` for ``accel``, ``accel_bits`` and
-    ``axes`` (one plant per axis).
+    """Chipset + plants. See :class:`hdl.chipset.Chipset` for ``accel``, ``accel_bits``,
+    ``axes`` (one plant per axis), ``accel_shape`` and ``axis_accel``; ``drives``: per axis,
+    the servo drive's name in :data:`DRIVES` (default ``"first_order"``).
 
     Members
     -------
@@ -79,11 +99,21 @@ class System(wiring.Component):
     of every move: the compiled backend's idle skipping advances them up to the next event.
     """
 
-    def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15, axes: int = 2):
-        self.chipset = Chipset(accel=accel, accel_bits=accel_bits, axes=axes)
+    def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15, axes: int = 2,
+                 accel_shape: AccelShape | str = AccelShape.EXPONENTIAL,
+                 axis_accel: dict[str, tuple[AccelShape | str, int]] | None = None,
+                 drives: dict[str, str] | None = None):
+        self.chipset = Chipset(accel=accel, accel_bits=accel_bits, axes=axes,
+                               accel_shape=accel_shape, axis_accel=axis_accel)
         self.axes = self.chipset.axes
+        drives = drives or {}
+        for axis, drive in drives.items():
+            if axis not in self.axes or drive not in DRIVES:
+                raise ValueError(f"drives: {axis!r}: {drive!r} is not an axis's drive "
+                                 f"({', '.join(DRIVES)})")
+        self.drives = {axis: DRIVES[drives.get(axis, "first_order")] for axis in self.axes}
         self.free_running: FreeRunning = self.chipset.free_running.under("chipset").merge(
-            *(ServoPlant.FREE_RUNNING.under(f"plant_{axis}") for axis in self.axes),
+            *(self.drives[axis].FREE_RUNNING.under(f"plant_{axis}") for axis in self.axes),
             quiet="quiet")
         super().__init__({
             "bus": In(HostBus(8)), "irq": Out(1), "irq_interp": Out(1), "irq_alarm": Out(1),
@@ -104,11 +134,16 @@ class System(wiring.Component):
             m.d.sync += self.fp_total.eq(self.fp_total + 1)
         for axis in self.axes:
             probe, pins = getattr(self, axis), getattr(chip, axis)
-            plant = m.submodules[f"plant_{axis}"] = ServoPlant()
+            plant = m.submodules[f"plant_{axis}"] = self.drives[axis]()
+            if isinstance(plant, TorqueDrive):
+                m.d.comb += [getattr(plant, name).eq(getattr(probe, name))
+                             for name in TORQUE_INPUTS]
             m.d.comb += [
                 plant.dac.eq(pins.dac), plant.dac_zero.eq(probe.dac_zero),
                 plant.gain.eq(probe.gain), plant.alpha.eq(probe.alpha),
                 plant.vmax.eq(probe.vmax), plant.stall.eq(probe.stall),
+                plant.kf.eq(probe.kf), plant.com_pos.eq(pins.com_pos),
+                plant.com_neg.eq(pins.com_neg),
                 plant.glitch_a.eq(probe.glitch_a), plant.glitch_b.eq(probe.glitch_b),
                 plant.break_a.eq(probe.break_a),
                 pins.a.eq(plant.a), pins.a_n.eq(plant.a_n),

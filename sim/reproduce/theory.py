@@ -19,8 +19,9 @@ from hdl.divider_model import frequency_of, increment_for
 from hdl.feed_rate import DIVIDER_WIDTH, FEED_BITS
 from hdl.k3701_model import Block, make_path, walk
 
-__all__ = ["E63", "fp_rate", "hardware_tau", "ideal_command", "lag",
-           "quarter_counts", "servo", "servo_radius_loss"]
+__all__ = ["E63", "accel_gain", "following_error", "fp_rate", "hardware_tau", "ideal_command",
+           "lag", "mismatch_amplitude", "quarter_counts", "servo", "servo_gain",
+           "servo_radius_loss"]
 
 #: 1 - 1/e: the fraction of the final value a first-order lag reaches after one tau.
 E63 = 1 - math.exp(-1)
@@ -98,13 +99,41 @@ def servo(t: np.ndarray, command: np.ndarray, kp: float, tm: float,
     return out
 
 
+def servo_gain(w: float, kp: float, tm: float) -> float:
+    """|G(jw)| of one axis's closed position loop ``G(s) = Kp / (s (1 + s Tm) + Kp)``."""
+    return kp / abs(complex(kp - w * w * tm, w))
+
+
 def servo_radius_loss(radius: float, speed: float, kp: float, tm: float) -> float:
     """Steady-state radius loss R (1 - |G(jw)|) of a circle followed at ``speed`` (LSB/s).
 
     ``G(s) = Kp / (s (1 + s Tm) + Kp)`` is one axis's closed position loop, ``w = v / R``.
     """
-    w = speed / radius
-    return radius * (1 - kp / abs(complex(kp - w * w * tm, w)))
+    return radius * (1 - servo_gain(speed / radius, kp, tm))
+
+
+def accel_gain(shape: str, w: float, tau: float) -> float:
+    """|G_acc(jw)| of a post-interpolation accel/decel circuit of time constant ``tau``
+    (2^n / fa): the exponential's 1 / sqrt(1 + w^2 tau^2), the moving average's
+    |sin(w T / 2) / (w T / 2)| (T = tau), and their product for the bell."""
+    exponential = 1 / math.sqrt(1 + (w * tau) ** 2)
+    linear = abs(math.sin(w * tau / 2) / (w * tau / 2))
+    return {"exponential": exponential, "linear": linear, "bell": exponential * linear}[shape]
+
+
+def mismatch_amplitude(speed: float, lag_x: float, lag_y: float) -> float:
+    """The 2-theta amplitude of the radial deviation of a circle at ``speed`` whose axes lag
+    their commands by ``lag_x`` and ``lag_y`` seconds (1/Kp of a position loop, T of an
+    exponential accel/decel; seed 001): (V / 2) |lag_x - lag_y|, for small w * lag."""
+    return speed / 2 * abs(lag_x - lag_y)
+
+
+def following_error(feed: float, kp: float, *, kf: float = 0.0, d_ratio: float = 0.0,
+                    ts: float = 0.0) -> float:
+    """Seed 003 eq. (9): the steady following error (LSB) at ``feed`` (LSB/s),
+    ``(D / (Vg Kt) + 1 - Kf) F / Kp + Ts F`` (``d_ratio`` = D / (Vg Kt); Ts the exponential
+    accel/decel's time constant, post-interpolation)."""
+    return (d_ratio + 1 - kf) * feed / kp + ts * feed
 
 
 # -- the K3701's path (its reference model) -------------------------------------------------------

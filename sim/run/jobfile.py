@@ -8,7 +8,10 @@ TOML job::
 
     [machine]                       # every key optional (defaults: MachineConfig)
     clock_hz = 1_000_000
-    accel = "pre"                   # "pre" | "post" | "none"
+    accel = "post"                  # "pre" | "post" | "none"
+    accel_shape = "linear"          # "exponential" | "linear" | "bell"
+    [machine.y]                     # per-axis accel/decel circuit (accel = "post" only)
+    accel_bits = 14
 
     [servo]                         # both axes (defaults: ServoConfig)
     kp = 30.0
@@ -43,6 +46,7 @@ from typing import Any, NoReturn
 
 from firmware_model.gcode import ARC_TOLERANCE_LIMIT, ARC_TOLERANCE_MM, Program
 from firmware_model.job import (
+    AxisAccelConfig,
     Job,
     MachineConfig,
     OrAbsent,
@@ -56,9 +60,13 @@ from firmware_model.job import (
 from hdl.chipset import ALL_AXES
 from hdl.limits import Limit
 from sim.machine.plant import PlantParams
+from sim.machine.torque_drive import TorqueParams
 
-__all__ = ["JobError", "job_from_data", "job_keys_markdown", "load_job", "plant_params",
-           "read_toml", "servo_limits"]
+__all__ = ["JobError", "job_from_data", "job_keys_markdown", "load_job", "load_step_fault",
+           "plant_params", "read_toml", "servo_limits", "torque_params"]
+
+#: The torque drive's keys (used only with ``drive = "torque"``).
+TORQUE_KEYS = tuple(TorqueParams.limits())
 
 
 class JobError(ValueError):
@@ -71,7 +79,8 @@ def servo_limits(machine: MachineConfig) -> dict[str, Limit]:
     limits = PlantParams.limits(machine.clock_hz)
     speed = limits["max_speed"]
     return {**limits, "max_speed": speed.scaled(machine.mm_per_min(1.0), "mm/min",
-                                                f"{speed.note} and lsb_mm")}
+                                                f"{speed.note} and lsb_mm"),
+            **TorqueParams.limits()}
 
 
 def plant_params(machine: MachineConfig, servo: ServoConfig) -> PlantParams:
@@ -83,7 +92,7 @@ def plant_params(machine: MachineConfig, servo: ServoConfig) -> PlantParams:
         A servo key is out of the plant's range (checked in the plant's units), naming the
         key, its value and its range in the job's units (:func:`servo_limits`).
     """
-    values = {"kp": servo.kp, "tm": servo.tm,
+    values = {"kp": servo.kp, "tm": servo.tm, "kf": servo.kf,
               "max_speed": None if servo.max_speed is None else machine.lsb_per_s(servo.max_speed)}
     limits = PlantParams.limits(machine.clock_hz)
     for name, value in values.items():
@@ -91,6 +100,31 @@ def plant_params(machine: MachineConfig, servo: ServoConfig) -> PlantParams:
             raise ValueError(f"{name} must be {servo_limits(machine)[name].describe()}, "
                              f"not {getattr(servo, name)!r}")
     return PlantParams(clock_hz=machine.clock_hz, **values)
+
+
+def torque_params(machine: MachineConfig, servo: ServoConfig) -> TorqueParams:
+    """The torque drive of one axis's ``servo`` on ``machine`` (ValueError naming a bad key)."""
+    return TorqueParams(clock_hz=machine.clock_hz,
+                        **{name: getattr(servo, name) for name in TORQUE_KEYS})
+
+
+def load_step_fault(job: Job, axis: str, torque: float, at_s: float) -> dict[str, int]:
+    """The plant inputs of a load step of ``torque`` (N m) on ``axis`` at ``at_s`` seconds
+    (the axis must have the torque drive); ValueError naming what is wrong."""
+    names = job.machine.axis_names
+    if axis not in names:
+        raise ValueError(f"no axis {axis!r}; the machine's axes are {', '.join(names)}")
+    servo = job.servo[axis]
+    if servo.drive != "torque":
+        raise ValueError(f"a load step needs servo.{axis}.drive = \"torque\", not "
+                         f"{servo.drive!r}")
+    Limit(unit="N m").check("load step torque", torque)
+    Limit(0, unit="s").check("load step time", at_s)
+    params = torque_params(job.machine, servo)
+    word = params.torque_word(torque)
+    if word == 0 or abs(word) + abs(params.torque_word(params.load)) >= 1 << 39:
+        raise ValueError(f"load step {torque!r} N m is 0 or beyond the drive's torque range")
+    return {"load_step": word, "load_after": round(at_s * job.machine.clock_hz)}
 
 
 def load_job(path: str | PathLike[str] | None, *, frontend: str = "builtin",
@@ -185,12 +219,25 @@ class _TomlJob:
         name = self.data.get("name", self.path.stem)
         if not isinstance(name, str) or not name:
             self.fail(f"name must be a non-empty string, not {name!r}")
-        table = self.table(self.data, "machine", _names(MachineConfig))
-        machine = self.build(MachineConfig, table, "machine.")
+        table = self.table(self.data, "machine", (*_names(MachineConfig), *ALL_AXES))
+        machine = self.build(MachineConfig,
+                             {k: v for k, v in table.items() if k not in ALL_AXES}, "machine.")
         machine, program = self.program(machine, axes_given="axes" in table)
+        for axis in ALL_AXES:
+            if axis in table and axis not in machine.axis_names:
+                self.fail(f"machine.{axis}: the machine has {machine.axes} axes "
+                          f"({', '.join(machine.axis_names)}); set machine.axes = 3 for a Z "
+                          f"axis")
+        axis_accel = {axis: self.build(AxisAccelConfig,
+                                       self.table(table, axis, _names(AxisAccelConfig),
+                                                  "machine."), f"machine.{axis}.")
+                      for axis in machine.axis_names if axis in table}
         servo = self.servo(machine)
         run = self.build(RunConfig, self.table(self.data, "run", _names(RunConfig)), "run.")
-        return Job(name, machine, servo, program, run)
+        try:
+            return Job(name, machine, servo, program, run, axis_accel)
+        except ValueError as e:
+            self.fail(str(e))
 
     def servo(self, machine: MachineConfig) -> dict[str, ServoConfig]:
         """Every axis's servo: ``[servo]``, each key overridden by ``[servo.x]``,
@@ -212,7 +259,11 @@ class _TomlJob:
         servo = self.build(ServoConfig, values, prefix)
         try:
             plant_params(machine, servo)
-        except ValueError as e:
+            for name, limit in TorqueParams.limits().items():
+                limit.check(name, getattr(servo, name))
+            if servo.drive == "torque":  # its fixed point (the keys are unused otherwise)
+                torque_params(machine, servo)
+        except (TypeError, ValueError) as e:
             self.fail(f"{prefix}{e}")
         return servo
 
@@ -298,11 +349,14 @@ def job_keys_markdown() -> str:
     for table, config in (("machine", machine), ("servo", ServoConfig()), ("run", RunConfig())):
         for f in fields(config):
             valid: Valid = config.valid(f.name)
-            if table == "servo":  # the type is checked there, the range is the plant's
+            if table == "servo" and f.name in plant:  # type checked there, range the plant's
                 valid = OrAbsent(plant[f.name]) if f.default is None else plant[f.name]
             default = "absent" if f.default is None else _toml_value(f.default)
             rows.append(f"| {table}.{f.name} | {default} | {valid.describe()} | "
                         f"{f.metadata['doc']} |")
+    for f in fields(AxisAccelConfig):
+        rows.append(f"| machine.{'/'.join(ALL_AXES)}.{f.name} | the [machine] value | "
+                    f"{AxisAccelConfig().valid(f.name).describe()} | {f.metadata['doc']} |")
     rows += ["| servo.x.*, servo.y.*, servo.z.* | the [servo] values | as in [servo] | per-axis "
              "servo overrides (servo.z on three axes) |",
              "| program.gcode | | a string | the program, inline (give gcode or file) |",

@@ -41,7 +41,7 @@ from sim.machine.plant import dac_zero
 from sim.machine.system import System
 from sim.run.contour import contour_summary
 from sim.run.fst import vcd_to_fst
-from sim.run.jobfile import plant_params
+from sim.run.jobfile import plant_params, torque_params
 from sim.run.link import BlockMeasure, BlockMeter, SimulatedLink
 from sim.run.progress import ProgramPlan, Progress
 from sim.run.report import SCHEMA_VERSION, validate
@@ -135,7 +135,8 @@ def check_options(options: RunOptions) -> None:
 def configure_plants(backend: Backend, job: Job,
                      faults: dict[str, dict[str, int]] | None = None) -> None:
     """Set the plants of a backend built for ``job`` to its servos, with ``faults`` (per axis:
-    a plant input, ``stall`` or ``break_a``, and its value)."""
+    a plant input, ``stall``, ``break_a`` or a load step's ``load_step`` and ``load_after``
+    (:func:`sim.run.jobfile.load_step_fault`), and its value)."""
     faults = faults or {}
     machine = job.machine
     for axis in machine.axis_names:
@@ -143,6 +144,13 @@ def configure_plants(backend: Backend, job: Job,
         backend.set(f"{axis}__gain", params.gain)
         backend.set(f"{axis}__alpha", params.alpha)
         backend.set(f"{axis}__vmax", params.vmax)
+        backend.set(f"{axis}__kf", params.kf_word)
+        if job.servo[axis].drive == "torque":
+            torque = torque_params(machine, job.servo[axis])
+            for name, value in (("alpha", torque.alpha), ("beta", torque.beta),
+                                ("ki", torque.ki), ("fc", torque.fc_word),
+                                ("load", torque.torque_word(torque.load))):
+                backend.set(f"{axis}__{name}", value)
         backend.set(f"{axis}__dac_zero", dac_zero(machine.dac_bits))
         for name, value in faults.get(axis, {}).items():
             backend.set(f"{axis}__{name}", value)
@@ -152,7 +160,9 @@ def system_params(job: Job) -> dict[str, Any]:
     """What the simulated machine of ``job`` is built with: jobs with equal parameters can
     share one built backend (reset between runs)."""
     return {"accel": job.machine.accel, "accel_bits": job.machine.accel_bits,
-            "axes": job.machine.axes}
+            "axes": job.machine.axes, "accel_shape": job.machine.accel_shape,
+            "axis_accel": job.accel_circuits(),
+            "drives": {axis: job.servo[axis].drive for axis in job.machine.axis_names}}
 
 
 @cache

@@ -1,7 +1,7 @@
 """``k37 sweep``: a study's runs on a pool of workers, one results table.
 
 Each worker process keeps its compiled machines (one per set of
-:func:`~sim.run.runner.system_params`) and resets them between runs, so a study pays one
+:func:`~sim.run.runner.design_key`) and resets them between runs, so a study pays one
 build per worker, not one per run. Runs go to a local process pool (``jobs`` processes) or,
 with a scheduler address, to a Dask distributed cluster (``dask scheduler`` and ``dask
 worker`` processes anywhere): the same function runs each, so the table is the same.
@@ -27,7 +27,7 @@ from firmware_model.job import Job
 from sim.backends.contract import Backend
 from sim.run.ballbar import FIGURES, BallbarError, ballbar
 from sim.run.jobfile import JobError
-from sim.run.runner import OptionError, RunOptions, build_backend, run_job, system_params
+from sim.run.runner import OptionError, RunOptions, build_backend, design_key, run_job
 from sim.study.studyfile import Study, StudyRun
 
 __all__ = ["METRICS", "SweepError", "run_one", "sweep"]
@@ -37,7 +37,7 @@ METRICS = ("status", "reason", "cycles", "machine_seconds", "wall_seconds",
            "max_contour_error", "rms_contour_error", "x_max_following_error",
            "y_max_following_error", "end_reached", *FIGURES)
 
-_BACKENDS: dict[tuple, Backend] = {}
+_BACKENDS: dict[str, Backend] = {}
 
 
 class SweepError(ValueError):
@@ -45,9 +45,9 @@ class SweepError(ValueError):
 
 
 def _backend(job: Job) -> Backend:
-    """This process's machine for ``job``, built once per :func:`system_params` and reset
-    between runs."""
-    key = tuple(sorted(system_params(job).items()))
+    """This process's machine for ``job``, built once per design (:func:`design_key`) and
+    reset between runs."""
+    key = design_key(job)
     backend = _BACKENDS.get(key)
     if backend is None:
         backend = _BACKENDS[key] = build_backend(job, "cxxrtl")
