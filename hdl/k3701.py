@@ -21,6 +21,7 @@ from hdl.k3701_model import (
     Block,
     Kind,
 )
+from hdl.k3701_parabolic import ParabolicDatapath
 from hdl.observation import Countdown, FreeRunning
 
 __all__ = ["K3701", "K3701_MAP", "block_registers"]
@@ -35,14 +36,19 @@ K3701_MAP = RegisterMap("K3701", 1, (
              f"write: end point Ye relative to the start; read: remaining distance Ym "
              f"({_COORD})", signed=True),
     Register("I", 0x06, 24, Access.W,
-             f"circular: centre X relative to the start ({_COORD})", signed=True),
+             f"circular: centre X relative to the start; parabolic: X of the point whose "
+             f"tangent is parallel to the chord, relative to the start ({_COORD})", signed=True),
     Register("J", 0x09, 24, Access.W,
-             f"circular: centre Y relative to the start ({_COORD})", signed=True),
+             f"circular: centre Y relative to the start; parabolic: Y of that point "
+             f"({_COORD})", signed=True),
     Register("CTRL", 0x0C, 8, Access.RW, "control word of the next block (reads back)", fields=(
         Field("circular", 0, 1, "interpolation type: 0 linear, 1 circular"),
         Field("cw", 1, 1, "circular direction: 0 CCW, 1 CW"),
         Field("sqrt2", 2, 1, "sqrt(2) control: a diagonal step costs 1.5 FP"),
         Field("quadrant", 3, 2, "circular end-point quadrant minus 1 (0..3 = quadrant 1..4)"),
+        Field("parabolic", 5, 1, "interpolation type parabolic (``circular`` is then ignored)"),
+        Field("swap", 6, 1, "parabolic: the abscissa is Y, the parabola's axis parallel to X "
+                            "(else the abscissa is X, the axis parallel to Y)"),
     )),
     Register("CMD", 0x0D, 8, Access.W, "commands, acted on in the cycle after the write",
              fields=(
@@ -59,18 +65,20 @@ K3701_MAP = RegisterMap("K3701", 1, (
         Field("overrun", 3, 1, "an FP arrived while one was already held and was lost "
                                "(sticky until CMD.clear)"),
     )),
-), doc="Interpolator: linear and circular interpolation of one block, step pulses out.")
+), doc="Interpolator: linear, circular and parabolic interpolation of one block, step pulses "
+       "out.")
 
 
 def block_registers(block: Block) -> dict[str, int]:
     """The registers that load ``block``, in the order the host writes them (CTRL last; the
     block then runs on CMD.start). Lines leave I and J as they are."""
     values = {"X": block.xe, "Y": block.ye}
-    if block.kind is Kind.CIRCULAR:
+    if block.kind is not Kind.LINEAR:
         values |= {"I": block.i, "J": block.j}
     values["CTRL"] = K3701_MAP["CTRL"].encode(
-        circular=int(block.kind), cw=int(block.cw), sqrt2=int(block.sqrt2),
-        quadrant=block.quadrant - 1)
+        circular=int(block.kind is Kind.CIRCULAR), cw=int(block.cw), sqrt2=int(block.sqrt2),
+        quadrant=block.quadrant - 1, parabolic=int(block.kind is Kind.PARABOLIC),
+        swap=int(block.swap))
     return values
 
 
@@ -80,9 +88,10 @@ class _Phase(enum.Enum, shape=2):
     RUN = 2
 
 
-#: The datapath of each interpolation type (the type is CTRL.circular).
+#: The datapath of each interpolation type (the type is CTRL.parabolic, else CTRL.circular).
 _DATAPATHS: dict[Kind, type[Datapath]] = {Kind.LINEAR: LinearDatapath,
-                                          Kind.CIRCULAR: CircularDatapath}
+                                          Kind.CIRCULAR: CircularDatapath,
+                                          Kind.PARABOLIC: ParabolicDatapath}
 
 
 def _field(word: Value, field: Field) -> Value:
@@ -107,7 +116,8 @@ class K3701(wiring.Component):
     start command):
 
     * linear: BUSY and FP intake from S+1; circular: BUSY from S+1, a serial radius check
-      until S+``circle_setup``, FP intake from S+1+``circle_setup``;
+      until S+``circle_setup``, FP intake from S+1+``circle_setup``; parabolic: the same
+      with its setup of ``PARABOLA_SETUP_CYCLES`` (29) cycles and the circular latency;
     * a step's pulses appear exactly ``latency_*`` cycles after the FP that completes its
       credit (2 half-FP per FP; a step costs 2, a diagonal one 3 with sqrt(2) control);
       one FP arriving meanwhile is held, a further one sets OVERRUN and is lost;
@@ -126,7 +136,7 @@ class K3701(wiring.Component):
     ----------
     latency_linear, latency_circular : int
         Cycles from the credit-completing FP to the step pulses (paper: 11 and 21 at 1 MHz);
-        2..32 linear, 6..32 circular.
+        2..32 linear, 6..32 circular (also the parabolic latency).
     circle_setup : int
         Cycles of the circular radius check; must equal 25 (24 squarer cycles plus the check).
 
@@ -196,7 +206,8 @@ class K3701(wiring.Component):
         connect(m, flipped(self.bus), regs.bus)
         ctrl = K3701_MAP["CTRL"]
         cmd = K3701_MAP["CMD"]
-        latency = {Kind.LINEAR: self.latency_linear, Kind.CIRCULAR: self.latency_circular}
+        latency = {Kind.LINEAR: self.latency_linear, Kind.CIRCULAR: self.latency_circular,
+                   Kind.PARABOLIC: self.latency_circular}
         datapaths = [_DATAPATHS[k]() for k in Kind]
         for k, datapath in zip(Kind, datapaths, strict=True):
             m.submodules[k.name.lower()] = datapath
@@ -211,7 +222,9 @@ class K3701(wiring.Component):
         credit = Signal(3)
 
         word = regs.ctrl.w_data
-        new_kind = word[ctrl.field("circular").offset]   # the type of a block starting now
+        # The type of a block starting now.
+        new_kind = Mux(word[ctrl.field("parabolic").offset], Kind.PARABOLIC,
+                       word[ctrl.field("circular").offset])
         start = regs.cmd.w_stb & regs.cmd.w_data[cmd.field("start").offset]
         m.d.comb += [
             regs.x.r_data.eq(xm),
@@ -227,6 +240,7 @@ class K3701(wiring.Component):
                 block.i.eq(regs.i.w_data), block.j.eq(regs.j.w_data),
                 block.cw.eq(word[ctrl.field("cw").offset]),
                 block.quadrant.eq(_field(word, ctrl.field("quadrant"))),
+                block.swap.eq(word[ctrl.field("swap").offset]),
                 datapath.start.eq(start & (phase == _Phase.IDLE) & (new_kind == k)),
                 datapath.advance.eq(running & (count == 1)),
                 *(datapath.stage[s].eq(running & (count == latency[k] - 1 - s))

@@ -50,16 +50,20 @@ class BlockSignature(wiring.Signature):
     xe, ye : Out(signed(24))
         End point relative to the start.
     i, j : Out(signed(24))
-        Circle centre relative to the start.
+        Circle centre relative to the start; parabolic: the point whose tangent is parallel
+        to the chord.
     cw : Out(1)
         Circular direction: 0 CCW, 1 CW.
     quadrant : Out(2)
         Circular end-point quadrant code (0..3 = quadrant 1..4).
+    swap : Out(1)
+        Parabolic: the curve's abscissa is Y (else X).
     """
 
     def __init__(self) -> None:
         super().__init__({"xe": Out(signed(24)), "ye": Out(signed(24)), "i": Out(signed(24)),
-                          "j": Out(signed(24)), "cw": Out(1), "quadrant": Out(2)})
+                          "j": Out(signed(24)), "cw": Out(1), "quadrant": Out(2),
+                          "swap": Out(1)})
 
 
 class StepSignature(wiring.Signature):
