@@ -28,6 +28,7 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
+from firmware_model.curves import Parabola
 from firmware_model.gcode import Arc, Dwell, Item, Line, Program
 from firmware_model.host import Host8085
 from firmware_model.job import AXES, Job, MachineConfig
@@ -126,7 +127,7 @@ def _where(item: Item, program: Program) -> str:
     return f"{program.source}:{item.line_no}"
 
 
-def programmed_feed(item: Line | Arc, machine: MachineConfig) -> float:
+def programmed_feed(item: Line | Arc | Parabola, machine: MachineConfig) -> float:
     """The feed a move runs at (mm/min): its F word, or the machine's rapid feed for G00."""
     if isinstance(item, Line) and item.rapid:
         return machine.rapid_mm_min
@@ -149,7 +150,8 @@ def check_program(job: Job) -> None:
         feed = programmed_feed(item, machine)
         limit = max_feed_mm_min(machine, item.block.kind)
         if feed > limit:
-            what = "a line" if item.block.kind is Kind.LINEAR else "an arc"
+            what = {Kind.LINEAR: "a line", Kind.CIRCULAR: "an arc"}.get(
+                item.block.kind, f"a {item.block.kind.name.lower()} block")
             raise FirmwareError(
                 f"{_where(item, program)}: feed {feed:g} mm/min is above the K3701's maximum "
                 f"for {what}, {math.floor(limit * 100) / 100:.2f} mm/min (one step per "
@@ -236,7 +238,7 @@ class Firmware:
     def host_hz(self) -> float:
         return self.job.machine.clock_hz / self.host.cycles_per_t
 
-    def _block(self, item: Line | Arc) -> None:
+    def _block(self, item: Line | Arc | Parabola) -> None:
         host, machine = self.host, self.job.machine
         host.work(host.timing.block_setup)
         block = item.block

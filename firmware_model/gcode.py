@@ -9,7 +9,9 @@ The dialect, a strict subset of RS-274/NGC:
 
 * ``G00`` rapid and ``G01`` feed lines, ``G02``/``G03`` CW/CCW arcs with ``I``/``J`` centre
   offsets (always relative to the arc's start; ``X``/``Y`` may be omitted: the end defaults
-  to the start, so ``G02 I5`` is a full circle), ``G04 P<seconds>`` dwell, ``G17`` (the only
+  to the start, so ``G02 I5`` is a full circle), ``G06`` parabolas (DIN 66025: ``I``/``J``
+  the point whose tangent is parallel to the chord, relative to the start as arc centres;
+  :mod:`firmware_model.curves`), ``G04 P<seconds>`` dwell, ``G17`` (the only
   plane), ``G20``/``G21`` inch/mm, ``G90``/``G91`` absolute/incremental, ``F`` feed in units
   per minute (modal), ``N`` sequence numbers (ignored), ``M02``/``M30`` program end.
 * Motion modes are modal: a line with only coordinates repeats the last G00-G03. Unit and
@@ -51,6 +53,7 @@ import re
 from dataclasses import dataclass, field
 from decimal import ROUND_HALF_UP, Decimal
 
+from firmware_model.curves import CurveError, Parabola, parabola_block
 from hdl.k3701_model import COORD_MAX, Block, BlockError, Plan, make_path, plan
 from hdl.limits import Limit
 
@@ -159,7 +162,7 @@ class Dwell:
     seconds: float
 
 
-Item = Line | Arc | Dwell
+Item = Line | Arc | Parabola | Dwell
 
 
 @dataclass(frozen=True)
@@ -212,8 +215,9 @@ _HINTS = {
     "S": " (no spindle control)", "T": " (no tool control)",
 }
 _MOTION = {0, 1, 2, 3}
-_GROUPS = {0: "motion", 1: "motion", 2: "motion", 3: "motion", 4: "dwell", 17: "plane",
-           18: "plane", 19: "plane", 20: "units", 21: "units", 90: "distance", 91: "distance"}
+_GROUPS = {0: "motion", 1: "motion", 2: "motion", 3: "motion", 4: "dwell", 6: "motion",
+           17: "plane", 18: "plane", 19: "plane", 20: "units", 21: "units", 90: "distance",
+           91: "distance"}
 
 
 def _tokenize(text: str, fail) -> list[_Word]:
@@ -374,7 +378,8 @@ class _Parser:
                 if w.letter in "IJ":
                     self.fail(w.col, f"{w.text}: {w.letter} is only for arcs (G02/G03)")
         elif "I" not in words and "J" not in words:
-            self.fail(anchor.col, f"G0{self.motion} needs I and/or J (the centre offsets)")
+            self.fail(anchor.col, f"G0{self.motion} needs I and/or J (the "
+                                  f"{'tangent point' if self.motion == 6 else 'centre offsets'})")
         if self.motion != 0 and self.feed is None:
             self.fail(anchor.col, f"G0{self.motion} without a feed rate: program F first")
         tx = self.target(words.get("X"), 0)
@@ -386,6 +391,8 @@ class _Parser:
             block = Block.line(xe, ye, sqrt2=self.sqrt2)
             item: Item = Line(index, line_no, xe, ye, None if self.motion == 0 else self.feed,
                               self.motion == 0, start=start, block=block, plan=plan(block))
+        elif self.motion == 6:
+            item = self.parabola(words, anchor, (tx, ty), start)
         else:
             item = self.arc(words, anchor, (tx, ty), start)
         self.items.append(item)
@@ -427,6 +434,19 @@ class _Parser:
                                   f"quadrant first and stops with ERROR")
         return Arc(len(self.items), self.line_no, xe, ye, i, j, cw, self.feed, start=start,
                    block=block, plan=result)
+
+    def parabola(self, words: dict[str, _Word], anchor: _Word, target: tuple[int, int],
+                 start: tuple[int, int]) -> Parabola:
+        """G06: the tangent point is the programmed start plus (I, J), as an arc's centre."""
+        i, j = (self.prog[axis] + (self.lsb(words[k].value) if k in words else 0) - start[axis]
+                for axis, k in enumerate("IJ"))
+        xe, ye = target[0] - start[0], target[1] - start[1]
+        try:
+            block, result = parabola_block(start, xe, ye, i, j, self.sqrt2)
+        except CurveError as e:
+            self.fail(anchor.col, str(e))
+        return Parabola(len(self.items), self.line_no, xe, ye, i, j, self.feed, start, block,
+                        result)
 
     def check_sweep(self, anchor: _Word, start: tuple[int, int], ij: tuple[int, int],
                     end: tuple[int, int], cw: bool) -> None:

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from firmware_model.curves import Parabola
 from firmware_model.firmware import programmed_feed
 from firmware_model.gcode import Arc, Line
 from sim.run.contour import contour_errors
@@ -51,6 +52,8 @@ def programmed_path(result: RunResult) -> list[np.ndarray]:
             t = a0 + np.linspace(0, -sweep if item.cw else sweep, 720)
             pieces.append(np.column_stack([cx + item.radius * np.cos(t),
                                            cy + item.radius * np.sin(t)]))
+        elif isinstance(item, Parabola):
+            pieces.append(item.polyline())
     return pieces
 
 
@@ -95,8 +98,10 @@ def _boundaries(ax: Axes, result: RunResult) -> None:
                 va="top", ha="left", fontsize=8, color="0.3")
 
 
-def _code(item: Line | Arc) -> str:
+def _code(item: Line | Arc | Parabola) -> str:
     """The G code of a move."""
+    if isinstance(item, Parabola):
+        return "G06"
     if isinstance(item, Arc):
         return "G02" if item.cw else "G03"
     return "G00" if item.rapid else "G01"
