@@ -93,7 +93,7 @@ def test_parabola_job_is_identical_on_pysim_and_cxxrtl_with_idle_skipping(accel)
     machine = MachineConfig(accel=accel)
     program = parse("G21 G91 F2400\nG06 X0.1 Y0 I0.05 J-0.02\nM30", source="p.ngc")
     job = Job("p", machine, {"x": ServoConfig(), "y": ServoConfig()}, program)
-    results = [run_job(job, RunOptions(backend=backend, max_cycles=4000, sample_every=25,
+    results = [run_job(job, RunOptions(backend=backend, max_cycles=2500, sample_every=25,
                                        skip_idle=skip))
                for backend, skip in (("pysim", False), ("cxxrtl", True), ("cxxrtl", False))]
     reports = [{k: v for k, v in r.report.items() if k not in HOW_FIELDS} for r in results]
@@ -104,9 +104,9 @@ def test_parabola_job_is_identical_on_pysim_and_cxxrtl_with_idle_skipping(accel)
 
 def test_parabola_job_runs_to_its_exact_end_on_cxxrtl():
     job = Job("seed", MachineConfig(), {"x": ServoConfig(), "y": ServoConfig()},
-              parse("G21 G90 F1000\nG06 X3 Y0 I1.5 J-1.5\nG04 P0.1\nM30"))
+              parse("G21 G90 F1000\nG06 X1 Y0 I0.5 J-0.5\nG04 P0.1\nM30"))
     result = run_job(job, RunOptions(backend="cxxrtl"))
     block = result.report["blocks"][0]
     assert result.report["status"] == "ok" and result.report["end_point"]["reached"]
     assert block["fp_pulses"] == block["fp_budget"] == job.program.items[0].plan.fp
-    assert [result.report["axes"][a]["command"] for a in "xy"] == [3000, 0]
+    assert [result.report["axes"][a]["command"] for a in "xy"] == [1000, 0]

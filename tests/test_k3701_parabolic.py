@@ -50,13 +50,24 @@ def parabolas(draw, span: int = 60) -> Block:
     return Block.parabola(xe, ye, i, j, swap=swap, sqrt2=draw(st.booleans()))
 
 
-@settings(max_examples=300, deadline=None, derandomize=True)
-@given(block=parabolas(span=200))
-def test_parabola_visits_points_within_half_an_lsb_and_ends_exactly(block):
+def check_points_and_end(block: Block) -> None:
     path, points, error = visited(block)
     assert not error
     assert (path.x, path.y) == (block.xe, block.ye)
     assert curve_distances(path, points).max() <= 0.5 + 1e-9
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(block=parabolas(span=200))
+def test_parabola_visits_points_within_half_an_lsb_and_ends_exactly(block):
+    check_points_and_end(block)
+
+
+@pytest.mark.slow
+@settings(max_examples=1500, deadline=None, derandomize=True)
+@given(block=parabolas(span=400))
+def test_many_parabolas_visit_points_within_half_an_lsb_and_end_exactly(block):
+    check_points_and_end(block)
 
 
 def test_seed_002_parabola_stays_within_half_an_lsb():
@@ -83,12 +94,23 @@ def test_parabola_with_no_abscissa_is_refused():
         make_path(Block.parabola(10, -COORD_MAX - 1, 5, 0))
 
 
-@settings(max_examples=20, deadline=None, derandomize=True)
-@given(block=parabolas(span=25), fp=fp_kinds, seed=st.integers(0, 1000))
-def test_parabolic_gateware_matches_model_cycle_by_cycle(block, fp, seed):
+def check_gateware(block: Block, fp: str, seed: int) -> None:
     model, _, xy = compare_with_model(block, fp_source(fp, seed), 20000)
     assert xy == [0, 0]
     assert not model.out.error
+
+
+@settings(max_examples=8, deadline=None, derandomize=True)
+@given(block=parabolas(span=25), fp=fp_kinds, seed=st.integers(0, 1000))
+def test_parabolic_gateware_matches_model_cycle_by_cycle(block, fp, seed):
+    check_gateware(block, fp, seed)
+
+
+@pytest.mark.slow
+@settings(max_examples=80, deadline=None, derandomize=True)
+@given(block=parabolas(span=60), fp=fp_kinds, seed=st.integers(0, 1000))
+def test_many_parabolas_on_gateware_match_model_cycle_by_cycle(block, fp, seed):
+    check_gateware(block, fp, seed)
 
 
 @pytest.mark.parametrize("block", [
