@@ -88,6 +88,7 @@ def test_firmware_refuses_a_parabola_faster_than_the_circular_step_rate():
 
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("accel", ["none"])
 def test_parabola_job_is_identical_on_pysim_and_cxxrtl_with_idle_skipping(accel):
     machine = MachineConfig(accel=accel)
