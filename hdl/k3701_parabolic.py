@@ -14,9 +14,10 @@ __all__ = ["ParabolicDatapath"]
 
 #: Setup cycles of the serial multipliers (one per bit of pe).
 _MULTIPLY = 24
-#: F, G and the candidate F values: |G| < 2^53 for every valid block (|B| < 2^27, p < 2^23,
-#: |C| < 2^51), F and the candidates within |F| + |G| + A.
-_F_BITS = 56
+#: F, G and the candidate F values, signed: |B| < 6 * 2^23, p <= 2^23, |C| < 5 * 2^46, so
+#: |G| = |B (2p + 1) + C| < 2^51; F after a step is within max(A, |G|) and a candidate within
+#: |F| + |G| + A < 2^52.
+_F_BITS = 53
 
 
 class ParabolicDatapath(Datapath):
@@ -53,7 +54,7 @@ class ParabolicDatapath(Datapath):
         ve = Signal(signed(24))
         b = Signal(signed(27))
         m2 = Signal(signed(27))     # the multiplicand of C: 4 vp - ve
-        a = Signal(48)
+        a = Signal(46)
         g = Signal(signed(_F_BITS))  # C while it is multiplied, then G
         bad = Signal()
         k = Signal(range(PARABOLA_SETUP_CYCLES))
@@ -128,7 +129,11 @@ class ParabolicDatapath(Datapath):
             m.d.sync += [d1.eq(Mux(next_long_p, f_after - g, f_after + sa)),
                          d2.eq(f_after - g + sa)]
         with m.If((self.setup & (k == _MULTIPLY + 3)) | stage[3]):
-            # The short axis moves too if that makes |F| smaller.
-            m.d.sync += [next_diag.eq(magnitude(d2) < magnitude(d1)),
-                         d1.eq(Mux(magnitude(d2) < magnitude(d1), d2, d1))]
+            # The short axis moves too if that makes |F| smaller: with d2 = d1 + t (t = +-A on
+            # the long axis p, -G on v; never 0), |d2| < |d1| exactly when t (d1 + d2) < 0
+            # (one adder, no magnitudes). t > 0: v moves up on p, G < 0 on v.
+            total = d1 + d2
+            t_pos = Mux(next_long_p, ~next_sv_neg, next_sv_neg)
+            smaller = (total != 0) & ((total < 0) == t_pos)
+            m.d.sync += [next_diag.eq(smaller), d1.eq(Mux(smaller, d2, d1))]
         return m
