@@ -9,22 +9,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_k3701 import compare_with_model, fp_kinds, fp_source
 
+from firmware_model.curves import frame_distances
 from hdl.k3701_model import COORD_MAX, Block, BlockError, ParabolicPath, make_path, plan
 
 
 def curve_distances(path: ParabolicPath, points: list[tuple[int, int]]) -> np.ndarray:
-    """Euclidean distance of each (p, v) (the curve's frame) to v = (B q^2 + C q) / A: Newton
-    on d/dq [(q - p)^2 + (f(q) - v)^2] / 2 from starts around p, the nearest foot kept."""
-    pv = np.array(points, dtype=float)
-    qa, qb = path.b / path.a, path.c / path.a
-    best = np.full(len(pv), np.inf)
-    for offset in np.linspace(-2, 2, 41):
-        q = pv[:, 0] + offset
-        for _ in range(8):
-            f, slope = qa * q * q + qb * q - pv[:, 1], 2 * qa * q + qb
-            q = q - ((q - pv[:, 0]) + f * slope) / (1 + slope * slope + 2 * qa * f)
-        best = np.minimum(best, np.hypot(q - pv[:, 0], qa * q * q + qb * q - pv[:, 1]))
-    return best
+    """Euclidean distance of each (p, v) (the curve's frame) to the whole parabola."""
+    return frame_distances(path.b / path.a, path.c / path.a, np.array(points, dtype=float))
 
 
 def visited(block: Block) -> tuple[ParabolicPath, list[tuple[int, int]], bool]:
