@@ -60,8 +60,9 @@ K3701_MAP = RegisterMap("K3701", 1, (
     Register("STATUS", 0x0E, 8, Access.R, "status", fields=(
         Field("busy", 0, 1, "a block is running"),
         Field("irq", 1, 1, "data request: the block ended (held until CMD.ack)"),
-        Field("error", 2, 1, "invalid block data, an arc that left its end quadrant, or START "
-                             "while BUSY (sticky until CMD.clear)"),
+        Field("error", 2, 1, "invalid block data, an arc that left its end quadrant, a "
+                             "parabola that passed its end, or START while BUSY (sticky until "
+                             "CMD.clear)"),
         Field("overrun", 3, 1, "an FP arrived while one was already held and was lost "
                                "(sticky until CMD.clear)"),
     )),
