@@ -2,7 +2,8 @@
 
 The core (:class:`hdl.k3701.K3701`) runs a block: the host bus, START, BUSY, the feed intake
 and step credit, the step latency and the step pulses. A datapath (one per interpolation type:
-:class:`hdl.k3701_linear.LinearDatapath`, :class:`hdl.k3701_circular.CircularDatapath`)
+:class:`hdl.k3701_linear.LinearDatapath`, :class:`hdl.k3701_circular.CircularDatapath`,
+:class:`hdl.k3701_parabolic.ParabolicDatapath`)
 decides the steps: it loads the block, answers with the step to take next, and decides the
 one after when the core takes it. A new interpolation type is one more :class:`Datapath`.
 """
