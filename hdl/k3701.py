@@ -127,9 +127,10 @@ class K3701(wiring.Component):
     Inside, this core runs the block (registers, commands and status, FP intake and credit,
     the step latency and the pulses) and one datapath per interpolation type decides its
     steps (:mod:`hdl.k3701_linear`, :mod:`hdl.k3701_circular`, :mod:`hdl.k3701_parabolic`,
-    through the interface of :mod:`hdl.k3701_datapath`). Each step is decided before its FP can come: a line's next
-    step in the cycle the current one is output, a circle's first step during the radius
-    check and each following one in four pipelined cycles of the current step's latency.
+    through the interface of :mod:`hdl.k3701_datapath`). Each step is decided before its FP
+    can come: a line's next step in the cycle the current one is output, a circle's first step
+    during the radius check and each following one in four pipelined cycles of the current
+    step's latency.
     The logic thus works only when there is something to decide, which keeps compiled
     simulation fast; it needs a circular latency of at least 6 cycles.
 
