@@ -31,6 +31,7 @@ from typing import Protocol
 from firmware_model.gcode import Arc, Dwell, Event, Item, Line, Program
 from firmware_model.host import Host8085
 from firmware_model.job import Job, MachineConfig
+from firmware_model.program import Parabola
 from hdl.decel_control import BUDGET_WIDTH
 from hdl.divider_model import increment_for
 from hdl.feed_rate import DIVIDER_WIDTH, FEED_BITS
@@ -138,7 +139,7 @@ def _where(item: Item, program: Program) -> str:
     return program.locate(item.line_no)
 
 
-def programmed_feed(item: Line | Arc, machine: MachineConfig) -> float:
+def programmed_feed(item: Line | Arc | Parabola, machine: MachineConfig) -> float:
     """The feed a move runs at (mm/min): its F word, or the machine's rapid feed for G00."""
     if isinstance(item, Line) and item.rapid:
         return machine.rapid_mm_min
@@ -163,7 +164,8 @@ def check_program(job: Job) -> None:
         feed = programmed_feed(item, machine)
         limit = max_feed_mm_min(machine, item.block.kind)
         if feed > limit:
-            what = "a line" if item.block.kind is Kind.LINEAR else "an arc"
+            what = {Kind.LINEAR: "a line", Kind.CIRCULAR: "an arc"}.get(
+                item.block.kind, f"a {item.block.kind.name.lower()} block")
             rapid = isinstance(item, Line) and item.rapid
             where, word = _where(item, program), "machine.rapid_mm_min"
             if not rapid and item.feed_source is not None:
@@ -261,7 +263,7 @@ class Firmware:
     def host_hz(self) -> float:
         return self.job.machine.clock_hz / self.host.cycles_per_t
 
-    def _block(self, item: Line | Arc) -> None:
+    def _block(self, item: Line | Arc | Parabola) -> None:
         host, machine = self.host, self.job.machine
         host.work(host.timing.block_setup)
         block = item.block

@@ -49,6 +49,7 @@ from firmware_model.program import (
     Item,
     Line,
     Move,
+    Parabola,
     PlanError,
     Planner,
     Program,
@@ -58,7 +59,7 @@ from hdl.limits import Limit
 
 __all__ = ["ARC_TOLERANCE_LIMIT", "ARC_TOLERANCE_MM", "AXES_LIMIT", "INCH_MM", "LSB_MM_LIMIT",
            "MAX_ERRORS", "Arc", "Dwell", "Event", "GcodeError", "Item", "Line", "Move",
-           "Program", "parse"]
+           "Parabola", "Program", "parse"]
 
 #: Millimetres per inch (G20).
 INCH_MM = Decimal("25.4")
@@ -369,7 +370,7 @@ class _Interpreter:
             if w is not None and not self.uses(letter, b):
                 raise _BlockError(w.col, f"{w.text}: {letter} is only for "
                                    f"{'arcs (G02/G03)' if letter in 'IJK' else _USES[letter]}")
-        if not axes and not (g is not None and g[0] in (20, 30) and self.has_offsets(b)):
+        if not axes and not (g is not None and g[0] in (20, 30, 60) and self.has_offsets(b)):
             return
         if self.motion is None:
             if g is not None and g[0] == 800:
@@ -392,12 +393,14 @@ class _Interpreter:
                       None if self.motion == 0 else self.feed, feed_source=self.feed_source)
         elif self.motion in (20, 30):
             self.arc(b, anchor)
+        elif self.motion == 60:
+            self.parabola(b, anchor)
         else:
             self.canned_cycle(b, anchor)
 
     def uses(self, letter: str, b: _Block) -> bool:
         if letter in "IJK":
-            return self.motion in (20, 30)
+            return self.motion in (20, 30) or (self.motion == 60 and letter != "K")
         if letter == "R":
             return self.motion in (20, 30, 810, 820, 830)
         return self.motion == 830 or b.code("path") == 640  # Q
@@ -446,6 +449,29 @@ class _Interpreter:
             tolerance = ARC_TOLERANCE_MM[self.inch] / float(self.lsb_size)
         self.plan(anchor.col, self.planner.arc, target, (centre[0], centre[1]), self.plane,
                   cw, self.feed, tolerance=tolerance, feed_source=self.feed_source)
+
+    def parabola(self, b: _Block, anchor: Word) -> None:
+        """G06: the tangent point relative to the start, as an arc's centre (absolute under
+        G90.1)."""
+        if self.plane != 17:
+            raise _BlockError(anchor.col, f"G06 in G{self.plane}: parabolas are in the XY "
+                                          f"plane (G17)")
+        if b.word("I") is None and b.word("J") is None:
+            raise _BlockError(anchor.col, "G06 needs I and/or J (the tangent point)")
+        target = self.target(b)
+        start = self.pos
+        tangent = []
+        for axis in (0, 1):  # the point as an arc's centre is, from the machine's position
+            w = b.word("IJ"[axis])
+            if self.arc_absolute:
+                point = self.offset(axis) + (self.lsb(w.value) if w else 0)
+            else:
+                point = start[axis] + (self.lsb(w.value) if w else 0)
+            if w is not None:
+                self.check_range(w, point - start[axis], "the tangent point")
+            tangent.append(point - self.planner.position[axis])
+        self.plan(anchor.col, self.planner.parabola, target, (tangent[0], tangent[1]),
+                  self.feed, feed_source=self.feed_source)
 
     def centre_from_radius(self, r: Word, start, target, first: int, second: int,
                            cw: bool) -> list[int]:

@@ -40,6 +40,9 @@ G_CODES: dict[int, Code] = {
                           "arc over 180 degrees); an end equal to the start: a full circle"),
     _g(3): Code("motion", "CCW arc or helix, as G02"),
     _g(4): Code("non-modal", "dwell of P seconds"),
+    _g(6): Code("motion", "parabola (DIN 66025; two-axis machine, XY plane): X/Y the end, I/J "
+                          "the point whose tangent is parallel to the chord, relative to the "
+                          "start as arc centres; the parabola's axis parallel to X or Y"),
     _g(17): Code("plane", "XY plane (arcs take I, J)"),
     _g(18): Code("plane", "ZX plane (arcs take K, I; three-axis machines)"),
     _g(19): Code("plane", "YZ plane (arcs take J, K; three-axis machines)"),

@@ -24,11 +24,22 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
+import numpy as np
+
 from firmware_model.arc_plan import plan_block
-from hdl.k3701_model import COORD_MAX, MAX_RADIUS_SQUARED, Block, BlockError, Plan
+from firmware_model.curves import CurveError, frame_distances, parabola_block
+from hdl.k3701_model import (
+    COORD_MAX,
+    MAX_RADIUS_SQUARED,
+    Block,
+    BlockError,
+    ParabolicPath,
+    Plan,
+    make_path,
+)
 
 __all__ = ["CORRECTION_MAX", "PLANE_AXES", "REPAIR_REACH", "Arc", "Dwell", "Event", "Item",
-           "Line", "Move", "PlanError", "Planner", "Program"]
+           "Line", "Move", "Parabola", "PlanError", "Planner", "Program"]
 
 #: Machine-axis indices of a plane's first, second and normal axes (as LinuxCNC's canon).
 PLANE_AXES = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
@@ -139,6 +150,49 @@ def _sweep(i: int, j: int, end: tuple[int, int], cw: bool) -> tuple[float, float
 
 
 @dataclass(frozen=True)
+class Parabola(_Move):
+    """A parabolic move (G06) on the two-axis chip.
+
+    ``xe, ye``: end relative to the start (LSB); ``i, j``: the tangent point P (the point
+    whose tangent is parallel to the chord) relative to the start (LSB, as programmed).
+    ``block`` and ``plan`` are the chip's (:func:`firmware_model.curves.parabola_block`): it
+    ends exactly on the end point. Other fields as in :class:`Line`.
+    """
+
+    i: int
+    j: int
+    feed_mm_min: float
+
+    def _path(self) -> ParabolicPath:
+        path = make_path(self.block)
+        assert isinstance(path, ParabolicPath)
+        return path
+
+    def frame(self, points: np.ndarray) -> np.ndarray:
+        """Absolute (x, y) rows in the curve's frame (p, v)."""
+        path = self._path()
+        rel = points - np.array(self.start[:2], dtype=float)
+        p, v = (rel[:, 1], rel[:, 0]) if path.swap else (rel[:, 0], rel[:, 1])
+        return np.column_stack([path.su * p, v])
+
+    def polyline(self, count: int = 720) -> np.ndarray:
+        """``count`` absolute points along the programmed parabola."""
+        path = self._path()
+        p = np.linspace(0.0, path.pe, count)
+        v = (path.b * p * p + path.c * p) / path.a
+        u = path.su * p
+        rel = np.column_stack([v, u] if path.swap else [u, v])
+        return rel + np.array(self.start[:2], dtype=float)
+
+    def distances(self, points: np.ndarray) -> np.ndarray:
+        """Distance of each absolute (x, y) row to the programmed parabola between its ends
+        (LSB)."""
+        path = self._path()
+        return frame_distances(path.b / path.a, path.c / path.a, self.frame(points),
+                               (0.0, float(path.pe)))
+
+
+@dataclass(frozen=True)
 class Dwell:
     """A pause (G04) of ``seconds``."""
 
@@ -160,8 +214,8 @@ class Event:
     value: float | None = None
 
 
-Move = Line | Arc
-Item = Line | Arc | Dwell | Event
+Move = Line | Arc | Parabola
+Item = Line | Arc | Parabola | Dwell | Event
 
 
 @dataclass(frozen=True)
@@ -187,7 +241,7 @@ class Program:
     @property
     def moves(self) -> tuple[Move, ...]:
         """The items that move (the K3701's blocks)."""
-        return tuple(it for it in self.items if isinstance(it, Line | Arc))
+        return tuple(it for it in self.items if isinstance(it, Line | Arc | Parabola))
 
     @property
     def events(self) -> tuple[Event, ...]:
@@ -211,6 +265,9 @@ class Program:
         }
         if self.events:
             summary["events"] = len(self.events)
+        parabolas = sum(isinstance(it, Parabola) for it in self.items)
+        if parabolas:
+            summary["parabolas"] = parabolas
         if self.axes != 2:
             summary["axes"] = self.axes
         return summary
@@ -266,6 +323,24 @@ class Planner:
         self.items.append(Line(len(self.items), line_no, xe, ye, feed, feed is None, ze=ze,
                                start=self._start(), block=block, plan=result,
                                feed_source=feed_source, correction=correction))
+        self.position = self.programmed = target
+
+    def parabola(self, line_no: int, target: tuple[int, int, int], tangent: tuple[int, int],
+                 feed: float, *, feed_source: tuple[int, int, str] | None = None) -> None:
+        """A parabola (G06) to ``target`` through the tangent point ``tangent`` (relative to
+        the start), on the two-axis chip: the three-axis build has no parabolic datapath."""
+        target = self._check_target(target)
+        if self.axes == 3:
+            raise PlanError("G06: the three-axis K3701 has no parabolic interpolation (the "
+                            "two-axis machine runs it)")
+        xe, ye = target[0] - self.position[0], target[1] - self.position[1]
+        try:
+            block, result = parabola_block(self.position[:2], xe, ye, *tangent, self.sqrt2)
+        except CurveError as e:
+            raise PlanError(str(e)) from None
+        self.items.append(Parabola(len(self.items), line_no, xe, ye, *tangent, feed,
+                                   start=self._start(), block=block, plan=result,
+                                   feed_source=feed_source))
         self.position = self.programmed = target
 
     def dwell(self, line_no: int, seconds: float) -> None:

@@ -24,6 +24,7 @@ from hdl.k3701_model import (
     Block,
     Kind,
 )
+from hdl.k3701_parabolic import ParabolicDatapath
 from hdl.observation import Countdown, FreeRunning
 
 __all__ = ["K3701", "K3701_MAP", "K3701_MAP_3", "block_registers", "k3701_map"]
@@ -38,14 +39,19 @@ K3701_MAP = RegisterMap("K3701", 1, (
              f"write: end point Ye relative to the start; read: remaining distance Ym "
              f"({_COORD})", signed=True),
     Register("I", 0x06, 24, Access.W,
-             f"circular: centre X relative to the start ({_COORD})", signed=True),
+             f"circular: centre X relative to the start; parabolic: X of the point whose "
+             f"tangent is parallel to the chord, relative to the start ({_COORD})", signed=True),
     Register("J", 0x09, 24, Access.W,
-             f"circular: centre Y relative to the start ({_COORD})", signed=True),
+             f"circular: centre Y relative to the start; parabolic: Y of that point "
+             f"({_COORD})", signed=True),
     Register("CTRL", 0x0C, 8, Access.RW, "control word of the next block (reads back)", fields=(
         Field("circular", 0, 1, "interpolation type: 0 linear, 1 circular"),
         Field("cw", 1, 1, "circular direction: 0 CCW, 1 CW"),
         Field("sqrt2", 2, 1, "sqrt(2) control: a diagonal step costs 1.5 FP"),
         Field("quadrant", 3, 2, "circular end-point quadrant minus 1 (0..3 = quadrant 1..4)"),
+        Field("parabolic", 5, 1, "interpolation type parabolic (``circular`` is then ignored)"),
+        Field("swap", 6, 1, "parabolic: the abscissa is Y, the parabola's axis parallel to X "
+                            "(else the abscissa is X, the axis parallel to Y)"),
     )),
     Register("CMD", 0x0D, 8, Access.W, "commands, acted on in the cycle after the write",
              fields=(
@@ -57,18 +63,20 @@ K3701_MAP = RegisterMap("K3701", 1, (
     Register("STATUS", 0x0E, 8, Access.R, "status", fields=(
         Field("busy", 0, 1, "a block is running"),
         Field("irq", 1, 1, "data request: the block ended (held until CMD.ack)"),
-        Field("error", 2, 1, "invalid block data, an arc that left its end quadrant, or START "
-                             "while BUSY (sticky until CMD.clear)"),
+        Field("error", 2, 1, "invalid block data, an arc that left its end quadrant, a "
+                             "parabola that passed its end, or START while BUSY (sticky until "
+                             "CMD.clear)"),
         Field("overrun", 3, 1, "an FP arrived while one was already held and was lost "
                                "(sticky until CMD.clear)"),
     )),
-), doc="Interpolator: linear and circular interpolation of one block, step pulses out.")
+), doc="Interpolator: linear, circular and parabolic interpolation of one block, step pulses "
+       "out.")
 
 _CTRL = K3701_MAP["CTRL"]
 #: The three-axis K3701 (``K3701(axes=3)``): the two-axis map, the third axis's Z, a helix's
 #: step count H and CTRL.plane (addresses from 0x10: the two-axis chip's stay as they are).
 K3701_MAP_3 = RegisterMap("K3701", 1, (
-    *(replace(r, fields=(*r.fields, Field(
+    *(replace(r, fields=(*(f for f in r.fields if f.name not in ("parabolic", "swap")), Field(
         "plane", 5, 2, "the block's axes on the machine's: 0 (X, Y, Z) G17, 1 (Z, X, Y) "
                        "G18, 2 (Y, Z, X) G19, 3 as 0; the arc runs in the first two")))
       if r is _CTRL else r for r in K3701_MAP),
@@ -95,13 +103,16 @@ def block_registers(block: Block, axes: int = 2) -> dict[str, int]:
     values = {"X": block.xe, "Y": block.ye}
     if axes == 3:
         values["Z"] = block.ze
-    if block.kind is Kind.CIRCULAR:
+        if block.kind is Kind.PARABOLIC:
+            raise ValueError("the three-axis K3701 has no parabolic interpolation")
+    if block.kind is not Kind.LINEAR:
         values |= {"I": block.i, "J": block.j}
         if block.ze:
             values["H"] = block.helix_steps
-    fields = {"plane": block.plane} if axes == 3 else {}
+    fields = ({"plane": block.plane} if axes == 3 else
+              {"parabolic": int(block.kind is Kind.PARABOLIC), "swap": int(block.swap)})
     values["CTRL"] = k3701_map(axes)["CTRL"].encode(
-        circular=int(block.kind), cw=int(block.cw), sqrt2=int(block.sqrt2),
+        circular=int(block.kind is Kind.CIRCULAR), cw=int(block.cw), sqrt2=int(block.sqrt2),
         quadrant=block.quadrant - 1, **fields)
     return values
 
@@ -112,9 +123,10 @@ class _Phase(enum.Enum, shape=2):
     RUN = 2
 
 
-#: The datapath of each interpolation type (the type is CTRL.circular).
+#: The datapath of each interpolation type (the type is CTRL.parabolic, else CTRL.circular).
 _DATAPATHS: dict[Kind, type[Datapath]] = {Kind.LINEAR: LinearDatapath,
-                                          Kind.CIRCULAR: CircularDatapath}
+                                          Kind.CIRCULAR: CircularDatapath,
+                                          Kind.PARABOLIC: ParabolicDatapath}
 
 
 def _field(word: Value, field: Field) -> Value:
@@ -139,7 +151,8 @@ class K3701(wiring.Component):
     start command):
 
     * linear: BUSY and FP intake from S+1; circular: BUSY from S+1, a serial radius check
-      until S+``circle_setup``, FP intake from S+1+``circle_setup``;
+      until S+``circle_setup``, FP intake from S+1+``circle_setup``; parabolic: the same
+      with its setup of ``PARABOLA_SETUP_CYCLES`` (29) cycles and the circular latency;
     * a step's pulses appear exactly ``latency_*`` cycles after the FP that completes its
       credit (2 half-FP per FP; a step costs 2, a diagonal one 3 with sqrt(2) control);
       one FP arriving meanwhile is held, a further one sets OVERRUN and is lost;
@@ -147,10 +160,11 @@ class K3701(wiring.Component):
 
     Inside, this core runs the block (registers, commands and status, FP intake and credit,
     the step latency and the pulses) and one datapath per interpolation type decides its
-    steps (:mod:`hdl.k3701_linear`, :mod:`hdl.k3701_circular`, through the interface of
-    :mod:`hdl.k3701_datapath`). Each step is decided before its FP can come: a line's next
-    step in the cycle the current one is output, a circle's first step during the radius
-    check and each following one in four pipelined cycles of the current step's latency.
+    steps (:mod:`hdl.k3701_linear`, :mod:`hdl.k3701_circular`, :mod:`hdl.k3701_parabolic`,
+    through the interface of :mod:`hdl.k3701_datapath`). Each step is decided before its FP
+    can come: a line's next step in the cycle the current one is output, a circle's first step
+    during the radius check and each following one in four pipelined cycles of the current
+    step's latency.
     The logic thus works only when there is something to decide, which keeps compiled
     simulation fast; it needs a circular latency of at least 6 cycles.
 
@@ -158,7 +172,7 @@ class K3701(wiring.Component):
     ----------
     latency_linear, latency_circular : int
         Cycles from the credit-completing FP to the step pulses (paper: 11 and 21 at 1 MHz);
-        2..32 linear, 6..32 circular.
+        2..32 linear, 6..32 circular (also the parabolic latency).
     circle_setup : int
         Cycles of the circular radius check; must equal 25 (24 squarer cycles plus the check).
     axes : int
@@ -235,10 +249,13 @@ class K3701(wiring.Component):
         ctrl = self.regmap["CTRL"]
         cmd = self.regmap["CMD"]
         three = self.axes == 3
-        latency = {Kind.LINEAR: self.latency_linear, Kind.CIRCULAR: self.latency_circular}
+        # the three-axis build has no parabolic datapath (see K3701_MAP_3)
+        kinds = (Kind.LINEAR, Kind.CIRCULAR) if three else tuple(Kind)
+        latency = {Kind.LINEAR: self.latency_linear, Kind.CIRCULAR: self.latency_circular,
+                   Kind.PARABOLIC: self.latency_circular}
         datapaths = ([LinearDatapath3(), CircularDatapath(axes=3)] if three
-                     else [_DATAPATHS[k]() for k in Kind])
-        for k, datapath in zip(Kind, datapaths, strict=True):
+                     else [_DATAPATHS[k]() for k in kinds])
+        for k, datapath in zip(kinds, datapaths, strict=True):
             m.submodules[k.name.lower()] = datapath
 
         phase = Signal(_Phase)
@@ -251,7 +268,10 @@ class K3701(wiring.Component):
         credit = Signal(4 if three else 3)
 
         word = regs.ctrl.w_data
-        new_kind = word[ctrl.field("circular").offset]   # the type of a block starting now
+        # The type of a block starting now.
+        new_kind = (word[ctrl.field("circular").offset] if three else
+                    Mux(word[ctrl.field("parabolic").offset], Kind.PARABOLIC,
+                        word[ctrl.field("circular").offset]))
         start = regs.cmd.w_stb & regs.cmd.w_data[cmd.field("start").offset]
         m.d.comb += [
             regs.x.r_data.eq(xm),
@@ -267,7 +287,7 @@ class K3701(wiring.Component):
                          helix.n.eq(regs.h.w_data),
                          helix.start.eq(datapaths[Kind.CIRCULAR].start),
                          helix.advance.eq(datapaths[Kind.CIRCULAR].advance)]
-        for k, datapath in zip(Kind, datapaths, strict=True):
+        for k, datapath in zip(kinds, datapaths, strict=True):
             running = (phase == _Phase.RUN) & (kind == k)
             block = datapath.block
             m.d.comb += [
@@ -275,7 +295,8 @@ class K3701(wiring.Component):
                 block.i.eq(regs.i.w_data), block.j.eq(regs.j.w_data),
                 block.cw.eq(word[ctrl.field("cw").offset]),
                 block.quadrant.eq(_field(word, ctrl.field("quadrant"))),
-                *([block.ze.eq(regs.z.w_data)] if three else []),
+                *([block.ze.eq(regs.z.w_data)] if three else
+                  [block.swap.eq(word[ctrl.field("swap").offset])]),
                 datapath.start.eq(start & (phase == _Phase.IDLE) & (new_kind == k)),
                 datapath.advance.eq(running & (count == 1)),
                 *(datapath.stage[s].eq(running & (count == latency[k] - 1 - s))
@@ -368,7 +389,7 @@ class K3701(wiring.Component):
                     with m.If(take):
                         with m.If(credit2 >= cost):
                             m.d.sync += [credit.eq(credit2 - cost),
-                                         count.eq(_select(kind, [latency[k] - 1 for k in Kind]))]
+                                         count.eq(_select(kind, [latency[k] - 1 for k in kinds]))]
                         with m.Else():
                             m.d.sync += credit.eq(credit2)
                 with m.Else():
@@ -393,7 +414,7 @@ class K3701(wiring.Component):
 
         # Idle skipping may run while the count is 0 or at least 2 and past the stages.
         past_stages = _select(kind, [count <= latency[k] - 1 - d.STAGES if d.STAGES else Const(1)
-                                     for k, d in zip(Kind, datapaths, strict=True)])
+                                     for k, d in zip(kinds, datapaths, strict=True)])
         m.d.comb += self.quiet.eq(~self.fp & ((count == 0) | ((count >= 2) & past_stages)))
 
         # START while a block runs is refused (and flagged), never obeyed.

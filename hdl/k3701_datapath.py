@@ -2,7 +2,8 @@
 
 The core (:class:`hdl.k3701.K3701`) runs a block: the host bus, START, BUSY, the feed intake
 and step credit, the step latency and the step pulses. A datapath (one per interpolation type:
-:class:`hdl.k3701_linear.LinearDatapath`, :class:`hdl.k3701_circular.CircularDatapath`)
+:class:`hdl.k3701_linear.LinearDatapath`, :class:`hdl.k3701_circular.CircularDatapath`,
+:class:`hdl.k3701_parabolic.ParabolicDatapath`)
 decides the steps: it loads the block, answers with the step to take next, and decides the
 one after when the core takes it. A new interpolation type is one more :class:`Datapath`.
 """
@@ -50,18 +51,21 @@ class BlockSignature(wiring.Signature):
     xe, ye : Out(signed(24))
         End point relative to the start.
     i, j : Out(signed(24))
-        Circle centre relative to the start.
+        Circle centre relative to the start; parabolic: the point whose tangent is parallel
+        to the chord.
     cw : Out(1)
         Circular direction: 0 CCW, 1 CW.
     quadrant : Out(2)
         Circular end-point quadrant code (0..3 = quadrant 1..4).
+    swap : Out(1)
+        Parabolic: the curve's abscissa is Y (else X).
     ze : Out(signed(24))
         Three-axis chip only (``axes=3``): the end point's third coordinate (lines).
     """
 
     def __init__(self, axes: int = 2) -> None:
         members = {"xe": Out(signed(24)), "ye": Out(signed(24)), "i": Out(signed(24)),
-                   "j": Out(signed(24)), "cw": Out(1), "quadrant": Out(2)}
+                   "j": Out(signed(24)), "cw": Out(1), "quadrant": Out(2), "swap": Out(1)}
         if axes == 3:
             members["ze"] = Out(signed(24))
         super().__init__(members)

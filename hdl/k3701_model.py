@@ -29,6 +29,7 @@ __all__ = [
     "LATENCY_CIRCULAR",
     "LATENCY_LINEAR",
     "MAX_RADIUS_SQUARED",
+    "PARABOLA_SETUP_CYCLES",
     "PLANES",
     "Block",
     "BlockError",
@@ -38,6 +39,7 @@ __all__ = [
     "K3701Outputs",
     "Kind",
     "LinearPath",
+    "ParabolicPath",
     "Plan",
     "Step",
     "make_path",
@@ -63,6 +65,9 @@ PLANES = ((0, 1, 2), (2, 0, 1), (1, 2, 0))
 #: Step cost in quarter-FP units on the three-axis chip with sqrt(2) control, by the number of
 #: axes a step moves: 1, 1.5 (sqrt 2 = 1.41) and 1.75 (sqrt 3 = 1.73) FP.
 _COST_3 = {1: 4, 2: 6, 3: 7}
+#: Cycles a parabolic block spends before it takes FP: two serial multipliers (24 cycles) form
+#: its coefficients, then four cycles decide its first step.
+PARABOLA_SETUP_CYCLES = 29
 
 
 class Kind(enum.IntEnum):
@@ -70,6 +75,7 @@ class Kind(enum.IntEnum):
 
     LINEAR = 0
     CIRCULAR = 1
+    PARABOLIC = 2
 
 
 class BlockError(ValueError):
@@ -150,11 +156,13 @@ class Block:
     """The data of one block as the host loads it.
 
     ``xe, ye``: end point relative to the start. ``i, j``: centre relative to the start
-    (circular only). ``quadrant``: the control word's end-point quadrant (circular only).
-    Three-axis chip only: ``ze``, the travel along the third axis (a line's, or a helix's
-    along the plane's normal); ``plane``, the CTRL.plane code routing the block's axes to the
-    machine's (:data:`PLANES`); ``helix_steps``, the arc's step count N, over which a helix
-    spreads its ``ze`` (the host's plan gives it: :attr:`Plan.steps`).
+    (circular), the point whose tangent is parallel to the chord (parabolic). ``quadrant``:
+    the control word's end-point quadrant (circular only). ``swap``: parabolic: the curve's
+    abscissa is Y (the parabola's axis is parallel to X), else X. Three-axis chip only:
+    ``ze``, the travel along the third axis (a line's, or a helix's along the plane's
+    normal); ``plane``, the CTRL.plane code routing the block's axes to the machine's
+    (:data:`PLANES`); ``helix_steps``, the arc's step count N, over which a helix spreads its
+    ``ze`` (the host's plan gives it: :attr:`Plan.steps`).
     """
 
     kind: Kind
@@ -165,6 +173,7 @@ class Block:
     cw: bool = False
     sqrt2: bool = False
     quadrant: int = 1
+    swap: bool = False
     ze: int = 0
     plane: int = 0
     helix_steps: int = 0
@@ -178,11 +187,25 @@ class Block:
             ze: int = 0, plane: int = 0, helix_steps: int = 0) -> Block:
         """An arc with its end-point quadrant computed from the end point (as the host does)."""
         return cls(Kind.CIRCULAR, xe, ye, i, j, cw, sqrt2, quadrant_of(xe - i, ye - j, cw),
-                   ze, plane, helix_steps)
+                   ze=ze, plane=plane, helix_steps=helix_steps)
+
+    @classmethod
+    def parabola(cls, xe: int, ye: int, i: int, j: int, *, swap: bool = False,
+                 sqrt2: bool = False) -> Block:
+        """A parabola from the start to (xe, ye) through the point (i, j) (relative to the
+        start) where its tangent is parallel to the chord; its axis is parallel to Y, or to X
+        with ``swap``."""
+        return cls(Kind.PARABOLIC, xe, ye, i, j, sqrt2=sqrt2, swap=swap)
 
     @property
     def latency(self) -> int:
         return LATENCY_LINEAR if self.kind is Kind.LINEAR else LATENCY_CIRCULAR
+
+    @property
+    def setup_cycles(self) -> int:
+        """Cycles from S+1 before the block takes FP (0: none)."""
+        return {Kind.CIRCULAR: CIRCLE_SETUP_CYCLES,
+                Kind.PARABOLIC: PARABOLA_SETUP_CYCLES}.get(self.kind, 0)
 
 
 def _check_coord(name: str, value: int) -> None:
@@ -365,13 +388,89 @@ class HelicalPath:
         return Step(step.dx, step.dy, self.helix.advance()), final, error
 
 
-Path = LinearPath | CircularPath | HelicalPath
+class ParabolicPath:
+    """A parabola by evaluation of its function, the circle's method on F = A v - B p^2 - C p.
+
+    In the curve's own frame the abscissa p (X, or Y with ``swap``) runs from 0 to
+    pe = |end's p| in the direction of the end, and the ordinate v is the other axis. The
+    parabola through the start, the end (pe, ve) and the tangent point (pe / 2, vp) is
+    v = (B p^2 + C p) / A with A = pe^2, B = 2 ve - 4 vp, C = pe (4 vp - ve): integers, so
+    the end point lies exactly on it. F is kept exactly with adders only: a step of p adds
+    -G (G = B (2p + 1) + C, the next p step's change of A v along the curve, itself moved by
+    2B per p step) and a step of v adds +-A. The long axis is p where |G| <= A (the curve
+    moves v by at most one LSB over the next p step), else v; v moves in the sign of G.
+    Each step moves the long axis and the short one too if that makes |F| strictly smaller.
+    The block ends on the end point (p = pe and v = ve), or with an error if p passes pe
+    (never for a parabola the host checked with this model).
+    """
+
+    def __init__(self, xe: int, ye: int, i: int, j: int, swap: bool):
+        for name, value in (("Xe", xe), ("Ye", ye), ("I", i), ("J", j)):
+            _check_coord(name, value)
+        pe, ve, vp = (ye, xe, i) if swap else (xe, ye, j)
+        if pe == 0:
+            raise BlockError(f"a parabola needs a non-zero {'Y' if swap else 'X'} extent "
+                             f"(its abscissa)")
+        self.swap = swap
+        self.su = 1 if pe > 0 else -1
+        self.pe, self.ve = abs(pe), ve
+        self.a = pe * pe
+        self.b = 2 * ve - 4 * vp
+        self.c = self.pe * (4 * vp - ve)
+        self.p = self.v = self.f = 0
+        self.g = self.b + self.c
+        self.done = False
+
+    @property
+    def x(self) -> int:
+        return self.v if self.swap else self.su * self.p
+
+    @property
+    def y(self) -> int:
+        return self.su * self.p if self.swap else self.v
+
+    def _decide(self) -> tuple[int, int, int]:
+        """The next step's moves in the curve's frame (dp, dv) and the F it leads to."""
+        f, g, a = self.f, self.g, self.a
+        sv = 1 if g > 0 else -1
+        if abs(g) <= a:
+            d1 = f - g
+            d2 = d1 + a * sv
+            return (1, sv, d2) if abs(d2) < abs(d1) else (1, 0, d1)
+        d1 = f + a * sv
+        d2 = d1 - g
+        return (1, sv, d2) if abs(d2) < abs(d1) else (0, sv, d1)
+
+    def _step(self, dp: int, dv: int) -> Step:
+        du = self.su * dp
+        return Step(dv, du) if self.swap else Step(du, dv)
+
+    def peek(self) -> Step:
+        """The next step (the path must not be done)."""
+        dp, dv, _ = self._decide()
+        return self._step(dp, dv)
+
+    def advance(self) -> tuple[Step, bool, bool]:
+        """Take the next step; returns (step, final, error)."""
+        dp, dv, self.f = self._decide()
+        if dp:
+            self.g += 2 * self.b
+        self.p += dp
+        self.v += dv
+        error = self.p > self.pe
+        self.done = error or (self.p == self.pe and self.v == self.ve)
+        return self._step(dp, dv), self.done, error
+
+
+Path = LinearPath | CircularPath | HelicalPath | ParabolicPath
 
 
 def make_path(block: Block) -> Path:
     """The algorithm for a block; raises :class:`BlockError` for data the chip refuses."""
     if block.kind is Kind.LINEAR:
         return LinearPath(block.xe, block.ye, block.ze)
+    if block.kind is Kind.PARABOLIC:
+        return ParabolicPath(block.xe, block.ye, block.i, block.j, block.swap)
     arc = CircularPath(block.xe, block.ye, block.i, block.j, block.cw, block.quadrant)
     if block.ze:
         return HelicalPath(arc, HelixPath(block.ze, block.helix_steps))
@@ -526,7 +625,8 @@ class K3701Model:
                  circle_setup: int = CIRCLE_SETUP_CYCLES, axes: int = 2):
         self.axes = axes
         self.unit = 2 if axes == 2 else 4  # credit units per FP
-        self.latency = {Kind.LINEAR: latency_linear, Kind.CIRCULAR: latency_circular}
+        self.latency = {Kind.LINEAR: latency_linear, Kind.CIRCULAR: latency_circular,
+                        Kind.PARABOLIC: latency_circular}
         self.circle_setup = circle_setup
         self.out = K3701Outputs()
         self.phase = _Phase.IDLE
@@ -595,9 +695,10 @@ class K3701Model:
         self.held = False
         self.count = 0
         nxt.xm, nxt.ym, nxt.zm = block.xe, block.ye, block.ze
-        if block.kind is Kind.CIRCULAR:
+        if block.setup_cycles:
             self.phase = _Phase.SETUP
-            self.setup_left = self.circle_setup
+            self.setup_left = (self.circle_setup if block.kind is Kind.CIRCULAR
+                               else block.setup_cycles)
             nxt.busy = 1
             return
         try:

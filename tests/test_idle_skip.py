@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from firmware_model.job import Job, MachineConfig, ServoConfig
-from hdl.k3701 import K3701, K3701_MAP
+from hdl.k3701 import K3701, K3701_MAP, block_registers
 from hdl.k3701_model import Block
 from sim.backends.cxxrtl.backend import CxxrtlBackend
 from sim.machine.plant import ALPHA_BITS, COUNT_BITS, GAIN_BITS, ServoPlant
@@ -215,16 +215,19 @@ def lone_k3701s():
 
 
 @settings(derandomize=True, max_examples=20, deadline=None)
-@given(circle=st.booleans(), r=st.integers(3, 30), xe=st.integers(-30, 30),
-       ye=st.integers(-30, 30), cw=st.booleans(), sqrt2=st.booleans(),
+@given(kind=st.sampled_from(["line", "circle", "parabola"]), r=st.integers(3, 30),
+       xe=st.integers(-30, 30), ye=st.integers(-30, 30), cw=st.booleans(), sqrt2=st.booleans(),
        fp=st.lists(st.tuples(st.booleans(), st.integers(1, 40)), min_size=5, max_size=60))
-def test_skipping_the_k3701_step_latency_changes_no_signal(lone_k3701s, circle, r, xe, ye,
+def test_skipping_the_k3701_step_latency_changes_no_signal(lone_k3701s, kind, r, xe, ye,
                                                           cw, sqrt2, fp):
-    # A whole circle (end = start) or a line; the FP stream as runs of high and low cycles.
-    block = Block.arc(0, 0, r, 0, cw=cw, sqrt2=sqrt2) if circle else \
-        Block.line(xe, ye, sqrt2=sqrt2)
-    ctrl = K3701_MAP["CTRL"].encode(circular=int(block.kind), cw=int(block.cw),
-                                    sqrt2=int(block.sqrt2), quadrant=block.quadrant - 1)
+    # A whole circle (end = start), a line or a parabola (through the tangent point
+    # (xe / 2, r), or (r, ye / 2) with its axis along X); the FP stream as runs of high and
+    # low cycles.
+    block = {"circle": lambda: Block.arc(0, 0, r, 0, cw=cw, sqrt2=sqrt2),
+             "line": lambda: Block.line(xe, ye, sqrt2=sqrt2),
+             "parabola": lambda: Block.parabola(xe or 1, ye, xe // 2, r, swap=cw and ye != 0,
+                                                sqrt2=sqrt2)}[kind]()
+    ctrl = block_registers(block)["CTRL"]
     cmd = K3701_MAP["CMD"]
     for backend in lone_k3701s:
         backend.reset()

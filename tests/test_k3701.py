@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import bus_write, read_reg, simulate, write_reg
 
-from hdl.k3701 import K3701, K3701_MAP
+from hdl.k3701 import K3701, K3701_MAP, block_registers
 from hdl.k3701_circular import CircularDatapath
 from hdl.k3701_linear import LinearDatapath
 from hdl.k3701_model import (
@@ -36,8 +36,7 @@ CTRL = K3701_MAP["CTRL"]
 
 
 def ctrl_word(block: Block) -> int:
-    return CTRL.encode(circular=int(block.kind), cw=int(block.cw), sqrt2=int(block.sqrt2),
-                       quadrant=block.quadrant - 1)
+    return block_registers(block)["CTRL"]
 
 
 async def load(ctx, dut: K3701, block: Block) -> None:

@@ -108,7 +108,8 @@ def test_signals_selects_what_is_dumped_with_the_same_values(tmp_path, backend):
     everything, selected = wave_signals(full), wave_signals(part)
     top = "bench.top."
     expected = {n for n in everything if n.startswith((top + "chipset.k3701.", top + "x__"))}
-    assert set(selected) == expected and len(expected) < len(everything) / 4
+    # The K3701 (three datapaths) is about a quarter of the design's signals; x__* a few.
+    assert set(selected) == expected and len(expected) < len(everything) / 3
     dumped = changes(full, expected)
     assert sum(map(len, dumped.values())) > 2 * len(expected)  # values that change
     assert changes(part, expected) == dumped

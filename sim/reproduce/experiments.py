@@ -8,10 +8,11 @@ and pass or fail. The comparisons are computed against the paper's numbers
 (:mod:`~sim.reproduce.theory`), never written in.
 
 :func:`reproduce` runs every run (:mod:`~sim.reproduce.workers`) and :func:`analyse` turns
-them into the six sections, one module each: :mod:`~sim.reproduce.accel`,
+them into the seven sections, one module each: :mod:`~sim.reproduce.accel`,
 :mod:`~sim.reproduce.rates`, :mod:`~sim.reproduce.fp_counts`,
-:mod:`~sim.reproduce.path_error`, :mod:`~sim.reproduce.fp_control` and
-:mod:`~sim.reproduce.budget`. :data:`~sim.reproduce.runs.FULL` is the scale of the committed
+:mod:`~sim.reproduce.path_error`, :mod:`~sim.reproduce.fp_control`,
+:mod:`~sim.reproduce.budget` and :mod:`~sim.reproduce.parabola` (the K3701's parabolic mode on
+seed 002's parabola). :data:`~sim.reproduce.runs.FULL` is the scale of the committed
 figures; :data:`~sim.reproduce.runs.QUICK` shrinks the long runs for CI, and the report says
 what each scale shrank.
 """
@@ -22,7 +23,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from sim.reproduce import accel, budget, fp_control, fp_counts, path_error, rates
+from sim.reproduce import accel, budget, fp_control, fp_counts, parabola, path_error, rates
 from sim.reproduce.report import Reproduction, report_markdown
 from sim.reproduce.runs import FULL, QUICK, RunData, Scale, run_specs
 from sim.reproduce.workers import run_all
@@ -56,7 +57,7 @@ def analyse(runs: dict[str, RunData], scale: Scale, out: Path,
     sections = [accel.section(runs, specs, out), rates.section(runs, specs),
                 fp_counts.section(runs, out), path_error.section(circles, scale, out),
                 fp_control.section(runs, circles, specs, out),
-                budget.section(runs, specs, scale, out)]
+                budget.section(runs, specs, scale, out), parabola.section(runs, specs, out)]
     end = time.perf_counter()
     result = Reproduction(scale, sections, runs, end - (model_start if start is None else start),
                           end - model_start)

@@ -17,13 +17,15 @@ import numpy as np
 from firmware_model.firmware import word_feed
 from firmware_model.gcode import Arc, Line, parse
 from firmware_model.job import AXES, Job, MachineConfig, ServoConfig
+from firmware_model.program import Parabola
 from hdl.k3701_model import Block
 from sim.reproduce.paper import FEED_HIGH, FEED_LOW
 from sim.reproduce.theory import hardware_tau
 from sim.run.sampler import TRACE_COLUMNS
 
-__all__ = ["FULL", "MACHINE", "QUICK", "SERVO", "RateSpec", "RunData", "RunSpec", "Scale", "Specs",
-           "Trace", "minus_spec", "run_specs"]
+__all__ = ["FULL", "MACHINE", "PARABOLA_FEED", "PARABOLA_MM", "QUICK", "SERVO", "RateSpec",
+           "RunData", "RunSpec", "Scale", "Specs", "Trace", "minus_spec", "parabola_y",
+           "run_specs"]
 
 
 @dataclass(frozen=True)
@@ -44,6 +46,8 @@ class Scale:
     hazard_fp_s: float
     #: Experiment 2: steps counted at the maximum rate, per interpolation type.
     rate_steps: int
+    #: Experiment 7: the G01 chords the parabola of seed 002 is cut into (equal steps in X).
+    parabola_chords: int = 30
     #: Sampling period of the closed-loop runs (cycles).
     sample_every: int = 1000
 
@@ -51,13 +55,23 @@ class Scale:
 FULL = Scale("full", line=(20_000, 10_000), radius=3000, low_radius=150, low_sweep=90,
              hazard_steps=300, hazard_fp_s=1000.0, rate_steps=20_000)
 QUICK = Scale("quick", line=(10_000, 5000), radius=3000, low_radius=100, low_sweep=45,
-              hazard_steps=100, hazard_fp_s=1000.0, rate_steps=5000)
+              hazard_steps=100, hazard_fp_s=1000.0, rate_steps=5000, parabola_chords=10)
+
+#: Experiment 7: seed 002's parabola y = (x - 15)^2 / 15 - 15 (mm) from x = 0 to 30, and the
+#: feed both of its programs run at (mm/min).
+PARABOLA_MM = (30.0, 15.0)
+PARABOLA_FEED = 1000.0
+
+
+def parabola_y(x_mm: float) -> float:
+    """Seed 002's parabola (mm)."""
+    return (x_mm - 15.0) ** 2 / 15.0 - 15.0
 
 #: The machine by accel/decel placement, and every axis's servo: the defaults.
 MACHINE = {accel: MachineConfig(accel=accel) for accel in ("pre", "post")}
 SERVO = ServoConfig()
 
-_Move = TypeVar("_Move", Line, Arc)
+_Move = TypeVar("_Move", Line, Arc, Parabola)
 
 
 @dataclass(frozen=True)
@@ -174,7 +188,16 @@ def run_specs(scale: Scale) -> Specs:
     hazard = (f"G17 G21 G91\nG01 X{_mm(scale.hazard_steps, pre)} "
               f"F{pre.mm_per_min(scale.hazard_fp_s):.6f}\n{rest}")
     big = 100_000  # a radius whose first octant holds the whole circular count
+    span, vertex = PARABOLA_MM
+    chords = "\n".join(f"G01 X{span * k / scale.parabola_chords:.4f} "
+                       f"Y{parabola_y(span * k / scale.parabola_chords):.4f}"
+                       for k in range(1, scale.parabola_chords + 1))
     return {
+        "parabola": RunSpec("parabola", "pre",
+                            f"G17 G21 G90 F{PARABOLA_FEED:g}\nG06 X{span:g} Y0 I{vertex:g} "
+                            f"J{parabola_y(vertex):g}\n{rest}", every),
+        "parabola_chords": RunSpec("parabola_chords", "pre",
+                                   f"G17 G21 G90 F{PARABOLA_FEED:g}\n{chords}\n{rest}", every),
         "hazard_exact": RunSpec("hazard_exact", "pre", hazard, every),
         "line": RunSpec("line", "pre",
                         f"G17 G21 G91\nG01 X{_mm(x, pre)} Y{_mm(y, pre)} F{high:.6f}\n{rest}",

@@ -74,8 +74,12 @@ def contour_errors(job: Job, blocks: Sequence[BlockStart], samples: np.ndarray) 
     for k in np.unique(candidates[candidates >= 0]):
         near = (candidates == k).any(axis=0)
         item = moves[k]
-        dist = (_segment_distance(pts[near], item.start, item.end) if isinstance(item, Line)
-                else _arc_distance(pts[near], item))
+        if isinstance(item, Line):
+            dist = _segment_distance(pts[near], item.start, item.end)
+        elif isinstance(item, Arc):
+            dist = _arc_distance(pts[near], item)
+        else:
+            dist = item.distances(pts[near])
         best[near] = np.minimum(best[near], dist)
     # Samples before the first block: distance to the start point.
     before = ~np.isfinite(best)

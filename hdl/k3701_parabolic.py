@@ -1,0 +1,139 @@
+"""K3701 parabolic interpolation datapath: the sign-of-F method on F = A v - B p^2 - C p.
+
+The reference model is :class:`hdl.k3701_model.ParabolicPath`.
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Module, Mux, Signal, signed
+
+from hdl.k3701_datapath import Datapath, magnitude, refused
+from hdl.k3701_model import PARABOLA_SETUP_CYCLES
+
+__all__ = ["ParabolicDatapath"]
+
+#: Setup cycles of the serial multipliers (one per bit of pe).
+_MULTIPLY = 24
+#: F, G and the candidate F values, signed: |B| < 6 * 2^23, p <= 2^23, |C| < 5 * 2^46, so
+#: |G| = |B (2p + 1) + C| < 2^51; F after a step is within max(A, |G|) and a candidate within
+#: |F| + |G| + A < 2^52.
+_F_BITS = 53
+
+
+class ParabolicDatapath(Datapath):
+    """Parabolic interpolation in the curve's own frame (abscissa p, X or Y with ``swap``;
+    ordinate v): F = A v - B p^2 - C p with A = pe^2, B = 2 ve - 4 vp, C = pe (4 vp - ve)
+    (pe = |end's p|, ve the end's v, vp the tangent point's v). A p step adds -G to F and 2B
+    to G; a v step adds +-A. The long axis is p where |G| <= A, else v; v moves in the sign
+    of G; the short axis moves too if that makes |F| smaller; the block ends on the end
+    point, or with an error if p passes pe.
+
+    Timing (the ports are those of :class:`hdl.k3701_datapath.DatapathSignature`; S is the
+    start cycle, C the cycle a step's credit completes, L the latency):
+
+    * setup, S+1 to S+29: two serial multipliers form A = pe * pe and C = pe * (4 vp - ve)
+      in S+1 to S+24 (one bit of pe per cycle, the most significant first), G = B + C in
+      S+25, then the first step is decided in S+26 to S+28 as the stages decide the others.
+      In S+29 ``end`` (with ``error``) is high for refused data (a coordinate of -2^23, or
+      pe = 0), else ``ready``; the first step is in ``step`` from S+30;
+    * four stages, C+1 to C+4: the position (and G, on a p step) moves by the current step;
+      whether the current step ends the block (``final``, ``error``), and the next step's long
+      axis and v direction; the two candidate F values; the choice, which ``advance``
+      (in C+L-1, L >= 6) puts in ``step`` from C+L.
+    """
+
+    SETUP = True
+    STAGES = 4
+
+    def elaborate(self, platform) -> Module:
+        m = Module()
+        block = self.block
+        swap = Signal()
+        su_neg = Signal()           # p runs towards negative X (Y with swap)
+        pe = Signal(24)
+        ve = Signal(signed(24))
+        b = Signal(signed(27))
+        m2 = Signal(signed(27))     # the multiplicand of C: 4 vp - ve
+        a = Signal(46)
+        g = Signal(signed(_F_BITS))  # C while it is multiplied, then G
+        bad = Signal()
+        k = Signal(range(PARABOLA_SETUP_CYCLES))
+        p = Signal(25)
+        v = Signal(signed(27))
+        # The current step: long axis p, diagonal, v direction, whether it ends the block
+        # (and with an error), and F after it.
+        long_p = Signal()
+        diag = Signal()
+        sv_neg = Signal()
+        final = Signal()
+        final_error = Signal()
+        f_after = Signal(signed(_F_BITS))
+        # The next step, decided in the stages.
+        next_long_p = Signal()
+        next_diag = Signal()
+        next_sv_neg = Signal()
+        d1 = Signal(signed(_F_BITS))  # F after the next step: first if on the long axis only
+        d2 = Signal(signed(_F_BITS))  # F after the next step if diagonal
+
+        p_moves = long_p | diag
+        v_moves = ~long_p | diag
+        m.d.comb += [
+            self.ready.eq(self.setup & (k == PARABOLA_SETUP_CYCLES - 1) & ~bad),
+            self.end.eq(self.setup & (k == PARABOLA_SETUP_CYCLES - 1) & bad),
+            self.error.eq(1),
+            self.step.x.eq(Mux(swap, v_moves, p_moves)),
+            self.step.x_neg.eq(Mux(swap, sv_neg, su_neg)),
+            self.step.y.eq(Mux(swap, p_moves, v_moves)),
+            self.step.y_neg.eq(Mux(swap, su_neg, sv_neg)),
+            self.step.diag.eq(diag), self.step.final.eq(final), self.step.error.eq(final_error),
+        ]
+
+        with m.If(self.start):
+            pe_s = Mux(block.swap, block.ye, block.xe)
+            ve_s = Mux(block.swap, block.xe, block.ye)
+            vp_s = Mux(block.swap, block.i, block.j)
+            m.d.sync += [
+                swap.eq(block.swap), su_neg.eq(pe_s < 0), pe.eq(magnitude(pe_s)),
+                ve.eq(ve_s), b.eq((ve_s << 1) - (vp_s << 2)), m2.eq((vp_s << 2) - ve_s),
+                a.eq(0), g.eq(0), k.eq(0), p.eq(0), v.eq(0), f_after.eq(0),
+                bad.eq(refused(block, "xe", "ye", "i", "j") | (pe_s == 0)),
+            ]
+        with m.Elif(self.setup):
+            m.d.sync += k.eq(k + 1)
+            with m.If(k < _MULTIPLY):
+                bit = pe.bit_select((_MULTIPLY - 1 - k).as_unsigned(), 1)
+                m.d.sync += [a.eq((a << 1) + Mux(bit, pe, 0)), g.eq((g << 1) + Mux(bit, m2, 0))]
+            with m.Elif(k == _MULTIPLY):
+                m.d.sync += g.eq(g + b)
+            with m.Elif(k == PARABOLA_SETUP_CYCLES - 1):
+                # The first step, decided from the start point.
+                m.d.sync += [long_p.eq(next_long_p), diag.eq(next_diag),
+                             sv_neg.eq(next_sv_neg), f_after.eq(d1)]
+        with m.Elif(self.advance):
+            m.d.sync += [long_p.eq(next_long_p), diag.eq(next_diag), sv_neg.eq(next_sv_neg),
+                         f_after.eq(d1)]
+
+        # The stages, each from registers. For the block's first step the last three run in
+        # the setup's last cycles (from the start point, F = 0).
+        stage = self.stage
+        with m.If(stage[0]):
+            m.d.sync += [p.eq(p + p_moves), v.eq(Mux(v_moves, Mux(sv_neg, v - 1, v + 1), v))]
+            with m.If(p_moves):
+                m.d.sync += g.eq(g + (b << 1))
+        with m.If((self.setup & (k == _MULTIPLY + 1)) | stage[1]):
+            m.d.sync += [next_long_p.eq(magnitude(g) <= a), next_sv_neg.eq(g < 0)]
+        with m.If(stage[1]):
+            m.d.sync += [final.eq(((p == pe) & (v == ve)) | (p > pe)), final_error.eq(p > pe)]
+        with m.If((self.setup & (k == _MULTIPLY + 2)) | stage[2]):
+            sa = Mux(next_sv_neg, -a, a)
+            m.d.sync += [d1.eq(Mux(next_long_p, f_after - g, f_after + sa)),
+                         d2.eq(f_after - g + sa)]
+        with m.If((self.setup & (k == _MULTIPLY + 3)) | stage[3]):
+            # The short axis moves too if that makes |F| smaller: with d2 = d1 + t (t = +-A on
+            # the long axis p, -G on v; never 0), |d2| < |d1| exactly when t (d1 + d2) < 0
+            # (one adder, no magnitudes). t > 0: v moves up on p, G < 0 on v.
+            total = d1 + d2
+            t_pos = Mux(next_long_p, ~next_sv_neg, next_sv_neg)
+            smaller = (total != 0) & ((total < 0) == t_pos)
+            m.d.sync += [next_diag.eq(smaller), d1.eq(Mux(smaller, d2, d1))]
+        return m

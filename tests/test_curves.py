@@ -1,0 +1,114 @@
+"""Host side of the K3701's curves: G06 parabolas parsed, checked and measured."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from firmware_model.curves import MIN_VERTEX_RADIUS
+from firmware_model.firmware import FirmwareError, check_program
+from firmware_model.gcode import GcodeError, parse
+from firmware_model.job import Job, MachineConfig, ServoConfig
+from firmware_model.program import Parabola
+from hdl.k3701_model import Block, Kind, plan
+from sim.run.report import HOW_FIELDS
+from sim.run.runner import RunOptions, run_job
+
+SEED_002 = "G21 G90 F1000\nG06 X30 Y0 I15 J-15\nM30"
+
+
+def error_of(text: str) -> str:
+    with pytest.raises(GcodeError) as info:
+        parse(text, source="t.ngc")
+    return str(info.value)
+
+
+def test_g06_loads_seed_002_parabola_as_one_block_ending_exactly():
+    (item,) = parse(SEED_002).items
+    assert isinstance(item, Parabola)
+    assert item.block == Block.parabola(30_000, 0, 15_000, -15_000, sqrt2=True)
+    assert item.block.kind is Kind.PARABOLIC and not item.block.swap
+    assert item.plan == plan(item.block) and item.plan.end == (30_000, 0)
+    assert item.end == (30_000, 0)
+
+
+def test_g06_tangent_point_is_relative_to_the_start_in_both_distance_modes():
+    absolute = parse("G90 G01 X1 Y1 F100\nG06 X31 Y1 I15 J-15").items[1]
+    incremental = parse("G91 G01 X1 Y1 F100\nG06 X30 Y0 I15 J-15").items[1]
+    assert absolute.block == incremental.block
+    assert (absolute.i, absolute.j) == (15_000, -15_000)
+    assert absolute.start == (1_000, 1_000)
+
+
+def test_g06_with_its_axis_parallel_to_x_swaps_the_abscissa():
+    (item,) = parse("G21 G91 F500\nG06 X-2 Y-20 I-8 J-10").items
+    assert item.block.swap and item.plan.end == (-2_000, -20_000)
+
+
+def test_g06_is_modal_like_the_other_motion_words():
+    items = parse("G21 G91 F500\nG06 X10 Y0 I5 J-2\nX10 Y0 I5 J2").items
+    assert [type(it) for it in items] == [Parabola, Parabola]
+    assert items[1].start == (10_000, 0)
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("G91 F100 G06 X10 Y0", "t.ngc:1:10: G06 needs I and/or J (the tangent point)"),
+    ("G91 F100 G06 X10 Y4 I3 J-2", "t.ngc:1:10: the K3701 draws parabolas whose axis is "
+                                   "parallel to X or Y"),
+    ("G91 F100 G06 X0.02 Y0 I0.01 J-0.01", "t.ngc:1:10: the parabola is too sharp for the "
+                                           "K3701: radius of curvature 5.00 LSB"),
+    ("G90 F100 G01 Y-8000\nG06 X20 Y-8000 I10 J-1000", "t.ngc:2:1: the parabola leaves the "
+                                                      "coordinate range on Y"),
+])
+def test_g06_errors_name_line_column_and_reason(text, message):
+    assert error_of(text).startswith(message)
+
+
+def test_sharpest_accepted_parabola_has_the_minimum_vertex_radius():
+    # A = 20^2 = 400, B = 2 * 0 - 4 * (-3) = 12: radius 400 / 24 = 16.7 LSB.
+    (item,) = parse("G91 F100 G06 X0.02 Y0 I0.01 J-0.003").items
+    assert item.block.kind is Kind.PARABOLIC
+    assert MIN_VERTEX_RADIUS <= 16.7
+
+
+def test_parabola_distances_measure_the_true_curve_between_its_ends():
+    (item,) = parse(SEED_002).items
+    curve = item.polyline(301)
+    assert np.abs(item.distances(curve)).max() < 1e-6
+    # The vertex (15, -15) mm, 5 LSB below it, and a point beyond the end.
+    points = np.array([[15_000, -15_005], [30_010, 0]], dtype=float)
+    assert item.distances(points) == pytest.approx([5, 10], abs=1e-6)
+
+
+def test_firmware_refuses_a_parabola_faster_than_the_circular_step_rate():
+    machine = MachineConfig()
+    program = parse("G21 G91 F3000\nG06 X10 Y0 I5 J-2", source="p.ngc")
+    job = Job("p", machine, {"x": ServoConfig(), "y": ServoConfig()}, program)
+    with pytest.raises(FirmwareError, match="above the K3701's maximum for a parabolic block"):
+        check_program(job)
+
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("accel", ["none"])
+def test_parabola_job_is_identical_on_pysim_and_cxxrtl_with_idle_skipping(accel):
+    machine = MachineConfig(accel=accel)
+    program = parse("G21 G91 F2400\nG06 X0.1 Y0 I0.05 J-0.02\nM30", source="p.ngc")
+    job = Job("p", machine, {"x": ServoConfig(), "y": ServoConfig()}, program)
+    results = [run_job(job, RunOptions(backend=backend, max_cycles=2500, sample_every=25,
+                                       skip_idle=skip))
+               for backend, skip in (("pysim", False), ("cxxrtl", True), ("cxxrtl", False))]
+    reports = [{k: v for k, v in r.report.items() if k not in HOW_FIELDS} for r in results]
+    assert reports[0] == reports[1] == reports[2]
+    assert all(np.array_equal(results[0].samples, r.samples) for r in results[1:])
+    assert results[0].samples[-1][1] > 20, "the parabola must have stepped"
+
+
+def test_parabola_job_runs_to_its_exact_end_on_cxxrtl():
+    job = Job("seed", MachineConfig(), {"x": ServoConfig(), "y": ServoConfig()},
+              parse("G21 G90 F1000\nG06 X1 Y0 I0.5 J-0.5\nG04 P0.1\nM30"))
+    result = run_job(job, RunOptions(backend="cxxrtl"))
+    block = result.report["blocks"][0]
+    assert result.report["status"] == "ok" and result.report["end_point"]["reached"]
+    assert block["fp_pulses"] == block["fp_budget"] == job.program.items[0].plan.fp
+    assert [result.report["axes"][a]["command"] for a in "xy"] == [1000, 0]
