@@ -180,12 +180,18 @@ class K3701Chip(Chip):
         block = None
         if cmd_reg.field("start").decode(cmd):
             v, ctrl = bank.values, bank.values["CTRL"]
-            third = (v["Z"], ctrl_reg.field("plane").decode(ctrl), v["H"]) if "z" in self.axes \
-                else ()
-            block = Block(Kind(ctrl_reg.field("circular").decode(ctrl)), v["X"], v["Y"], v["I"],
-                          v["J"], bool(ctrl_reg.field("cw").decode(ctrl)),
+            kind = Kind(ctrl_reg.field("circular").decode(ctrl))
+            if "z" in self.axes:  # the three-axis build: its third axis and plane
+                extra = {"ze": v["Z"], "plane": ctrl_reg.field("plane").decode(ctrl),
+                         "helix_steps": v["H"]}
+            else:  # the two-axis build: its parabolic type
+                if ctrl_reg.field("parabolic").decode(ctrl):
+                    kind = Kind.PARABOLIC
+                extra = {"swap": bool(ctrl_reg.field("swap").decode(ctrl))}
+            block = Block(kind, v["X"], v["Y"], v["I"], v["J"],
+                          bool(ctrl_reg.field("cw").decode(ctrl)),
                           bool(ctrl_reg.field("sqrt2").decode(ctrl)),
-                          ctrl_reg.field("quadrant").decode(ctrl) + 1, *third)
+                          ctrl_reg.field("quadrant").decode(ctrl) + 1, **extra)
         out = self.model.cycle(fp=bool(pins["fp"]), start=block,
                                ack=bool(cmd_reg.field("ack").decode(cmd)),
                                clear=bool(cmd_reg.field("clear").decode(cmd)))
