@@ -5,11 +5,10 @@ The reference model is :class:`hdl.accel_bell_model.AccelBellModel`.
 
 from __future__ import annotations
 
-from amaranth.hdl import Module, Signal, signed, unsigned
+from amaranth.hdl import Module, Signal
 from amaranth.lib import wiring
-from amaranth.lib.wiring import In, Out
 
-from hdl.accel_decel import AccelDecel
+from hdl.accel_decel import AccelDecel, accel_members
 from hdl.accel_decel_model import check_params
 from hdl.accel_linear import AccelLinear
 from hdl.accel_linear_model import check_bins
@@ -66,11 +65,7 @@ class AccelBell(wiring.Component):
         self.counter_width = counter_width
         self.bidirectional = bidirectional
         self.bins_bits = bins_bits
-        shape = signed(counter_width) if bidirectional else unsigned(counter_width)
-        pulses = ({"inp_pos": In(1), "inp_neg": In(1), "out_pos": Out(1), "out_neg": Out(1)}
-                  if bidirectional else {"inp": In(1), "out": Out(1)})
-        super().__init__({**pulses, "add": In(1), "x": Out(shape), "y": Out(n),
-                          "pending": Out(shape), "idle": Out(1)})
+        super().__init__(accel_members(n, counter_width, bidirectional))
         self.quiet = Signal()
         self.free_running = self.declare(n, bidirectional)
 

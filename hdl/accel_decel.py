@@ -12,7 +12,18 @@ from amaranth.lib.wiring import In, Out
 from hdl.accel_decel_model import check_params
 from hdl.observation import CarryAccumulator, FreeRunning
 
-__all__ = ["AccelDecel", "carry_and_pulses"]
+__all__ = ["AccelDecel", "accel_members", "carry_and_pulses"]
+
+
+def accel_members(n: int, counter_width: int, bidirectional: bool) -> dict[str, wiring.Member]:
+    """The signature every accel/decel circuit has (exponential, linear, bell): its pulse
+    ports (one line, or a signed pair with ``bidirectional``), ``add``, and the observation
+    outputs ``x``, ``y``, ``pending`` and ``idle``."""
+    shape = signed(counter_width) if bidirectional else unsigned(counter_width)
+    pulses = ({"inp_pos": In(1), "inp_neg": In(1), "out_pos": Out(1), "out_neg": Out(1)}
+              if bidirectional else {"inp": In(1), "out": Out(1)})
+    return {**pulses, "add": In(1), "x": Out(shape), "y": Out(n), "pending": Out(shape),
+            "idle": Out(1)}
 
 
 def carry_and_pulses(m: Module, circuit: wiring.Component):
@@ -106,11 +117,7 @@ class AccelDecel(wiring.Component):
         self.n = n
         self.counter_width = counter_width
         self.bidirectional = bidirectional
-        shape = signed(counter_width) if bidirectional else unsigned(counter_width)
-        pulses = ({"inp_pos": In(1), "inp_neg": In(1), "out_pos": Out(1), "out_neg": Out(1)}
-                  if bidirectional else {"inp": In(1), "out": Out(1)})
-        super().__init__({**pulses, "add": In(1), "x": Out(shape), "y": Out(n),
-                          "pending": Out(shape), "idle": Out(1)})
+        super().__init__(accel_members(n, counter_width, bidirectional))
         self.quiet = Signal()
         self.free_running = self.declare(n, bidirectional)
 

@@ -6,11 +6,10 @@ circuit and why no pulse is lost).
 
 from __future__ import annotations
 
-from amaranth.hdl import Cat, Module, Mux, Signal, signed, unsigned
+from amaranth.hdl import Cat, Module, Mux, Signal
 from amaranth.lib import wiring
-from amaranth.lib.wiring import In, Out
 
-from hdl.accel_decel import carry_and_pulses
+from hdl.accel_decel import accel_members, carry_and_pulses
 from hdl.accel_decel_model import check_params
 from hdl.accel_linear_model import check_bins
 from hdl.observation import FreeRunning
@@ -87,12 +86,7 @@ class AccelLinear(wiring.Component):
         self.counter_width = counter_width
         self.bidirectional = bidirectional
         self.bins_bits = bins_bits
-        shape = signed(counter_width) if bidirectional else unsigned(counter_width)
-        self._shape = shape
-        pulses = ({"inp_pos": In(1), "inp_neg": In(1), "out_pos": Out(1), "out_neg": Out(1)}
-                  if bidirectional else {"inp": In(1), "out": Out(1)})
-        super().__init__({**pulses, "add": In(1), "x": Out(shape), "y": Out(n),
-                          "pending": Out(shape), "idle": Out(1)})
+        super().__init__(accel_members(n, counter_width, bidirectional))
         self.quiet = Signal()
         self.free_running = self.declare(n, bidirectional)
 
@@ -105,8 +99,8 @@ class AccelLinear(wiring.Component):
     def elaborate(self, platform) -> Module:
         m = Module()
         count = 1 << self.bins_bits
-        bins = [Signal(self._shape, name=f"bin{k}") for k in range(count)]  # bin0 is oldest
-        open_bin = Signal(self._shape)
+        bins = [Signal(self.x.shape(), name=f"bin{k}") for k in range(count)]  # bin0 is oldest
+        open_bin = Signal(self.x.shape())
         tick = Signal(self.n - self.bins_bits)
         live = Signal(range(count + 1))
         active = Signal()
