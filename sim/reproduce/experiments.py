@@ -12,7 +12,8 @@ them into the seven sections, one module each: :mod:`~sim.reproduce.accel`,
 :mod:`~sim.reproduce.rates`, :mod:`~sim.reproduce.fp_counts`,
 :mod:`~sim.reproduce.path_error`, :mod:`~sim.reproduce.fp_control`,
 :mod:`~sim.reproduce.budget` and :mod:`~sim.reproduce.parabola` (the K3701's parabolic mode on
-seed 002's parabola). :data:`~sim.reproduce.runs.FULL` is the scale of the committed
+seed 002's parabola), then one section per companion paper (:data:`COMPANIONS`).
+:data:`~sim.reproduce.runs.FULL` is the scale of the committed
 figures; :data:`~sim.reproduce.runs.QUICK` shrinks the long runs for CI, and the report says
 what each scale shrank.
 """
@@ -22,13 +23,30 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
 from sim.reproduce import accel, budget, fp_control, fp_counts, parabola, path_error, rates
 from sim.reproduce.report import Reproduction, report_markdown
-from sim.reproduce.runs import FULL, QUICK, RunData, Scale, run_specs
+from sim.reproduce.runs import FULL, QUICK, RunData, Scale, Specs, run_specs
 from sim.reproduce.workers import run_all
 
-__all__ = ["analyse", "reproduce"]
+__all__ = ["COMPANIONS", "all_specs", "analyse", "reproduce"]
+
+
+#: The companion papers' sections, numbered from 8 on: modules with ``specs(scale)`` (their
+#: runs, keys unique across the reproduction) and ``section(runs, specs, scale, out)``.
+COMPANIONS: tuple[ModuleType, ...] = ()
+
+
+def all_specs(scale: Scale) -> Specs:
+    """Every run of the reproduction at ``scale``: the paper's, then each companion's."""
+    specs = run_specs(scale)
+    for companion in COMPANIONS:
+        theirs = companion.specs(scale)
+        if clash := specs.keys() & theirs.keys():
+            raise ValueError(f"{companion.__name__}: run keys {sorted(clash)} already used")
+        specs |= theirs
+    return specs
 
 
 def reproduce(out: Path, *, quick: bool = False, jobs: int = 2,
@@ -40,7 +58,7 @@ def reproduce(out: Path, *, quick: bool = False, jobs: int = 2,
     """
     scale = QUICK if quick else FULL
     start = time.perf_counter()
-    runs = run_all(scale, jobs, progress)
+    runs = run_all(all_specs(scale), jobs, progress)
     return analyse(runs, scale, out, start)
 
 
@@ -51,13 +69,14 @@ def analyse(runs: dict[str, RunData], scale: Scale, out: Path,
     ``start``: the ``time.perf_counter()`` at which the runs began (for the run time).
     """
     out.mkdir(parents=True, exist_ok=True)
-    specs = run_specs(scale)
+    specs = all_specs(scale)
     model_start = time.perf_counter()
     circles = path_error.circles(runs, specs)
     sections = [accel.section(runs, specs, out), rates.section(runs, specs),
                 fp_counts.section(runs, out), path_error.section(circles, scale, out),
                 fp_control.section(runs, circles, specs, out),
-                budget.section(runs, specs, scale, out), parabola.section(runs, specs, out)]
+                budget.section(runs, specs, scale, out), parabola.section(runs, specs, out),
+                *(companion.section(runs, specs, scale, out) for companion in COMPANIONS)]
     end = time.perf_counter()
     result = Reproduction(scale, sections, runs, end - (model_start if start is None else start),
                           end - model_start)

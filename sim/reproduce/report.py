@@ -104,7 +104,7 @@ def table_markdown(result: Reproduction) -> str:
              "|---|---|---|---|---|---|"]
     for sec in result.sections:
         for k, row in enumerate(sec.rows):
-            number = f"{sec.number}{'abcdefgh'[k]}"
+            number = f"{sec.number}{'abcdefghijklmnopqrstuvwxyz'[k]}"
             lines.append(f"| {number} | {_cell(row.what)} | {_cell(row.paper)} | "
                          f"{_cell(row.emulator)} | {_cell(row.tolerance)} | "
                          f"{'pass' if row.passed else '**FAIL**'} |")
@@ -157,7 +157,7 @@ def report_markdown(result: Reproduction) -> str:
               "## Run time", "",
               f"{result.seconds:.0f} s wall in all, on {os.cpu_count()} cores with the "
               f"closed-loop runs in worker processes; the table gives each run's own wall "
-              f"time (builds: one per accel placement, compiled in parallel and cached under "
+              f"time (builds: one per machine design, compiled in parallel and cached under "
               f"`~/.cache/k37`; a cached build still converts the design, a few seconds). The "
               f"analysis and figures took {result.model_seconds:.0f} s.", "",
               "| run | experiments | machine cycles | wall (s) |", "|---|---|---|---|"]

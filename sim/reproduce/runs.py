@@ -9,14 +9,15 @@ executes them; each comes back as a :class:`RunData`, whose samples :class:`Trac
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import TypeVar
 
 import numpy as np
 
 from firmware_model.firmware import word_feed
 from firmware_model.gcode import Arc, Line, parse
-from firmware_model.job import AXES, Job, MachineConfig, ServoConfig
+from firmware_model.job import AxisAccelConfig, Job, MachineConfig, ServoConfig
 from firmware_model.program import Parabola
 from hdl.k3701_model import Block
 from sim.reproduce.paper import FEED_HIGH, FEED_LOW
@@ -76,7 +77,12 @@ _Move = TypeVar("_Move", Line, Arc, Parabola)
 
 @dataclass(frozen=True)
 class RunSpec:
-    """One closed-loop run of a G-code program on the machine with ``accel``."""
+    """One closed-loop run of a G-code program on the machine with ``accel``.
+
+    The companion papers' runs name their own machine, servos and per-axis accel/decel
+    circuits; runs whose machines elaborate the same design share one compiled model
+    (:func:`~sim.run.runner.design_key`).
+    """
 
     key: str
     accel: str
@@ -87,12 +93,24 @@ class RunSpec:
     #: After the run, keep stepping until the accel/decel circuit is empty (at most this
     #: many cycles), to see where its last pulses go.
     drain_cycles: int = 0
+    #: The machine (default ``MACHINE[accel]``; its ``accel`` must be ``accel``).
+    machine: MachineConfig | None = None
+    #: Servo overrides by axis (default :data:`SERVO` on every axis).
+    servo: Mapping[str, ServoConfig] = field(default_factory=dict)
+    #: Per-axis accel/decel circuits (``[machine.x]``, ...; the post placement only).
+    axis_accel: Mapping[str, AxisAccelConfig] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.machine is not None and self.machine.accel != self.accel:
+            raise ValueError(f"run {self.key}: machine.accel {self.machine.accel!r} is not "
+                             f"{self.accel!r}")
 
     def job(self) -> Job:
-        machine = MACHINE[self.accel]
+        machine = self.machine or MACHINE[self.accel]
         program = parse(self.gcode, source=f"<{self.key}>", lsb_mm=machine.lsb_mm,
                         sqrt2=machine.sqrt2)
-        return Job(self.key, machine, dict.fromkeys(AXES, SERVO), program)
+        servo = {axis: self.servo.get(axis, SERVO) for axis in machine.axis_names}
+        return Job(self.key, machine, servo, program, axis_accel=dict(self.axis_accel))
 
     def move(self, kind: type[_Move]) -> _Move:
         """The program's first move (the one observed), which must be a ``kind``."""
@@ -110,6 +128,10 @@ class RateSpec:
     #: (name, block, port counting one pulse per step, steps to count)
     blocks: tuple[tuple[str, Block, str, int], ...]
     accel: str = "post"
+
+    def job(self) -> Job:
+        """An empty job on the machine the blocks run on."""
+        return RunSpec(self.key, self.accel, "M30", 1).job()
 
 
 Specs = dict[str, RunSpec | RateSpec]

@@ -1,8 +1,8 @@
 """The experiments' runs in worker processes: :func:`run_all`.
 
 The closed-loop runs are independent, so they run in worker processes (two by default, one
-per core), all on the compiled (CXXRTL) backend; every run on a given accel placement shares
-one compiled model, built once per process and reset between runs.
+per core), all on the compiled (CXXRTL) backend; the runs of one machine design share one
+compiled model, built once per process and reset between runs.
 """
 
 from __future__ import annotations
@@ -19,39 +19,24 @@ from firmware_model.job import AXES
 from hdl.decel_control import DECEL_MAP
 from hdl.feed_rate import FEED_MAP
 from hdl.k3701 import block_registers
-from sim.backends.contract import Backend
-from sim.reproduce.runs import RateSpec, RunData, RunSpec, Scale, minus_spec, run_specs
+from sim.reproduce.runs import RateSpec, RunData, RunSpec, Specs, minus_spec
 from sim.run.link import SimulatedLink
-from sim.run.runner import RunOptions, build_backend, run_job
+from sim.run.runner import RunOptions, design_key, reused_backend, run_job
 
 __all__ = ["run_all"]
 
-_BACKENDS: dict[str, Backend] = {}
-
-
-def _backend(accel: str) -> Backend:
-    """This process's compiled machine for ``accel``, reset to cycle 0."""
-    backend = _BACKENDS.get(accel)
-    if backend is None:
-        job = RunSpec("build", accel, "M30", 1).job()
-        backend = _BACKENDS[accel] = build_backend(job, "cxxrtl")
-    else:
-        backend.reset()
-    return backend
-
-
-def _build(accel: str) -> RunData:
-    """Build (or load from the cache) this process's model for ``accel``."""
+def _build(spec: RunSpec | RateSpec) -> RunData:
+    """Build (or load from the cache) this process's model for ``spec``'s machine."""
     start = time.perf_counter()
-    _backend(accel)
-    return RunData(f"build {accel}", {}, np.zeros(0), {}, time.perf_counter() - start)
+    reused_backend(spec.job())
+    return RunData(f"build {spec.key}", {}, np.zeros(0), {}, time.perf_counter() - start)
 
 
 def _run(spec: RunSpec) -> RunData:
     """A closed-loop run of ``spec``, and the probes its experiment reads after it."""
     start = time.perf_counter()
-    backend = _backend(spec.accel)
     job = spec.job()
+    backend = reused_backend(job)
     result = run_job(job, RunOptions(backend="cxxrtl", sample_every=spec.sample_every,
                                      max_cycles=spec.max_cycles,
                                      budget_offset=spec.budget_offset), backend)
@@ -77,7 +62,7 @@ def _max_rates(spec: RateSpec) -> RunData:
     probes: dict[str, int] = {}
     cycles = 0
     for name, block, counter, steps in spec.blocks:
-        backend = _backend(spec.accel)
+        backend = reused_backend(spec.job())
         host = Host8085(SimulatedLink(backend))
         host.command("K3701", ack=1, clear=1)
         for register, value in block_registers(block).items():
@@ -100,32 +85,33 @@ def _max_rates(spec: RateSpec) -> RunData:
                    time.perf_counter() - start)
 
 
-def _execute(task: RunSpec | RateSpec | str) -> RunData:
-    """A worker's task: a run, the step-rate measurement, or a build (an accel placement)."""
-    if isinstance(task, str):
-        return _build(task)
+def _execute(task: RunSpec | RateSpec | tuple[str, RunSpec | RateSpec]) -> RunData:
+    """A worker's task: a run, the step-rate measurement, or ``("build", spec)``: build the
+    model of ``spec``'s machine."""
+    if isinstance(task, tuple):
+        return _build(task[1])
     if isinstance(task, RateSpec):
         return _max_rates(task)
     return _run(task)
 
 
-def run_all(scale: Scale, jobs: int = 2,
+def run_all(specs: Specs, jobs: int = 2,
             progress: Callable[[str], None] | None = None) -> dict[str, RunData]:
-    """Run every experiment's runs in ``jobs`` worker processes; results by key.
+    """Run ``specs`` in ``jobs`` worker processes; results by key.
 
-    Each accel placement's model is built once first (two builds in parallel); a placement's
-    runs are queued as soon as its model is in the cache, so no model is compiled twice.
+    Each distinct machine (:func:`~sim.run.runner.design_key`) is built once first, the builds
+    in parallel; a machine's runs are queued as soon as its model is in the cache, so no model
+    is compiled twice. The budget-too-low run follows the exact one (:func:`minus_spec`).
     """
     say = progress or (lambda _: None)
-    specs = run_specs(scale)
-    by_accel: dict[str, list[RunSpec | RateSpec]] = {"pre": [], "post": []}
+    by_design: dict[str, list[RunSpec | RateSpec]] = {}
     for spec in specs.values():
-        by_accel[spec.accel].append(spec)
+        by_design.setdefault(design_key(spec.job()), []).append(spec)
     results: dict[str, RunData] = {}
     context = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(max(1, jobs), mp_context=context) as pool:
-        pending: dict[Future, str] = {pool.submit(_execute, accel): accel
-                                      for accel in by_accel}
+        pending: dict[Future, str] = {pool.submit(_execute, ("build", group[0])): key
+                                      for key, group in by_design.items()}
         while pending:
             done, _ = wait(pending, return_when=FIRST_COMPLETED)
             for future in done:
@@ -135,9 +121,9 @@ def run_all(scale: Scale, jobs: int = 2,
                 cycles = data.report.get("cycles")
                 what = f", {cycles / 1e6:.1f} M cycles" if cycles else ""
                 say(f"{data.key}: {data.seconds:.1f} s{what}")
-                if key in by_accel:
+                if key in by_design:
                     pending.update({pool.submit(_execute, spec): spec.key
-                                    for spec in by_accel[key]})
+                                    for spec in by_design[key]})
                 elif key == "hazard_exact":
                     minus = minus_spec(data, specs["hazard_exact"])  # type: ignore[arg-type]
                     pending[pool.submit(_execute, minus)] = minus.key

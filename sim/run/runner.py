@@ -49,7 +49,7 @@ from sim.run.sampler import Sampler, SampleStore
 from sim.run.waveform import is_fst
 
 __all__ = ["OptionError", "RunOptions", "RunResult", "RunStopped", "build_backend",
-           "check_options", "configure_plants", "run_job", "system_params"]
+           "check_options", "configure_plants", "reused_backend", "run_job", "system_params"]
 
 
 @dataclass
@@ -186,6 +186,22 @@ def design_key(job: Job) -> str:
 def build_backend(job: Job, kind: str) -> Backend:
     """The simulated machine of ``job`` on backend ``kind`` (one of ``BACKEND_NAMES``)."""
     return make_backend(System(**system_params(job)), kind, design_key=design_key(job))
+
+
+_REUSED: dict[str, Backend] = {}
+
+
+def reused_backend(job: Job) -> Backend:
+    """This process's compiled machine for ``job``, built once per design (:func:`design_key`)
+    and reset to cycle 0 for each later job: what a process running many jobs (a study's or
+    a reproduction's worker) runs them on."""
+    key = design_key(job)
+    backend = _REUSED.get(key)
+    if backend is None:
+        backend = _REUSED[key] = build_backend(job, "cxxrtl")
+    else:
+        backend.reset()
+    return backend
 
 
 class _Watch:

@@ -23,11 +23,9 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
-from firmware_model.job import Job
-from sim.backends.contract import Backend
 from sim.run.ballbar import FIGURES, BallbarError, ballbar
 from sim.run.jobfile import JobError
-from sim.run.runner import OptionError, RunOptions, build_backend, design_key, run_job
+from sim.run.runner import OptionError, RunOptions, reused_backend, run_job
 from sim.study.studyfile import Study, StudyRun
 
 __all__ = ["METRICS", "SweepError", "run_one", "sweep"]
@@ -37,23 +35,8 @@ METRICS = ("status", "reason", "cycles", "machine_seconds", "wall_seconds",
            "max_contour_error", "rms_contour_error", "x_max_following_error",
            "y_max_following_error", "end_reached", *FIGURES)
 
-_BACKENDS: dict[str, Backend] = {}
-
-
 class SweepError(ValueError):
     """A results folder that cannot take this study's table."""
-
-
-def _backend(job: Job) -> Backend:
-    """This process's machine for ``job``, built once per design (:func:`design_key`) and
-    reset between runs."""
-    key = design_key(job)
-    backend = _BACKENDS.get(key)
-    if backend is None:
-        backend = _BACKENDS[key] = build_backend(job, "cxxrtl")
-    else:
-        backend.reset()
-    return backend
 
 
 def run_one(study: Study, run: StudyRun) -> dict[str, Any]:
@@ -64,7 +47,7 @@ def run_one(study: Study, run: StudyRun) -> dict[str, Any]:
     try:
         job = study.job(run)
         result = run_job(job, RunOptions(backend="cxxrtl", max_cycles=study.max_cycles,
-                                         sample_every=study.sample_every), _backend(job))
+                                         sample_every=study.sample_every), reused_backend(job))
     except (JobError, OptionError, ValueError) as e:
         return row | {"status": "error", "reason": str(e)}
     report = result.report
