@@ -34,8 +34,8 @@ from firmware_model.job import Job, MachineConfig
 from firmware_model.program import Parabola
 from hdl.decel_control import BUDGET_WIDTH
 from hdl.divider_model import increment_for
-from hdl.feed_rate import DIVIDER_WIDTH, FEED_BITS
-from hdl.k3701 import block_registers
+from hdl.feed_rate_map import DIVIDER_WIDTH, FEED_BITS
+from hdl.k3701_map import block_registers
 from hdl.k3701_model import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
 
 __all__ = ["AlarmEvent", "BlockObserver", "BlockRecord", "EventRecord", "Firmware",

@@ -21,11 +21,11 @@ from typing import Any, Protocol
 
 from firmware_model.canon import FRONTENDS
 from firmware_model.gcode import LSB_MM_LIMIT, GcodeError, Program
-from hdl.chipset import ACCEL_BITS, AXES, MACHINE_AXES, Accel, AccelShape, axis_names
+from hdl.chipset_map import ACCEL_BITS, AXES, MACHINE_AXES, Accel, AccelShape, axis_names
 from hdl.divider_model import rate_limit
-from hdl.encoder import ENCODER_MAP
-from hdl.feed_rate import DIVIDER_WIDTH
-from hdl.k3702 import K3702_MAP
+from hdl.encoder_map import ENCODER_MAP
+from hdl.feed_rate_map import DIVIDER_WIDTH
+from hdl.k3702_map import K3702_MAP
 from hdl.limits import Limit
 
 __all__ = ["AXES", "DEMO_GCODE", "AxisAccelConfig", "Boolean", "Job", "MachineConfig", "OneOf",

@@ -9,15 +9,18 @@ Signal flow, with the accel/decel circuit in one of three places::
     K3701 +-Z -> [post: ACCEL] -> K3702 Z -> DAC Z      encoder Z -> +-FB -> K3702 Z
                                                         (three-axis chipset only)
 
-where ACCEL is the accel/decel circuit of the chosen :class:`AccelShape` (per axis in post).
+where ACCEL is the accel/decel circuit of the chosen :class:`~hdl.chipset_map.AccelShape` (per
+axis in post).
 
 Host bus: an 8085 I/O port address is ``chip select << 5 | register address``; the chip
-selects are :data:`CHIP_SELECTS`, the registers each chip's own map. The three-axis chipset
-adds the Z axis's K3702 and encoder interface on the one select left, 7, which decodes A4 as
-well: the K3702 at 0xe0 (A4 = 0), the encoder interface at 0xf0 (A4 = 1,
-:data:`SUB_WINDOWS`), and its K3701 is the three-axis build (:data:`hdl.k3701.K3701_MAP_3`,
-a superset of the two-axis map). :func:`port` turns a (chip, register) pair into the port
-address, for the firmware and the docs alike.
+selects are :data:`hdl.chipset_map.CHIP_SELECTS`, the registers each chip's own map. The
+three-axis chipset adds the Z axis's K3702 and encoder interface on the one select left, 7,
+which decodes A4 as well: the K3702 at 0xe0 (A4 = 0), the encoder interface at 0xf0 (A4 = 1,
+:data:`~hdl.chipset_map.SUB_WINDOWS`), and its K3701 is the three-axis build
+(:data:`hdl.k3701_map.K3701_MAP_3`, a superset of the two-axis map).
+:func:`hdl.chipset_map.port` turns a (chip, register) pair into the port address, for the
+firmware and the docs alike; that module holds everything the host and a job see of the
+chipset, without Amaranth.
 """
 
 import enum
@@ -32,65 +35,30 @@ from amaranth.lib.wiring import In, Out
 from hdl.accel_bell import AccelBell
 from hdl.accel_decel import AccelDecel
 from hdl.accel_linear import AccelLinear
-from hdl.decel_control import DECEL_MAP, DecelControl
-from hdl.encoder import ENCODER_MAP, EncoderInterface
-from hdl.feed_rate import FEED_MAP, FeedRate
-from hdl.hostbus import HostBus, Register, RegisterMap
-from hdl.k3701 import K3701, K3701_MAP, K3701_MAP_3
-from hdl.k3702 import COUNTER_WIDTH, K3702, K3702_MAP
-from hdl.limits import Limit
+from hdl.chipset_map import (
+    ACCEL_BITS,
+    REG_BITS,
+    SUB_WINDOWS,
+    Z_CHIPS,
+    Accel,
+    AccelShape,
+    axis_names,
+    chip_selects,
+)
+from hdl.decel_control import DecelControl
+from hdl.encoder import EncoderInterface
+from hdl.feed_rate import FeedRate
+from hdl.hostbus import HostBus
+from hdl.k3701 import K3701
+from hdl.k3702 import K3702
+from hdl.k3702_map import COUNTER_WIDTH
 from hdl.observation import FreeRunning
 
-__all__ = ["ACCEL_BITS", "ALL_AXES", "AXES", "CHIP_SELECTS", "MACHINE_AXES", "SUB_WINDOWS",
-           "Accel", "AccelShape", "AxisPins", "Chipset", "axis_names", "chip_register",
-           "chip_selects", "port"]
-
-#: Address bits of a register inside a chip; the chip select is above them.
-REG_BITS = 5
-#: Every axis a chipset can have, in order: a chipset of n axes has the first n.
-ALL_AXES = ("x", "y", "z")
-#: The axis counts a chipset is built with (the job key ``machine.axes``).
-MACHINE_AXES = Limit(2, 3, integer=True)
-
-
-def axis_names(axes: int) -> tuple[str, ...]:
-    """The axes of an ``axes``-axis chipset (``("x", "y")`` or ``("x", "y", "z")``)."""
-    return ALL_AXES[:MACHINE_AXES.check("axes", axes)]
-
-
-#: The paper's two axes (the default machine's).
-AXES = axis_names(2)
-
-
-class Accel(enum.Enum):
-    """Where the accel/decel circuit sits."""
-
-    #: Before the interpolator, on FP ("FP control", the paper's choice).
-    PRE = "pre"
-    #: After the interpolator, one per axis between the K3701 and the K3702.
-    POST = "post"
-    #: No accel/decel circuit.
-    NONE = "none"
-
-
-class AccelShape(enum.Enum):
-    """Which accel/decel circuit: the velocity profile a step of the input rate takes."""
-
-    #: The paper's up/down counter + accumulator, fo = fi (1 - exp(-t / tau)).
-    EXPONENTIAL = "exponential"
-    #: A moving average over T = 2^n / fa (:class:`hdl.accel_linear.AccelLinear`): a ramp.
-    LINEAR = "linear"
-    #: The moving average, then the exponential circuit (:class:`hdl.accel_bell.AccelBell`).
-    BELL = "bell"
-
+__all__ = ["AxisPins", "Chipset"]
 
 #: The circuit of each shape; each takes (n, counter_width, bidirectional).
 _ACCEL_CIRCUITS = {AccelShape.EXPONENTIAL: AccelDecel, AccelShape.LINEAR: AccelLinear,
                    AccelShape.BELL: AccelBell}
-
-#: The accumulator widths n the chipset's accel/decel circuits are built with.
-ACCEL_BITS = Limit(4, 24, integer=True)
-
 
 def _enum(kind: type[enum.Enum], name: str, value: object) -> enum.Enum:
     try:
@@ -98,58 +66,6 @@ def _enum(kind: type[enum.Enum], name: str, value: object) -> enum.Enum:
     except ValueError:
         raise ValueError(f"{name} must be one of {', '.join(k.value for k in kind)}, "
                          f"not {value!r}") from None
-
-
-#: Chip select of each chip instance of the two-axis chipset, and the register map it
-#: answers with.
-CHIP_SELECTS: dict[str, tuple[int, RegisterMap]] = {
-    "K3701": (0, K3701_MAP),
-    "K3702_X": (1, K3702_MAP),
-    "K3702_Y": (2, K3702_MAP),
-    "ENCODER_X": (3, ENCODER_MAP),
-    "ENCODER_Y": (4, ENCODER_MAP),
-    "FEED": (5, FEED_MAP),
-    "DECEL": (6, DECEL_MAP),
-}
-#: The third axis's chips, both on select 7 (A4 tells them apart: :data:`SUB_WINDOWS`).
-_Z_CHIPS: dict[str, tuple[int, RegisterMap]] = {"K3702_Z": (7, K3702_MAP),
-                                                 "ENCODER_Z": (7, ENCODER_MAP)}
-#: Register address offset of a chip sharing its select (its window inside the select's 32
-#: ports); every other chip's is 0.
-SUB_WINDOWS = {"ENCODER_Z": 0x10}
-
-
-def chip_selects(axes: int = 2) -> dict[str, tuple[int, RegisterMap]]:
-    """Chip select and register map of each chip of an ``axes``-axis chipset."""
-    if MACHINE_AXES.check("axes", axes) == 2:
-        return CHIP_SELECTS
-    return {**CHIP_SELECTS, "K3701": (0, K3701_MAP_3), **_Z_CHIPS}
-
-
-#: What the host addresses: every chip of the largest chipset (the two-axis K3701's registers
-#: are at the same ports in the three-axis map).
-_HOST_CHIPS = chip_selects(3)
-
-
-def _chip(chip: str) -> tuple[int, RegisterMap]:
-    try:
-        return _HOST_CHIPS[chip]
-    except KeyError:
-        raise KeyError(f"no chip {chip!r}; chips are {', '.join(_HOST_CHIPS)}") from None
-
-
-def chip_register(chip: str, name: str) -> Register:
-    """Register ``name`` of ``chip`` (KeyError naming what is unknown)."""
-    return _chip(chip)[1][name]
-
-
-def port(chip: str, register: str, byte: int = 0) -> int:
-    """The 8085 I/O port address of byte ``byte`` of ``register`` of ``chip``."""
-    cs, regmap = _chip(chip)
-    reg = regmap[register]
-    if not 0 <= byte < reg.nbytes:
-        raise ValueError(f"{chip} {register} has {reg.nbytes} byte(s), not byte {byte}")
-    return cs << REG_BITS | (SUB_WINDOWS.get(chip, 0) + reg.addr + byte)
 
 
 class AxisPins(wiring.Signature):
@@ -363,6 +279,6 @@ class Chipset(wiring.Component):
             if name in SUB_WINDOWS:
                 m.d.comb += r_data[select].eq(Mux(read_a4, chip.bus.r_data,
                                                   chips["K3702_Z"].bus.r_data))
-            elif name not in _Z_CHIPS:
+            elif name not in Z_CHIPS:
                 m.d.comb += r_data[select].eq(chip.bus.r_data)
         m.d.comb += self.bus.r_data.eq(r_data[read_cs])

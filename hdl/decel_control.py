@@ -7,28 +7,11 @@ from amaranth.hdl import Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out, connect, flipped
 
+from hdl.decel_control_map import DECEL_MAP
 from hdl.decel_control_model import BUDGET_WIDTH
-from hdl.hostbus import Access, Field, HostBus, Register, RegisterBank, RegisterMap
+from hdl.hostbus import HostBus, RegisterBank
 
-__all__ = ["DECEL_MAP", "DecelControl"]
-
-DECEL_MAP = RegisterMap("DECEL", 1, (
-    Register("BUDGET", 0x00, BUDGET_WIDTH, Access.W,
-             "FP budget of the next block, 0..2^24-1; the committing (last) byte loads "
-             "REMAINING, effective in the cycle after it"),
-    Register("REMAINING", 0x03, BUDGET_WIDTH, Access.R,
-             "FP still to pass (snapshot when byte 0 is read)"),
-    Register("CTRL", 0x06, 8, Access.RW, "control (reads back)", fields=(
-        Field("hold", 0, 1, "1: close the gate at once (stop feed), keeping REMAINING; "
-                            "0: open it again"),
-    )),
-    Register("STATUS", 0x07, 8, Access.R, "status", fields=(
-        Field("spent", 0, 1, "REMAINING is 0: the whole budget has passed (also after reset)"),
-        Field("open", 1, 1, "input pulses pass now (not spent and not held)"),
-    )),
-), doc="Decel control: the FP budget gate between the rate multiplier and the accel/decel "
-       "circuit.")
-
+__all__ = ["DecelControl"]
 
 class DecelControl(wiring.Component):
     """The FP budget gate: passes exactly the loaded number of input pulses, then closes.

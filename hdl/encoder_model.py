@@ -6,7 +6,7 @@ that ends it. The gateware :class:`hdl.encoder.EncoderInterface` matches it cycl
 
 from __future__ import annotations
 
-from hdl.encoder import ENCODER_MAP, Decode
+from hdl.encoder_map import ENCODER_MAP, Decode
 from hdl.hostbus_model import RegisterBankModel
 
 __all__ = ["EncoderModel"]

@@ -10,32 +10,12 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out, connect, flipped
 
 from hdl.divider import PhaseDivider
-from hdl.divider_model import FA_INCREMENT
-from hdl.hostbus import Access, HostBus, Register, RegisterBank, RegisterMap
+from hdl.feed_rate_map import DIVIDER_WIDTH, FEED_BITS, FEED_MAP, FEED_STAGES
+from hdl.hostbus import HostBus, RegisterBank
 from hdl.observation import FreeRunning, PhaseAccumulator, StrobeCounter
 from hdl.rate_multiplier import RateMultiplier
-from hdl.rate_multiplier_model import STAGE_BITS
 
-__all__ = ["DIVIDER_WIDTH", "FEED_BITS", "FEED_MAP", "FeedRate"]
-
-#: Width of both phase-accumulator dividers: f = f_clk * increment / 2^24.
-DIVIDER_WIDTH = 24
-#: Rate multiplier stages: an 18-bit feed word.
-FEED_STAGES = 3
-#: Width of the feed word: W feed pulses per 2^FEED_BITS input clocks.
-FEED_BITS = STAGE_BITS * FEED_STAGES
-
-FEED_MAP = RegisterMap("FEED", 1, (
-    Register("FEED", 0x00, 24, Access.RW,
-             f"feed word W: the rate multiplier passes W of every 2^{FEED_BITS} input "
-             f"clocks", valid=(0, (1 << FEED_BITS) - 1)),
-    Register("RM_INC", 0x03, 24, Access.RW,
-             "rate-multiplier input clock: f_in = f_clk * RM_INC / 2^24 (0 stops the feed)"),
-    Register("FA_INC", 0x06, 24, Access.RW,
-             "accel/decel addition clock: fa = f_clk * FA_INC / 2^24 (reset value: the "
-             "paper's 109.227 kHz at 1 MHz)", init=FA_INCREMENT),
-), doc="Feed-rate generator: an SN7497-style rate multiplier cascade and two phase dividers.")
-
+__all__ = ["FeedRate"]
 
 class FeedRate(wiring.Component):
     """Feed pulses at ``f_clk * RM_INC / 2^24 * FEED / 2^18`` and the fa clock enable.

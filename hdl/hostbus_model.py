@@ -8,7 +8,7 @@ pulses in cycle *t* + 1 instead.
 
 from __future__ import annotations
 
-from hdl.hostbus import Register, RegisterMap
+from hdl.registers import Register, RegisterMap
 
 __all__ = ["RegisterBankModel"]
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from hdl.hostbus_model import RegisterBankModel
-from hdl.k3702 import COUNTER_WIDTH, K3702_MAP
+from hdl.k3702_map import COUNTER_WIDTH, K3702_MAP
 
 __all__ = ["K3702Model", "K3702Outputs", "wrap"]
 

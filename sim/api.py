@@ -17,7 +17,7 @@ One entry point over the command line's machinery (nothing here is a second runn
 :func:`load` is :func:`sim.run.jobfile.load_job` (plus G-code text); :func:`run` is
 :func:`sim.run.runner.run_job`; :class:`Machine` is a backend built and configured as a run
 builds it, driven through :class:`firmware_model.host.Host8085` (8085 bus timing) with the
-register maps of :data:`hdl.chipset.CHIP_SELECTS`.
+register maps of :data:`hdl.chipset_map.CHIP_SELECTS`.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from typing import Any
 
 from firmware_model.host import Host8085
 from firmware_model.job import Job, gcode_job
-from hdl.chipset import CHIP_SELECTS
+from hdl.chipset_map import CHIP_SELECTS
 from sim.backends.contract import Backend
 from sim.backends.factory import BACKEND_NAMES
 from sim.run.jobfile import load_job

@@ -232,7 +232,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="k37", description="Cycle-accurate emulator of the TOKO KM3701/KM3702 NC chipset.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    from hdl.chipset import ALL_AXES
+    from hdl.chipset_map import ALL_AXES
     from sim.backends.factory import BACKEND_NAMES
 
     p = sub.add_parser("run", help="run a job (TOML or G-code); no job: the built-in demo")

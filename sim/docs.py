@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from firmware_model.gcode_words import markdown as gcode_markdown
-from hdl.chipset import CHIP_SELECTS, REG_BITS, SUB_WINDOWS, chip_selects, port
-from hdl.hostbus import RegisterMap, registers_markdown
+from hdl.chipset_map import CHIP_SELECTS, REG_BITS, SUB_WINDOWS, chip_selects, port
+from hdl.registers import RegisterMap, registers_markdown
 
 __all__ = ["REGISTER_MAPS", "documents", "registers_document"]
 

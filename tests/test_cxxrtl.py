@@ -20,8 +20,9 @@ from testbench import simulate
 
 from firmware_model.job import MachineConfig, demo_job
 from hdl import observation
-from hdl.hostbus import Access, HostBus, Register, RegisterBank, RegisterMap
+from hdl.hostbus import HostBus, RegisterBank
 from hdl.observation import FreeRunning
+from hdl.registers import Access, Register, RegisterMap
 from sim.backends.contract import Backend, component_ports
 from sim.backends.cxxrtl.backend import CxxrtlBackend
 from sim.backends.cxxrtl.build import edge_wires, fall_eval

@@ -19,7 +19,8 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from testbench import read_reg, simulate, write_reg
 
-from hdl.decel_control import DECEL_MAP, DecelControl
+from hdl.decel_control import DecelControl
+from hdl.decel_control_map import DECEL_MAP
 from hdl.decel_control_model import BUDGET_WIDTH, DecelControlModel
 
 BUDGET, REMAINING, CTRL, STATUS = (DECEL_MAP[name] for name in

@@ -9,7 +9,8 @@ from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 from testbench import BusOp, bus_write, drive_bus, read_ops, read_reg, simulate, write_ops
 
-from hdl.encoder import ENCODER_MAP, Decode, EncoderInterface
+from hdl.encoder import EncoderInterface
+from hdl.encoder_map import ENCODER_MAP, Decode
 from hdl.encoder_model import EncoderModel
 
 WIRES = ("a", "a_n", "b", "b_n")

@@ -27,20 +27,20 @@ from amaranth.sim import Simulator
 from hdl.accel_bell_model import AccelBellModel
 from hdl.accel_decel_model import AccelDecelModel
 from hdl.accel_linear_model import AccelLinearModel
-from hdl.chipset import CHIP_SELECTS, REG_BITS
-from hdl.decel_control import DECEL_MAP
+from hdl.chipset_map import CHIP_SELECTS, REG_BITS
+from hdl.decel_control_map import DECEL_MAP
 from hdl.decel_control_model import DecelControlModel
 from hdl.divider_model import PhaseDividerModel
-from hdl.encoder import ENCODER_MAP
+from hdl.encoder_map import ENCODER_MAP
 from hdl.encoder_model import EncoderModel
-from hdl.feed_rate import DIVIDER_WIDTH, FEED_MAP
-from hdl.hostbus import Register, RegisterMap
+from hdl.feed_rate_map import DIVIDER_WIDTH, FEED_MAP
 from hdl.hostbus_model import RegisterBankModel
-from hdl.k3701 import K3701_MAP, K3701_MAP_3
+from hdl.k3701_map import K3701_MAP, K3701_MAP_3
 from hdl.k3701_model import Block, K3701Model, Kind
-from hdl.k3702 import K3702_MAP
+from hdl.k3702_map import K3702_MAP
 from hdl.k3702_model import K3702Model
 from hdl.rate_multiplier_model import RateMultiplierModel
+from hdl.registers import Register, RegisterMap
 from sim.backends.verilator.model import Model, VerilatedModel, build
 from sim.fpga.export import BLOCKS, block, verilog_text
 from sim.fpga.export import pins as export_pins

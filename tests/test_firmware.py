@@ -15,8 +15,8 @@ from firmware_model.firmware import (
 )
 from firmware_model.host import T_STATES, Host8085
 from firmware_model.job import MachineConfig
-from hdl.chipset import port
-from hdl.feed_rate import FEED_BITS
+from hdl.chipset_map import port
+from hdl.feed_rate_map import FEED_BITS
 from hdl.k3701_model import Kind
 
 

@@ -18,7 +18,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from firmware_model.job import Job, MachineConfig, ServoConfig
-from hdl.k3701 import K3701, K3701_MAP, block_registers
+from hdl.k3701 import K3701
+from hdl.k3701_map import K3701_MAP, block_registers
 from hdl.k3701_model import Block
 from sim.backends.cxxrtl.backend import CxxrtlBackend
 from sim.machine.plant import ALPHA_BITS, COUNT_BITS, GAIN_BITS, ServoPlant

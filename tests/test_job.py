@@ -23,9 +23,9 @@ from firmware_model.job import (
 )
 from hdl.chipset import Chipset
 from hdl.divider_model import increment_for
-from hdl.encoder import ENCODER_MAP
-from hdl.feed_rate import DIVIDER_WIDTH
-from hdl.k3702 import K3702_MAP
+from hdl.encoder_map import ENCODER_MAP
+from hdl.feed_rate_map import DIVIDER_WIDTH
+from hdl.k3702_map import K3702_MAP
 from hdl.limits import Limit
 from sim.cli import main
 from sim.machine.plant import ALPHA_BITS, GAIN_BITS, VMAX_BITS, PlantParams

@@ -11,9 +11,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import bus_write, read_reg, simulate, write_reg
 
-from hdl.k3701 import K3701, K3701_MAP, block_registers
+from hdl.k3701 import K3701
 from hdl.k3701_circular import CircularDatapath
 from hdl.k3701_linear import LinearDatapath
+from hdl.k3701_map import K3701_MAP, block_registers
 from hdl.k3701_model import (
     CIRCLE_SETUP_CYCLES,
     COORD_MAX,

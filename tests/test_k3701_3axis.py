@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 from test_k3701 import fp_source
 from testbench import bus_write, read_reg, simulate, write_reg
 
-from hdl.k3701 import K3701, K3701_MAP_3, block_registers
+from hdl.k3701 import K3701
+from hdl.k3701_map import K3701_MAP_3, block_registers
 from hdl.k3701_model import (
     Block,
     BlockError,

@@ -18,7 +18,8 @@ from testbench import (
     write_reg,
 )
 
-from hdl.k3702 import K3702, K3702_MAP
+from hdl.k3702 import K3702
+from hdl.k3702_map import K3702_MAP
 from hdl.k3702_model import K3702Model, K3702Outputs, wrap
 from sim.backends.contract import CLOCK_PERIOD
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 from amaranth.hdl import Fragment
 
-from hdl.chipset import Accel
+from hdl.chipset_map import Accel
 from hdl.observation import (
     CarryAccumulator,
     Countdown,

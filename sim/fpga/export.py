@@ -38,8 +38,9 @@ from amaranth.back import verilog
 from amaranth.hdl import Shape
 from amaranth.lib import wiring
 
-from hdl.chipset import SUB_WINDOWS
-from hdl.hostbus import HostBus, RegisterMap
+from hdl.chipset_map import SUB_WINDOWS
+from hdl.hostbus import HostBus
+from hdl.registers import RegisterMap
 
 __all__ = [
     "BLOCKS",

@@ -9,9 +9,10 @@ from amaranth.hdl import Module, Mux, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.chipset import Accel, AccelShape, Chipset
+from hdl.chipset import Chipset
+from hdl.chipset_map import Accel, AccelShape
 from hdl.hostbus import HostBus
-from hdl.k3702 import COUNTER_WIDTH
+from hdl.k3702_map import COUNTER_WIDTH
 from hdl.observation import FreeRunning
 from sim.machine.plant import (
     ALPHA_BITS,

@@ -16,7 +16,7 @@ import numpy as np
 from firmware_model.firmware import rm_clock_hz
 from firmware_model.job import MachineConfig
 from hdl.divider_model import frequency_of, increment_for
-from hdl.feed_rate import DIVIDER_WIDTH, FEED_BITS
+from hdl.feed_rate_map import DIVIDER_WIDTH, FEED_BITS
 from hdl.k3701_model import Block, make_path, walk
 
 __all__ = ["E63", "accel_gain", "following_error", "fp_rate", "hardware_tau", "ideal_command",

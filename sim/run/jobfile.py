@@ -57,7 +57,7 @@ from firmware_model.job import (
     gcode_job,
     parse_for_machine,
 )
-from hdl.chipset import ALL_AXES
+from hdl.chipset_map import ALL_AXES
 from hdl.limits import Limit
 from sim.machine.plant import PlantParams
 from sim.machine.torque_drive import TorqueParams

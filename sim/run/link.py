@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 from firmware_model.firmware import BlockRecord
 from firmware_model.link import Interrupts
-from hdl.chipset import AXES
+from hdl.chipset_map import AXES
 from sim.backends.contract import Backend
 from sim.run.sampler import Sampler
 

@@ -34,7 +34,7 @@ from firmware_model.firmware import BlockRecord, Firmware, check_program
 from firmware_model.gcode import Dwell, Event
 from firmware_model.host import Host8085
 from firmware_model.job import Job
-from hdl.chipset import chip_register, port
+from hdl.chipset_map import chip_register, port
 from sim.backends.contract import Backend
 from sim.backends.factory import BACKEND_NAMES, make_backend
 from sim.machine.plant import dac_zero

@@ -17,7 +17,7 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
-from hdl.chipset import AXES
+from hdl.chipset_map import AXES
 from sim.backends.contract import Backend
 from sim.machine.plant import DAC_VOLTS
 
