@@ -32,7 +32,7 @@ from firmware_model.gcode import Arc, Dwell, Event, Item, Line, Program
 from firmware_model.host import Host8085
 from firmware_model.job import Job, MachineConfig
 from firmware_model.program import Parabola
-from hdl.decel_control import BUDGET_WIDTH
+from hdl.decel_control_model import BUDGET_WIDTH
 from hdl.divider_model import increment_for
 from hdl.feed_rate_map import DIVIDER_WIDTH, FEED_BITS
 from hdl.k3701_map import block_registers

@@ -286,7 +286,7 @@ def build_parser() -> argparse.ArgumentParser:
     _program_options(p)
     p.set_defaults(func=_cmd_plan)
 
-    from sim.fpga.export import BLOCKS
+    from sim.fpga.blocks import BLOCKS
     from sim.fpga.synth import DEVICES
 
     names = [b.name for b in BLOCKS]

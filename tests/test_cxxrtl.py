@@ -6,8 +6,11 @@ and the blocks that keep CXXRTL on its fast paths), a few seconds each, once per
 thanks to the cache, and shares them between tests.
 """
 
+import os
 import random
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -23,13 +26,16 @@ from hdl import observation
 from hdl.hostbus import HostBus, RegisterBank
 from hdl.observation import FreeRunning
 from hdl.registers import Access, Register, RegisterMap
-from sim.backends.contract import Backend, component_ports
+from sim.backends.contract import Backend
 from sim.backends.cxxrtl.backend import CxxrtlBackend
 from sim.backends.cxxrtl.build import edge_wires, fall_eval
+from sim.backends.design import component_ports
 from sim.backends.factory import BACKENDS, make_backend
 from sim.backends.pysim import PysimBackend
 from sim.machine.system import System
 from sim.run import runner
+
+ROOT = Path(__file__).resolve().parent.parent
 
 MAP = RegisterMap("ZOO", 1, (
     Register("VALUE", 0x0, 24, Access.RW, "a signed value; reads back", signed=True),
@@ -558,14 +564,34 @@ def test_second_construction_loads_the_cached_model(backends, capfd):
 def test_a_design_key_finds_the_model_without_elaborating_the_design(monkeypatch):
     job = demo_job()
     first = runner.build_backend(job, "cxxrtl")  # converts (or finds) and remembers
-    converted = CxxrtlBackend._convert_and_build(System(), first._free.registers(), None)[1]
+    system = System()
+    converted = CxxrtlBackend._convert_and_build(system, None)[1]
     monkeypatch.setattr(Fragment, "get", lambda *_: pytest.fail("elaborated the design"))
     again = runner.build_backend(job, "cxxrtl")
     assert again.model.path == first.model.path and not again.model.built
     assert again._signed == set(converted["signed"]) and "x__error" in again._signed
+    assert again.ports == first.ports and len(again.ports) == len(converted["ports"])
+    assert again._free == system.free_running and again.design_name == "System"
     assert again.probe_names() == first.probe_names()
     first.close()
     again.close()
+
+
+def test_a_run_of_a_remembered_design_never_imports_amaranth():
+    """The run path of a cached design (the firmware, the register maps, the compiled model)
+    is plain Python: a short job pays no HDL import."""
+    runner.build_backend(demo_job(), "cxxrtl").close()  # remembered
+    script = ("import sys\n"
+              "from firmware_model.job import demo_job\n"
+              "from sim.run.runner import RunOptions, build_backend, run_job\n"
+              "job = demo_job()\n"
+              "report = run_job(job, RunOptions(max_cycles=20000), build_backend(job, 'cxxrtl'))"
+              ".report\n"
+              "assert report['cycles'] == 20000, report['cycles']\n"
+              "print(sorted(m for m in sys.modules if m.split('.')[0] == 'amaranth'))\n")
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                            check=True, env=os.environ | {"PYTHONPATH": str(ROOT)})
+    assert result.stdout.strip() == "[]", result.stdout + result.stderr
 
 
 def test_the_design_key_follows_the_parameters_and_every_source(monkeypatch, make_job):

@@ -11,15 +11,8 @@ from amaranth.back import verilog
 
 from hdl.divider import PhaseDivider
 from sim.backends.verilator.model import lint
-from sim.fpga.export import (
-    BLOCKS,
-    CORE_WAIVERS,
-    Exportable,
-    block,
-    export_verilog,
-    pins,
-    verilog_text,
-)
+from sim.fpga.blocks import BLOCKS, Exportable, block
+from sim.fpga.export import CORE_WAIVERS, export_verilog, pins, verilog_text
 
 NAMES = [b.name for b in BLOCKS]
 
@@ -142,7 +135,7 @@ class BadProbes(PhaseDivider):
 
 def test_a_probe_that_is_not_an_output_port_is_refused(monkeypatch):
     bad = Exportable("bad", f"{__name__}:BadProbes", "test")
-    monkeypatch.setattr("sim.fpga.export.BLOCKS", (*BLOCKS, bad))
+    monkeypatch.setattr("sim.fpga.blocks.BLOCKS", (*BLOCKS, bad))
     with pytest.raises(ValueError, match=r"bad: probes \['nope'\] are not output ports"):
         pins("bad")
 

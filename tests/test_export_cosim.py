@@ -42,8 +42,9 @@ from hdl.k3702_model import K3702Model
 from hdl.rate_multiplier_model import RateMultiplierModel
 from hdl.registers import Register, RegisterMap
 from sim.backends.verilator.model import Model, VerilatedModel, build
-from sim.fpga.export import BLOCKS, block, verilog_text
+from sim.fpga.blocks import BLOCKS, block
 from sim.fpga.export import pins as export_pins
+from sim.fpga.export import verilog_text
 from sim.fpga.icarus import HOST_DRIVES, find_iverilog, simulate
 
 SEEDS = (1, 2)

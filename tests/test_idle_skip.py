@@ -22,7 +22,8 @@ from hdl.k3701 import K3701
 from hdl.k3701_map import K3701_MAP, block_registers
 from hdl.k3701_model import Block
 from sim.backends.cxxrtl.backend import CxxrtlBackend
-from sim.machine.plant import ALPHA_BITS, COUNT_BITS, GAIN_BITS, ServoPlant
+from sim.machine.plant import ServoPlant
+from sim.machine.plant_model import ALPHA_BITS, COUNT_BITS, GAIN_BITS
 from sim.run.report import HOW_FIELDS
 from sim.run.runner import RunOptions, build_backend, run_job
 

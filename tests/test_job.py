@@ -28,7 +28,7 @@ from hdl.feed_rate_map import DIVIDER_WIDTH
 from hdl.k3702_map import K3702_MAP
 from hdl.limits import Limit
 from sim.cli import main
-from sim.machine.plant import ALPHA_BITS, GAIN_BITS, VMAX_BITS, PlantParams
+from sim.machine.plant_model import ALPHA_BITS, GAIN_BITS, VMAX_BITS, PlantParams
 from sim.run.jobfile import JobError, job_keys_markdown, load_job, plant_params, servo_limits
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"

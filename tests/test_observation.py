@@ -15,7 +15,7 @@ from hdl.observation import (
     PlantState,
     StrobeCounter,
 )
-from sim.backends.contract import signal_paths
+from sim.backends.design import signal_paths
 from sim.machine.system import System
 
 

@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import simulate
 
-from sim.machine.plant import ALPHA_BITS, FRAC_BITS, PlantParams, ServoPlant, dac_zero
-from sim.machine.plant_model import ServoPlantModel
+from sim.machine.plant import ServoPlant
+from sim.machine.plant_model import ALPHA_BITS, FRAC_BITS, PlantParams, ServoPlantModel, dac_zero
 
 
 def compare_with_model(params: PlantParams, dac_bits: int, stimulus: list[tuple],

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import pytest
 
-from sim.fpga.export import BLOCKS
+from sim.fpga.blocks import BLOCKS
 from sim.fpga.synth import DEVICES, TARGET_MHZ, synthesize
 
 pytestmark = pytest.mark.slow

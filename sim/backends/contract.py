@@ -26,20 +26,31 @@ from __future__ import annotations
 
 import abc
 import fnmatch
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
-from amaranth.hdl import Shape, Value, ValueCastable
-from amaranth.lib import wiring
 
-__all__ = ["CLOCK_PERIOD", "Backend", "Port", "component_ports", "select_signals",
+if TYPE_CHECKING:
+    from amaranth.lib import wiring
+
+__all__ = ["CLOCK_PERIOD", "Backend", "Design", "Port", "instantiate", "select_signals",
            "sign_extend"]
 
 #: The paper's system clock period, 1 us (1 MHz): the time base of waveforms.
 CLOCK_PERIOD = 1e-6
+
+#: What a backend simulates: an Amaranth ``wiring.Component``, or a function that makes one
+#: (a compiled backend that finds the design's model by its key never calls it, so a run of a
+#: cached design need not import Amaranth).
+Design: TypeAlias = "wiring.Component | Callable[[], wiring.Component]"
+
+
+def instantiate(design: Design) -> wiring.Component:
+    """The component of ``design`` (made now if ``design`` is a function that makes it)."""
+    return design if hasattr(design, "signature") else design()
 
 
 @dataclass(frozen=True)
@@ -71,24 +82,6 @@ def sign_extend(raw: int, width: int) -> int:
     return raw - (1 << width) if width and raw >> (width - 1) & 1 else raw
 
 
-def component_ports(component: wiring.Component) -> dict[str, tuple[Port, Value]]:
-    """The component's signature ports by Verilog name, with the values behind them."""
-    if not isinstance(getattr(component, "signature", None), wiring.Signature):
-        raise TypeError(f"component must be a wiring.Component, not {component!r}")
-    ports: dict[str, tuple[Port, Value]] = {}
-    for path, member, value in component.signature.flatten(component):
-        if isinstance(value, ValueCastable):
-            value = value.as_value()
-        if not isinstance(value, Value):
-            continue
-        name = "__".join(map(str, path))
-        shape = Shape.cast(value.shape())
-        init = getattr(value, "init", 0) & ((1 << shape.width) - 1)
-        ports[name] = (Port(name, shape.width, shape.signed, member.flow == wiring.In, init),
-                       value)
-    return ports
-
-
 class Backend(abc.ABC):
     """A cycle-stepped simulation of one component; see the module docstring for semantics.
 
@@ -96,10 +89,11 @@ class Backend(abc.ABC):
     values, so every backend refuses the same mistakes with the same messages.
     """
 
-    def __init__(self, component: wiring.Component):
-        self.component = component
-        self.ports: dict[str, Port] = {name: port
-                                       for name, (port, _) in component_ports(component).items()}
+    def __init__(self, ports: Mapping[str, Port], name: str):
+        #: The top-level ports by name (:func:`sim.backends.design.component_ports`).
+        self.ports: dict[str, Port] = dict(ports)
+        #: The design's class name, for messages.
+        self.design_name = name
 
     # -- to implement ------------------------------------------------------------------------
 
@@ -180,7 +174,7 @@ class Backend(abc.ABC):
         try:
             return self.ports[name]
         except KeyError:
-            raise KeyError(f"{type(self.component).__name__} has no port {name!r}; "
+            raise KeyError(f"{self.design_name} has no port {name!r}; "
                            f"ports are {', '.join(self.ports)}") from None
 
     def set(self, port_name: str, value: int) -> None:
@@ -221,7 +215,7 @@ class Backend(abc.ABC):
             leaf = path.rsplit(".", 1)[-1]
             close = [n for n in self.probe_names() if n.rsplit(".", 1)[-1] == leaf]
             hint = f"; did you mean {', '.join(close)}?" if close else ""
-            raise KeyError(f"no signal {path!r} in {type(self.component).__name__}{hint}") \
+            raise KeyError(f"no signal {path!r} in {self.design_name}{hint}") \
                 from None
         return sign_extend(raw, width) if signed else raw
 
@@ -270,16 +264,6 @@ def check_window(start_cycle: int, stop_cycle: int | None) -> None:
     if stop_cycle is not None and (not isinstance(stop_cycle, int) or stop_cycle <= start_cycle):
         raise ValueError(f"stop_cycle must be an integer after start_cycle ({start_cycle}), "
                          f"not {stop_cycle!r}")
-
-
-def signal_paths(design: Any) -> dict[str, Value]:
-    """Every named signal of a prepared Amaranth design, by dotted path below the top."""
-    paths: dict[str, Value] = {}
-    for info in design.fragments.values():
-        scope = info.name[1:]
-        for signal, name in info.signal_names.items():
-            paths.setdefault(".".join((*scope, name)), signal)
-    return paths
 
 
 def select_signals(paths: Iterable[str], globs: Sequence[str]) -> set[str]:

@@ -4,9 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from amaranth.lib import wiring
-
-from sim.backends.contract import CLOCK_PERIOD, Backend
+from sim.backends.contract import CLOCK_PERIOD, Backend, Design, instantiate
 from sim.backends.toolchain import find_compiler
 
 __all__ = ["BACKENDS", "BACKEND_NAMES", "make_backend"]
@@ -18,9 +16,10 @@ BACKENDS = ("pysim", "cxxrtl")
 BACKEND_NAMES = ("auto", *BACKENDS)
 
 
-def make_backend(component: wiring.Component, kind: str = BACKEND_NAMES[0], *,
+def make_backend(design: Design, kind: str = BACKEND_NAMES[0], *,
                  period: float = CLOCK_PERIOD, design_key: str | None = None) -> Backend:
-    """A backend for ``component``: one of :data:`BACKEND_NAMES`.
+    """A backend of kind ``kind`` (one of :data:`BACKEND_NAMES`) for ``design``: a component, or
+    a function that makes one (called only if the design must be elaborated).
 
     ``design_key``, if given, names the design by what it is made from (its sources and
     parameters): the compiled backend then finds a model built before without elaborating
@@ -39,7 +38,7 @@ def make_backend(component: wiring.Component, kind: str = BACKEND_NAMES[0], *,
     if kind == "pysim":
         from sim.backends.pysim import PysimBackend
 
-        return PysimBackend(component, period=period)
+        return PysimBackend(instantiate(design), period=period)
     from sim.backends.cxxrtl.backend import CxxrtlBackend
 
-    return CxxrtlBackend(component, period=period, design_key=design_key)
+    return CxxrtlBackend(design, period=period, design_key=design_key)

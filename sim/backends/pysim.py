@@ -17,10 +17,9 @@ from sim.backends.contract import (
     Port,
     check_count,
     check_window,
-    component_ports,
     select_signals,
-    signal_paths,
 )
+from sim.backends.design import component_ports, signal_paths
 
 __all__ = ["PysimBackend"]
 
@@ -47,8 +46,11 @@ class PysimBackend(Backend):
     name = "pysim"
 
     def __init__(self, component: wiring.Component, *, period: float = CLOCK_PERIOD):
-        super().__init__(component)
-        self._values = {name: value for name, (_, value) in component_ports(component).items()}
+        ports = component_ports(component)
+        super().__init__({name: port for name, (port, _) in ports.items()},
+                         type(component).__name__)
+        self.component = component
+        self._values = {name: value for name, (_, value) in ports.items()}
         self._period = period
         self._sim = Simulator(component)
         self._sim.add_clock(period)

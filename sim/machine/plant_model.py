@@ -1,21 +1,126 @@
-"""Reference model of :class:`sim.machine.plant.ServoPlant`: its fixed-point update, in Python."""
+"""Reference model of :class:`sim.machine.plant.ServoPlant`: its fixed-point update, in Python,
+and the plant's parameters and their fixed-point encoding (:class:`PlantParams`), which the
+gateware and a run share without importing Amaranth."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sim.machine.plant import (
-    ALPHA_BITS,
-    COUNT_BITS,
-    FRAC_BITS,
-    POSITION_BITS,
-    PRODUCT_BITS,
-    VC_BITS,
-    VC_MAX,
-    dac_zero,
-)
+from hdl.limits import Limit
 
-__all__ = ["ServoPlantModel", "wrap"]
+__all__ = ["ALPHA_BITS", "COUNT_BITS", "DAC_VOLTS", "FRAC_BITS", "GAIN_BITS", "KF_BITS", "KF_LIMIT",
+           "POSITION_BITS", "PRODUCT_BITS", "VC_BITS", "VC_MAX", "VMAX_BITS", "PlantParams",
+           "ServoPlantModel", "dac_zero", "wrap"]
+
+#: Fraction bits of position and velocity.
+FRAC_BITS = 32
+#: Fraction bits of the velocity-lag coefficient alpha = dt / Tm (alpha < 2^ALPHA_BITS).
+ALPHA_BITS = 24
+#: Velocity bound: 2^37 = 32 counts per cycle (keeps every product within PRODUCT_BITS).
+VC_BITS = 37
+VC_MAX = (1 << VC_BITS) - 1
+#: Width of the gain port (velocity command per count of error, FRAC_BITS fraction bits).
+GAIN_BITS = 32
+#: Width of the speed-limit port (counts per cycle, FRAC_BITS fraction bits).
+VMAX_BITS = 48
+#: Width of the encoder count, the integer part of the position.
+COUNT_BITS = 32
+POSITION_BITS = COUNT_BITS + FRAC_BITS
+#: Width of the velocity update's product: two machine words of a compiled simulator.
+PRODUCT_BITS = 64
+#: Width of the feedforward port: Kf counts/cycle per command pulse, FRAC_BITS fraction bits.
+KF_BITS = FRAC_BITS + 2
+#: Velocity feedforward gain Kf (a fraction of the command pulse rate).
+KF_LIMIT = Limit(0, 2, unit="", note="fraction of the command rate")
+#: Full-scale D/A voltage.
+DAC_VOLTS = 10.0
+
+
+def dac_zero(dac_bits: int) -> int:
+    """The D/A code of 0 V for an N-bit offset-binary converter: 2^(N-1)."""
+    return 1 << (dac_bits - 1)
+
+
+def _saturate(value: float, bits: int) -> int:
+    """``value`` rounded to an integer, at most the largest of ``bits`` bits (a value in the
+    last half LSB below a port's full scale takes its top code)."""
+    return min(round(value), (1 << bits) - 1)
+
+
+@dataclass(frozen=True)
+class PlantParams:
+    """One axis's servo drive, in physical units, and its fixed-point encoding.
+
+    ``kp``: position-loop gain (1/s); the amplifier's Kv = kp * 2^(N-1) / 10 V follows
+    from it (SPEC section 9). ``tm``: velocity-loop time constant (s, 0 for none).
+    ``max_speed``: speed limit (counts/s, None for none). ``kf``: velocity feedforward, the
+    fraction of the command pulse rate the drive adds to its velocity command.
+    ``clock_hz``: system clock. Each must be in its :meth:`limits`.
+    """
+
+    kp: float
+    tm: float
+    max_speed: float | None = None
+    clock_hz: float = 1e6
+    kf: float = 0.0
+
+    def __post_init__(self) -> None:
+        Limit(0, low_open=True, unit="Hz").check("clock_hz", self.clock_hz)
+        limits = self.limits(self.clock_hz)
+        for name in ("kp", "tm", "max_speed", "kf"):
+            value = getattr(self, name)
+            if value is not None:
+                limits[name].check(name, value)
+
+    @staticmethod
+    def limits(clock_hz: float) -> dict[str, Limit]:
+        """The range of ``kp``, ``tm`` and ``max_speed`` at ``clock_hz``: what the fixed point
+        carries. The gain and the speed limit, per cycle with FRAC_BITS fraction bits, must
+        stay below their ports' full scale; alpha must not round to 0 (which would end the
+        lag at once), so Tm is at most 2^ALPHA_BITS cycles."""
+        per_lsb = clock_hz / (1 << FRAC_BITS)  # 1/s of kp, counts/s of max_speed, per LSB
+        return {
+            "kp": Limit(0, (1 << GAIN_BITS) * per_lsb, low_open=True, high_open=True,
+                        unit="1/s", note=f"{GAIN_BITS}-bit gain at clock_hz"),
+            "tm": Limit(0, (1 << ALPHA_BITS) / clock_hz, unit="s",
+                        note=f"{ALPHA_BITS}-bit alpha at clock_hz"),
+            "max_speed": Limit(0, (1 << VMAX_BITS) * per_lsb, low_open=True, high_open=True,
+                               unit="counts/s", note=f"{VMAX_BITS}-bit speed limit at clock_hz"),
+            "kf": KF_LIMIT,
+        }
+
+    @property
+    def gain(self) -> int:
+        """Velocity command per count of error, in counts/cycle << FRAC_BITS."""
+        return _saturate(self.kp / self.clock_hz * (1 << FRAC_BITS), GAIN_BITS)
+
+    @property
+    def alpha(self) -> int:
+        """dt / Tm << ALPHA_BITS, at most 2^ALPHA_BITS - 1.
+
+        A Tm of a cycle or less gives the largest alpha, 1 - 2^-24: the velocity then follows
+        the command within one cycle, short of it by a 2^-24 fraction of the step.
+        """
+        if self.tm * self.clock_hz <= 1:
+            return (1 << ALPHA_BITS) - 1
+        return _saturate((1 << ALPHA_BITS) / (self.tm * self.clock_hz), ALPHA_BITS)
+
+    @property
+    def kf_word(self) -> int:
+        """Kf in counts/cycle << FRAC_BITS: what one command pulse adds to the velocity
+        command in its cycle (a rate of one count per cycle, times Kf)."""
+        return round(self.kf * (1 << FRAC_BITS))
+
+    @property
+    def vmax(self) -> int:
+        """Speed limit in counts/cycle << FRAC_BITS (0: none)."""
+        if self.max_speed is None:
+            return 0
+        return max(1, _saturate(self.max_speed / self.clock_hz * (1 << FRAC_BITS), VMAX_BITS))
+
+    def kv(self, dac_bits: int) -> float:
+        """The amplifier's velocity gain, counts/s per volt."""
+        return self.kp * dac_zero(dac_bits) / DAC_VOLTS
 
 
 def wrap(value: int, bits: int) -> int:

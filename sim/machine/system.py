@@ -14,15 +14,10 @@ from hdl.chipset_map import Accel, AccelShape
 from hdl.hostbus import HostBus
 from hdl.k3702_map import COUNTER_WIDTH
 from hdl.observation import FreeRunning
-from sim.machine.plant import (
-    ALPHA_BITS,
-    COUNT_BITS,
-    GAIN_BITS,
-    KF_BITS,
-    VMAX_BITS,
-    ServoPlant,
-)
-from sim.machine.torque_drive import ACCEL_BITS, AFTER_BITS, KI_BITS, TorqueDrive
+from sim.machine.plant import ServoPlant
+from sim.machine.plant_model import ALPHA_BITS, COUNT_BITS, GAIN_BITS, KF_BITS, VMAX_BITS
+from sim.machine.torque_drive import TorqueDrive
+from sim.machine.torque_drive_model import ACCEL_BITS, AFTER_BITS, KI_BITS
 
 #: The servo drive of each ``drive`` name: the first-order plant, or the torque drive.
 DRIVES: dict[str, type[ServoPlant]] = {"first_order": ServoPlant, "torque": TorqueDrive}

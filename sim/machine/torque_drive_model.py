@@ -1,14 +1,99 @@
-"""Reference model of :class:`sim.machine.torque_drive.TorqueDrive`: its fixed-point update."""
+"""Reference model of :class:`sim.machine.torque_drive.TorqueDrive`: its fixed-point update, and
+the drive's parameters and their fixed-point encoding (:class:`TorqueParams`)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
-from sim.machine.plant import ALPHA_BITS, POSITION_BITS, VC_BITS
-from sim.machine.plant_model import ServoPlantModel, wrap
-from sim.machine.torque_drive import KI_FRAC
+from hdl.limits import Limit
+from sim.machine.plant_model import (
+    ALPHA_BITS,
+    FRAC_BITS,
+    POSITION_BITS,
+    VC_BITS,
+    ServoPlantModel,
+    wrap,
+)
 
-__all__ = ["TorqueDriveModel"]
+__all__ = ["ACCEL_BITS", "AFTER_BITS", "INTEGRAL_BITS", "KI_BITS", "KI_FRAC", "TorqueDriveModel",
+           "TorqueParams"]
+
+#: Fraction bits of ki (a velocity-loop integral gain per cycle^2 is tiny: 1e-8 and below).
+KI_FRAC = 40
+KI_BITS = 32
+#: Width of the friction and load ports: counts/cycle^2 << FRAC_BITS.
+ACCEL_BITS = 40
+#: Width of the load step's cycle count.
+AFTER_BITS = 48
+#: Fraction bits of the integrator (velocity << FRAC_BITS << KI_FRAC).
+INTEGRAL_BITS = VC_BITS + 2 + KI_FRAC + 8
+
+
+@dataclass(frozen=True)
+class TorqueParams:
+    """The drive's physical values (see the module) and their fixed point at ``clock_hz``;
+    ``counts_per_rev``: encoder counts (LSB) per motor revolution, which turns torques into
+    accelerations in counts."""
+
+    kt: float = 0.5
+    ja: float = 1e-3
+    vg: float = 0.2
+    ti: float = 0.0
+    d: float = 0.0
+    fc: float = 0.0
+    load: float = 0.0
+    counts_per_rev: float = 10_000.0
+    clock_hz: float = 1e6
+
+    @staticmethod
+    def limits() -> dict[str, Limit]:
+        positive = Limit(0, low_open=True)
+        return {"kt": positive.scaled(1, "N m/A"), "ja": positive.scaled(1, "kg m^2"),
+                "vg": positive.scaled(1, "A s/rad"), "ti": Limit(0, unit="s"),
+                "d": Limit(0, unit="N m s/rad"), "fc": Limit(0, unit="N m"),
+                "load": Limit(unit="N m"), "counts_per_rev": positive.scaled(1, "counts")}
+
+    def __post_init__(self) -> None:
+        for name, limit in self.limits().items():
+            limit.check(name, getattr(self, name))
+        for name, rate in (("kt * vg / ja", self.rate), ("d / ja", self.d / self.ja)):
+            if rate / self.clock_hz * (1 << ALPHA_BITS) >= (1 << ALPHA_BITS) - 0.5:
+                raise ValueError(f"{name} = {rate:g} 1/s must be below clock_hz (the torque "
+                                 f"drive's {ALPHA_BITS}-bit coefficients)")
+        if self.ki >= 1 << KI_BITS:
+            raise ValueError("ti is too short for the clock (ki must fit in 32 bits)")
+        if self.fc_word >= 1 << ACCEL_BITS or abs(self.torque_word(self.load)) >= 1 << (
+                ACCEL_BITS - 1):
+            raise ValueError("fc and load must be below the drive's torque range")
+
+    @property
+    def rate(self) -> float:
+        """Kt Vg / Ja (1/s): the inverse of the velocity loop's time constant (P part)."""
+        return self.kt * self.vg / self.ja
+
+    @property
+    def alpha(self) -> int:
+        return round(self.rate / self.clock_hz * (1 << ALPHA_BITS))
+
+    @property
+    def beta(self) -> int:
+        return round(self.d / self.ja / self.clock_hz * (1 << ALPHA_BITS))
+
+    @property
+    def ki(self) -> int:
+        if self.ti == 0:
+            return 0
+        return round(self.rate / self.clock_hz ** 2 / self.ti * (1 << KI_FRAC))
+
+    def torque_word(self, torque: float) -> int:
+        """A torque (N m) as the velocity change it makes per cycle, counts/cycle << FRAC_BITS."""
+        per_s2 = torque / self.ja * self.counts_per_rev / (2 * math.pi)  # counts/s^2
+        return round(per_s2 / self.clock_hz ** 2 * (1 << FRAC_BITS))
+
+    @property
+    def fc_word(self) -> int:
+        return self.torque_word(self.fc)
 
 
 @dataclass

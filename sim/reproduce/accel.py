@@ -15,7 +15,7 @@ import numpy as np
 from firmware_model.firmware import word_feed
 from firmware_model.gcode import Line
 from firmware_model.job import AXES
-from sim.machine.plant import DAC_VOLTS
+from sim.machine.plant_model import DAC_VOLTS
 from sim.reproduce.paper import FEED_HIGH, PAPER_TAU_S
 from sim.reproduce.report import Section, pct, pyplot, save_figure
 from sim.reproduce.runs import MACHINE, SERVO, RunData, Specs, Trace

@@ -59,8 +59,8 @@ from firmware_model.job import (
 )
 from hdl.chipset_map import ALL_AXES
 from hdl.limits import Limit
-from sim.machine.plant import PlantParams
-from sim.machine.torque_drive import TorqueParams
+from sim.machine.plant_model import PlantParams
+from sim.machine.torque_drive_model import TorqueParams
 
 __all__ = ["JobError", "job_from_data", "job_keys_markdown", "load_job", "load_step_fault",
            "plant_params", "read_toml", "servo_limits", "torque_params"]

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 from sim.backends.contract import CLOCK_PERIOD
-from sim.machine.plant import DAC_VOLTS
+from sim.machine.plant_model import DAC_VOLTS
 from sim.run.ballbar import BallbarError, ballbar, ballbar_figure
 from sim.run.plot import write_plot
 from sim.run.report import validate

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from functools import cache, cached_property
 from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -37,8 +37,10 @@ from firmware_model.job import Job
 from hdl.chipset_map import chip_register, port
 from sim.backends.contract import Backend
 from sim.backends.factory import BACKEND_NAMES, make_backend
-from sim.machine.plant import dac_zero
-from sim.machine.system import System
+
+if TYPE_CHECKING:
+    from sim.machine.system import System
+from sim.machine.plant_model import dac_zero
 from sim.run.contour import contour_summary
 from sim.run.fst import vcd_to_fst
 from sim.run.jobfile import plant_params, torque_params
@@ -184,8 +186,14 @@ def design_key(job: Job) -> str:
 
 
 def build_backend(job: Job, kind: str) -> Backend:
-    """The simulated machine of ``job`` on backend ``kind`` (one of ``BACKEND_NAMES``)."""
-    return make_backend(System(**system_params(job)), kind, design_key=design_key(job))
+    """The simulated machine of ``job`` on backend ``kind`` (one of ``BACKEND_NAMES``); the
+    machine (and Amaranth) is only made if the backend has no model of it yet."""
+    def machine() -> System:
+        from sim.machine.system import System
+
+        return System(**system_params(job))
+
+    return make_backend(machine, kind, design_key=design_key(job))
 
 
 _REUSED: dict[str, Backend] = {}

@@ -19,7 +19,7 @@ import numpy as np
 
 from hdl.chipset_map import AXES
 from sim.backends.contract import Backend
-from sim.machine.plant import DAC_VOLTS
+from sim.machine.plant_model import DAC_VOLTS
 
 __all__ = ["CHUNK_ROWS", "PROGRESS_CYCLES", "SAMPLED_PORTS", "TRACE_COLUMNS", "SampleStore",
            "Sampler", "sampled_ports", "trace_columns"]

@@ -7,33 +7,35 @@ cycles) are one C call each.
 
 from __future__ import annotations
 
+import base64
 import ctypes
+import dataclasses
 import os
+import pickle
 import re
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
-from amaranth.back import rtlil
-from amaranth.hdl import Elaboratable, Fragment, Shape
-from amaranth.hdl._ir import PortDirection
-from amaranth.lib import wiring
 
 from hdl.observation import FreeRunning
 from sim.backends.contract import (
     CLOCK_PERIOD,
     Backend,
+    Design,
     Port,
     check_count,
     check_window,
-    component_ports,
+    instantiate,
     select_signals,
-    signal_paths,
 )
 from sim.backends.cxxrtl.build import build, find_design, remember_design
 from sim.backends.toolchain import Model
+
+if TYPE_CHECKING:
+    from amaranth.lib import wiring
 
 __all__ = ["CxxrtlBackend"]
 
@@ -104,20 +106,22 @@ class CxxrtlBackend(Backend):
     #: Scope prefix of waveforms, as in Amaranth's VCD writer.
     VCD_SCOPE: ClassVar[str] = "bench top "
 
-    def __init__(self, component: wiring.Component, *, period: float = CLOCK_PERIOD,
+    def __init__(self, design: Design, *, period: float = CLOCK_PERIOD,
                  compiler: str | None = None, design_key: str | None = None):
-        super().__init__(component)
         self._period = period
-        self._free: FreeRunning | None = getattr(component, "free_running", None)
-        free = self._free.registers() if self._free is not None else ()
-        known = find_design(design_key, free=free, compiler=compiler) if design_key else None
+        known = find_design(design_key, compiler=compiler) if design_key else None
         if known is None:
-            self.model, facts = self._convert_and_build(component, free, compiler)
+            component = instantiate(design)
+            self.model, facts = self._convert_and_build(component, compiler)
             if design_key:
-                remember_design(design_key, self.model, facts, free=free, compiler=compiler)
+                remember_design(design_key, self.model, facts, compiler=compiler)
         else:
             self.model, facts = known
-            _mark_elaborated(component)
+            if design is not None and hasattr(design, "signature"):
+                _mark_elaborated(design)
+        super().__init__({p["name"]: Port(**p) for p in facts["ports"]}, facts["name"])
+        self._free: FreeRunning | None = (pickle.loads(base64.b64decode(facts["free_running"]))
+                                          if facts["free_running"] else None)
         self._signed = set(facts["signed"])
         self._lib = lib = _load(self.model.path)
         self._handle = lib.k37_create()
@@ -134,26 +138,41 @@ class CxxrtlBackend(Backend):
         self._set_inits()
 
     @staticmethod
-    def _convert_and_build(component: wiring.Component, free: Sequence[str],
-                           compiler: str | None) -> tuple[Model, dict[str, list[str]]]:
+    def _convert_and_build(component: wiring.Component,
+                           compiler: str | None) -> tuple[Model, dict[str, Any]]:
         """Convert the design to RTLIL (as ``amaranth.back.rtlil.convert`` does), check that
-        it has a clock to step, and build its model; with the fact the backend needs of the
-        design itself: which signals are signed."""
-        ports = {name: (value, PortDirection.Input if port.is_input else PortDirection.Output)
-                 for name, (port, value) in component_ports(component).items()}
+        it has a clock to step, and build its model; with the facts the backend needs of the
+        design itself, so that a design found by its key is never elaborated: its name, ports,
+        signed signals and free-running state (pickled: plain data of
+        :mod:`hdl.observation`)."""
+        from amaranth.back import rtlil
+        from amaranth.hdl import Fragment, Shape
+        from amaranth.hdl._ir import PortDirection
+
+        from sim.backends.design import component_ports, signal_paths
+
+        free: FreeRunning | None = getattr(component, "free_running", None)
+        ports = component_ports(component)
         start = time.perf_counter()
-        design = Fragment.get(component, None).prepare(ports=ports, hierarchy=("top",))
+        design = Fragment.get(component, None).prepare(
+            ports={name: (value, PortDirection.Input if port.is_input else PortDirection.Output)
+                   for name, (port, value) in ports.items()}, hierarchy=("top",))
         rtlil_text, _ = rtlil.convert_fragment(design, name="top", emit_src=False)
         rtlil_seconds = time.perf_counter() - start
         inputs = _top_inputs(rtlil_text)
         # Other domains' clocks stay low, as in Amaranth's simulator with one add_clock().
         if "clk" not in inputs:
             raise ValueError(f"{type(component).__name__} has no sync clock domain to step")
-        model = build(rtlil_text, free=free, compiler=compiler)
+        model = build(rtlil_text, free=free.registers() if free is not None else (),
+                      compiler=compiler)
         model.seconds["rtlil"] = rtlil_seconds
         signed = sorted(path for path, signal in signal_paths(design).items()
                         if Shape.cast(signal.shape()).signed)
-        return model, {"signed": signed}
+        return model, {
+            "name": type(component).__name__,
+            "ports": [dataclasses.asdict(port) for port, _ in ports.values()],
+            "signed": signed,
+            "free_running": base64.b64encode(pickle.dumps(free)).decode() if free else None}
 
     def reset(self) -> None:
         self._lib.k37_destroy(self._handle)
@@ -381,6 +400,8 @@ def _mark_elaborated(component: wiring.Component) -> None:
     """Tell Amaranth's unused-elaboratable check that ``component`` and the elaboratables it
     holds are in use, as elaborating them would have (a design found by its key is not
     elaborated: its compiled model stands for it)."""
+    from amaranth.hdl import Elaboratable
+
     stack, seen = [component], set()
     while stack:
         obj = stack.pop()

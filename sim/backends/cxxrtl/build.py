@@ -25,8 +25,6 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from amaranth._toolchain.yosys import find_yosys
-
 from sim.backends.toolchain import (
     Model,
     build_dir,
@@ -79,6 +77,8 @@ SPLIT_COMMIT = """
 """
 #: CXXRTL's own commit, in those flags (every change counts as a change of the rest).
 WHOLE_COMMIT = " return module->commit() ? 3 : 0; "
+#: The form of the facts :func:`remember_design` keeps (part of their index's key).
+FACTS_VERSION = "facts 2: name, ports, signed, free_running"
 #: g++ flags of the model objects (part of the cache key); the library links with -shared.
 CXX_FLAGS = ("-std=c++17", "-O2", "-fPIC", "-w")
 
@@ -100,6 +100,8 @@ def _toolchain(compiler: str | None) -> _Toolchain:
     if compiler is None:
         raise RuntimeError("the CXXRTL backend needs a C++ compiler: g++ is not on PATH "
                            "(set CXX to use another)")
+    from amaranth._toolchain.yosys import find_yosys
+
     cxx = subprocess.run([compiler, "--version"], capture_output=True, text=True, check=True)
     yosys = find_yosys(lambda ver: ver >= (0, 40))
     include = Path(yosys.data_dir()) / "include" / "backends" / "cxxrtl" / "runtime"
@@ -108,21 +110,24 @@ def _toolchain(compiler: str | None) -> _Toolchain:
     return _Toolchain(compiler, include, versions)
 
 
-def _index(design_key: str, free: Sequence[str], compiler: str | None) -> Path:
+def _index(design_key: str, compiler: str | None) -> Path:
     """Where the model of a design named by ``design_key`` is remembered, with what the
-    backend would otherwise read from its RTLIL and its signals."""
-    tools = _toolchain(compiler)
-    generator = (inspect.getsource(f) for f in (design_main, edge_wires, fall_eval, _clock_as_data))
-    key = sha256(design_key, HARNESS.read_text(), DESIGN_MAIN, " ".join(CXX_FLAGS), tools.versions,
-                 SPLIT_COMMIT, WHOLE_COMMIT, "\n".join(free), *generator)
+    backend would otherwise read from its RTLIL and its signals.
+
+    The key is the design's, this module's and the harness's source and the compiler's name,
+    not the toolchain's versions (asking g++ and Yosys for them costs more than a small run):
+    a model keeps standing for its design across toolchain upgrades, as any correct build of
+    the same RTLIL simulates it alike (delete the cache to rebuild with new tools)."""
+    key = sha256(design_key, FACTS_VERSION, Path(__file__).read_text(), HARNESS.read_text(),
+                 compiler or find_compiler() or "")
     return cache_root("cxxrtl") / "designs" / f"{key}.json"
 
 
-def find_design(design_key: str, *, free: Sequence[str] = (),
+def find_design(design_key: str, *,
                 compiler: str | None = None) -> tuple[Model, dict[str, Any]] | None:
     """The model remembered for ``design_key`` (see :func:`remember_design`) and its facts,
     or None: then the design must be converted and :func:`build` run."""
-    index = _index(design_key, free, compiler)
+    index = _index(design_key, compiler)
     try:
         facts = json.loads(index.read_text())
     except (OSError, ValueError):
@@ -132,14 +137,14 @@ def find_design(design_key: str, *, free: Sequence[str] = (),
 
 
 def remember_design(design_key: str, model: Model, facts: dict[str, Any], *,
-                    free: Sequence[str] = (), compiler: str | None = None) -> None:
+                    compiler: str | None = None) -> None:
     """Remember that ``design_key`` builds ``model``, with ``facts`` (JSON-able) about it.
 
     A design key names the design by what it is made from (its sources and parameters), so
     that a later run finds its model without elaborating and converting it; the caller
     vouches that equal keys make equal RTLIL.
     """
-    index = _index(design_key, free, compiler)
+    index = _index(design_key, compiler)
     index.parent.mkdir(parents=True, exist_ok=True)
     scratch = index.with_suffix(f".{os.getpid()}.tmp")
     scratch.write_text(json.dumps({"library": str(model.path), **facts}))
@@ -178,6 +183,8 @@ def build(rtlil_text: str, *, free: Sequence[str] = (), compiler: str | None = N
             (work / "harness.cc").write_text(harness)
             runtime_job = tools.compile("harness.cc", "runtime.o", work)
         progress("cxxrtl", f"new model {key[:12]}: writing C++ with Yosys ...")
+        from amaranth._toolchain.yosys import find_yosys
+
         yosys = find_yosys(lambda ver: ver >= (0, 40))
         # The design comes in on stdin and the C++ goes out on stdout, so the WASM Yosys never
         # needs to open a file (it may only open files below its working directory).
