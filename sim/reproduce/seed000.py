@@ -222,18 +222,19 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
     ]
     plt = pyplot()
     fig, (a, b) = plt.subplots(1, 2, figsize=(10, 3.8))
-    first = checks[0]
-    k = np.arange(len(first.inputs))
-    period = 1 / first.machine.accel_fa_hz
-    a.plot(k * period, np.cumsum(first.circuit), lw=1, label="circuit (reference model)")
-    a.plot(k * period, np.cumsum(first.recursion), "k--", lw=0.8, label="eq (35)")
-    a.set(title=f"output count, n = {ACCEL_BITS}, tau = 15 ms", xlabel="time (s)",
-          ylabel="pulses")
+    for c in checks:
+        k = np.arange(len(c.inputs))
+        a.plot(k / c.machine.accel_fa_hz, np.cumsum(c.circuit) - np.cumsum(c.recursion),
+               lw=0.6, label=f"n = {c.machine.accel_bits}, tau = "
+                             f"{1e3 * hardware_tau(c.machine):.0f} ms")
+    a.axhline(-1, color="C3", lw=0.6)
+    a.axhline(1, color="C3", lw=0.6)
+    a.set(title="circuit - eq (35), cumulative output", xlabel="time (s)", ylabel="pulses")
     a.legend(fontsize=8)
     for key, c in corners.items():
         b.plot(c.trace.t, c.trace["x_error"], lw=1, label=key[12:])
         b.plot(c.trace.t, c.model[:len(c.trace.t)], "k--", lw=0.6)
-    b.set(title="Fig. 12: X following error at the corner (dashed: model)",
+    b.set(title="Fig. 12: X following error (dashed: model)",
           xlabel="time (s)", ylabel="LSB (um)")
     b.legend(fontsize=8)
     sec.figure = save_figure(fig, out, "seed000.png")

@@ -21,7 +21,7 @@ from hdl.k3701_model import Block, make_path, walk
 
 __all__ = ["E63", "accel_filter", "accel_gain", "following_error", "fp_rate", "hardware_tau",
            "ideal_command", "lag", "mismatch_amplitude", "moving_average", "quarter_counts",
-           "servo", "servo_gain", "servo_radius_loss"]
+           "servo", "servo_gain", "servo_radius_loss", "servo_response"]
 
 #: 1 - 1/e: the fraction of the final value a first-order lag reaches after one tau.
 E63 = 1 - math.exp(-1)
@@ -124,9 +124,14 @@ def accel_filter(shape: str, t: np.ndarray, signal: np.ndarray, tau: float) -> n
     return averaged if shape == "linear" else lag(t, averaged, tau)
 
 
+def servo_response(w: float, kp: float, tm: float) -> complex:
+    """G(jw) of one axis's closed position loop ``G(s) = Kp / (s (1 + s Tm) + Kp)``."""
+    return kp / complex(kp - w * w * tm, w)
+
+
 def servo_gain(w: float, kp: float, tm: float) -> float:
-    """|G(jw)| of one axis's closed position loop ``G(s) = Kp / (s (1 + s Tm) + Kp)``."""
-    return kp / abs(complex(kp - w * w * tm, w))
+    """|G(jw)| of one axis's closed position loop (:func:`servo_response`)."""
+    return abs(servo_response(w, kp, tm))
 
 
 def servo_radius_loss(radius: float, speed: float, kp: float, tm: float) -> float:
