@@ -147,7 +147,7 @@ def accel_gain(shape: str, w: float, tau: float) -> float:
     (2^n / fa): the exponential's 1 / sqrt(1 + w^2 tau^2), the moving average's
     |sin(w T / 2) / (w T / 2)| (T = tau), and their product for the bell."""
     exponential = 1 / math.sqrt(1 + (w * tau) ** 2)
-    linear = abs(math.sin(w * tau / 2) / (w * tau / 2))
+    linear = abs(float(np.sinc(w * tau / (2 * math.pi))))
     return {"exponential": exponential, "linear": linear, "bell": exponential * linear}[shape]
 
 
