@@ -14,8 +14,14 @@ import numpy as np
 import pytest
 
 from firmware_model.job import MachineConfig
+from sim.reproduce.circle_error import (
+    LEVELS,
+    conditions,
+    exact_loss,
+    mismatch_ellipse,
+    paper_loss,
+)
 from sim.reproduce.seed000 import circuit_outputs, recursion_35
-from sim.reproduce.seed001 import LEVELS, conditions, exact_loss, mismatch_ellipse, paper_loss
 from sim.reproduce.theory import accel_filter, mismatch_amplitude, moving_average, servo
 
 

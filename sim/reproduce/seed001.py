@@ -6,112 +6,55 @@ L16(4^5) orthogonal array of feed, radius, inertia ratio, time constant and posi
 compares each run's radius error with its eqs (9) and (10); a gain mismatch between the axes
 makes the error an ellipse with its extremes at 45 and 225 degrees (Fig. 8); a second-order
 response surface (eqs (14)-(20)) is fitted to the runs. Here each L16 run is an arc on the
-post-interpolation machine of :mod:`~sim.reproduce.seed000`, measured in its steady state.
+post-interpolation machine of :mod:`~sim.reproduce.seed000`, measured in its steady state
+against the formulas of :mod:`~sim.reproduce.circle_error`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from firmware_model.job import ServoConfig
+from sim.reproduce.circle_error import (
+    LEVELS,
+    LINEAR_A,
+    SETTLE_S,
+    TM_MOTOR,
+    ArcLoss,
+    Condition,
+    arc_losses,
+    conditions,
+    exact_loss,
+    mismatch_ellipse,
+    run_key,
+    steady,
+)
 from sim.reproduce.report import Section, pct, pyplot, save_figure
-from sim.reproduce.runs import MACHINE, QUICK, RunData, RunSpec, Scale, Specs, Trace
+from sim.reproduce.runs import QUICK, RunData, RunSpec, Scale, Specs
 from sim.reproduce.seed000 import SHAPES, filter_machine
-from sim.reproduce.theory import accel_gain, mismatch_amplitude, servo_gain, servo_response
+from sim.reproduce.theory import mismatch_amplitude
 from sim.run.ballbar import Ballbar, circle_figures
 from sim.study.analysis import Surface, response_surface
-from sim.study.design import design
 
-__all__ = ["Condition", "conditions", "exact_loss", "mismatch_ellipse", "paper_loss",
-           "section", "specs"]
+__all__ = ["section", "specs"]
 
-#: Table 1's levels: feed (mm/min), radius (mm), inertia ratio, time constant (s), position
-#: gain (1/s; the table's 30000 to 39000 "msec" read as 0.001/s: the usual Kp of 30/s).
-LEVELS = {"feed": (1000.0, 1500.0, 2000.0, 2500.0), "radius": (50.0, 100.0, 150.0, 200.0),
-          "inertia": (0.3, 0.5, 0.7, 0.9), "tau": (0.015, 0.025, 0.035, 0.045),
-          "kp": (30.0, 33.0, 36.0, 39.0)}
-#: The inertia ratio sets the drive's velocity lag Tm = TM_MOTOR (1 + ratio) (the lag grows
-#: with the inertia it drives): 4 ms at seed 000's usual 60%.
-TM_MOTOR = 0.0025
-#: Eq (10)'s A: the moving average's radius loss T^2 V^2 / (24 R) (eq (9)'s is T^2 V^2 / 2R).
-LINEAR_A = 12
 #: The paper's agreement of experiment and eqs (9)/(10) (Figs. 11 and 12).
 PAPER_AGREEMENT = {"exponential": 0.039, "linear": 0.023}
-#: The steady state starts this long after the arc does (6 of the slowest time constant).
-SETTLE_S = 0.3
 #: Seconds of steady arc measured, by scale.
 MEASURE_S = {"quick": 0.25, "full": 2.0}
-#: Where each circuit's output sits, on average, against its filter while it moves (LSB per
-#: axis): the linear circuit's count is the floor of its moving average (the accumulator
-#: keeps the fraction, half a pulse on average, until it drains); the exponential circuit's
-#: counter feeds the fraction back, and its count has no such offset.
-TRUNCATION = {"exponential": 0.0, "linear": -0.5}
 #: Fig. 8: the mismatched axes' gains (1/s; Table 1's F1 and F4), the circle (mm) and feed.
 ELLIPSE_KP = (30.0, 39.0)
 ELLIPSE_RADIUS = 10.0
 ELLIPSE_FEED = 2500.0
+#: ... and both axes' velocity lag (Table 1's inertia ratio C2, 50%) and time constant (D1).
+ELLIPSE_TM = TM_MOTOR * (1 + LEVELS["inertia"][1])
+ELLIPSE_TAU = LEVELS["tau"][0]
 #: The surface's factors (eq (16) has four; inertia, absent from eqs (9)/(10), is left out).
 SURFACE_FACTORS = ("feed", "radius", "tau", "kp")
-
-
-@dataclass(frozen=True)
-class Condition:
-    """One run of the L16 array (Table 2)."""
-
-    feed: float
-    radius: float
-    inertia: float
-    tau: float
-    kp: float
-
-    @property
-    def tm(self) -> float:
-        return TM_MOTOR * (1 + self.inertia)
-
-    @property
-    def servo(self) -> ServoConfig:
-        return ServoConfig(kp=self.kp, tm=self.tm)
-
-
-def conditions() -> list[Condition]:
-    """The 16 runs of the L16(4^5) array over Table 1's levels."""
-    names = tuple(LEVELS)
-    return [Condition(*(LEVELS[name][level] for name, level in zip(names, row, strict=True)))
-            for row in design("L16", [4] * len(names))]
-
-
-def exact_loss(shape: str, radius: float, speed: float, kp: float, tm: float,
-               tau: float) -> float:
-    """The steady radius loss R (1 - |G_acc(jw)| |G(jw)|), w = V / R (any length unit)."""
-    w = speed / radius
-    return radius * (1 - accel_gain(shape, w, tau) * servo_gain(w, kp, tm))
-
-
-def paper_loss(shape: str, radius: float, speed: float, kp: float, tau: float,
-               tm: float = 0.0) -> float:
-    """Eqs (9)/(10): V^2 / (2 R Kp^2) + T^2 V^2 / (2 A R), A = 1 (exponential) or 12 (linear);
-    ``tm`` > 0 multiplies the servo term by (1 - 2 Kp Tm), the drive's velocity lag."""
-    a = LINEAR_A if shape == "linear" else 1
-    return speed**2 / (2 * radius) * ((1 - 2 * kp * tm) / kp**2 + tau**2 / a)
-
-
-def mismatch_ellipse(shape: str, radius: float, speed: float, kps: tuple[float, float],
-                     tm: float, tau: float) -> Ballbar:
-    """The steady circle (CCW) of two axes with the gains ``kps``: its ballbar figures."""
-    w = speed / radius
-    phase = np.linspace(0, 2 * math.pi, 720, endpoint=False)
-    gain = accel_gain(shape, w, tau)
-    x, y = (radius * gain * np.real(servo_response(w, kp, tm) * np.exp(1j * (phase - shift)))
-            for kp, shift in zip(kps, (0, math.pi / 2), strict=True))
-    return circle_figures(phase / w, x, y, radius)
-
-
-def _key(shape: str, k: int) -> str:
-    return f"s001_{shape}_{k + 1:02d}"
 
 
 def _arc(radius_lsb: float, sweep: float) -> str:
@@ -127,58 +70,20 @@ def specs(scale: Scale) -> Specs:
     for shape in SHAPES:
         for k, c in enumerate(conditions()):
             sweep = min(c.feed / 60 * seconds / c.radius, 1.5 * math.pi)
-            out[_key(shape, k)] = RunSpec(
-                _key(shape, k), "post",
+            out[run_key(shape, k)] = RunSpec(
+                run_key(shape, k), "post",
                 f"G17 G21 G91\nG03 {_arc(1000 * c.radius, sweep)} F{c.feed:g}\nM30", 1000,
                 machine=filter_machine(shape, c.tau), servo=dict.fromkeys("xy", c.servo))
-    tm = TM_MOTOR * 1.5
     out["s001_ellipse"] = RunSpec(
-        "s001_ellipse", "post", f"G17 G21 G91\nG03 I0 J{ELLIPSE_RADIUS:g} F{ELLIPSE_FEED:g}\nM30",
-        1000, machine=filter_machine("exponential", LEVELS["tau"][0]),
-        servo={axis: ServoConfig(kp=kp, tm=tm) for axis, kp in zip("xy", ELLIPSE_KP,
-                                                                   strict=True)})
+        "s001_ellipse", "post",
+        f"G17 G21 G91\nG03 I0 J{ELLIPSE_RADIUS:g} F{ELLIPSE_FEED:g}\nM30", 1000,
+        machine=filter_machine("exponential", ELLIPSE_TAU),
+        servo={axis: ServoConfig(kp=kp, tm=ELLIPSE_TM)
+               for axis, kp in zip("xy", ELLIPSE_KP, strict=True)})
     return out
 
 
-def _steady(run: RunData, center: tuple[float, float]) -> tuple[np.ndarray, ...]:
-    """Times, positions round ``center`` (LSB) and command path speed (LSB/s) of the arc's
-    steady part: from SETTLE_S after its start to its end."""
-    trace = Trace(run, MACHINE["post"].clock_hz)
-    keep = (trace.t >= SETTLE_S) & (trace["cycle"] <= run.report["blocks"][0]["end_cycle"])
-    dt = trace.t[1] - trace.t[0]
-    speed = np.hypot(np.gradient(trace["x_command"]), np.gradient(trace["y_command"])) / dt
-    return (trace.t[keep], trace["x_actual"][keep] - center[0],
-            trace["y_actual"][keep] - center[1], speed[keep])
-
-
-@dataclass(frozen=True)
-class _Arc:
-    """An L16 run's steady radius loss (LSB, positive inward) and its speed (LSB/s)."""
-
-    condition: Condition
-    loss: float
-    speed: float
-
-    def exact(self, shape: str) -> float:
-        c = self.condition
-        return exact_loss(shape, 1000 * c.radius, self.speed, c.kp, c.tm, c.tau)
-
-    def paper(self, shape: str, tm: float = 0.0) -> float:
-        c = self.condition
-        return paper_loss(shape, 1000 * c.radius, self.speed, c.kp, c.tau, tm)
-
-
-def _arcs(runs: dict[str, RunData], shape: str) -> list[_Arc]:
-    out = []
-    for k, c in enumerate(conditions()):
-        shift = TRUNCATION[shape]
-        _, x, y, speed = _steady(runs[_key(shape, k)], (shift - 1000 * c.radius, shift))
-        out.append(_Arc(c, -float(np.mean(np.hypot(x, y) - 1000 * c.radius)),
-                        float(np.sqrt(np.mean(speed**2)))))
-    return out
-
-
-def _surface(arcs: list[_Arc]) -> Surface:
+def _surface(arcs: list[ArcLoss]) -> Surface:
     rows = [{**{name: str(getattr(a.condition, name)) for name in SURFACE_FACTORS},
              "loss": str(a.loss)} for a in arcs]
     return response_surface(rows, SURFACE_FACTORS, "loss")
@@ -194,26 +99,32 @@ def _turn(angle: float, other: float) -> float:
     return abs((angle - other + 90) % 180 - 90)
 
 
-def _l16_rows(sec: Section, shape: str, arcs: list[_Arc]) -> None:
+def _largest(arcs: list[ArcLoss], model: Callable[[ArcLoss], float]) -> str:
+    """The largest |emulator - model| over the runs, and its run."""
+    k = max(range(len(arcs)), key=lambda i: abs(arcs[i].loss - model(arcs[i])))
+    return (f"largest gap {abs(arcs[k].loss - model(arcs[k])):.2f} LSB (run {k + 1}: "
+            f"{arcs[k].loss:.2f} vs {model(arcs[k]):.2f})")
+
+
+def _l16_rows(sec: Section, shape: str, arcs: list[ArcLoss]) -> None:
     """The rows of one filter shape's L16 runs: against the exact form and eq (9)/(10)."""
     eq = "(9)" if shape == "exponential" else "(10)"
-    worst = max(arcs, key=lambda a: _gap(a.loss, a.exact(shape)))
     losses = [a.loss for a in arcs]
     sec.row(f"{shape} filter: each L16 run's radius error against the exact form",
             "none (eqs (9)/(10) are its second-order terms)",
-            f"radius loss {min(losses):.1f} to {max(losses):.1f} LSB; the worst run "
-            f"{worst.loss:.2f} LSB vs R (1 - |G_acc G|) = {worst.exact(shape):.2f} LSB",
-            "every run within 5% + 0.5 LSB", _gap(worst.loss, worst.exact(shape)) <= 0)
-    printed = max(abs(a.loss - a.paper(shape)) / a.paper(shape) for a in arcs)
-    with_tm = max(arcs, key=lambda a: _gap(a.loss, a.paper(shape, a.condition.tm)))
+            f"radius loss {min(losses):.1f} to {max(losses):.1f} LSB; against R (1 - |G_acc(jw)"
+            f" G(jw)|): {_largest(arcs, lambda a: a.exact(shape))}",
+            "every run within 5% + 0.5 LSB",
+            all(_gap(a.loss, a.exact(shape)) <= 0 for a in arcs))
+    over = [a.paper(shape) / a.loss - 1 for a in arcs]
     sec.row(f"{shape} filter: each L16 run's radius error against eq {eq}",
             f"experiment within +-{pct(PAPER_AGREEMENT[shape])} of eq {eq} (Fig. "
             f"{11 if shape == 'linear' else 12})",
-            f"eq {eq} as printed: up to {pct(printed)} off (it has no velocity lag Tm); with "
-            f"the servo term x (1 - 2 Kp Tm): worst run {with_tm.loss:.2f} vs "
-            f"{with_tm.paper(shape, with_tm.condition.tm):.2f} LSB",
+            f"eq {eq} as printed is {pct(min(over))} to {pct(max(over))} above the emulator "
+            f"(it has no velocity lag Tm); with its servo term x (1 - 2 Kp Tm): "
+            f"{_largest(arcs, lambda a: a.paper(shape, a.condition.tm))}",
             f"eq {eq} with (1 - 2 Kp Tm) within 5% + 0.5 LSB of every run",
-            _gap(with_tm.loss, with_tm.paper(shape, with_tm.condition.tm)) <= 0)
+            all(_gap(a.loss, a.paper(shape, a.condition.tm)) <= 0 for a in arcs))
 
 
 def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> Section:
@@ -221,16 +132,15 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
     keys = tuple(key for key in specs if key.startswith("s001_"))
     sec = Section(9, "Seed 001: radius error by accel/decel type over the L16 array, the "
                      "mismatch ellipse (Fig. 8) and the response surface", keys)
-    arcs = {shape: _arcs(runs, shape) for shape in SHAPES}
+    arcs = {shape: arc_losses(runs, shape) for shape in SHAPES}
     for shape in SHAPES:
         _l16_rows(sec, shape, arcs[shape])
 
     r = 1000 * ELLIPSE_RADIUS
-    t, x, y, speed = _steady(runs["s001_ellipse"], (0, r))
+    t, x, y, speed = steady(runs["s001_ellipse"], (0, r))
     measured = circle_figures(t, x, y, r)
     v = float(np.sqrt(np.mean(speed**2)))
-    tm, tau = TM_MOTOR * 1.5, LEVELS["tau"][0]
-    exact = mismatch_ellipse("exponential", r, v, ELLIPSE_KP, tm, tau)
+    exact = mismatch_ellipse("exponential", r, v, ELLIPSE_KP, ELLIPSE_TM, ELLIPSE_TAU)
     approx = mismatch_amplitude(v, *(1 / kp for kp in ELLIPSE_KP))
     sec.row(f"gain mismatch Kp_x = {ELLIPSE_KP[0]:g}, Kp_y = {ELLIPSE_KP[1]:g}/s: the "
             f"ellipse (Fig. 8)",
@@ -262,8 +172,23 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
             "within 10% + 0.5 LSB of the exact form at the centre",
             all(abs(p - e) <= 0.1 * e + 0.5 for p, e in predicted.values()))
     _text(sec, scale, fits, measured)
+    sec.text.append(_table(arcs))
     _figure(sec, out, arcs, measured, exact)
     return sec
+
+
+def _table(arcs: dict[str, list[ArcLoss]]) -> str:
+    """Every L16 run: its levels, and each filter's radius loss against the formulas (LSB)."""
+    lines = ["| run | F (mm/min) | R (mm) | inertia | T (ms) | Kp (1/s) | exponential: "
+             "emulator / exact / eq (9) | linear: emulator / exact / eq (10) |",
+             "|---|---|---|---|---|---|---|---|"]
+    for k, (e, lin) in enumerate(zip(*arcs.values(), strict=True)):
+        c = e.condition
+        cells = [f"{a.loss:.2f} / {a.exact(shape):.2f} / {a.paper(shape):.2f}"
+                 for shape, a in (("exponential", e), ("linear", lin))]
+        lines.append(f"| {k + 1} | {c.feed:g} | {c.radius:g} | {c.inertia:.0%} | "
+                     f"{1e3 * c.tau:g} | {c.kp:g} | {cells[0]} | {cells[1]} |")
+    return "\n".join(lines)
 
 
 def _text(sec: Section, scale: Scale, fits: dict[str, Surface], ellipse: Ballbar) -> None:
@@ -317,7 +242,7 @@ def _text(sec: Section, scale: Scale, fits: dict[str, Surface], ellipse: Ballbar
     ]
 
 
-def _figure(sec: Section, out: Path, arcs: dict[str, list[_Arc]], measured: Ballbar,
+def _figure(sec: Section, out: Path, arcs: dict[str, list[ArcLoss]], measured: Ballbar,
             exact: Ballbar) -> None:
     plt = pyplot()
     fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4))
