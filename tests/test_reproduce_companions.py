@@ -23,6 +23,7 @@ from sim.reproduce.circle_error import (
 )
 from sim.reproduce.seed000 import circuit_outputs, recursion_35
 from sim.reproduce.theory import accel_filter, mismatch_amplitude, moving_average, servo
+from sim.study.analysis import response_surface
 
 
 def test_recursion_35_is_a_first_order_lag_of_2_to_the_n_additions():
@@ -89,3 +90,13 @@ def test_the_linear_filter_delays_a_ramp_by_half_its_window():
     assert (ramp - exponential)[late] == pytest.approx(5000 * 0.03 * np.ones(late.sum()),
                                                        rel=1e-6)
     assert math.isclose(float(moving_average(t, ramp, 0.03)[0]), 0.0)
+
+
+@pytest.mark.parametrize(("signs", "kind"), [((1, 1), "minimum"), ((-1, -1), "maximum"),
+                                              ((1, -1), "saddle")])
+def test_the_response_surface_names_its_stationary_point(signs, kind):
+    rows = [{"a": str(a), "b": str(b), "y": str(signs[0] * (a - 1) ** 2 + signs[1] * b**2)}
+            for a, b in itertools.product((-2.0, 0.0, 1.0, 3.0), repeat=2)]
+    fit = response_surface(rows, ("a", "b"), "y")
+    assert fit.kind == kind
+    assert fit.stationary == pytest.approx((1.0, 0.0), abs=1e-9)

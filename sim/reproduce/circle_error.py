@@ -21,8 +21,8 @@ from sim.run.ballbar import Ballbar, circle_figures
 from sim.study.design import design
 
 __all__ = ["LEVELS", "LINEAR_A", "SETTLE_S", "TM_MOTOR", "TRUNCATION", "ArcLoss", "Condition",
-           "arc_losses", "conditions", "exact_loss", "mismatch_ellipse", "paper_loss",
-           "run_key", "steady"]
+           "arc_losses", "conditions", "exact_loss", "loss_table", "mismatch_ellipse",
+           "paper_loss", "run_key", "steady"]
 
 #: Table 1's levels: feed (mm/min), radius (mm), inertia ratio, time constant (s), position
 #: gain (1/s; the table's 30000 to 39000 "msec" read as 0.001/s: the usual Kp of 30/s).
@@ -137,3 +137,17 @@ def arc_losses(runs: dict[str, RunData], shape: str) -> list[ArcLoss]:
         out.append(ArcLoss(c, -float(np.mean(np.hypot(x, y) - 1000 * c.radius)),
                         float(np.sqrt(np.mean(speed**2)))))
     return out
+
+
+def loss_table(arcs: dict[str, list[ArcLoss]]) -> str:
+    """Every L16 run: its levels, and each filter's radius loss against the formulas (LSB)."""
+    lines = ["| run | F (mm/min) | R (mm) | inertia | T (ms) | Kp (1/s) | exponential: "
+             "emulator / exact / eq (9) | linear: emulator / exact / eq (10) |",
+             "|---|---|---|---|---|---|---|---|"]
+    for k, (e, lin) in enumerate(zip(*arcs.values(), strict=True)):
+        c = e.condition
+        cells = [f"{a.loss:.2f} / {a.exact(shape):.2f} / {a.paper(shape):.2f}"
+                 for shape, a in (("exponential", e), ("linear", lin))]
+        lines.append(f"| {k + 1} | {c.feed:g} | {c.radius:g} | {c.inertia:.0%} | "
+                     f"{1e3 * c.tau:g} | {c.kp:g} | {cells[0]} | {cells[1]} |")
+    return "\n".join(lines)

@@ -29,6 +29,7 @@ from sim.reproduce.circle_error import (
     arc_losses,
     conditions,
     exact_loss,
+    loss_table,
     mismatch_ellipse,
     run_key,
     steady,
@@ -172,32 +173,25 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
             "within 10% + 0.5 LSB of the exact form at the centre",
             all(abs(p - e) <= 0.1 * e + 0.5 for p, e in predicted.values()))
     _text(sec, scale, fits, measured)
-    sec.text.append(_table(arcs))
+    sec.text.append(loss_table(arcs))
     _figure(sec, out, arcs, measured, exact)
     return sec
 
 
-def _table(arcs: dict[str, list[ArcLoss]]) -> str:
-    """Every L16 run: its levels, and each filter's radius loss against the formulas (LSB)."""
-    lines = ["| run | F (mm/min) | R (mm) | inertia | T (ms) | Kp (1/s) | exponential: "
-             "emulator / exact / eq (9) | linear: emulator / exact / eq (10) |",
-             "|---|---|---|---|---|---|---|---|"]
-    for k, (e, lin) in enumerate(zip(*arcs.values(), strict=True)):
-        c = e.condition
-        cells = [f"{a.loss:.2f} / {a.exact(shape):.2f} / {a.paper(shape):.2f}"
-                 for shape, a in (("exponential", e), ("linear", lin))]
-        lines.append(f"| {k + 1} | {c.feed:g} | {c.radius:g} | {c.inertia:.0%} | "
-                     f"{1e3 * c.tau:g} | {c.kp:g} | {cells[0]} | {cells[1]} |")
-    return "\n".join(lines)
+def _stationary(fit: Surface) -> str:
+    """Eq (20)'s point of a fitted surface and what it is."""
+    if fit.stationary is None:
+        return "none (singular)"
+    inside = all(min(LEVELS[name]) <= value <= max(LEVELS[name])
+                 for name, value in zip(fit.factors, fit.stationary, strict=True))
+    return (", ".join(f"{name} {value:.3g}" for name, value in
+                      zip(fit.factors, fit.stationary, strict=True))
+            + f" (a {fit.kind}, {'inside' if inside else 'outside'} the levels)")
 
 
 def _text(sec: Section, scale: Scale, fits: dict[str, Surface], ellipse: Ballbar) -> None:
     measure = MEASURE_S["quick" if scale is QUICK else "full"]
-    stationary = "; ".join(
-        f"{shape}: " + (", ".join(f"{name} {value:.3g}" for name, value in
-                                  zip(fit.factors, fit.stationary, strict=True))
-                        if fit.stationary else "none")
-        for shape, fit in fits.items())
+    stationary = "; ".join(f"{shape}: {_stationary(fit)}" for shape, fit in fits.items())
     sec.text += [
         "Seed 001 runs circles over the L16(4^5) array of its Tables 1 and 2 (feed 1000 to "
         "2500 mm/min, radius 50 to 200 mm, inertia ratio 30 to 90%, time constant 15 to 45 "
@@ -230,15 +224,18 @@ def _text(sec: Section, scale: Scale, fits: dict[str, Surface], ellipse: Ballbar
         f"extremes), X lags Y and a CCW circle of R = {ELLIPSE_RADIUS:g} mm at "
         f"F{ELLIPSE_FEED:g} bulges at 45 and 225 degrees: the 2-theta component of the "
         f"ballbar fit ({ellipse.two_theta_amplitude:.1f} LSB) has its long axis there. The "
-        "paper's small-lag amplitude (V/2) |1/Kp_x - 1/Kp_y| overstates it: w/Kp is not "
-        "small at this radius, and the exact form takes the servo's full G(jw) per axis.",
+        "paper's amplitude (V/2) |1/Kp_x - 1/Kp_y| is the first-order term in w/Kp of the "
+        "exact form, which takes each axis's full G(jw) (and turns the axis by the servo's "
+        "phase, the 3 degrees past 45).",
         "The response surface of eq (19) over four factors (feed, radius, time constant, "
         "gain; eq (16) has four, and the inertia ratio, absent from eqs (9)/(10), is left "
         "out) has 15 coefficients for 16 runs, so it fits the runs almost exactly; the row "
         "checks it where no run was made, at the array's centre. Table 3's coefficients are "
         "split across the extracted columns and their coding is not given: they cannot be "
-        f"compared. Stationary points (eq (20)): {stationary}; a saddle or a point outside "
-        "the levels, as a radius loss growing with V^2/R has no interior optimum.",
+        f"compared. Stationary points (eq (20)): {stationary}. The radius loss itself grows "
+        "with V^2/R, T^2 and 1/Kp^2 and has no optimum inside the array (its least is at a "
+        "corner: the lowest feed and time constant, the largest radius and gain): eq (20)'s "
+        "point is the fitted quadratic's, not the machine's.",
     ]
 
 
