@@ -61,11 +61,13 @@ SURFACE_FACTORS = ("feed", "radius", "tau", "kp")
 def _arc(radius_lsb: float, sweep: float) -> str:
     """A CCW arc from the origin round the centre (-R, 0) through ``sweep`` radians (mm)."""
     r = radius_lsb / 1000
-    return (f"X{r * math.cos(sweep) - r:.3f} Y{r * math.sin(sweep):.3f} I-{r:.3f} J0")
+    return f"X{r * math.cos(sweep) - r:.3f} Y{r * math.sin(sweep):.3f} I-{r:.3f} J0"
 
 
 def specs(scale: Scale) -> Specs:
-    """The L16 arcs with both filters, and the mismatch circle."""
+    """The L16 arcs with both filters (long enough to settle and be measured for the
+    scale's seconds), and the mismatch circle."""
+    # The K3701's sqrt(2) control runs a circle about 9% under its feed.
     seconds = (SETTLE_S + MEASURE_S["quick" if scale is QUICK else "full"]) / 0.9
     out: Specs = {}
     for shape in SHAPES:
