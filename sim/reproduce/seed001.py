@@ -72,7 +72,7 @@ def specs(scale: Scale) -> Specs:
     out: Specs = {}
     for shape in SHAPES:
         for k, c in enumerate(conditions()):
-            sweep = min(c.feed / 60 * seconds / c.radius, 1.5 * math.pi)
+            sweep = c.feed / 60 * seconds / c.radius
             out[run_key(shape, k)] = RunSpec(
                 run_key(shape, k), "post",
                 f"G17 G21 G91\nG03 {_arc(1000 * c.radius, sweep)} F{c.feed:g}\nM30", 1000,
