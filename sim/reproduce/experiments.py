@@ -12,7 +12,9 @@ them into the seven sections, one module each: :mod:`~sim.reproduce.accel`,
 :mod:`~sim.reproduce.rates`, :mod:`~sim.reproduce.fp_counts`,
 :mod:`~sim.reproduce.path_error`, :mod:`~sim.reproduce.fp_control`,
 :mod:`~sim.reproduce.budget` and :mod:`~sim.reproduce.parabola` (the K3701's parabolic mode on
-seed 002's parabola), then one section per companion paper (:data:`COMPANIONS`).
+seed 002's parabola), then one section per companion paper (:data:`COMPANIONS`):
+:mod:`~sim.reproduce.seed000` (the accel/decel filters) and :mod:`~sim.reproduce.seed001`
+(radius error by accel/decel type).
 :data:`~sim.reproduce.runs.FULL` is the scale of the committed
 figures; :data:`~sim.reproduce.runs.QUICK` shrinks the long runs for CI, and the report says
 what each scale shrank.
@@ -25,7 +27,17 @@ from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 
-from sim.reproduce import accel, budget, fp_control, fp_counts, parabola, path_error, rates
+from sim.reproduce import (
+    accel,
+    budget,
+    fp_control,
+    fp_counts,
+    parabola,
+    path_error,
+    rates,
+    seed000,
+    seed001,
+)
 from sim.reproduce.report import Reproduction, report_markdown
 from sim.reproduce.runs import FULL, QUICK, RunData, Scale, Specs, run_specs
 from sim.reproduce.workers import run_all
@@ -35,7 +47,7 @@ __all__ = ["COMPANIONS", "all_specs", "analyse", "reproduce"]
 
 #: The companion papers' sections, numbered from 8 on: modules with ``specs(scale)`` (their
 #: runs, keys unique across the reproduction) and ``section(runs, specs, scale, out)``.
-COMPANIONS: tuple[ModuleType, ...] = ()
+COMPANIONS: tuple[ModuleType, ...] = (seed000, seed001)
 
 
 def all_specs(scale: Scale) -> Specs:

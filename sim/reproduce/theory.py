@@ -19,9 +19,9 @@ from hdl.divider_model import frequency_of, increment_for
 from hdl.feed_rate_map import DIVIDER_WIDTH, FEED_BITS
 from hdl.k3701_model import Block, make_path, walk
 
-__all__ = ["E63", "accel_gain", "following_error", "fp_rate", "hardware_tau", "ideal_command",
-           "lag", "mismatch_amplitude", "quarter_counts", "servo", "servo_gain",
-           "servo_radius_loss"]
+__all__ = ["E63", "accel_filter", "accel_gain", "following_error", "fp_rate", "hardware_tau",
+           "ideal_command", "lag", "mismatch_amplitude", "moving_average", "quarter_counts",
+           "servo", "servo_gain", "servo_radius_loss", "servo_response"]
 
 #: 1 - 1/e: the fraction of the final value a first-order lag reaches after one tau.
 E63 = 1 - math.exp(-1)
@@ -76,32 +76,62 @@ def lag(t: np.ndarray, signal: np.ndarray, tau: float) -> np.ndarray:
 
 
 def servo(t: np.ndarray, command: np.ndarray, kp: float, tm: float,
-          substeps: int = 10) -> np.ndarray:
+          substeps: int = 10, kf: float = 0.0) -> np.ndarray:
     """The actual position of one axis following ``command``: G(s) = Kp / (s (1 + s Tm) + Kp).
 
-    The plant of SPEC section 9 (velocity command Kp x error, first-order velocity lag Tm),
-    from rest at ``command[0]``; the command is taken as linear between the samples.
+    The plant of SPEC section 9 (velocity command Kp x error + Kf x the command's rate,
+    first-order velocity lag Tm), from rest at ``command[0]``; the command is taken as linear
+    between the samples.
     """
     h = (t[1] - t[0]) / substeps
-    # State (position, velocity) with the command as a held input over each substep.
-    system = np.array([[0.0, 1.0, 0.0], [-kp / tm, -1 / tm, kp / tm], [0.0, 0.0, 0.0]])
+    # State (position, velocity), with the command and its rate as inputs held over each
+    # substep (the last two, constant, states).
+    system = np.array([[0.0, 1.0, 0.0, 0.0], [-kp / tm, -1 / tm, kp / tm, kf / tm],
+                       [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]])
     step = _expm(system * h)
-    (p11, p12, g1), (p21, p22, g2) = step[0], step[1]
+    (p11, p12, g1, r1), (p21, p22, g2, r2) = step[0], step[1]
     out = np.empty(len(command))
     p, v = float(command[0]), 0.0
     out[0] = p
     for k in range(len(command) - 1):
         c0, dc = command[k], (command[k + 1] - command[k]) / substeps
+        rate = dc / h
         for j in range(substeps):
             c = c0 + (j + 0.5) * dc
-            p, v = p11 * p + p12 * v + g1 * c, p21 * p + p22 * v + g2 * c
+            p, v = (p11 * p + p12 * v + g1 * c + r1 * rate,
+                    p21 * p + p22 * v + g2 * c + r2 * rate)
         out[k + 1] = p
     return out
 
 
+def moving_average(t: np.ndarray, signal: np.ndarray, window: float) -> np.ndarray:
+    """``signal`` (sampled at the uniform times ``t``, linear between samples, at rest at
+    ``signal[0]`` before ``t[0]``) averaged over the last ``window`` seconds: the linear
+    accel/decel circuit's (moving average over T = 2^n / fa) effect on a position."""
+    integral = np.concatenate(([0.0], np.cumsum((signal[1:] + signal[:-1]) / 2 * np.diff(t))))
+    before = t - window
+    earlier = np.where(before < t[0], (before - t[0]) * signal[0],
+                       np.interp(before, t, integral))
+    return (integral - earlier) / window
+
+
+def accel_filter(shape: str, t: np.ndarray, signal: np.ndarray, tau: float) -> np.ndarray:
+    """A position ``signal`` through a post-interpolation accel/decel circuit of ``shape``
+    (exponential: :func:`lag`; linear: :func:`moving_average`; bell: both) and T = ``tau``."""
+    if shape == "exponential":
+        return lag(t, signal, tau)
+    averaged = moving_average(t, signal, tau)
+    return averaged if shape == "linear" else lag(t, averaged, tau)
+
+
+def servo_response(w: float, kp: float, tm: float) -> complex:
+    """G(jw) of one axis's closed position loop ``G(s) = Kp / (s (1 + s Tm) + Kp)``."""
+    return kp / complex(kp - w * w * tm, w)
+
+
 def servo_gain(w: float, kp: float, tm: float) -> float:
-    """|G(jw)| of one axis's closed position loop ``G(s) = Kp / (s (1 + s Tm) + Kp)``."""
-    return kp / abs(complex(kp - w * w * tm, w))
+    """|G(jw)| of one axis's closed position loop (:func:`servo_response`)."""
+    return abs(servo_response(w, kp, tm))
 
 
 def servo_radius_loss(radius: float, speed: float, kp: float, tm: float) -> float:
@@ -117,7 +147,7 @@ def accel_gain(shape: str, w: float, tau: float) -> float:
     (2^n / fa): the exponential's 1 / sqrt(1 + w^2 tau^2), the moving average's
     |sin(w T / 2) / (w T / 2)| (T = tau), and their product for the bell."""
     exponential = 1 / math.sqrt(1 + (w * tau) ** 2)
-    linear = abs(math.sin(w * tau / 2) / (w * tau / 2))
+    linear = abs(float(np.sinc(w * tau / (2 * math.pi))))
     return {"exponential": exponential, "linear": linear, "bell": exponential * linear}[shape]
 
 

@@ -36,7 +36,8 @@ if TYPE_CHECKING:
 
     from sim.run.runner import RunResult
 
-__all__ = ["FIGURES", "SPIKE_WINDOW_DEG", "Ballbar", "BallbarError", "ballbar", "ballbar_figure"]
+__all__ = ["FIGURES", "SPIKE_WINDOW_DEG", "Ballbar", "BallbarError", "ballbar", "ballbar_figure",
+           "circle_figures"]
 
 #: Half-width of the window around each axis reversal a spike is looked for in (deg).
 SPIKE_WINDOW_DEG = 5.0
@@ -118,7 +119,15 @@ def ballbar(result: RunResult, settle_deg: float = 0.0) -> Ballbar:
         t.append(chunk[mine, 0] / result.report["clock_hz"])
         x.append(chunk[mine, cx_col])
         y.append(chunk[mine, cy_col])
-    t, px, py = np.concatenate(t), np.concatenate(x) - cx, np.concatenate(y) - cy
+    return circle_figures(np.concatenate(t), np.concatenate(x) - cx, np.concatenate(y) - cy,
+                          radius, settle_deg, (float(cx), float(cy)))
+
+
+def circle_figures(t: np.ndarray, px: np.ndarray, py: np.ndarray, radius: float,
+                   settle_deg: float = 0.0, center: tuple[float, float] = (0.0, 0.0)
+                   ) -> Ballbar:
+    """The ballbar figures of the samples at times ``t`` (s) of a path round a circle of
+    ``radius``: ``px``, ``py`` relative to its ``center`` (LSB), after ``settle_deg``."""
     if len(px) and settle_deg > 0:
         travelled = np.abs(np.unwrap(np.arctan2(py, px)) - math.atan2(py[0], px[0]))
         keep = travelled >= math.radians(settle_deg)
@@ -138,7 +147,7 @@ def ballbar(result: RunResult, settle_deg: float = 0.0) -> Ballbar:
         spikes.append(float(np.abs(residual[near]).max()) if near.any() else 0.0)
     unwrapped = np.unwrap(theta)
     return Ballbar(
-        center=(float(cx), float(cy)), radius=float(radius), samples=len(dr),
+        center=center, radius=float(radius), samples=len(dr),
         sweep=float(np.degrees(unwrapped.max() - unwrapped.min())),
         path_speed=_steady_speed(t, unwrapped, radius),
         mean_radius_deviation=float(dr.mean()), circularity=float(dr.max() - dr.min()),

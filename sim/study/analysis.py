@@ -69,6 +69,22 @@ class Surface:
         x = (np.asarray(levels, float) - self.centre) / self.half_range
         return float(_design_matrix(x[None, :])[0] @ np.asarray(self.coefficients))
 
+    @property
+    def kind(self) -> str:
+        """What the stationary point is: ``minimum``, ``maximum`` or ``saddle`` (the signs of
+        the quadratic part's eigenvalues)."""
+        signs = np.sign(np.linalg.eigvalsh(_quadratic(np.asarray(self.coefficients),
+                                                      len(self.factors))))
+        return "minimum" if (signs > 0).all() else "maximum" if (signs < 0).all() else "saddle"
+
+
+def _quadratic(beta: np.ndarray, k: int) -> np.ndarray:
+    """B of y = b0 + b.x + x'Bx: b_ii on the diagonal and b_ij / 2 off it."""
+    quad = np.diag(beta[1 + k:1 + 2 * k])
+    for n, (i, j) in enumerate(itertools.combinations(range(k), 2)):
+        quad[i, j] = quad[j, i] = beta[1 + 2 * k + n] / 2
+    return quad
+
 
 def _design_matrix(x: np.ndarray) -> np.ndarray:
     k = x.shape[1]
@@ -101,13 +117,9 @@ def response_surface(rows: Sequence[dict[str, str]], factors: Sequence[str],
     residual = y - design @ beta
     total = float(((y - y.mean()) ** 2).sum())
     r2 = 1 - float((residual**2).sum()) / total if total else 1.0
-    # eq (20): grad = b + 2 B x = 0, B with b_ii on the diagonal and b_ij / 2 off it
-    b = beta[1:1 + k]
-    quad = np.diag(beta[1 + k:1 + 2 * k])
-    for n, (i, j) in enumerate(itertools.combinations(range(k), 2)):
-        quad[i, j] = quad[j, i] = beta[1 + 2 * k + n] / 2
+    # eq (20): grad = b + 2 B x = 0
     try:
-        point = np.linalg.solve(2 * quad, -b)
+        point = np.linalg.solve(2 * _quadratic(beta, k), -beta[1:1 + k])
         stationary = tuple(float(v) for v in centre + half * point)
     except np.linalg.LinAlgError:
         stationary = None
