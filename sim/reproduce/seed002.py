@@ -266,10 +266,11 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
         f"The mean contour error on the Bezier curve, {mean:.3f} mm, is Table 3's "
         f"{TABLE3_MEAN} mm within the tolerance; the linear plant fed an exact 60 mm/s "
         f"reference (no chords, no LSB) gives {ideal:.3f} mm. The largest error "
-        f"({bezier.error.max():.3f} mm) is at the start, where the reference jumps to full "
-        "speed; the paper's 0.403 mm maximum and 0.101 mm RMS (below its mean: an RMS about "
-        "the mean?) are not reproduced and not checked. The parabola has no P-only figure "
-        "in the paper (Table 2 is the compensated controllers').",
+        f"({bezier.error.max():.3f} mm, {bezier.t[np.argmax(bezier.error)]:.1f} s in) is in "
+        "the curve's tightest turn; the paper's 0.403 mm maximum and 0.101 mm RMS (below "
+        "its mean: an RMS about the mean?) are not reproduced and not checked. The "
+        "parabola has no P-only figure in the paper (Table 2 is the compensated "
+        "controllers').",
         f"Fig. 6(b): at the 350th reference point ({FIG6_SECONDS} s at 60 mm/s: "
         f"{SPEED_MM_S * FIG6_SECONDS:g} mm along the parabola) the variable-gain CCC estimates "
         "the contour error as the tool's distance to the osculating circle there; with the "
@@ -282,11 +283,12 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
         "chosen after seeing that the P-only tool turns the paper's overestimate into an "
         "underestimate.",
     ]
-    sec.figure = _figure(got, curves, out)
+    sec.figure = _figure(got, curves, parabola.actual[k], out)
     return sec
 
 
-def _figure(got: dict[str, _Contour], curves: dict[str, Curve], out: Path) -> str:
+def _figure(got: dict[str, _Contour], curves: dict[str, Curve], machine_tool: np.ndarray,
+            out: Path) -> str:
     plt = pyplot()
     fig, (a, b, c) = plt.subplots(1, 3, figsize=(14, 4.2))
     for name, run in got.items():
@@ -311,7 +313,8 @@ def _figure(got: dict[str, _Contour], curves: dict[str, Curve], out: Path) -> st
     c.plot(cx + radius * np.cos(ring), cy + radius * np.sin(ring), "C1", lw=0.6,
            label=f"osculating circle R {radius:.3f}")
     c.plot(*ref, "ko", ms=4, label="350th reference point")
-    c.plot(*tool, "C3s", ms=4, label="tool (paper)")
+    c.plot(*tool, "C3s", ms=4, label="tool (paper, variable-gain CCC)")
+    c.plot(*machine_tool, "C0^", ms=4, label="tool (machine, P only)")
     c.plot([tool[0], foot[0]], [tool[1], foot[1]], "C2", lw=1.5, label="contour error vector")
     c.set(title="Fig. 6(b) from its printed points", xlabel="x (mm)", ylabel="y (mm)",
           xlim=(5, 17), ylim=(-16, -6), aspect="equal")
