@@ -25,7 +25,17 @@ from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 
-from sim.reproduce import accel, budget, fp_control, fp_counts, parabola, path_error, rates
+from sim.reproduce import (
+    accel,
+    budget,
+    fp_control,
+    fp_counts,
+    parabola,
+    path_error,
+    rates,
+    seed002,
+    seed003,
+)
 from sim.reproduce.report import Reproduction, report_markdown
 from sim.reproduce.runs import FULL, QUICK, RunData, Scale, Specs, run_specs
 from sim.reproduce.workers import run_all
@@ -35,7 +45,7 @@ __all__ = ["COMPANIONS", "all_specs", "analyse", "reproduce"]
 
 #: The companion papers' sections, numbered from 8 on: modules with ``specs(scale)`` (their
 #: runs, keys unique across the reproduction) and ``section(runs, specs, scale, out)``.
-COMPANIONS: tuple[ModuleType, ...] = ()
+COMPANIONS: tuple[ModuleType, ...] = (seed002, seed003)
 
 
 def all_specs(scale: Scale) -> Specs:

@@ -171,6 +171,13 @@ def _contour(run: RunData, curve: Curve) -> _Contour:
     return _Contour(t, command, actual, curve.nearest(actual)[1], curve.nearest(model)[1])
 
 
+def _path_speed(run: RunData, curve: Curve) -> float:
+    """The mean path speed (mm/s) from the first block's start to the last block's end."""
+    blocks = run.report["blocks"]
+    seconds = (blocks[-1]["end_cycle"] - blocks[0]["start_cycle"]) / MACHINE.clock_hz
+    return float(curve.arc_length()[1][-1] / seconds)
+
+
 def ideal_mean_error(curve: Curve, dt: float = 1e-3) -> float:
     """The mean contour error (mm) of Table 1's linear plant following ``curve`` at
     :data:`SPEED_MM_S` exactly (the paper's parametric interpolator), until the reference
@@ -265,7 +272,10 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
         "drive has no friction.",
         f"The mean contour error on the Bezier curve, {mean:.3f} mm, is Table 3's "
         f"{TABLE3_MEAN} mm within the tolerance; the linear plant fed an exact 60 mm/s "
-        f"reference (no chords, no LSB) gives {ideal:.3f} mm. The largest error "
+        f"reference (no chords, no LSB) gives {ideal:.3f} mm; the chords' mean path speed "
+        f"is {_path_speed(runs['s002_bezier'], curves['bezier']):.2f} mm/s, the firmware's "
+        "gap between blocks (it loads each chord when the last one ends) included. The "
+        "largest error "
         f"({bezier.error.max():.3f} mm, {bezier.t[np.argmax(bezier.error)]:.1f} s in) is in "
         "the curve's tightest turn; the paper's 0.403 mm maximum and 0.101 mm RMS (below "
         "its mean: an RMS about the mean?) are not reproduced and not checked. The "
