@@ -13,11 +13,12 @@ tuning 1, 7.1 um after tuning 2. Here the machine has the paper's torque drives 
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from firmware_model.job import MachineConfig, ServoConfig
+from firmware_model.job import AxisAccelConfig, MachineConfig, ServoConfig
 from sim.reproduce.report import Section, pyplot, save_figure
 from sim.reproduce.runs import RateSpec, RunData, RunSpec, Scale, Specs, Trace
 from sim.reproduce.theory import following_error, hardware_tau, mismatch_amplitude
@@ -40,6 +41,9 @@ TS_COMMON = 0.028
 DBB_UM = (13.5, 11.4, 7.1)
 #: Ts = 2^14 / fa = 28 ms (2^15 would need fa above the 1 MHz clock).
 MACHINE = MachineConfig(accel="post", accel_bits=14, accel_fa_hz=2**14 / TS_COMMON)
+#: X's own circuit in the Ts-mismatch run: 2^13 / fa = 14 ms (the circuits share fa, so
+#: their Ts differ by powers of 2: Table 10's 26 and 28 ms cannot be set).
+X_HALF_TS = AxisAccelConfig(accel_bits=13)
 #: The X line of the following-error runs (mm) and its feed (mm/min); the ballbar circle's
 #: radius (mm) and feed: the paper gives neither.
 LINE_MM, LINE_FEED = 20.0, 1000.0
@@ -71,12 +75,16 @@ def _line_specs() -> dict[str, RunSpec]:
 
 
 def _circle_specs(turns: int) -> dict[str, RunSpec]:
+    """The circles: Kp unequal (Table 8's largest), Ts unequal (X's circuit 2^13 / fa), and
+    both equal (Table 9)."""
     gcode = (f"G17 G21 G91 F{CIRCLE_FEED:g}\n" + f"G03 I{-RADIUS_MM:g} J0\n" * turns
              + "G04 P0.1\nM30")
-    kp = {"unequal": (AXES["x"]["kp_max"], AXES["z"]["kp_max"]),
-          "equal": (KP_COMMON, KP_COMMON)}
+    kp = {"kp_unequal": (AXES["x"]["kp_max"], AXES["z"]["kp_max"]),
+          "ts_unequal": (KP_COMMON, KP_COMMON), "equal": (KP_COMMON, KP_COMMON)}
     return {f"s003_{name}": RunSpec(f"s003_{name}", "post", gcode, 1000, machine=MACHINE,
-                                    servo={"x": _servo("x", kx), "y": _servo("z", ky)})
+                                    servo={"x": _servo("x", kx), "y": _servo("z", ky)},
+                                    axis_accel=({"x": X_HALF_TS} if name == "ts_unequal"
+                                                else {}))
             for name, (kx, ky) in kp.items()}
 
 
@@ -130,34 +138,39 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
                 f"{measured:.1f} LSB (Kf {kf:.5f}); eq. (9): {expected:.1f} LSB",
                 "within 1% + 2 LSB", abs(measured - expected) <= 0.01 * expected + 2)
     circles = {name: _ballbar(runs[f"s003_{name}"], specs[f"s003_{name}"])
-               for name in ("unequal", "equal")}
-    unequal, equal = circles["unequal"], circles["equal"]
-    model = {"unequal": mismatch_amplitude(unequal.path_speed,
-                                           _lag("x", AXES["x"]["kp_max"], ts),
-                                           _lag("z", AXES["z"]["kp_max"], ts)),
-             "equal": mismatch_amplitude(equal.path_speed, _lag("x", KP_COMMON, ts),
-                                         _lag("z", KP_COMMON, ts))}
-    sec.row(f"ballbar, R {RADIUS_MM:g} mm at F{CIRCLE_FEED:g}, Kf 0, Ts {1e3 * ts:.1f} ms on "
-            f"both axes: Kp X {AXES['x']['kp_max']:g} / Z {AXES['z']['kp_max']:g} (each axis's "
-            f"largest, Table 8) against {KP_COMMON:g} / {KP_COMMON:g} (Table 9)",
-            f"DBB amplitude {DBB_UM[0]} um (maker's settings), {DBB_UM[1]} (tuning 1), "
-            f"{DBB_UM[2]} (tuning 2; Fig. 3 lost)",
-            f"2-theta amplitude {unequal.two_theta_amplitude:.2f} LSB (model "
-            f"{model['unequal']:.2f}) at {unequal.two_theta_angle:.0f} deg, circularity "
-            f"{unequal.circularity:.1f}; equal: {equal.two_theta_amplitude:.2f} LSB (model "
-            f"{model['equal']:.2f}), circularity {equal.circularity:.1f} (1 LSB = 1 um)",
-            "unequal within 10% of (V / 2) |lag_x - lag_z|; equal Kp below a third of it",
-            abs(unequal.two_theta_amplitude / model["unequal"] - 1) <= 0.10
-            and equal.two_theta_amplitude < unequal.two_theta_amplitude / 3)
-    own = mismatch_amplitude(unequal.path_speed, _lag("x", KP_COMMON, TS_OWN["x"]),
-                             _lag("z", KP_COMMON, TS_OWN["z"]))
-    sec.row("equalising Ts (Table 10's X 26 ms, Z 28 ms, to Table 11's 28 ms): model only",
-            "Ts made equal (no figure of its own)",
-            f"at V = {unequal.path_speed:.0f} LSB/s: 2-theta amplitude {own:.1f} LSB before, "
-            f"{model['equal']:.2f} after; the machine's axes share fa, so their Ts differ "
-            "by powers of 2 only: not run",
-            "the formula checked on the machine in tests/test_motion_physics.py",
-            own > model["equal"])
+               for name in ("kp_unequal", "ts_unequal", "equal")}
+    equal = circles["equal"]
+    ts_x = hardware_tau(replace(MACHINE, accel_bits=X_HALF_TS.accel_bits))
+    lags = {"kp_unequal": (_lag("x", AXES["x"]["kp_max"], ts),
+                           _lag("z", AXES["z"]["kp_max"], ts)),
+            "ts_unequal": (_lag("x", KP_COMMON, ts_x), _lag("z", KP_COMMON, ts)),
+            "equal": (_lag("x", KP_COMMON, ts), _lag("z", KP_COMMON, ts))}
+    model = {name: mismatch_amplitude(circles[name].path_speed, *lag)
+             for name, lag in lags.items()}
+    equal_cell = (f"equal (Kp {KP_COMMON:g}, Ts {1e3 * ts:.1f} ms): "
+                  f"{equal.two_theta_amplitude:.2f} LSB (model {model['equal']:.2f}), "
+                  f"circularity {equal.circularity:.1f}")
+    table10 = mismatch_amplitude(equal.path_speed, _lag("x", KP_COMMON, TS_OWN["x"]),
+                                 _lag("z", KP_COMMON, TS_OWN["z"]))
+    for name, what, paper in (
+            ("kp_unequal", f"Kp X {AXES['x']['kp_max']:g} / Z {AXES['z']['kp_max']:g} (each "
+                           f"axis's largest, Table 8) against {KP_COMMON:g} / {KP_COMMON:g} "
+                           f"(Table 9), Ts {1e3 * ts:.1f} ms",
+             f"DBB amplitude {DBB_UM[0]} um (maker's settings), {DBB_UM[1]} (tuning 1), "
+             f"{DBB_UM[2]} (tuning 2; Fig. 3 lost)"),
+            ("ts_unequal", f"Ts X {1e3 * ts_x:.1f} / Z {1e3 * ts:.1f} ms (Table 10's 26 / 28 "
+                           f"cannot be set) against {1e3 * ts:.1f} / {1e3 * ts:.1f} (Table 11), "
+                           f"Kp {KP_COMMON:g}",
+             f"Ts made equal (Table 10 to 11; no figure of its own); Table 10's Ts would "
+             f"give {table10:.1f} LSB here by the model")):
+        unequal = circles[name]
+        sec.row(f"ballbar, R {RADIUS_MM:g} mm at F{CIRCLE_FEED:g}, Kf 0: {what}", paper,
+                f"2-theta amplitude {unequal.two_theta_amplitude:.2f} LSB (model "
+                f"{model[name]:.2f}) at {unequal.two_theta_angle:.0f} deg, circularity "
+                f"{unequal.circularity:.1f}; {equal_cell} (1 LSB = 1 um)",
+                "unequal within 10% of (V / 2) |lag_x - lag_z|; equal below a third of it",
+                abs(unequal.two_theta_amplitude / model[name] - 1) <= 0.10
+                and equal.two_theta_amplitude < unequal.two_theta_amplitude / 3)
     sec.text += [
         "Seed 003 gives the steady following error of an axis as eq. (9), e_t = (Ka + Ts) F "
         "with Ka = (D / (Vg Kt) + 1 - Kf) / Kp: the position loop's lag, less the velocity "
@@ -178,19 +191,22 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
         "(Figs. 3, 4) are lost in the text, and neither the circle's radius nor its feed is "
         f"given: here a circle of R {RADIUS_MM:g} mm at F{CIRCLE_FEED:g} on the X-Y plane "
         f"({_turns(scale)} turn(s) at scale `{scale.name}`, the first {SETTLE_DEG:g} "
-        "degrees left out) "
-        "(the paper's X-Z), without feedforward so that Kp shows, once with each axis at the "
-        "largest stable Kp of Table 8 and once at the common Kp of Table 9. The machine's "
-        "per-axis accel/decel circuits share their addition clock fa, so Table 10's 26 and "
-        "28 ms cannot be set; equalising Ts is the model's row.",
+        "degrees left out; the paper's X-Z plane), without feedforward so that Kp shows: "
+        "with each axis at the largest stable Kp of Table 8, with X's accel/decel twice as "
+        "fast as Z's, and with both equal (Table 9's Kp, Table 11's Ts). The machine's "
+        "per-axis accel/decel circuits share their addition clock fa, so their Ts differ by "
+        "powers of 2: Table 10's 26 and 28 ms cannot be set, and the Ts row runs 14 against "
+        f"28 ms instead (the model gives Table 10's mismatch {table10:.1f} LSB here). The "
+        "paper's amplitudes (13.5, 11.4, 7.1 um) come from settings it does not list (the "
+        "maker's) and a circle it does not size: they are quoted, not compared.",
         "Read with corrections: section 3.4 prints the matching term as "
         "(1 + D / (Vg Kf) - Kf) and section 3.5 as {1 + D / (Vg Vi) - Kf}: both are read as "
         "eq. (9)'s D / (Vg Kt). The second Table 11 ('linear function acceleration') repeats "
         "the exponential table's values although the text sets Kf to 0.50: not used. The "
         "closing '4%' (13.5 um to 5.6 um is a 59% reduction) is not checked. Eq. (9)'s Ts F is "
         "the exponential's lag; a linear accel/decel of time T lags T F / 2. Vi (the velocity "
-        "loop's integral, no unit) is left out: with an integral the D droop vanishes, and "
-        "eq. (9) has it.",
+        "loop's integral, no unit) is left out: with an integral the D droop vanishes, while "
+        "eq. (9) keeps it.",
     ]
     sec.figure = _figure(lines, circles, out)
     return sec
@@ -208,7 +224,7 @@ def _figure(lines: dict, circles: dict[str, Ballbar], out: Path) -> str:
     for name, circle in circles.items():
         order = np.argsort(circle.theta)
         b.plot(np.degrees(circle.theta[order]) % 360, circle.deviation[order], ".", ms=1.5,
-               label=f"Kp {name}: 2-theta {circle.two_theta_amplitude:.2f} LSB")
+               label=f"{name.replace('_', ' ')}: 2-theta {circle.two_theta_amplitude:.2f} LSB")
     b.set(title="ballbar: radial deviation", xlabel="angle (deg)", ylabel="LSB (um)",
           xticks=range(0, 361, 45))
     b.legend(fontsize=8)
