@@ -214,19 +214,22 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
 
 def _figure(lines: dict, circles: dict[str, Ballbar], out: Path) -> str:
     plt = pyplot()
-    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4))
+    fig, (a, *polar) = plt.subplots(1, 3, figsize=(15, 4))
     for k, (trace, error, _, expected, kf) in enumerate(lines.values()):
         a.plot(trace.t, error, lw=0.8, color=f"C{k}", label=f"Kf {kf:.4f}")
         a.axhline(expected, color=f"C{k}", ls=":", lw=0.8)
     a.set(title="X line: following error (dotted: eq. (9))", xlabel="time (s)",
           ylabel="LSB (um)")
     a.legend(fontsize=8)
-    for name, circle in circles.items():
-        order = np.argsort(circle.theta)
-        b.plot(np.degrees(circle.theta[order]) % 360, circle.deviation[order], ".", ms=1.5,
-               label=f"{name.replace('_', ' ')}: 2-theta {circle.two_theta_amplitude:.2f} LSB")
-    b.set(title="ballbar: radial deviation", xlabel="angle (deg)", ylabel="LSB (um)",
-          xticks=range(0, 361, 45))
-    b.legend(fontsize=8)
+    for ax, unequal in zip(polar, ("kp_unequal", "ts_unequal"), strict=True):
+        for name in (unequal, "equal"):
+            circle = circles[name]
+            order = np.argsort(circle.theta)
+            ax.plot(np.degrees(circle.theta[order]) % 360, circle.deviation[order], ".",
+                    ms=1.5, label=f"{name.replace('_', ' ')}: 2-theta "
+                                  f"{circle.two_theta_amplitude:.2f} LSB")
+        ax.set(title=f"ballbar, {unequal.split('_')[0].capitalize()} unequal vs equal: "
+                     "radial deviation", xlabel="angle (deg)", ylabel="LSB (um)",
+               xticks=range(0, 361, 45))
+        ax.legend(fontsize=8)
     return save_figure(fig, out, "seed003.png")
-
