@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 from numpy.polynomial import Polynomial
 
-from firmware_model.gcode import Line
+from firmware_model.gcode import Line, parse
 from firmware_model.job import MachineConfig, ServoConfig
 from sim.reproduce.report import Section, pyplot, save_figure
 from sim.reproduce.runs import RunData, RunSpec, Scale, Specs, Trace
@@ -129,10 +129,10 @@ def chords_gcode(curve: Curve, chords: int) -> str:
     moves = [f"G01 X{x:.3f} Y{y:.3f}" for x, y in ends]
     feed = 60 * SPEED_MM_S
     head = "G17 G21 G90"
-    lines = RunSpec("chords", "none", "\n".join([head, *(f"{m} F{feed:g}" for m in moves)]),
-                    1, machine=MACHINE).job().program.items
-    feeds = [feed * item.plan.fp / math.dist(item.start[:2], item.end[:2]) for item in lines
-             if isinstance(item, Line)]
+    program = parse("\n".join([head, *(f"{m} F{feed:g}" for m in moves)]), source="<chords>",
+                    lsb_mm=MACHINE.lsb_mm, sqrt2=MACHINE.sqrt2)
+    feeds = [feed * item.plan.fp / math.dist(item.start[:2], item.end[:2])
+             for item in program.items if isinstance(item, Line)]
     body = [f"{m} F{f:.3f}" for m, f in zip(moves, feeds, strict=True)]
     return "\n".join([head, *body, "G04 P0.1", "M30"])
 
@@ -262,7 +262,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
         "and its parabolic mode runs at the feed word's FP rate, not at a constant path speed "
         "(section 7 runs the parabola as one G06 block). Each chord's F word is the paper's "
         "3600 mm/min times its FP count over its length, so that sqrt(2) control's 1.5 FP "
-        "per diagonal step does not slow the tool below 60 mm/s. The machine has no "
+        "per diagonal step does not slow the tool. The machine has no "
         "accel/decel circuit (the paper's reference starts at full speed) and first-order "
         "drives of Table 1's gains and time constants (Kp = open loop gain x position loop "
         "gain 1). 60 mm/s is 60 k LSB/s at the default 1 um LSB: beyond the K3702's 12-bit "

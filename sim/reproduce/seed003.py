@@ -124,7 +124,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
                   tuple(key for key in specs if key.startswith("s003_")))
     ts = hardware_tau(MACHINE)
     speed = MACHINE.lsb_per_s(LINE_FEED)
-    lines = {}
+    lines: dict[str, tuple] = {}
     for name in ("kf0", "kf10"):
         kf = specs[f"s003_line_{name}"].servo["x"].kf
         expected = following_error(speed, KP_COMMON, kf=kf, d_ratio=d_ratio("x"), ts=ts)
@@ -202,7 +202,8 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
         "Read with corrections: section 3.4 prints the matching term as "
         "(1 + D / (Vg Kf) - Kf) and section 3.5 as {1 + D / (Vg Vi) - Kf}: both are read as "
         "eq. (9)'s D / (Vg Kt). The second Table 11 ('linear function acceleration') repeats "
-        "the exponential table's values although the text sets Kf to 0.50: not used. The "
+        "the exponential table's values although the text sets Kf to 0.50, and Table 6's X Kf "
+        "1.0008 disagrees with Table 5's 1.008: neither is used. The "
         "closing '4%' (13.5 um to 5.6 um is a 59% reduction) is not checked. Eq. (9)'s Ts F is "
         "the exponential's lag; a linear accel/decel of time T lags T F / 2. Vi (the velocity "
         "loop's integral, no unit) is left out: with an integral the D droop vanishes, while "
@@ -212,7 +213,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
     return sec
 
 
-def _figure(lines: dict, circles: dict[str, Ballbar], out: Path) -> str:
+def _figure(lines: dict[str, tuple], circles: dict[str, Ballbar], out: Path) -> str:
     plt = pyplot()
     fig, (a, *polar) = plt.subplots(1, 3, figsize=(15, 4))
     for k, (trace, error, _, expected, kf) in enumerate(lines.values()):
