@@ -37,6 +37,8 @@ from sim.reproduce import (
     rates,
     seed000,
     seed001,
+    seed002,
+    seed003,
 )
 from sim.reproduce.report import Reproduction, report_markdown
 from sim.reproduce.runs import FULL, QUICK, RunData, Scale, Specs, run_specs
@@ -47,7 +49,7 @@ __all__ = ["COMPANIONS", "all_specs", "analyse", "reproduce"]
 
 #: The companion papers' sections, numbered from 8 on: modules with ``specs(scale)`` (their
 #: runs, keys unique across the reproduction) and ``section(runs, specs, scale, out)``.
-COMPANIONS: tuple[ModuleType, ...] = (seed000, seed001)
+COMPANIONS: tuple[ModuleType, ...] = (seed000, seed001, seed002, seed003)
 
 
 def all_specs(scale: Scale) -> Specs:

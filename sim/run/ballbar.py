@@ -23,6 +23,7 @@ around the centre. Figures:
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -34,10 +35,11 @@ from sim.run.report import BALLBAR_FIGURES as FIGURES
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
+    from firmware_model.job import Job
     from sim.run.runner import RunResult
 
 __all__ = ["FIGURES", "SPIKE_WINDOW_DEG", "Ballbar", "BallbarError", "ballbar", "ballbar_figure",
-           "circle_figures"]
+           "ballbar_of", "circle_figures"]
 
 #: Half-width of the window around each axis reversal a spike is looked for in (deg).
 SPIKE_WINDOW_DEG = 5.0
@@ -74,8 +76,8 @@ class Ballbar:
                    for q, s in zip((0, 90, 180, 270), self.reversal_spikes, strict=True)}}
 
 
-def _circle(result: RunResult) -> tuple[list[Arc], tuple[int, int], float]:
-    arcs = [item for item in result.job.program.items if isinstance(item, Arc)]
+def _circle(job: Job) -> tuple[list[Arc], tuple[int, int], float]:
+    arcs = [item for item in job.program.items if isinstance(item, Arc)]
     if not arcs:
         raise BallbarError("the program has no arc: a ballbar test runs a circle")
     center, radius = arcs[0].center, arcs[0].radius
@@ -101,22 +103,29 @@ def ballbar(result: RunResult, settle_deg: float = 0.0) -> Ballbar:
     """The ballbar figures of a run of a circular program (:class:`BallbarError` if not),
     leaving out the data until the tool has gone ``settle_deg`` degrees round the circle (the
     feed-in, as ISO 230-4's overshoot arcs do)."""
-    arcs, (cx, cy), radius = _circle(result)
+    return ballbar_of(result.job, result.report, result.store.chunks(), result.store.columns,
+                      settle_deg)
+
+
+def ballbar_of(job: Job, report: dict, chunks: Iterable[np.ndarray], columns: Sequence[str],
+               settle_deg: float = 0.0) -> Ballbar:
+    """:func:`ballbar` of ``job``'s run given as its report and its samples (``chunks`` of
+    rows of ``columns``)."""
+    arcs, (cx, cy), radius = _circle(job)
     indices = {arc.index for arc in arcs}
     spans = [(b["start_cycle"], b["end_cycle"] if b["end_cycle"] is not None else math.inf)
-             for b in result.report["blocks"] if b["index"] in indices]
+             for b in report["blocks"] if b["index"] in indices]
     if not spans:
         raise BallbarError("no arc block ran")
     first, last = spans[0][0], spans[-1][1]
-    names = result.job.machine.axis_names
+    names = job.machine.axis_names
     first_axis, second_axis, _ = arcs[0].plane_axes
-    columns = result.store.columns
     cx_col = columns.index(f"{names[first_axis]}_actual")
     cy_col = columns.index(f"{names[second_axis]}_actual")
     t, x, y = [], [], []
-    for chunk in result.store.chunks():
+    for chunk in chunks:
         mine = (chunk[:, 0] >= first) & (chunk[:, 0] <= last)
-        t.append(chunk[mine, 0] / result.report["clock_hz"])
+        t.append(chunk[mine, 0] / report["clock_hz"])
         x.append(chunk[mine, cx_col])
         y.append(chunk[mine, cy_col])
     return circle_figures(np.concatenate(t), np.concatenate(x) - cx, np.concatenate(y) - cy,

@@ -1,0 +1,90 @@
+"""Seeds 002 and 003 in ``k37 reproduce`` (sections 10 and 11): the pure parts. The closed-loop
+runs are checked by the quick reproduction (tests/test_reproduce.py)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from firmware_model.firmware import feed_word, word_rate
+from firmware_model.gcode import Line
+from sim.reproduce import seed002, seed003
+from sim.reproduce.runs import RunSpec
+from sim.reproduce.theory import following_error
+from sim.run.ballbar import ballbar_of
+from sim.run.sampler import TRACE_COLUMNS
+
+
+def test_fig_6b_contour_error_vector_is_0_043_where_the_osculating_circle_says_0_377():
+    curve = seed002.Curve.parabola()
+    reference, tool = np.array([seed002.FIG6B["reference"]]), np.array([seed002.FIG6B["tool"]])
+    u, on_curve = curve.nearest(reference)
+    assert on_curve[0] < 1e-3  # the printed reference point is on the parabola
+    estimate, (radius, *_) = curve.osculating_estimate(u[0], tool[0])
+    assert radius == pytest.approx(seed002.FIG6B["radius"], abs=1e-3)
+    assert estimate == pytest.approx(seed002.FIG6B["estimate"], abs=2e-3)
+    assert curve.nearest(tool)[1][0] == pytest.approx(seed002.FIG6B["error"], abs=1e-3)
+
+
+def test_contour_error_vector_is_normal_to_the_curve_and_as_long_as_the_offset():
+    curve = seed002.Curve.bezier(seed002.BEZIER_MM)
+    u = np.linspace(0.05, 0.95, 37)
+    tangent = curve.at(u, 1)
+    normal = np.column_stack([-tangent[:, 1], tangent[:, 0]]) / np.hypot(*tangent.T)[:, None]
+    points = curve.at(u) + 0.3 * normal
+    foot, distance = curve.nearest(points)
+    assert np.allclose(distance, 0.3, atol=1e-9)
+    assert np.allclose(foot, u, atol=1e-9)
+
+
+def test_bezier_curve_starts_and_ends_at_its_end_points_with_the_polygon_tangents():
+    curve = seed002.Curve.bezier(seed002.BEZIER_MM)
+    ends = curve.at(np.array([0.0, 1.0]))
+    assert np.allclose(ends, [seed002.BEZIER_MM[0], seed002.BEZIER_MM[-1]])
+    assert np.allclose(curve.at(np.array([0.0]), 1)[0], 3 * np.subtract(*seed002.BEZIER_MM[1::-1]))
+
+
+def test_chords_run_at_60_mm_s_along_their_length_despite_sqrt2_control():
+    gcode = seed002.chords_gcode(seed002.Curve.bezier(seed002.BEZIER_MM), 40)
+    items = RunSpec("chords", "none", gcode, 1, machine=seed002.MACHINE).job().program.items
+    machine = seed002.MACHINE
+    speed = machine.lsb_per_s(60 * seed002.SPEED_MM_S)
+    lines = [item for item in items if isinstance(item, Line)]
+    assert len(lines) == 40 and lines[-1].end[:2] == (0, 0)
+    for line in lines:
+        seconds = line.plan.fp / word_rate(machine, feed_word(machine, line.feed_mm_min))
+        assert math.dist(line.start[:2], line.end[:2]) / seconds == pytest.approx(speed,
+                                                                                rel=1e-3)
+
+
+def test_p_controller_on_the_bezier_curve_averages_table_3s_contour_error():
+    # Table 1's linear plant on an exact 60 mm/s reference: Table 3's 0.119 mm.
+    curve = seed002.Curve.bezier(seed002.BEZIER_MM)
+    assert seed002.ideal_mean_error(curve, dt=2e-3) == pytest.approx(seed002.TABLE3_MEAN,
+                                                                     rel=0.05)
+
+
+def test_eq_9_kf_of_eq_10_leaves_only_the_accel_decel_lag():
+    d = seed003.d_ratio("x")
+    assert d == pytest.approx(0.168 / (189 * 0.5))
+    assert following_error(16_000, 63.0, kf=1 + d, d_ratio=d, ts=0.028) == pytest.approx(
+        0.028 * 16_000)
+    assert following_error(16_000, 63.0, d_ratio=d, ts=0.028) == pytest.approx(
+        (1 + d) * 16_000 / 63 + 0.028 * 16_000)
+
+
+def test_ballbar_of_samples_finds_the_ellipse_of_a_lagging_axis():
+    spec = RunSpec("circle", "pre", "G17 G21 G91 F600\nG03 I-10 J0\nM30", 1)
+    theta = np.linspace(0, 2 * math.pi, 721)
+    radius = 10_000 + 3.0 * np.cos(2 * (theta - math.radians(135)))
+    samples = np.zeros((len(theta), len(TRACE_COLUMNS)))
+    samples[:, 0] = np.arange(len(theta))
+    samples[:, TRACE_COLUMNS.index("x_actual")] = radius * np.cos(theta) - 10_000
+    samples[:, TRACE_COLUMNS.index("y_actual")] = radius * np.sin(theta)
+    report = {"clock_hz": 1e6, "blocks": [{"index": 0, "start_cycle": 0,
+                                           "end_cycle": len(theta)}]}
+    b = ballbar_of(spec.job(), report, [samples], TRACE_COLUMNS)
+    assert b.two_theta_amplitude == pytest.approx(3.0, rel=1e-6)
+    assert b.two_theta_angle == pytest.approx(135, abs=0.01)
