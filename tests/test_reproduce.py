@@ -50,7 +50,7 @@ def test_report_has_every_row_and_every_figure(quick):
     for row in result.rows:
         assert row.what.replace("|", "\\|") in report
     figures = [s.figure for s in result.sections if s.figure]
-    assert len(figures) == 8
+    assert len(figures) == 10
     for name in figures:
         assert f"]({name})" in report
         data = (out / name).read_bytes()

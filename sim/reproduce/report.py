@@ -133,7 +133,9 @@ def _scaled_down(scale: Scale) -> list[str]:
         f"{circle_fp / f_low:.0f} s of machine time;",
         f"- experiment 6: an X line of {scale.hazard_steps} LSB at {scale.hazard_fp_s:g} FP/s "
         f"(the circuit's drain, about tau ln(fi tau), sets the run time whatever the length);",
-        f"- experiment 2: {scale.rate_steps} steps counted per interpolation type.",
+        f"- experiment 2: {scale.rate_steps} steps counted per interpolation type;",
+        "- sections 8-11 (the companion papers): each section's text gives its own sizes, "
+        "and what (if anything) its quick scale shrinks.",
     ]
 
 
@@ -143,7 +145,8 @@ def report_markdown(result: Reproduction) -> str:
     lines = ["# Reproducing the paper on the emulator", "",
              f"Written by `k37 reproduce{' --quick' if scale is QUICK else ''}`: "
              f"{sum(r.passed for r in result.rows)} of {len(result.rows)} rows pass. Each row "
-             f"compares an observation of the paper (its photos, section 2 and Table 1) with "
+             f"compares an observation of the paper (its photos, section 2 and Table 1; "
+             f"sections 1-7) or of a companion paper (seeds 000-003; sections 8-11) with "
              f"what the emulator does, within the tolerance given; the experiments ran on the "
              f"compiled (CXXRTL) backend of the whole machine: chipset gateware, 8085 firmware "
              f"model and servo plants.", "", table_markdown(result)]
