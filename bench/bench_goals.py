@@ -15,11 +15,14 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from firmware_model.firmware import check_program
 from firmware_model.job import Job, demo_job, gcode_job
+from sim.run.contour import contour_errors
 from sim.run.runner import RunOptions, build_backend, run_job
+from sim.run.sampler import TRACE_COLUMNS
 
 ROOT = Path(__file__).resolve().parent.parent
 #: A line at the K3701's top linear feed (5,454 mm/min at 1 MHz and 1 um per pulse).
@@ -82,15 +85,41 @@ def test_tiny_job_with_a_warm_cache_start_to_exit(benchmark, tmp_path):
     _show("tiny job, k37 run process", min(seconds, benchmark.stats.stats.min), "s", 0.3, False)
 
 
+def _zigzag(blocks: int) -> Job:
+    """A program of ``blocks`` short lines and arcs."""
+    moves = "\n".join(f"G01 X{(k % 2) * 2} Y{k * 0.01:.3f}\nG02 X{(k % 2) * 2 + 1} "
+                      f"Y{k * 0.01:.3f} I0.5 J0" for k in range(blocks // 2))
+    return gcode_job("zigzag", f"G21 G90 F600\n{moves}\nM30\n", "<zigzag>")
+
+
 def test_planning_is_linear_in_the_programs_size(benchmark):
     def plan(blocks: int) -> float:
-        moves = "\n".join(f"G01 X{(k % 2) * 2} Y{k * 0.01:.3f}\nG02 X{(k % 2) * 2 + 1} "
-                          f"Y{k * 0.01:.3f} I0.5 J0" for k in range(blocks // 2))
         start = time.perf_counter()
-        check_program(gcode_job("plan", f"G21 G90 F600\n{moves}\nM30\n", "<plan>"))
+        check_program(_zigzag(blocks))  # parsed and planned, then checked
         return time.perf_counter() - start
 
     small = plan(200)
     large = benchmark.pedantic(plan, args=(2000,), rounds=1, iterations=1)
     print(f"\nplanning 200 blocks {small:.3f} s, 2,000 blocks {large:.3f} s: "
           f"x{large / small:.1f} for x10 the blocks (linear: 10)")
+
+
+def test_contour_error_is_linear_in_the_programs_size(benchmark):
+    """100 samples per block, each against the moves of its block and its neighbours."""
+    def contour(blocks: int) -> float:
+        job = _zigzag(blocks)
+        moves = list(job.program.moves)
+        starts = [(move.index, 1000 * k) for k, move in enumerate(moves)]
+        rows = 100 * len(moves)
+        rng = np.random.default_rng(1)
+        samples = np.zeros((rows, len(TRACE_COLUMNS)), dtype=np.int64)
+        samples[:, 0] = np.sort(rng.integers(0, 1000 * len(moves), rows))
+        samples[:, 3:5] = rng.integers(0, 4000, (rows, 2))
+        start = time.perf_counter()
+        contour_errors(job, starts, samples)
+        return time.perf_counter() - start
+
+    small = contour(200)
+    large = benchmark.pedantic(contour, args=(2000,), rounds=1, iterations=1)
+    print(f"\ncontour error, 200 blocks {small:.3f} s, 2,000 blocks {large:.3f} s: "
+          f"x{large / small:.1f} for x10 the blocks and samples (linear: 10)")

@@ -48,6 +48,15 @@ def _arc_distance(p: np.ndarray, item: Arc) -> np.ndarray:
     return np.where(off <= sweep, on_arc, ends)
 
 
+def _distance(item: Line | Arc, p: np.ndarray) -> np.ndarray:
+    """Distance of each point of ``p`` to the move ``item`` (a line, an arc or a curve)."""
+    if isinstance(item, Line):
+        return _segment_distance(p, item.start, item.end)
+    if isinstance(item, Arc):
+        return _arc_distance(p, item)
+    return item.distances(p)
+
+
 def contour_errors(job: Job, blocks: Sequence[BlockStart], samples: np.ndarray) -> np.ndarray:
     """Distance of each sample's actual position to the programmed path (LSB).
 
@@ -63,24 +72,23 @@ def contour_errors(job: Job, blocks: Sequence[BlockStart], samples: np.ndarray) 
     move_of = {it.index: k for k, it in enumerate(moves)}
     block_move = np.array([move_of[index] for index, _ in blocks])
     running = np.searchsorted([start for _, start in blocks], cycles, side="right") - 1
-    candidates = []
+    # Each sample against the move of the block running at its cycle and of its neighbours,
+    # as (sample, move) pairs grouped by move (one stable sort: linear in the samples and
+    # the moves, where a mask per move would be their product).
+    samples_of, move = [], []
     for shift in (-1, 0, 1):
         idx = running + shift
-        valid = (idx >= 0) & (idx < len(block_move))
-        candidates.append(np.where(valid, block_move[np.clip(idx, 0, len(block_move) - 1)],
-                                   -1))
-    candidates = np.array(candidates)
+        valid = np.flatnonzero((idx >= 0) & (idx < len(block_move)))
+        samples_of.append(valid)
+        move.append(block_move[idx[valid]])
+    samples_of, move = np.concatenate(samples_of), np.concatenate(move)
+    order = np.argsort(move, kind="stable")
+    samples_of, move = samples_of[order], move[order]
     best = np.full(len(pts), np.inf)
-    for k in np.unique(candidates[candidates >= 0]):
-        near = (candidates == k).any(axis=0)
-        item = moves[k]
-        if isinstance(item, Line):
-            dist = _segment_distance(pts[near], item.start, item.end)
-        elif isinstance(item, Arc):
-            dist = _arc_distance(pts[near], item)
-        else:
-            dist = item.distances(pts[near])
-        best[near] = np.minimum(best[near], dist)
+    for group in np.split(np.arange(len(move)), np.flatnonzero(np.diff(move)) + 1):
+        if len(group):
+            near = samples_of[group]
+            best[near] = np.minimum(best[near], _distance(moves[move[group[0]]], pts[near]))
     # Samples before the first block: distance to the start point.
     before = ~np.isfinite(best)
     best[before] = _norm(pts[before] - np.array(moves[0].start, dtype=float))
