@@ -13,6 +13,7 @@ and (the chord's middle abscissa, P's ordinate).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -31,21 +32,30 @@ class CurveError(ValueError):
     """A curve the host refuses to load; the message says why (one line)."""
 
 
-def frame_distances(qa: float, qb: float, pv: np.ndarray,
-                    span: tuple[float, float] | None = None) -> np.ndarray:
-    """Distance of each (p, v) row to the curve v = qa p^2 + qb p (within ``span`` of p, if
-    given): Newton on d/dq [(q - p)^2 + (f(q) - v)^2] / 2 from starts around p, the nearest
-    foot kept."""
+def curve_distances(f: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]],
+                    pv: np.ndarray, span: tuple[float, float] | None = None) -> np.ndarray:
+    """Distance of each (p, v) row to the curve v = f(p) (within ``span`` of p, if given);
+    ``f`` gives the function, its slope and its second derivative at an array of p. Newton on
+    d/dq [(q - p)^2 + (f(q) - v)^2] / 2 from starts around p, the nearest foot kept."""
     best = np.full(len(pv), np.inf)
     for offset in np.linspace(-2.0, 2.0, 41):
         q = pv[:, 0] + offset
         for _ in range(8):
-            f, slope = qa * q * q + qb * q - pv[:, 1], 2 * qa * q + qb
-            q = q - ((q - pv[:, 0]) + f * slope) / (1 + slope * slope + 2 * qa * f)
+            value, slope, bend = f(q)
+            miss = value - pv[:, 1]
+            q = q - ((q - pv[:, 0]) + miss * slope) / (1 + slope * slope + bend * miss)
         if span is not None:
             q = np.clip(q, *span)
-        best = np.minimum(best, np.hypot(q - pv[:, 0], qa * q * q + qb * q - pv[:, 1]))
+        best = np.minimum(best, np.hypot(q - pv[:, 0], f(q)[0] - pv[:, 1]))
     return best
+
+
+def frame_distances(qa: float, qb: float, pv: np.ndarray,
+                    span: tuple[float, float] | None = None) -> np.ndarray:
+    """Distance of each (p, v) row to the parabola v = qa p^2 + qb p (within ``span`` of p,
+    if given)."""
+    return curve_distances(lambda q: (qa * q * q + qb * q, 2 * qa * q + qb, 2 * qa + 0 * q),
+                           pv, span)
 
 
 def parabola_block(start: tuple[int, int], xe: int, ye: int, i: int, j: int,

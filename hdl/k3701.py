@@ -14,6 +14,7 @@ from amaranth.lib.wiring import In, Out, connect, flipped
 from hdl.hostbus import Access, Field, HostBus, Register, RegisterBank, RegisterMap
 from hdl.k3701_circular import CircularDatapath
 from hdl.k3701_datapath import Datapath, StepSignature, moves
+from hdl.k3701_exponential import ExponentialDatapath
 from hdl.k3701_helix import HelixAxis
 from hdl.k3701_linear import LinearDatapath, LinearDatapath3
 from hdl.k3701_model import (
@@ -40,10 +41,13 @@ K3701_MAP = RegisterMap("K3701", 1, (
              f"({_COORD})", signed=True),
     Register("I", 0x06, 24, Access.W,
              f"circular: centre X relative to the start; parabolic: X of the point whose "
-             f"tangent is parallel to the chord, relative to the start ({_COORD})", signed=True),
+             f"tangent is parallel to the chord, relative to the start ({_COORD}); "
+             f"exponential: the curve's constant k, |k| >= 2 (LSB of the abscissa; negative: "
+             f"the curve decays)", signed=True),
     Register("J", 0x09, 24, Access.W,
              f"circular: centre Y relative to the start; parabolic: Y of that point "
-             f"({_COORD})", signed=True),
+             f"({_COORD}); exponential: the integer part of the curve's offset c, >= 0",
+             signed=True),
     Register("CTRL", 0x0C, 8, Access.RW, "control word of the next block (reads back)", fields=(
         Field("circular", 0, 1, "interpolation type: 0 linear, 1 circular"),
         Field("cw", 1, 1, "circular direction: 0 CCW, 1 CW"),
@@ -51,7 +55,10 @@ K3701_MAP = RegisterMap("K3701", 1, (
         Field("quadrant", 3, 2, "circular end-point quadrant minus 1 (0..3 = quadrant 1..4)"),
         Field("parabolic", 5, 1, "interpolation type parabolic (``circular`` is then ignored)"),
         Field("swap", 6, 1, "parabolic: the abscissa is Y, the parabola's axis parallel to X "
-                            "(else the abscissa is X, the axis parallel to Y)"),
+                            "(else the abscissa is X, the axis parallel to Y); exponential: "
+                            "the abscissa is Y (logarithmic interpolation), else X"),
+        Field("exponential", 7, 1, "interpolation type exponential (``circular`` and "
+                                   "``parabolic`` are then ignored)"),
     )),
     Register("CMD", 0x0D, 8, Access.W, "commands, acted on in the cycle after the write",
              fields=(
@@ -64,22 +71,26 @@ K3701_MAP = RegisterMap("K3701", 1, (
         Field("busy", 0, 1, "a block is running"),
         Field("irq", 1, 1, "data request: the block ended (held until CMD.ack)"),
         Field("error", 2, 1, "invalid block data, an arc that left its end quadrant, a "
-                             "parabola that passed its end, or START while BUSY (sticky until "
-                             "CMD.clear)"),
+                             "parabola or exponential that passed its end, or START while BUSY "
+                             "(sticky until CMD.clear)"),
         Field("overrun", 3, 1, "an FP arrived while one was already held and was lost "
                                "(sticky until CMD.clear)"),
     )),
-), doc="Interpolator: linear, circular and parabolic interpolation of one block, step pulses "
-       "out.")
+    Register("E", 0x16, 24, Access.W,
+             "exponential: the fraction of the curve's offset c, in 1/|I| (0..|I|-1)",
+             signed=True),
+), doc="Interpolator: linear, circular, parabolic and exponential (logarithmic) interpolation "
+       "of one block, step pulses out.")
 
 _CTRL = K3701_MAP["CTRL"]
 #: The three-axis K3701 (``K3701(axes=3)``): the two-axis map, the third axis's Z, a helix's
 #: step count H and CTRL.plane (addresses from 0x10: the two-axis chip's stay as they are).
 K3701_MAP_3 = RegisterMap("K3701", 1, (
-    *(replace(r, fields=(*(f for f in r.fields if f.name not in ("parabolic", "swap")), Field(
+    *(replace(r, fields=(*(f for f in r.fields
+                           if f.name not in ("parabolic", "swap", "exponential")), Field(
         "plane", 5, 2, "the block's axes on the machine's: 0 (X, Y, Z) G17, 1 (Z, X, Y) "
                        "G18, 2 (Y, Z, X) G19, 3 as 0; the arc runs in the first two")))
-      if r is _CTRL else r for r in K3701_MAP),
+      if r is _CTRL else r for r in K3701_MAP if r.name != "E"),
     Register("Z", 0x10, 24, Access.RW,
              f"three-axis chip: write: the third coordinate Ze of the end point (a line's, or "
              f"a helix's travel along the plane's normal); read: remaining distance Zm "
@@ -103,14 +114,18 @@ def block_registers(block: Block, axes: int = 2) -> dict[str, int]:
     values = {"X": block.xe, "Y": block.ye}
     if axes == 3:
         values["Z"] = block.ze
-        if block.kind is Kind.PARABOLIC:
-            raise ValueError("the three-axis K3701 has no parabolic interpolation")
+        if block.kind in (Kind.PARABOLIC, Kind.EXPONENTIAL):
+            raise ValueError(f"the three-axis K3701 has no {block.kind.name.lower()} "
+                             f"interpolation")
     if block.kind is not Kind.LINEAR:
         values |= {"I": block.i, "J": block.j}
         if block.ze:
             values["H"] = block.helix_steps
+        if block.kind is Kind.EXPONENTIAL:
+            values["E"] = block.frac
     fields = ({"plane": block.plane} if axes == 3 else
-              {"parabolic": int(block.kind is Kind.PARABOLIC), "swap": int(block.swap)})
+              {"parabolic": int(block.kind is Kind.PARABOLIC), "swap": int(block.swap),
+               "exponential": int(block.kind is Kind.EXPONENTIAL)})
     values["CTRL"] = k3701_map(axes)["CTRL"].encode(
         circular=int(block.kind is Kind.CIRCULAR), cw=int(block.cw), sqrt2=int(block.sqrt2),
         quadrant=block.quadrant - 1, **fields)
@@ -123,10 +138,12 @@ class _Phase(enum.Enum, shape=2):
     RUN = 2
 
 
-#: The datapath of each interpolation type (the type is CTRL.parabolic, else CTRL.circular).
+#: The datapath of each interpolation type (the type is CTRL.exponential, else
+#: CTRL.parabolic, else CTRL.circular).
 _DATAPATHS: dict[Kind, type[Datapath]] = {Kind.LINEAR: LinearDatapath,
                                           Kind.CIRCULAR: CircularDatapath,
-                                          Kind.PARABOLIC: ParabolicDatapath}
+                                          Kind.PARABOLIC: ParabolicDatapath,
+                                          Kind.EXPONENTIAL: ExponentialDatapath}
 
 
 def _field(word: Value, field: Field) -> Value:
@@ -153,6 +170,7 @@ class K3701(wiring.Component):
     * linear: BUSY and FP intake from S+1; circular: BUSY from S+1, a serial radius check
       until S+``circle_setup``, FP intake from S+1+``circle_setup``; parabolic: the same
       with its setup of ``PARABOLA_SETUP_CYCLES`` (29) cycles and the circular latency;
+      exponential: likewise with ``EXPONENTIAL_SETUP_CYCLES`` (4);
     * a step's pulses appear exactly ``latency_*`` cycles after the FP that completes its
       credit (2 half-FP per FP; a step costs 2, a diagonal one 3 with sqrt(2) control);
       one FP arriving meanwhile is held, a further one sets OVERRUN and is lost;
@@ -161,6 +179,7 @@ class K3701(wiring.Component):
     Inside, this core runs the block (registers, commands and status, FP intake and credit,
     the step latency and the pulses) and one datapath per interpolation type decides its
     steps (:mod:`hdl.k3701_linear`, :mod:`hdl.k3701_circular`, :mod:`hdl.k3701_parabolic`,
+    :mod:`hdl.k3701_exponential`,
     through the interface of :mod:`hdl.k3701_datapath`). Each step is decided before its FP
     can come: a line's next step in the cycle the current one is output, a circle's first step
     during the radius check and each following one in four pipelined cycles of the current
@@ -172,7 +191,7 @@ class K3701(wiring.Component):
     ----------
     latency_linear, latency_circular : int
         Cycles from the credit-completing FP to the step pulses (paper: 11 and 21 at 1 MHz);
-        2..32 linear, 6..32 circular (also the parabolic latency).
+        2..32 linear, 6..32 circular (also the parabolic and exponential latency).
     circle_setup : int
         Cycles of the circular radius check; must equal 25 (24 squarer cycles plus the check).
     axes : int
@@ -249,10 +268,10 @@ class K3701(wiring.Component):
         ctrl = self.regmap["CTRL"]
         cmd = self.regmap["CMD"]
         three = self.axes == 3
-        # the three-axis build has no parabolic datapath (see K3701_MAP_3)
+        # the three-axis build has no parabolic or exponential datapath (see K3701_MAP_3)
         kinds = (Kind.LINEAR, Kind.CIRCULAR) if three else tuple(Kind)
         latency = {Kind.LINEAR: self.latency_linear, Kind.CIRCULAR: self.latency_circular,
-                   Kind.PARABOLIC: self.latency_circular}
+                   Kind.PARABOLIC: self.latency_circular, Kind.EXPONENTIAL: self.latency_circular}
         datapaths = ([LinearDatapath3(), CircularDatapath(axes=3)] if three
                      else [_DATAPATHS[k]() for k in kinds])
         for k, datapath in zip(kinds, datapaths, strict=True):
@@ -270,8 +289,9 @@ class K3701(wiring.Component):
         word = regs.ctrl.w_data
         # The type of a block starting now.
         new_kind = (word[ctrl.field("circular").offset] if three else
-                    Mux(word[ctrl.field("parabolic").offset], Kind.PARABOLIC,
-                        word[ctrl.field("circular").offset]))
+                    Mux(word[ctrl.field("exponential").offset], Kind.EXPONENTIAL,
+                        Mux(word[ctrl.field("parabolic").offset], Kind.PARABOLIC,
+                            word[ctrl.field("circular").offset])))
         start = regs.cmd.w_stb & regs.cmd.w_data[cmd.field("start").offset]
         m.d.comb += [
             regs.x.r_data.eq(xm),
@@ -296,7 +316,7 @@ class K3701(wiring.Component):
                 block.cw.eq(word[ctrl.field("cw").offset]),
                 block.quadrant.eq(_field(word, ctrl.field("quadrant"))),
                 *([block.ze.eq(regs.z.w_data)] if three else
-                  [block.swap.eq(word[ctrl.field("swap").offset])]),
+                  [block.swap.eq(word[ctrl.field("swap").offset]), block.e.eq(regs.e.w_data)]),
                 datapath.start.eq(start & (phase == _Phase.IDLE) & (new_kind == k)),
                 datapath.advance.eq(running & (count == 1)),
                 *(datapath.stage[s].eq(running & (count == latency[k] - 1 - s))

@@ -3,7 +3,7 @@
 The core (:class:`hdl.k3701.K3701`) runs a block: the host bus, START, BUSY, the feed intake
 and step credit, the step latency and the step pulses. A datapath (one per interpolation type:
 :class:`hdl.k3701_linear.LinearDatapath`, :class:`hdl.k3701_circular.CircularDatapath`,
-:class:`hdl.k3701_parabolic.ParabolicDatapath`)
+:class:`hdl.k3701_parabolic.ParabolicDatapath`, :class:`hdl.k3701_exponential.ExponentialDatapath`)
 decides the steps: it loads the block, answers with the step to take next, and decides the
 one after when the core takes it. A new interpolation type is one more :class:`Datapath`.
 """
@@ -15,11 +15,12 @@ from functools import reduce
 from typing import Any, ClassVar
 
 from amaranth.hdl import Mux, Value, signed
+from amaranth.hdl._ast import Assign
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-__all__ = ["BlockSignature", "Datapath", "DatapathSignature", "StepSignature", "magnitude",
-           "moves", "refused"]
+__all__ = ["BlockSignature", "Datapath", "DatapathSignature", "StepSignature", "frame_step",
+           "magnitude", "moves", "refused", "shorter"]
 
 #: The one 24-bit two's complement value the chip refuses (its coordinates are symmetric).
 _MIN_COORD = -(1 << 23)
@@ -42,6 +43,26 @@ def moves(step: Any, axes: str = "xy") -> tuple[Value, ...]:
     return tuple(Mux(getattr(step, a), Mux(getattr(step, f"{a}_neg"), -1, 1), 0) for a in axes)
 
 
+def frame_step(step: Any, *, swap: Value, su_neg: Value, sv_neg: Value, long_p: Value,
+               diag: Value, final: Value, error: Value) -> list[Assign]:
+    """Drive ``step`` (a :class:`StepSignature` port) with a step decided in a curve's own
+    frame: the abscissa p is X (Y with ``swap``), moving towards negative with ``su_neg``,
+    the ordinate v the other axis, moving towards negative with ``sv_neg``; the long axis is
+    p with ``long_p``, and ``diag`` moves both."""
+    p_moves = long_p | diag
+    v_moves = ~long_p | diag
+    return [step.x.eq(Mux(swap, v_moves, p_moves)), step.x_neg.eq(Mux(swap, sv_neg, su_neg)),
+            step.y.eq(Mux(swap, p_moves, v_moves)), step.y_neg.eq(Mux(swap, su_neg, sv_neg)),
+            step.diag.eq(diag), step.final.eq(final), step.error.eq(error)]
+
+
+def shorter(d1: Value, d2: Value, up: Value) -> Value:
+    """|d2| < |d1|, for d2 = d1 + t with t never 0, positive with ``up``: exactly when
+    t (d1 + d2) < 0 (one adder, no magnitudes)."""
+    total = d1 + d2
+    return (total != 0) & ((total < 0) == up)
+
+
 class BlockSignature(wiring.Signature):
     """A block as the host loaded it (the K3701's X, Y, I, J and CTRL registers), as the
     core drives it.
@@ -58,7 +79,9 @@ class BlockSignature(wiring.Signature):
     quadrant : Out(2)
         Circular end-point quadrant code (0..3 = quadrant 1..4).
     swap : Out(1)
-        Parabolic: the curve's abscissa is Y (else X).
+        Parabolic, exponential: the curve's abscissa is Y (else X).
+    e : Out(signed(24))
+        Two-axis chip only: exponential: the fraction of the curve's offset, in 1 / ``|i|``.
     ze : Out(signed(24))
         Three-axis chip only (``axes=3``): the end point's third coordinate (lines).
     """
@@ -66,8 +89,7 @@ class BlockSignature(wiring.Signature):
     def __init__(self, axes: int = 2) -> None:
         members = {"xe": Out(signed(24)), "ye": Out(signed(24)), "i": Out(signed(24)),
                    "j": Out(signed(24)), "cw": Out(1), "quadrant": Out(2), "swap": Out(1)}
-        if axes == 3:
-            members["ze"] = Out(signed(24))
+        members["ze" if axes == 3 else "e"] = Out(signed(24))
         super().__init__(members)
 
 

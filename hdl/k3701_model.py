@@ -29,11 +29,13 @@ __all__ = [
     "LATENCY_CIRCULAR",
     "LATENCY_LINEAR",
     "MAX_RADIUS_SQUARED",
+    "EXPONENTIAL_SETUP_CYCLES",
     "PARABOLA_SETUP_CYCLES",
     "PLANES",
     "Block",
     "BlockError",
     "CircularPath",
+    "ExponentialPath",
     "HelixPath",
     "K3701Model",
     "K3701Outputs",
@@ -68,6 +70,9 @@ _COST_3 = {1: 4, 2: 6, 3: 7}
 #: Cycles a parabolic block spends before it takes FP: two serial multipliers (24 cycles) form
 #: its coefficients, then four cycles decide its first step.
 PARABOLA_SETUP_CYCLES = 29
+#: Cycles an exponential block spends before it takes FP: it loads its data, then three
+#: cycles decide its first step.
+EXPONENTIAL_SETUP_CYCLES = 4
 
 
 class Kind(enum.IntEnum):
@@ -76,6 +81,7 @@ class Kind(enum.IntEnum):
     LINEAR = 0
     CIRCULAR = 1
     PARABOLIC = 2
+    EXPONENTIAL = 3
 
 
 class BlockError(ValueError):
@@ -156,9 +162,12 @@ class Block:
     """The data of one block as the host loads it.
 
     ``xe, ye``: end point relative to the start. ``i, j``: centre relative to the start
-    (circular), the point whose tangent is parallel to the chord (parabolic). ``quadrant``:
+    (circular), the point whose tangent is parallel to the chord (parabolic); exponential:
+    ``i`` the curve's constant k (LSB of the abscissa, signed) and ``j``, ``frac`` its offset
+    c = j + frac / |k| (:class:`ExponentialPath`). ``quadrant``:
     the control word's end-point quadrant (circular only). ``swap``: parabolic: the curve's
-    abscissa is Y (the parabola's axis is parallel to X), else X. Three-axis chip only:
+    abscissa is Y (the parabola's axis is parallel to X; an exponential in Y, which is a
+    logarithm in X), else X. Three-axis chip only:
     ``ze``, the travel along the third axis (a line's, or a helix's along the plane's
     normal); ``plane``, the CTRL.plane code routing the block's axes to the machine's
     (:data:`PLANES`); ``helix_steps``, the arc's step count N, over which a helix spreads its
@@ -177,6 +186,7 @@ class Block:
     ze: int = 0
     plane: int = 0
     helix_steps: int = 0
+    frac: int = 0
 
     @classmethod
     def line(cls, xe: int, ye: int, ze: int = 0, *, sqrt2: bool = False) -> Block:
@@ -197,6 +207,14 @@ class Block:
         with ``swap``."""
         return cls(Kind.PARABOLIC, xe, ye, i, j, sqrt2=sqrt2, swap=swap)
 
+    @classmethod
+    def exponential(cls, xe: int, ye: int, k: int, c: int, frac: int, *, swap: bool = False,
+                    sqrt2: bool = False) -> Block:
+        """An exponential from the start to (xe, ye) of constant ``k`` and offset
+        c = ``c`` + ``frac`` / |k| (:class:`ExponentialPath`); with ``swap`` its abscissa is Y
+        (a logarithm as a function of X)."""
+        return cls(Kind.EXPONENTIAL, xe, ye, k, c, sqrt2=sqrt2, swap=swap, frac=frac)
+
     @property
     def latency(self) -> int:
         return LATENCY_LINEAR if self.kind is Kind.LINEAR else LATENCY_CIRCULAR
@@ -204,8 +222,8 @@ class Block:
     @property
     def setup_cycles(self) -> int:
         """Cycles from S+1 before the block takes FP (0: none)."""
-        return {Kind.CIRCULAR: CIRCLE_SETUP_CYCLES,
-                Kind.PARABOLIC: PARABOLA_SETUP_CYCLES}.get(self.kind, 0)
+        return {Kind.CIRCULAR: CIRCLE_SETUP_CYCLES, Kind.PARABOLIC: PARABOLA_SETUP_CYCLES,
+                Kind.EXPONENTIAL: EXPONENTIAL_SETUP_CYCLES}.get(self.kind, 0)
 
 
 def _check_coord(name: str, value: int) -> None:
@@ -388,7 +406,31 @@ class HelicalPath:
         return Step(step.dx, step.dy, self.helix.advance()), final, error
 
 
-class ParabolicPath:
+class _FramePath:
+    """A curve drawn in its own frame: the abscissa p (X, or Y with ``swap``) runs from 0 to
+    pe = |end's p| in the direction of the end (``su``), the ordinate v is the other axis."""
+
+    def __init__(self, pe: int, swap: bool):
+        self.swap = swap
+        self.su = 1 if pe > 0 else -1
+        self.pe = abs(pe)
+        self.p = self.v = 0
+        self.done = False
+
+    @property
+    def x(self) -> int:
+        return self.v if self.swap else self.su * self.p
+
+    @property
+    def y(self) -> int:
+        return self.su * self.p if self.swap else self.v
+
+    def _step(self, dp: int, dv: int) -> Step:
+        du = self.su * dp
+        return Step(dv, du) if self.swap else Step(du, dv)
+
+
+class ParabolicPath(_FramePath):
     """A parabola by evaluation of its function, the circle's method on F = A v - B p^2 - C p.
 
     In the curve's own frame the abscissa p (X, or Y with ``swap``) runs from 0 to
@@ -411,23 +453,13 @@ class ParabolicPath:
         if pe == 0:
             raise BlockError(f"a parabola needs a non-zero {'Y' if swap else 'X'} extent "
                              f"(its abscissa)")
-        self.swap = swap
-        self.su = 1 if pe > 0 else -1
-        self.pe, self.ve = abs(pe), ve
+        super().__init__(pe, swap)
+        self.ve = ve
         self.a = pe * pe
         self.b = 2 * ve - 4 * vp
         self.c = self.pe * (4 * vp - ve)
-        self.p = self.v = self.f = 0
+        self.f = 0
         self.g = self.b + self.c
-        self.done = False
-
-    @property
-    def x(self) -> int:
-        return self.v if self.swap else self.su * self.p
-
-    @property
-    def y(self) -> int:
-        return self.su * self.p if self.swap else self.v
 
     def _decide(self) -> tuple[int, int, int]:
         """The next step's moves in the curve's frame (dp, dv) and the F it leads to."""
@@ -440,10 +472,6 @@ class ParabolicPath:
         d1 = f + a * sv
         d2 = d1 - g
         return (1, sv, d2) if abs(d2) < abs(d1) else (0, sv, d1)
-
-    def _step(self, dp: int, dv: int) -> Step:
-        du = self.su * dp
-        return Step(dv, du) if self.swap else Step(du, dv)
 
     def peek(self) -> Step:
         """The next step (the path must not be done)."""
@@ -462,7 +490,77 @@ class ParabolicPath:
         return self._step(dp, dv), self.done, error
 
 
-Path = LinearPath | CircularPath | HelicalPath | ParabolicPath
+class ExponentialPath(_FramePath):
+    """An exponential by a self-fed DDA whose integrand carries its own fraction.
+
+    In the curve's frame (:class:`_FramePath`) the chip draws v = sv (u_p - c) sign(k),
+    u_p = c r^p with r = 1 + 1/k (k = ``i``, |k| >= 2; k > 0 grows, k < 0 decays) and the
+    offset c = ``j`` + ``frac`` / |k| >= 0; sv is the sign of the end's v (+ for 0). The
+    discrete recursion is the curve: c r^p is exactly c e^(p / k') with k' = 1 / ln(1 + 1/k).
+    u is kept in base |k| as Z = |k|^2 u = |k|^2 Q + |k| R + R2, so that a p step,
+    Z += sign(k) floor(Z / |k|) = sign(k) (|k| Q + R), is digit-wise: R += sign(k) Q and
+    R2 += sign(k) R, adders only. Q is the integrand (the integer part of u, moved by one with
+    each v step, which takes |k| from R) and F = sign(k) (R - frac) is the curve's height
+    above the point in 1/|k| LSB: a p step adds Q to F, a v step -|k|. R2 is normalized
+    lazily: after each step's additions one carry moves between R2 and R if R2 is outside
+    0..|k|-1 (R2 -= |k| sign(carry), F += sign(k) carry). The long axis is p where Q <= |k|,
+    else v; each step moves the long axis and the short one too if that makes |F| strictly
+    smaller (the parabola's rule). The block ends on the end point (p = pe, v = ve), or with
+    an error if p passes pe or v passes ve (never for a curve the host checked with this
+    model): both move one way only, so every block ends.
+    """
+
+    def __init__(self, xe: int, ye: int, k: int, c: int, frac: int, swap: bool):
+        for name, value in (("Xe", xe), ("Ye", ye), ("I", k), ("J", c), ("E", frac)):
+            _check_coord(name, value)
+        pe, ve = (ye, xe) if swap else (xe, ye)
+        if pe == 0:
+            raise BlockError(f"an exponential needs a non-zero {'Y' if swap else 'X'} extent "
+                             f"(its abscissa)")
+        if abs(k) < 2:
+            raise BlockError(f"an exponential's constant I = {k} must be at least 2 in "
+                             f"magnitude")
+        if c < 0 or not 0 <= frac < abs(k):
+            raise BlockError(f"an exponential's offset J = {c}, E = {frac} must have J >= 0 "
+                             f"and 0 <= E < |I|")
+        super().__init__(pe, swap)
+        self.ve = ve
+        self.sv = -1 if ve < 0 else 1
+        self.sk = 1 if k > 0 else -1
+        self.k, self.frac = abs(k), frac
+        self.q, self.f, self.r2 = c, 0, 0
+
+    def _decide(self) -> tuple[int, int, int]:
+        """The next step's moves in the curve's frame (dp, dv) and the F it leads to."""
+        f, q, k = self.f, self.q, self.k
+        if q <= k:
+            d1, d2 = f + q, f + q - k
+            return (1, 1, d2) if abs(d2) < abs(d1) else (1, 0, d1)
+        d1, d2 = f - k, f + q - k
+        return (1, 1, d2) if abs(d2) < abs(d1) else (0, 1, d1)
+
+    def peek(self) -> Step:
+        """The next step (the path must not be done)."""
+        dp, dv, _ = self._decide()
+        return self._step(dp, self.sv * dv)
+
+    def advance(self) -> tuple[Step, bool, bool]:
+        """Take the next step; returns (step, final, error)."""
+        dp, dv, f = self._decide()
+        if dp:
+            self.r2 += self.f + self.sk * self.frac  # sign(k) R, R = frac + sign(k) F
+        carry = 1 if self.r2 >= self.k else -1 if self.r2 < 0 else 0
+        self.r2 -= carry * self.k
+        self.f = f + self.sk * carry
+        self.q += self.sk * dv
+        self.p += dp
+        self.v += self.sv * dv
+        error = self.p > self.pe or self.sv * self.v > abs(self.ve)
+        self.done = error or (self.p == self.pe and self.v == self.ve)
+        return self._step(dp, self.sv * dv), self.done, error
+
+
+Path = LinearPath | CircularPath | HelicalPath | ParabolicPath | ExponentialPath
 
 
 def make_path(block: Block) -> Path:
@@ -471,6 +569,8 @@ def make_path(block: Block) -> Path:
         return LinearPath(block.xe, block.ye, block.ze)
     if block.kind is Kind.PARABOLIC:
         return ParabolicPath(block.xe, block.ye, block.i, block.j, block.swap)
+    if block.kind is Kind.EXPONENTIAL:
+        return ExponentialPath(block.xe, block.ye, block.i, block.j, block.frac, block.swap)
     arc = CircularPath(block.xe, block.ye, block.i, block.j, block.cw, block.quadrant)
     if block.ze:
         return HelicalPath(arc, HelixPath(block.ze, block.helix_steps))
@@ -626,7 +726,7 @@ class K3701Model:
         self.axes = axes
         self.unit = 2 if axes == 2 else 4  # credit units per FP
         self.latency = {Kind.LINEAR: latency_linear, Kind.CIRCULAR: latency_circular,
-                        Kind.PARABOLIC: latency_circular}
+                        Kind.PARABOLIC: latency_circular, Kind.EXPONENTIAL: latency_circular}
         self.circle_setup = circle_setup
         self.out = K3701Outputs()
         self.phase = _Phase.IDLE

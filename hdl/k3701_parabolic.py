@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from amaranth.hdl import Module, Mux, Signal, signed
 
-from hdl.k3701_datapath import Datapath, magnitude, refused
+from hdl.k3701_datapath import Datapath, frame_step, magnitude, refused, shorter
 from hdl.k3701_model import PARABOLA_SETUP_CYCLES
 
 __all__ = ["ParabolicDatapath"]
@@ -81,11 +81,8 @@ class ParabolicDatapath(Datapath):
             self.ready.eq(self.setup & (k == PARABOLA_SETUP_CYCLES - 1) & ~bad),
             self.end.eq(self.setup & (k == PARABOLA_SETUP_CYCLES - 1) & bad),
             self.error.eq(1),
-            self.step.x.eq(Mux(swap, v_moves, p_moves)),
-            self.step.x_neg.eq(Mux(swap, sv_neg, su_neg)),
-            self.step.y.eq(Mux(swap, p_moves, v_moves)),
-            self.step.y_neg.eq(Mux(swap, su_neg, sv_neg)),
-            self.step.diag.eq(diag), self.step.final.eq(final), self.step.error.eq(final_error),
+            *frame_step(self.step, swap=swap, su_neg=su_neg, sv_neg=sv_neg, long_p=long_p,
+                        diag=diag, final=final, error=final_error),
         ]
 
         with m.If(self.start):
@@ -129,11 +126,8 @@ class ParabolicDatapath(Datapath):
             m.d.sync += [d1.eq(Mux(next_long_p, f_after - g, f_after + sa)),
                          d2.eq(f_after - g + sa)]
         with m.If((self.setup & (k == _MULTIPLY + 3)) | stage[3]):
-            # The short axis moves too if that makes |F| smaller: with d2 = d1 + t (t = +-A on
-            # the long axis p, -G on v; never 0), |d2| < |d1| exactly when t (d1 + d2) < 0
-            # (one adder, no magnitudes). t > 0: v moves up on p, G < 0 on v.
-            total = d1 + d2
-            t_pos = Mux(next_long_p, ~next_sv_neg, next_sv_neg)
-            smaller = (total != 0) & ((total < 0) == t_pos)
+            # The short axis moves too if that makes |F| smaller: d2 = d1 + t with t = +-A on
+            # the long axis p, -G on v (never 0); t > 0: v moves up on p, G < 0 on v.
+            smaller = shorter(d1, d2, Mux(next_long_p, ~next_sv_neg, next_sv_neg))
             m.d.sync += [next_diag.eq(smaller), d1.eq(Mux(smaller, d2, d1))]
         return m

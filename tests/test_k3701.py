@@ -40,7 +40,8 @@ def ctrl_word(block: Block) -> int:
 
 
 async def load(ctx, dut: K3701, block: Block) -> None:
-    for name, value in (("X", block.xe), ("Y", block.ye), ("I", block.i), ("J", block.j)):
+    for name, value in (("X", block.xe), ("Y", block.ye), ("I", block.i), ("J", block.j),
+                        ("E", block.frac)):
         await write_reg(ctx, dut.bus, K3701_MAP[name], value)
     await write_reg(ctx, dut.bus, CTRL, ctrl_word(block))
 
