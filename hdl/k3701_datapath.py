@@ -15,7 +15,6 @@ from functools import reduce
 from typing import Any, ClassVar
 
 from amaranth.hdl import Mux, Value, signed
-from amaranth.hdl._ast import Assign
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
@@ -44,11 +43,11 @@ def moves(step: Any, axes: str = "xy") -> tuple[Value, ...]:
 
 
 def frame_step(step: Any, *, swap: Value, su_neg: Value, sv_neg: Value, long_p: Value,
-               diag: Value, final: Value, error: Value) -> list[Assign]:
+               diag: Value, final: Value, error: Value) -> list[Any]:
     """Drive ``step`` (a :class:`StepSignature` port) with a step decided in a curve's own
     frame: the abscissa p is X (Y with ``swap``), moving towards negative with ``su_neg``,
     the ordinate v the other axis, moving towards negative with ``sv_neg``; the long axis is
-    p with ``long_p``, and ``diag`` moves both."""
+    p with ``long_p``, and ``diag`` moves both. Returns the assignments (comb)."""
     p_moves = long_p | diag
     v_moves = ~long_p | diag
     return [step.x.eq(Mux(swap, v_moves, p_moves)), step.x_neg.eq(Mux(swap, sv_neg, su_neg)),

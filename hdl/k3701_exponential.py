@@ -27,8 +27,8 @@ class ExponentialDatapath(Datapath):
     ordinate v), the model's self-fed DDA: the integrand's integer part Q (from J), its digits
     R (kept as F = sign(k) (R - E), the curve's height above the point in 1/|k| LSB) and R2
     in base |k| = ``|I|``. A p step adds Q to F and sign(k) R to R2, a v step takes |k| from
-    F and moves Q by sign(k); after each step one carry moves between R2 and F when R2 is
-    outside 0..|k|-1. The long axis is p where Q <= |k|, else v; the short axis moves too if
+    F and moves Q by sign(k); after each step two carries, one at a time, move between R2 and
+    F while R2 is outside 0..|k|-1. The long axis is p where Q <= |k|, else v; the short axis moves too if
     that makes |F| smaller; v moves in the sign of the end's v; the block ends on the end
     point, or with an error if p or v passes the end's.
 
@@ -39,10 +39,11 @@ class ExponentialDatapath(Datapath):
       others. In S+4 ``end`` (with ``error``) is high for refused data (a coordinate of
       -2^23, pe = 0, |I| < 2, J < 0, E outside 0..|I|-1), else ``ready``; the first step is
       in ``step`` from S+5;
-    * four stages, C+1 to C+4: the position and Q move by the current step, and R2 by its p
-      move; the carry between R2 and F, whether the current step ends the block (``final``,
-      ``error``) and the next step's long axis; the two candidate F values; the choice, which
-      ``advance`` (in C+L-1, L >= 6) puts in ``step`` from C+L.
+    * four stages, C+1 to C+4: the position and Q move by the current step, and the first
+      carry; the second carry, whether the current step ends the block (``final``,
+      ``error``) and the next step's long axis; the two candidate F values (and sign(k) R);
+      the choice, which ``advance`` (in C+L-1, L >= 6) puts in ``step`` from C+L, adding
+      sign(k) R to R2 if it moves p.
     """
 
     SETUP = True
@@ -66,7 +67,7 @@ class ExponentialDatapath(Datapath):
         q = Signal(signed(_Q_BITS))
         r2 = Signal(signed(_R2_BITS))
         # The current step: long axis p, diagonal, whether it ends the block (and with an
-        # error), F after it (before its carry), and sign(k) R before it.
+        # error), F after it (after its carries from stage 1); sign(k) R before the next.
         long_p = Signal()
         diag = Signal()
         final = Signal()
@@ -104,10 +105,11 @@ class ExponentialDatapath(Datapath):
             m.d.sync += n.eq(n + 1)
 
         # The current step becomes the next one: at the setup's end (the block's first step)
-        # and with each advance.
+        # and with each advance; its p move adds sign(k) R to R2.
         with m.If(last | self.advance):
-            m.d.sync += [long_p.eq(next_long_p), diag.eq(next_diag), f.eq(d1),
-                         sr.eq(f + frac)]
+            m.d.sync += [long_p.eq(next_long_p), diag.eq(next_diag), f.eq(d1)]
+            with m.If(next_long_p | next_diag):
+                m.d.sync += r2.eq(r2 + sr)
 
         # The stages, each from registers. For the block's first step the last three run in
         # the setup's first cycles (from the start point, F = 0).
@@ -117,20 +119,20 @@ class ExponentialDatapath(Datapath):
         with m.If(stage[0]):
             m.d.sync += [p.eq(p + p_moves), v.eq(v + v_moves),
                          q.eq(Mux(v_moves, Mux(decays, q - 1, q + 1), q))]
-            with m.If(p_moves):
-                m.d.sync += r2.eq(r2 + sr)
-        with m.If((self.setup & (n == 0)) | stage[1]):
-            m.d.sync += next_long_p.eq(q <= kk)
+        with m.If(stage[0] | stage[1]):  # the two carries
             with m.If(r2 >= kk):
                 m.d.sync += [r2.eq(r2 - kk), f.eq(Mux(decays, f - 1, f + 1))]
             with m.Elif(r2 < 0):
                 m.d.sync += [r2.eq(r2 + kk), f.eq(Mux(decays, f + 1, f - 1))]
+        with m.If((self.setup & (n == 0)) | stage[1]):
+            m.d.sync += next_long_p.eq(q <= kk)
         with m.If(stage[1]):
             passed = (p > pe) | (v > ve)
             m.d.sync += [final.eq(((p == pe) & (v == ve)) | passed), final_error.eq(passed)]
         with m.If((self.setup & (n == 1)) | stage[2]):
             fq = f + q
-            m.d.sync += [d1.eq(Mux(next_long_p, fq, f - kk)), d2.eq(fq - kk)]
+            m.d.sync += [d1.eq(Mux(next_long_p, fq, f - kk)), d2.eq(fq - kk),
+                         sr.eq(f + frac)]
         with m.If((self.setup & (n == 2)) | stage[3]):
             # The short axis moves too if that makes |F| smaller: d2 = d1 + t with t = -|k| on
             # the long axis p, +Q on v.

@@ -502,8 +502,10 @@ class ExponentialPath(_FramePath):
     R2 += sign(k) R, adders only. Q is the integrand (the integer part of u, moved by one with
     each v step, which takes |k| from R) and F = sign(k) (R - frac) is the curve's height
     above the point in 1/|k| LSB: a p step adds Q to F, a v step -|k|. R2 is normalized
-    lazily: after each step's additions one carry moves between R2 and R if R2 is outside
-    0..|k|-1 (R2 -= |k| sign(carry), F += sign(k) carry). The long axis is p where Q <= |k|,
+    lazily: after each step's additions up to two carries move between R2 and R, one at a
+    time while R2 is outside 0..|k|-1 (R2 -= |k| carry, F += sign(k) carry, carry +-1): a
+    p step adds at most 1.5 |k| to R2 where p is the long axis, and where v is, the steps
+    of a p step's run take what it adds one by one. The long axis is p where Q <= |k|,
     else v; each step moves the long axis and the short one too if that makes |F| strictly
     smaller (the parabola's rule). The block ends on the end point (p = pe, v = ve), or with
     an error if p passes pe or v passes ve (never for a curve the host checked with this
@@ -546,12 +548,14 @@ class ExponentialPath(_FramePath):
 
     def advance(self) -> tuple[Step, bool, bool]:
         """Take the next step; returns (step, final, error)."""
-        dp, dv, f = self._decide()
+        sr = self.f + self.sk * self.frac
+        dp, dv, self.f = self._decide()
         if dp:
-            self.r2 += self.f + self.sk * self.frac  # sign(k) R, R = frac + sign(k) F
-        carry = 1 if self.r2 >= self.k else -1 if self.r2 < 0 else 0
-        self.r2 -= carry * self.k
-        self.f = f + self.sk * carry
+            self.r2 += sr  # sign(k) R, R = frac + sign(k) F before the step
+        for _ in range(2):
+            carry = 1 if self.r2 >= self.k else -1 if self.r2 < 0 else 0
+            self.r2 -= carry * self.k
+            self.f += self.sk * carry
         self.q += self.sk * dv
         self.p += dp
         self.v += self.sv * dv
