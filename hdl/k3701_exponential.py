@@ -28,9 +28,9 @@ class ExponentialDatapath(Datapath):
     R (kept as F = sign(k) (R - E), the curve's height above the point in 1/|k| LSB) and R2
     in base |k| = ``|I|``. A p step adds Q to F and sign(k) R to R2, a v step takes |k| from
     F and moves Q by sign(k); after each step two carries, one at a time, move between R2 and
-    F while R2 is outside 0..|k|-1. The long axis is p where Q <= |k|, else v; the short axis moves too if
-    that makes |F| smaller; v moves in the sign of the end's v; the block ends on the end
-    point, or with an error if p or v passes the end's.
+    F while R2 is outside 0..|k|-1. The long axis is p where Q <= |k|, else v; the short
+    axis moves too if that makes |F| smaller; v moves in the sign of the end's v; the block
+    ends on the end point, or with an error if p or v passes the end's.
 
     Timing (the ports are those of :class:`hdl.k3701_datapath.DatapathSignature`; S is the
     start cycle, C the cycle a step's credit completes, L the latency):

@@ -26,10 +26,10 @@ from dataclasses import dataclass, replace
 __all__ = [
     "CIRCLE_SETUP_CYCLES",
     "COORD_MAX",
+    "EXPONENTIAL_SETUP_CYCLES",
     "LATENCY_CIRCULAR",
     "LATENCY_LINEAR",
     "MAX_RADIUS_SQUARED",
-    "EXPONENTIAL_SETUP_CYCLES",
     "PARABOLA_SETUP_CYCLES",
     "PLANES",
     "Block",

@@ -20,7 +20,7 @@ from firmware_model.curves import (
     exponential_frame,
 )
 from hdl.k3701 import block_registers
-from hdl.k3701_model import COORD_MAX, Block, BlockError, ExponentialPath, make_path, plan
+from hdl.k3701_model import COORD_MAX, Block, BlockError, ExponentialPath, make_path
 
 
 @st.composite
