@@ -14,7 +14,6 @@ from amaranth.lib.wiring import In, Out, connect, flipped
 from hdl.hostbus import Access, Field, HostBus, Register, RegisterBank, RegisterMap
 from hdl.k3701_circular import CircularDatapath
 from hdl.k3701_datapath import Datapath, StepSignature, moves
-from hdl.k3701_exponential import ExponentialDatapath
 from hdl.k3701_helix import HelixAxis
 from hdl.k3701_linear import LinearDatapath, LinearDatapath3
 from hdl.k3701_model import (
@@ -138,12 +137,11 @@ class _Phase(enum.Enum, shape=2):
     RUN = 2
 
 
-#: The datapath of each interpolation type (the type is CTRL.exponential, else
-#: CTRL.parabolic, else CTRL.circular).
+#: The datapath of each interpolation type (the type is CTRL.parabolic or CTRL.exponential,
+#: else CTRL.circular): the parabolic datapath also runs exponentials (CTRL.exponential).
 _DATAPATHS: dict[Kind, type[Datapath]] = {Kind.LINEAR: LinearDatapath,
                                           Kind.CIRCULAR: CircularDatapath,
-                                          Kind.PARABOLIC: ParabolicDatapath,
-                                          Kind.EXPONENTIAL: ExponentialDatapath}
+                                          Kind.PARABOLIC: ParabolicDatapath}
 
 
 def _field(word: Value, field: Field) -> Value:
@@ -178,8 +176,8 @@ class K3701(wiring.Component):
 
     Inside, this core runs the block (registers, commands and status, FP intake and credit,
     the step latency and the pulses) and one datapath per interpolation type decides its
-    steps (:mod:`hdl.k3701_linear`, :mod:`hdl.k3701_circular`, :mod:`hdl.k3701_parabolic`,
-    :mod:`hdl.k3701_exponential`,
+    steps (:mod:`hdl.k3701_linear`, :mod:`hdl.k3701_circular`, :mod:`hdl.k3701_parabolic`
+    (parabolas and exponentials),
     through the interface of :mod:`hdl.k3701_datapath`). Each step is decided before its FP
     can come: a line's next step in the cycle the current one is output, a circle's first step
     during the radius check and each following one in four pipelined cycles of the current
@@ -269,16 +267,16 @@ class K3701(wiring.Component):
         cmd = self.regmap["CMD"]
         three = self.axes == 3
         # the three-axis build has no parabolic or exponential datapath (see K3701_MAP_3)
-        kinds = (Kind.LINEAR, Kind.CIRCULAR) if three else tuple(Kind)
+        kinds = (Kind.LINEAR, Kind.CIRCULAR) if three else tuple(_DATAPATHS)
         latency = {Kind.LINEAR: self.latency_linear, Kind.CIRCULAR: self.latency_circular,
-                   Kind.PARABOLIC: self.latency_circular, Kind.EXPONENTIAL: self.latency_circular}
+                   Kind.PARABOLIC: self.latency_circular}
         datapaths = ([LinearDatapath3(), CircularDatapath(axes=3)] if three
                      else [_DATAPATHS[k]() for k in kinds])
         for k, datapath in zip(kinds, datapaths, strict=True):
             m.submodules[k.name.lower()] = datapath
 
         phase = Signal(_Phase)
-        kind = Signal(range(len(Kind)))  # the running block's type
+        kind = Signal(range(len(_DATAPATHS)))  # the running block's datapath
         sqrt2 = Signal()
         xm = Signal(signed(24))
         ym = Signal(signed(24))
@@ -289,9 +287,9 @@ class K3701(wiring.Component):
         word = regs.ctrl.w_data
         # The type of a block starting now.
         new_kind = (word[ctrl.field("circular").offset] if three else
-                    Mux(word[ctrl.field("exponential").offset], Kind.EXPONENTIAL,
-                        Mux(word[ctrl.field("parabolic").offset], Kind.PARABOLIC,
-                            word[ctrl.field("circular").offset])))
+                    Mux(word[ctrl.field("parabolic").offset]
+                        | word[ctrl.field("exponential").offset], Kind.PARABOLIC,
+                        word[ctrl.field("circular").offset]))
         start = regs.cmd.w_stb & regs.cmd.w_data[cmd.field("start").offset]
         m.d.comb += [
             regs.x.r_data.eq(xm),
@@ -316,7 +314,8 @@ class K3701(wiring.Component):
                 block.cw.eq(word[ctrl.field("cw").offset]),
                 block.quadrant.eq(_field(word, ctrl.field("quadrant"))),
                 *([block.ze.eq(regs.z.w_data)] if three else
-                  [block.swap.eq(word[ctrl.field("swap").offset]), block.e.eq(regs.e.w_data)]),
+                  [block.swap.eq(word[ctrl.field("swap").offset]), block.e.eq(regs.e.w_data),
+                   block.exponential.eq(word[ctrl.field("exponential").offset])]),
                 datapath.start.eq(start & (phase == _Phase.IDLE) & (new_kind == k)),
                 datapath.advance.eq(running & (count == 1)),
                 *(datapath.stage[s].eq(running & (count == latency[k] - 1 - s))

@@ -3,7 +3,7 @@
 The core (:class:`hdl.k3701.K3701`) runs a block: the host bus, START, BUSY, the feed intake
 and step credit, the step latency and the step pulses. A datapath (one per interpolation type:
 :class:`hdl.k3701_linear.LinearDatapath`, :class:`hdl.k3701_circular.CircularDatapath`,
-:class:`hdl.k3701_parabolic.ParabolicDatapath`, :class:`hdl.k3701_exponential.ExponentialDatapath`)
+:class:`hdl.k3701_parabolic.ParabolicDatapath`, which also runs exponentials)
 decides the steps: it loads the block, answers with the step to take next, and decides the
 one after when the core takes it. A new interpolation type is one more :class:`Datapath`.
 """
@@ -79,8 +79,9 @@ class BlockSignature(wiring.Signature):
         Circular end-point quadrant code (0..3 = quadrant 1..4).
     swap : Out(1)
         Parabolic, exponential: the curve's abscissa is Y (else X).
-    e : Out(signed(24))
-        Two-axis chip only: exponential: the fraction of the curve's offset, in 1 / ``|i|``.
+    exponential, e : Out(1), Out(signed(24))
+        Two-axis chip only: the block is an exponential (of the parabolic datapath's type);
+        the fraction of its offset, in 1 / ``|i|``.
     ze : Out(signed(24))
         Three-axis chip only (``axes=3``): the end point's third coordinate (lines).
     """
@@ -88,7 +89,10 @@ class BlockSignature(wiring.Signature):
     def __init__(self, axes: int = 2) -> None:
         members = {"xe": Out(signed(24)), "ye": Out(signed(24)), "i": Out(signed(24)),
                    "j": Out(signed(24)), "cw": Out(1), "quadrant": Out(2), "swap": Out(1)}
-        members["ze" if axes == 3 else "e"] = Out(signed(24))
+        if axes == 3:
+            members["ze"] = Out(signed(24))
+        else:
+            members |= {"exponential": Out(1), "e": Out(signed(24))}
         super().__init__(members)
 
 

@@ -497,14 +497,14 @@ class ExponentialPath(_FramePath):
     u_p = c r^p with r = 1 + 1/k (k = ``i``, |k| >= 2; k > 0 grows, k < 0 decays) and the
     offset c = ``j`` + ``frac`` / |k| >= 0; sv is the sign of the end's v (+ for 0). The
     discrete recursion is the curve: c r^p is exactly c e^(p / k') with k' = 1 / ln(1 + 1/k).
-    u is kept in base |k| as Z = |k|^2 u = |k|^2 Q + |k| R + R2, so that a p step,
-    Z += sign(k) floor(Z / |k|) = sign(k) (|k| Q + R), is digit-wise: R += sign(k) Q and
-    R2 += sign(k) R, adders only. Q is the integrand (the integer part of u, moved by one with
+    u is kept in base |k| as Z = |k|^2 u = |k|^2 Q + |k| R - r2, so that a p step,
+    Z += sign(k) ceil(Z / |k|) = sign(k) (|k| Q + R), is digit-wise: R += sign(k) Q and
+    r2 -= sign(k) R, adders only. Q is the integrand (the integer part of u, moved by one with
     each v step, which takes |k| from R) and F = sign(k) (R - frac) is the curve's height
-    above the point in 1/|k| LSB: a p step adds Q to F, a v step -|k|. R2 is normalized
-    lazily: after each step's additions up to two carries move between R2 and R, one at a
-    time while R2 is outside 0..|k|-1 (R2 -= |k| carry, F += sign(k) carry, carry +-1): a
-    p step adds at most 1.5 |k| to R2 where p is the long axis, and where v is, the steps
+    above the point in 1/|k| LSB: a p step adds Q to F, a v step -|k|. r2 is normalized
+    lazily: after each step's additions up to two carries move between r2 and R, one at a
+    time while r2 is outside 0..|k|-1 (r2 -= |k| carry, F -= sign(k) carry, carry +-1): a
+    p step moves r2 by at most 1.5 |k| where p is the long axis, and where v is, the steps
     of a p step's run take what it adds one by one. The long axis is p where Q <= |k|,
     else v; each step moves the long axis and the short one too if that makes |F| strictly
     smaller (the parabola's rule). The block ends on the end point (p = pe, v = ve), or with
@@ -535,11 +535,13 @@ class ExponentialPath(_FramePath):
     def _decide(self) -> tuple[int, int, int]:
         """The next step's moves in the curve's frame (dp, dv) and the F it leads to."""
         f, q, k = self.f, self.q, self.k
-        if q <= k:
+        if abs(q) <= k:
             d1, d2 = f + q, f + q - k
             return (1, 1, d2) if abs(d2) < abs(d1) else (1, 0, d1)
+        # |d2| < |d1| with d2 = d1 + q, as the chip tests it: for q > 0 (every curve the
+        # host loads; q < -|k| only from data no host picks).
         d1, d2 = f - k, f + q - k
-        return (1, 1, d2) if abs(d2) < abs(d1) else (0, 1, d1)
+        return (1, 1, d2) if d1 + d2 < 0 else (0, 1, d1)
 
     def peek(self) -> Step:
         """The next step (the path must not be done)."""
@@ -548,14 +550,14 @@ class ExponentialPath(_FramePath):
 
     def advance(self) -> tuple[Step, bool, bool]:
         """Take the next step; returns (step, final, error)."""
-        sr = self.f + self.sk * self.frac
+        sr = -self.f - self.sk * self.frac  # -sign(k) R before the step
         dp, dv, self.f = self._decide()
         if dp:
-            self.r2 += sr  # sign(k) R, R = frac + sign(k) F before the step
+            self.r2 += sr
         for _ in range(2):
             carry = 1 if self.r2 >= self.k else -1 if self.r2 < 0 else 0
             self.r2 -= carry * self.k
-            self.f += self.sk * carry
+            self.f -= self.sk * carry
         self.q += self.sk * dv
         self.p += dp
         self.v += self.sv * dv
