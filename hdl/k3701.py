@@ -41,15 +41,16 @@ K3701_MAP = RegisterMap("K3701", 1, (
     Register("I", 0x06, 24, Access.W,
              f"circular: centre X relative to the start; parabolic: X of the point whose "
              f"tangent is parallel to the chord, relative to the start ({_COORD}); "
-             f"exponential: the curve's constant k, |k| >= 2 (LSB of the abscissa; negative: "
-             f"the curve decays)", signed=True),
+             f"exponential: |k| >= 2, k the curve's constant (LSB of the abscissa; CTRL.cw: "
+             f"k < 0)", signed=True),
     Register("J", 0x09, 24, Access.W,
              f"circular: centre Y relative to the start; parabolic: Y of that point "
              f"({_COORD}); exponential: the integer part of the curve's offset c, >= 0",
              signed=True),
     Register("CTRL", 0x0C, 8, Access.RW, "control word of the next block (reads back)", fields=(
         Field("circular", 0, 1, "interpolation type: 0 linear, 1 circular"),
-        Field("cw", 1, 1, "circular direction: 0 CCW, 1 CW"),
+        Field("cw", 1, 1, "circular direction: 0 CCW, 1 CW; exponential: the curve's constant "
+                          "k is negative (it flattens towards the end)"),
         Field("sqrt2", 2, 1, "sqrt(2) control: a diagonal step costs 1.5 FP"),
         Field("quadrant", 3, 2, "circular end-point quadrant minus 1 (0..3 = quadrant 1..4)"),
         Field("parabolic", 5, 1, "interpolation type parabolic (``circular`` is then ignored)"),
@@ -76,8 +77,8 @@ K3701_MAP = RegisterMap("K3701", 1, (
                                "(sticky until CMD.clear)"),
     )),
     Register("E", 0x16, 24, Access.W,
-             "exponential: the fraction of the curve's offset c, in 1/|I| (0..|I|-1)",
-             signed=True),
+             "exponential: the fraction of the curve's offset c = J - E / k, -1 < E / k <= 0 "
+             "(not checked)", signed=True),
 ), doc="Interpolator: linear, circular, parabolic and exponential (logarithmic) interpolation "
        "of one block, step pulses out.")
 

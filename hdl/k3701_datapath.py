@@ -74,14 +74,14 @@ class BlockSignature(wiring.Signature):
         Circle centre relative to the start; parabolic: the point whose tangent is parallel
         to the chord.
     cw : Out(1)
-        Circular direction: 0 CCW, 1 CW.
+        Circular direction: 0 CCW, 1 CW; exponential: the constant is negative.
     quadrant : Out(2)
         Circular end-point quadrant code (0..3 = quadrant 1..4).
     swap : Out(1)
         Parabolic, exponential: the curve's abscissa is Y (else X).
     exponential, e : Out(1), Out(signed(24))
         Two-axis chip only: the block is an exponential (of the parabolic datapath's type);
-        the fraction of its offset, in 1 / ``|i|``.
+        the fraction of its offset (see the register E).
     ze : Out(signed(24))
         Three-axis chip only (``axes=3``): the end point's third coordinate (lines).
     """

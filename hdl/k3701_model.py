@@ -73,6 +73,8 @@ PARABOLA_SETUP_CYCLES = 29
 #: Cycles an exponential block spends before it takes FP: it loads its data, then three
 #: cycles decide its first step.
 EXPONENTIAL_SETUP_CYCLES = 4
+#: Width of an exponential's second digit r2 (two's complement, as the chip's register).
+_R2_BITS = 28
 
 
 class Kind(enum.IntEnum):
@@ -163,8 +165,9 @@ class Block:
 
     ``xe, ye``: end point relative to the start. ``i, j``: centre relative to the start
     (circular), the point whose tangent is parallel to the chord (parabolic); exponential:
-    ``i`` the curve's constant k (LSB of the abscissa, signed) and ``j``, ``frac`` its offset
-    c = j + frac / |k| (:class:`ExponentialPath`). ``quadrant``:
+    ``i`` = |k| (k the curve's constant, LSB of the abscissa; ``cw``: k < 0), ``j`` and
+    ``frac`` (the register E) its offset c = j - frac / k (:class:`ExponentialPath`).
+    ``quadrant``:
     the control word's end-point quadrant (circular only). ``swap``: parabolic: the curve's
     abscissa is Y (the parabola's axis is parallel to X; an exponential in Y, which is a
     logarithm in X), else X. Three-axis chip only:
@@ -210,10 +213,12 @@ class Block:
     @classmethod
     def exponential(cls, xe: int, ye: int, k: int, c: int, frac: int, *, swap: bool = False,
                     sqrt2: bool = False) -> Block:
-        """An exponential from the start to (xe, ye) of constant ``k`` and offset
-        c = ``c`` + ``frac`` / |k| (:class:`ExponentialPath`); with ``swap`` its abscissa is Y
-        (a logarithm as a function of X)."""
-        return cls(Kind.EXPONENTIAL, xe, ye, k, c, sqrt2=sqrt2, swap=swap, frac=frac)
+        """An exponential from the start to (xe, ye) of constant ``k`` (signed) and offset
+        c = ``c`` + ``frac`` / |k| (:class:`ExponentialPath`: I = |k|, CTRL.cw for k < 0,
+        E = -sign(k) ``frac``); with ``swap`` its abscissa is Y (a logarithm as a function of
+        X)."""
+        return cls(Kind.EXPONENTIAL, xe, ye, abs(k), c, k < 0, sqrt2=sqrt2, swap=swap,
+                   frac=frac if k < 0 else -frac)
 
     @property
     def latency(self) -> int:
@@ -224,6 +229,12 @@ class Block:
         """Cycles from S+1 before the block takes FP (0: none)."""
         return {Kind.CIRCULAR: CIRCLE_SETUP_CYCLES, Kind.PARABOLIC: PARABOLA_SETUP_CYCLES,
                 Kind.EXPONENTIAL: EXPONENTIAL_SETUP_CYCLES}.get(self.kind, 0)
+
+
+def _wrap(value: int, bits: int) -> int:
+    """``value`` in ``bits``-bit two's complement."""
+    half = 1 << (bits - 1)
+    return (value + half) % (2 * half) - half
 
 
 def _check_coord(name: str, value: int) -> None:
@@ -494,43 +505,43 @@ class ExponentialPath(_FramePath):
     """An exponential by a self-fed DDA whose integrand carries its own fraction.
 
     In the curve's frame (:class:`_FramePath`) the chip draws v = sv (u_p - c) sign(k),
-    u_p = c r^p with r = 1 + 1/k (k = ``i``, |k| >= 2; k > 0 grows, k < 0 decays) and the
-    offset c = ``j`` + ``frac`` / |k| >= 0; sv is the sign of the end's v (+ for 0). The
-    discrete recursion is the curve: c r^p is exactly c e^(p / k') with k' = 1 / ln(1 + 1/k).
-    u is kept in base |k| as Z = |k|^2 u = |k|^2 Q + |k| R - r2, so that a p step,
+    u_p = c r^p with r = 1 + 1/k (|k| = ``i`` >= 2, k < 0 with ``flat``: k > 0 grows, k < 0
+    flattens) and the offset c = ``j`` - ``e`` / k >= 0 (-1 < e / k <= 0); sv is the sign of
+    the end's v (+ for 0). The discrete recursion is the curve: c r^p is exactly
+    c e^(p / k') with k' = 1 / ln(1 + 1/k). u is kept in base |k| as
+    Z = |k|^2 u = |k|^2 Q + |k| R - r2, so that a p step,
     Z += sign(k) ceil(Z / |k|) = sign(k) (|k| Q + R), is digit-wise: R += sign(k) Q and
     r2 -= sign(k) R, adders only. Q is the integrand (the integer part of u, moved by one with
-    each v step, which takes |k| from R) and F = sign(k) (R - frac) is the curve's height
-    above the point in 1/|k| LSB: a p step adds Q to F, a v step -|k|. r2 is normalized
-    lazily: after each step's additions up to two carries move between r2 and R, one at a
-    time while r2 is outside 0..|k|-1 (r2 -= |k| carry, F -= sign(k) carry, carry +-1): a
-    p step moves r2 by at most 1.5 |k| where p is the long axis, and where v is, the steps
-    of a p step's run take what it adds one by one. The long axis is p where Q <= |k|,
-    else v; each step moves the long axis and the short one too if that makes |F| strictly
-    smaller (the parabola's rule). The block ends on the end point (p = pe, v = ve), or with
-    an error if p passes pe or v passes ve (never for a curve the host checked with this
-    model): both move one way only, so every block ends.
+    each v step, which takes |k| from R) and F = sign(k) R + e is the curve's height above
+    the point in 1/|k| LSB (0 at the start): a p step adds Q to F, a v step -|k|, and
+    -sign(k) R = e - F. r2 is normalized lazily: after each step's additions up to two
+    carries move between r2 and R, one at a time while r2 is outside 0..|k|-1 (r2 -= |k|
+    carry, F -= sign(k) carry, carry +-1): a p step moves r2 by at most 1.5 |k| where p is
+    the long axis, and where v is, the steps of a p step's run take what it adds one by one.
+    r2 wraps at 28 bits as the chip's register (only with an ``e`` outside its range: the
+    chip does not check it). The long axis is p where |Q| <= |k|, else v; each step moves
+    the long axis and the short one too if that makes |F| strictly smaller (the parabola's
+    rule). The block ends on the end point (p = pe, v = ve), or with an error if p passes pe
+    or v passes ve (never for a curve the host checked with this model): both move one way
+    only, so every block ends.
     """
 
-    def __init__(self, xe: int, ye: int, k: int, c: int, frac: int, swap: bool):
-        for name, value in (("Xe", xe), ("Ye", ye), ("I", k), ("J", c), ("E", frac)):
+    def __init__(self, xe: int, ye: int, i: int, flat: bool, j: int, e: int, swap: bool):
+        for name, value in (("Xe", xe), ("Ye", ye), ("I", i), ("J", j)):
             _check_coord(name, value)
         pe, ve = (ye, xe) if swap else (xe, ye)
         if pe == 0:
             raise BlockError(f"an exponential needs a non-zero {'Y' if swap else 'X'} extent "
                              f"(its abscissa)")
-        if abs(k) < 2:
-            raise BlockError(f"an exponential's constant I = {k} must be at least 2 in "
-                             f"magnitude")
-        if c < 0 or not 0 <= frac < abs(k):
-            raise BlockError(f"an exponential's offset J = {c}, E = {frac} must have J >= 0 "
-                             f"and 0 <= E < |I|")
+        if i < 2 or j < 0:
+            raise BlockError(f"an exponential needs I >= 2 (|k|) and J >= 0 (its offset), "
+                             f"not I = {i}, J = {j}")
         super().__init__(pe, swap)
         self.ve = ve
         self.sv = -1 if ve < 0 else 1
-        self.sk = 1 if k > 0 else -1
-        self.k, self.frac = abs(k), frac
-        self.q, self.f, self.r2 = c, 0, 0
+        self.sk = -1 if flat else 1
+        self.k, self.e = i, e
+        self.q, self.f, self.r2 = j, 0, 0
 
     def _decide(self) -> tuple[int, int, int]:
         """The next step's moves in the curve's frame (dp, dv) and the F it leads to."""
@@ -550,10 +561,10 @@ class ExponentialPath(_FramePath):
 
     def advance(self) -> tuple[Step, bool, bool]:
         """Take the next step; returns (step, final, error)."""
-        sr = -self.f - self.sk * self.frac  # -sign(k) R before the step
+        sr = self.e - self.f  # -sign(k) R before the step
         dp, dv, self.f = self._decide()
         if dp:
-            self.r2 += sr
+            self.r2 = _wrap(self.r2 + sr, _R2_BITS)
         for _ in range(2):
             carry = 1 if self.r2 >= self.k else -1 if self.r2 < 0 else 0
             self.r2 -= carry * self.k
@@ -576,7 +587,8 @@ def make_path(block: Block) -> Path:
     if block.kind is Kind.PARABOLIC:
         return ParabolicPath(block.xe, block.ye, block.i, block.j, block.swap)
     if block.kind is Kind.EXPONENTIAL:
-        return ExponentialPath(block.xe, block.ye, block.i, block.j, block.frac, block.swap)
+        return ExponentialPath(block.xe, block.ye, block.i, block.cw, block.j, block.frac,
+                               block.swap)
     arc = CircularPath(block.xe, block.ye, block.i, block.j, block.cw, block.quadrant)
     if block.ze:
         return HelicalPath(arc, HelixPath(block.ze, block.helix_steps))

@@ -36,9 +36,9 @@ class ParabolicDatapath(Datapath):
     point, or with an error if p passes pe.
 
     Exponential (``block.exponential``): the same registers and adders run the model's
-    self-fed DDA with A = 2|k| (k = I), G = 2Q (Q from J), B = sign(k) and F = -2 F_model:
-    a p step adds -G, a v step +A and moves G by 2B; v moves in the sign of ve. r2 (from
-    0) takes (F / 2 - sign(k) E) on each p step; after each step two carries, one per
+    self-fed DDA with A = 2|k| (|k| = I, k < 0 with ``cw``), G = 2Q (Q from J), B = sign(k)
+    and F = -2 F_model: a p step adds -G, a v step +A and moves G by 2B; v moves in the sign
+    of ve. r2 (from 0) takes F / 2 + E on each p step; after each step two carries, one per
     stage, move |k| between r2 and F (2 sign(k)) while r2 is outside 0..|k|-1. The block
     also ends with an error if v passes ve.
 
@@ -51,7 +51,7 @@ class ParabolicDatapath(Datapath):
       In S+29 ``end`` (with ``error``) is high for refused data (a coordinate of -2^23, or
       pe = 0), else ``ready``; the first step is in ``step`` from S+30. An exponential skips
       the multipliers: S+1 to S+4 (its first step decided in S+1 to S+3, ``ready`` or
-      ``end`` in S+4: refused also for |I| < 2, J < 0, E outside 0..|I|-1);
+      ``end`` in S+4: refused also for I < 2 or J < 0);
     * four stages, C+1 to C+4: the position (and G, on a p step; on a v step for an
       exponential) moves by the current step, an exponential's first carry; whether the
       current step ends the block (``final``, ``error``), and the next step's long axis and v
@@ -78,9 +78,9 @@ class ParabolicDatapath(Datapath):
         k = Signal(range(PARABOLA_SETUP_CYCLES))
         p = Signal(25)
         v = Signal(signed(27))
-        # An exponential's own: k < 0, -sign(k) E, r2, and whether v was at ve.
+        # An exponential's own: k < 0, E, r2, and whether v was at ve.
         decays = Signal()
-        frac = Signal(signed(25))
+        e = Signal(signed(24))
         r2 = Signal(signed(_R2_BITS))
         at_ve = Signal()
         # The current step: long axis p, diagonal, v direction, whether it ends the block
@@ -113,20 +113,18 @@ class ParabolicDatapath(Datapath):
             pe_s = Mux(block.swap, block.ye, block.xe)
             ve_s = Mux(block.swap, block.xe, block.ye)
             vp_s = Mux(block.swap, block.i, block.j)
-            k_s = magnitude(block.i)
-            bad_exp = (refused(block, "e") | (k_s < 2) | (block.j < 0) | (block.e < 0)
-                       | (block.e >= k_s))
             m.d.sync += [
                 exp.eq(block.exponential), swap.eq(block.swap), su_neg.eq(pe_s < 0),
                 pe.eq(magnitude(pe_s)), ve.eq(ve_s), m2.eq((vp_s << 2) - ve_s),
-                decays.eq(block.i < 0), frac.eq(Mux(block.i < 0, block.e, -block.e)),
+                decays.eq(block.cw), e.eq(block.e),
                 k.eq(Mux(block.exponential, PARABOLA_SETUP_CYCLES - EXPONENTIAL_SETUP_CYCLES, 0)),
                 p.eq(0), v.eq(0), f_after.eq(0), r2.eq(0), at_ve.eq(ve_s == 0),
                 bad.eq(refused(block, "xe", "ye", "i", "j") | (pe_s == 0)
-                       | (block.exponential & bad_exp)),
+                       | (block.exponential & ((block.i < 2) | (block.j < 0)))),
             ]
             with m.If(block.exponential):
-                m.d.sync += [b.eq(Mux(block.i < 0, -1, 1)), a.eq(k_s << 1), g.eq(block.j << 1)]
+                m.d.sync += [b.eq(Mux(block.cw, -1, 1)), a.eq(block.i << 1),
+                             g.eq(block.j << 1)]
             with m.Else():
                 m.d.sync += [b.eq((ve_s << 1) - (vp_s << 2)), a.eq(0), g.eq(0)]
         with m.Elif(self.setup):
@@ -142,8 +140,8 @@ class ParabolicDatapath(Datapath):
         with m.If(last | self.advance):
             m.d.sync += [long_p.eq(next_long_p), diag.eq(next_diag),
                          sv_neg.eq(Mux(exp, ve < 0, next_sv_neg)), f_after.eq(d1)]
-            with m.If(next_long_p | next_diag):
-                m.d.sync += r2.eq(r2 + m2)
+            with m.If(exp & (next_long_p | next_diag)):
+                m.d.sync += r2.eq(r2 + (f_after >> 1) + e)
 
         # The stages, each from registers. For the block's first step the last three run in
         # the setup's last cycles (from the start point, F = 0).
@@ -154,10 +152,13 @@ class ParabolicDatapath(Datapath):
                 m.d.sync += g.eq(g + (b << 1))
         with m.If(exp & (stage[0] | stage[1])):  # an exponential's two carries
             kk = a[1:25]
-            with m.If(r2 >= kk):
-                m.d.sync += [r2.eq(r2 - kk), f_after.eq(Mux(decays, f_after - 2, f_after + 2))]
-            with m.Elif(r2 < 0):
-                m.d.sync += [r2.eq(r2 + kk), f_after.eq(Mux(decays, f_after + 2, f_after - 2))]
+            less = r2 - kk
+            up = less >= 0
+            with m.If(up | (r2 < 0)):
+                # An exponential's |F| < 2^27: the low bits move, the rest sign-extend.
+                low = f_after[:_R2_BITS + 2] + Mux(up ^ decays, 2, -2)
+                m.d.sync += [r2.eq(Mux(up, less, r2 + kk)),
+                             f_after.eq(low[:_R2_BITS + 2].as_signed())]
         with m.If((self.setup & (k == _MULTIPLY + 1)) | stage[1]):
             m.d.sync += [next_long_p.eq(magnitude(g) <= a), next_sv_neg.eq(~exp & (g < 0))]
         with m.If(stage[1]):
@@ -168,8 +169,6 @@ class ParabolicDatapath(Datapath):
             sa = Mux(next_sv_neg, -a, a)
             m.d.sync += [d1.eq(Mux(next_long_p, f_after - g, f_after + sa)),
                          d2.eq(f_after - g + sa)]
-            with m.If(exp):
-                m.d.sync += m2.eq((f_after >> 1) + frac)
         with m.If((self.setup & (k == _MULTIPLY + 3)) | stage[3]):
             # The short axis moves too if that makes |F| smaller: d2 = d1 + t with t = +-A on
             # the long axis p, -G on v (never 0); t > 0: v moves up on p, G < 0 on v.
