@@ -147,7 +147,7 @@ def exponential_block(xe: int, ye: int, constant: float, *, log: bool,
     pe, ve = (ye, xe) if log else (xe, ye)
     axis = "Y" if log else "X"
     if pe == 0:
-        raise CurveError(f"an {'logarithm' if log else 'exponential'} needs a non-zero "
+        raise CurveError(f"{'a logarithm' if log else 'an exponential'} needs a non-zero "
                          f"{axis} extent")
     if not abs(constant) >= MIN_CONSTANT:
         raise CurveError(f"the curve's constant {constant:g} LSB is below the K3701's "

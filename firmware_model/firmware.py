@@ -164,7 +164,8 @@ def check_program(job: Job) -> None:
         feed = programmed_feed(item, machine)
         limit = max_feed_mm_min(machine, item.block.kind)
         if feed > limit:
-            what = {Kind.LINEAR: "a line", Kind.CIRCULAR: "an arc"}.get(
+            what = {Kind.LINEAR: "a line", Kind.CIRCULAR: "an arc",
+                    Kind.EXPONENTIAL: "an exponential"}.get(
                 item.block.kind, f"a {item.block.kind.name.lower()} block")
             rapid = isinstance(item, Line) and item.rapid
             where, word = _where(item, program), "machine.rapid_mm_min"

@@ -42,14 +42,6 @@ def test_backends_agree_with_linear_and_bell_circuits_feedforward_and_the_torque
     same_on_both_backends(job, faults)
 
 
-def test_backends_agree_on_exponential_and_logarithm_blocks(make_job):
-    # A growing exponential of X, then a flattening logarithm (an exponential of Y), on the
-    # compiled backend with idle skipping as on Amaranth's simulator.
-    job = make_job("G21 G91 F2400\nG06.1 X0.03 Y-0.012 K0.03\nG06.2 X-0.02 Y0.025 K-0.02\n"
-                   "M30")
-    same_on_both_backends(job, {})
-
-
 def same_on_both_backends(job, faults) -> None:
     results = {}
     for backend in ("pysim", "cxxrtl"):

@@ -155,7 +155,7 @@ def test_many_exponentials_on_gateware_match_model_cycle_by_cycle(block, fp, see
 @pytest.mark.parametrize("block", [
     Block.exponential(0, 7, 5, 3, 0),                    # no abscissa: ERROR after the setup
     Block.exponential(10, 5, 1, 1, 0),                   # |k| < 2
-    replace(Block.exponential(60, 9, 4, 2, 0), frac=1 - 2**23),  # E no host loads: r2 wraps
+    replace(Block.exponential(60, 9, 4, 2, 0), frac=1 - 2**23),  # E no host loads
     Block.exponential(1, 0, 5, 0, 0),                    # one step
     Block.exponential(-9, 30, 5, 3, 2, swap=True),       # data no host picks: passes an end
     Block.exponential(25, -40, -20, 60, 3),              # the same, flattening
