@@ -112,6 +112,14 @@ def compare_sequence(blocks: list[Block], fp, max_cycles: int,
     return model, result["cycles"], result["xy"]
 
 
+def check_clean_end_on_gateware(block: Block, fp: str, seed: int) -> None:
+    """``block`` on gateware equals the model cycle by cycle under the FP stream ``fp`` (see
+    :func:`fp_source`), and ends on its end point without ERROR."""
+    model, _, xy = compare_with_model(block, fp_source(fp, seed), 20000)
+    assert xy == [0, 0]
+    assert not model.out.error
+
+
 def on_path_end(i: int, j: int, cw: bool, steps: int) -> tuple[int, int]:
     """A point of the digital circle ``steps`` steps after the start (relative to the start)."""
     path = make_path(Block.arc(0, 0, i, j, cw=cw))

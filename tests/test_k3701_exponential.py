@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
-from test_k3701 import compare_with_model, fp_kinds, fp_source
+from test_k3701 import check_clean_end_on_gateware, compare_with_model, fp_kinds, fp_source
 
 from firmware_model.curves import (
     MAX_GROWTH,
@@ -133,23 +133,17 @@ def test_three_axis_chip_has_no_exponential():
         block_registers(Block.exponential(10, 5, 20, 3, 0), axes=3)
 
 
-def check_gateware(block: Block, fp: str, seed: int) -> None:
-    model, _, xy = compare_with_model(block, fp_source(fp, seed), 20000)
-    assert xy == [0, 0]
-    assert not model.out.error
-
-
 @settings(max_examples=8, deadline=None, derandomize=True)
 @given(block=exponentials(span=25), fp=fp_kinds, seed=st.integers(0, 1000))
 def test_exponential_gateware_matches_model_cycle_by_cycle(block, fp, seed):
-    check_gateware(block, fp, seed)
+    check_clean_end_on_gateware(block, fp, seed)
 
 
 @pytest.mark.slow
 @settings(max_examples=80, deadline=None, derandomize=True)
 @given(block=exponentials(span=60), fp=fp_kinds, seed=st.integers(0, 1000))
 def test_many_exponentials_on_gateware_match_model_cycle_by_cycle(block, fp, seed):
-    check_gateware(block, fp, seed)
+    check_clean_end_on_gateware(block, fp, seed)
 
 
 @pytest.mark.parametrize("block", [
