@@ -26,6 +26,7 @@ from dataclasses import dataclass, replace
 __all__ = [
     "CIRCLE_SETUP_CYCLES",
     "COORD_MAX",
+    "EXPONENTIAL_R2_BITS",
     "EXPONENTIAL_SETUP_CYCLES",
     "LATENCY_CIRCULAR",
     "LATENCY_LINEAR",
@@ -73,8 +74,9 @@ PARABOLA_SETUP_CYCLES = 29
 #: Cycles an exponential block spends before it takes FP: it loads its data, then three
 #: cycles decide its first step.
 EXPONENTIAL_SETUP_CYCLES = 4
-#: Width of an exponential's second digit r2 (two's complement, as the chip's register).
-_R2_BITS = 28
+#: Width of an exponential's second digit r2 (two's complement, as the chip's register):
+#: within 0..|k|-1 but for what a p step adds (|R| < 2^25) not yet carried.
+EXPONENTIAL_R2_BITS = 28
 
 
 class Kind(enum.IntEnum):
@@ -564,7 +566,7 @@ class ExponentialPath(_FramePath):
         sr = self.e - self.f  # -sign(k) R before the step
         dp, dv, self.f = self._decide()
         if dp:
-            self.r2 = _wrap(self.r2 + sr, _R2_BITS)
+            self.r2 = _wrap(self.r2 + sr, EXPONENTIAL_R2_BITS)
         for _ in range(2):
             carry = 1 if self.r2 >= self.k else -1 if self.r2 < 0 else 0
             self.r2 -= carry * self.k

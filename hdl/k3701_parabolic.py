@@ -10,7 +10,11 @@ from __future__ import annotations
 from amaranth.hdl import Module, Mux, Signal, signed
 
 from hdl.k3701_datapath import Datapath, frame_step, magnitude, refused, shorter
-from hdl.k3701_model import EXPONENTIAL_SETUP_CYCLES, PARABOLA_SETUP_CYCLES
+from hdl.k3701_model import (
+    EXPONENTIAL_R2_BITS,
+    EXPONENTIAL_SETUP_CYCLES,
+    PARABOLA_SETUP_CYCLES,
+)
 
 __all__ = ["ParabolicDatapath"]
 
@@ -20,9 +24,8 @@ _MULTIPLY = 24
 #: |G| = |B (2p + 1) + C| < 2^51; F after a step is within max(A, |G|) and a candidate within
 #: |F| + |G| + A < 2^52.
 _F_BITS = 53
-#: An exponential's r2, signed: within 0..|k|-1 but for a p step's -sign(k) R (|R| < 2^25)
-#: not yet carried.
-_R2_BITS = 28
+#: An exponential's F, signed: |F| < 2 (|k| + |Q|) < 2^26; the bits above sign-extend.
+_F_EXP_BITS = 28
 
 
 class ParabolicDatapath(Datapath):
@@ -55,8 +58,8 @@ class ParabolicDatapath(Datapath):
     * four stages, C+1 to C+4: the position (and G, on a p step; on a v step for an
       exponential) moves by the current step, an exponential's first carry; whether the
       current step ends the block (``final``, ``error``), and the next step's long axis and v
-      direction, the second carry; the two candidate F values (and an exponential's next
-      r2 addend); the choice, which ``advance`` (in C+L-1, L >= 6) puts in ``step`` from C+L.
+      direction, the second carry; the two candidate F values; the choice, which ``advance``
+      (in C+L-1, L >= 6) puts in ``step`` from C+L.
     """
 
     SETUP = True
@@ -81,7 +84,7 @@ class ParabolicDatapath(Datapath):
         # An exponential's own: k < 0, E, r2, and whether v was at ve.
         decays = Signal()
         e = Signal(signed(24))
-        r2 = Signal(signed(_R2_BITS))
+        r2 = Signal(signed(EXPONENTIAL_R2_BITS))
         at_ve = Signal()
         # The current step: long axis p, diagonal, v direction, whether it ends the block
         # (and with an error), and F after it.
@@ -136,7 +139,7 @@ class ParabolicDatapath(Datapath):
                 m.d.sync += g.eq(g + b)
 
         # The current step becomes the next one: at the setup's end (the block's first step)
-        # and with each advance; an exponential's p move adds m2 to r2.
+        # and with each advance; an exponential's p move adds F / 2 + E to r2 (F before it).
         with m.If(last | self.advance):
             m.d.sync += [long_p.eq(next_long_p), diag.eq(next_diag),
                          sv_neg.eq(Mux(exp, ve < 0, next_sv_neg)), f_after.eq(d1)]
@@ -155,10 +158,9 @@ class ParabolicDatapath(Datapath):
             less = r2 - kk
             up = less >= 0
             with m.If(up | (r2 < 0)):
-                # An exponential's |F| < 2^27: the low bits move, the rest sign-extend.
-                low = f_after[:_R2_BITS + 2] + Mux(up ^ decays, 2, -2)
+                low = f_after[:_F_EXP_BITS] + Mux(up ^ decays, 2, -2)
                 m.d.sync += [r2.eq(Mux(up, less, r2 + kk)),
-                             f_after.eq(low[:_R2_BITS + 2].as_signed())]
+                             f_after.eq(low[:_F_EXP_BITS].as_signed())]
         with m.If((self.setup & (k == _MULTIPLY + 1)) | stage[1]):
             m.d.sync += [next_long_p.eq(magnitude(g) <= a), next_sv_neg.eq(~exp & (g < 0))]
         with m.If(stage[1]):
