@@ -28,10 +28,10 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
-from firmware_model.gcode import Arc, Dwell, Event, Item, Line, Program
+from firmware_model.gcode import Dwell, Event, Item, Line, Program
 from firmware_model.host import Host8085
 from firmware_model.job import Job, MachineConfig
-from firmware_model.program import Parabola
+from firmware_model.program import Move
 from hdl.decel_control_model import BUDGET_WIDTH
 from hdl.divider_model import increment_for
 from hdl.feed_rate_map import DIVIDER_WIDTH, FEED_BITS
@@ -139,7 +139,7 @@ def _where(item: Item, program: Program) -> str:
     return program.locate(item.line_no)
 
 
-def programmed_feed(item: Line | Arc | Parabola, machine: MachineConfig) -> float:
+def programmed_feed(item: Move, machine: MachineConfig) -> float:
     """The feed a move runs at (mm/min): its F word, or the machine's rapid feed for G00."""
     if isinstance(item, Line) and item.rapid:
         return machine.rapid_mm_min
@@ -164,7 +164,8 @@ def check_program(job: Job) -> None:
         feed = programmed_feed(item, machine)
         limit = max_feed_mm_min(machine, item.block.kind)
         if feed > limit:
-            what = {Kind.LINEAR: "a line", Kind.CIRCULAR: "an arc"}.get(
+            what = {Kind.LINEAR: "a line", Kind.CIRCULAR: "an arc",
+                    Kind.EXPONENTIAL: "an exponential"}.get(
                 item.block.kind, f"a {item.block.kind.name.lower()} block")
             rapid = isinstance(item, Line) and item.rapid
             where, word = _where(item, program), "machine.rapid_mm_min"
@@ -263,7 +264,7 @@ class Firmware:
     def host_hz(self) -> float:
         return self.job.machine.clock_hz / self.host.cycles_per_t
 
-    def _block(self, item: Line | Arc | Parabola) -> None:
+    def _block(self, item: Move) -> None:
         host, machine = self.host, self.job.machine
         host.work(host.timing.block_setup)
         block = item.block

@@ -87,6 +87,11 @@ _OFFSET_LETTERS = "IJK"
 _AXIS_LETTERS = "XYZ"
 
 
+def _g_name(key: int) -> str:
+    """A G code as written from its table key (tenths): 10 is G01, 61 is G06.1."""
+    return f"G{key // 10:02d}" + (f".{key % 10}" if key % 10 else "")
+
+
 class GcodeError(ValueError):
     """A program the front end refuses. ``str()`` is one ``source:line:col: message`` line
     per error; ``errors`` lists them as (line, col, message); ``line``, ``col`` and
@@ -379,7 +384,7 @@ class _Interpreter:
                                            f"(G00/G01/G02/G03)")
         anchor = g[1] if g is not None else axes[0]
         if self.motion != 0 and self.feed is None:
-            raise _BlockError(anchor.col, f"G{self.motion // 10:02d} without a feed rate: program "
+            raise _BlockError(anchor.col, f"{_g_name(self.motion)} without a feed rate: program "
                                     f"F first")
         machine = "non-modal" in b.g and b.g["non-modal"][0] == 530
         if machine and self.motion not in (0, 10):
@@ -395,12 +400,15 @@ class _Interpreter:
             self.arc(b, anchor)
         elif self.motion == 60:
             self.parabola(b, anchor)
+        elif self.motion in (61, 62):
+            self.exponential(b, anchor)
         else:
             self.canned_cycle(b, anchor)
 
     def uses(self, letter: str, b: _Block) -> bool:
         if letter in "IJK":
-            return self.motion in (20, 30) or (self.motion == 60 and letter != "K")
+            return (self.motion in (20, 30) or (self.motion == 60 and letter != "K")
+                    or (self.motion in (61, 62) and letter == "K"))
         if letter == "R":
             return self.motion in (20, 30, 810, 820, 830)
         return self.motion == 830 or b.code("path") == 640  # Q
@@ -472,6 +480,21 @@ class _Interpreter:
             tangent.append(point - self.planner.position[axis])
         self.plan(anchor.col, self.planner.parabola, target, (tangent[0], tangent[1]),
                   self.feed, feed_source=self.feed_source)
+
+    def exponential(self, b: _Block, anchor: Word) -> None:
+        """G06.1 (exponential of X) and G06.2 (logarithm: exponential of Y): K the curve's
+        constant, a length along the abscissa (negative: the curve flattens)."""
+        name = _g_name(self.motion)
+        if self.plane != 17:
+            raise _BlockError(anchor.col, f"{name} in G{self.plane}: exponentials are in the "
+                                          f"XY plane (G17)")
+        k = b.word("K")
+        if k is None:
+            raise _BlockError(anchor.col, f"{name} needs K (the curve's constant)")
+        constant = self.lsb(k.value)
+        self.check_range(k, constant, "the curve's constant")
+        self.plan(anchor.col, self.planner.exponential, self.target(b), constant,
+                  self.motion == 62, self.feed, feed_source=self.feed_source)
 
     def centre_from_radius(self, r: Word, start, target, first: int, second: int,
                            cw: bool) -> list[int]:

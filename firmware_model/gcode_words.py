@@ -43,6 +43,13 @@ G_CODES: dict[int, Code] = {
     _g(6): Code("motion", "parabola (DIN 66025; two-axis machine, XY plane): X/Y the end, I/J "
                           "the point whose tangent is parallel to the chord, relative to the "
                           "start as arc centres; the parabola's axis parallel to X or Y"),
+    _g(6.1): Code("motion", "exponential (K37; two-axis machine, XY plane): X/Y the end, K "
+                            "the curve's constant, a length along X: y - y0 = (ye - y0) "
+                            "(e^((x - x0) / K) - 1) / (e^((xe - x0) / K) - 1); K < 0 "
+                            "flattens towards the end"),
+    _g(6.2): Code("motion", "logarithm (K37; two-axis machine, XY plane): the exponential of "
+                            "Y, as G06.1 with X and Y exchanged (K a length along Y): "
+                            "y - y0 = K ln(1 + (x - x0) (e^((ye - y0) / K) - 1) / (xe - x0))"),
     _g(17): Code("plane", "XY plane (arcs take I, J)"),
     _g(18): Code("plane", "ZX plane (arcs take K, I; three-axis machines)"),
     _g(19): Code("plane", "YZ plane (arcs take J, K; three-axis machines)"),
@@ -101,7 +108,7 @@ LETTERS: dict[str, str] = {
     "X": "X coordinate", "Y": "Y coordinate", "Z": "Z coordinate (moving Z needs "
                                                    "machine.axes = 3)",
     "I": "arc centre offset along X", "J": "arc centre offset along Y",
-    "K": "arc centre offset along Z",
+    "K": "arc centre offset along Z; G06.1/G06.2: the curve's constant",
     "R": "arc radius; canned cycles' retract plane",
     "F": "feed, units per minute (modal)",
     "S": "spindle speed (recorded)",

@@ -1,8 +1,9 @@
 """A program as the firmware runs it, and the planner both G-code front ends build it with.
 
-A :class:`Program` is a tuple of items: :class:`Line` and :class:`Arc` (K3701 blocks, with
-their exact plans), :class:`Dwell` and :class:`Event` (words with no hardware here: spindle,
-coolant, tool change, stops; the firmware records the cycle they are reached at). Positions
+A :class:`Program` is a tuple of items: :class:`Line`, :class:`Arc`, :class:`Parabola` and
+:class:`Exponential` (K3701 blocks, with their exact plans), :class:`Dwell` and
+:class:`Event` (words with no hardware here: spindle, coolant, tool change, stops; the
+firmware records the cycle they are reached at). Positions
 are absolute machine LSB, one int per machine axis (X, Y, and Z on a three-axis machine);
 the program starts at the origin.
 
@@ -22,24 +23,32 @@ closest to it, within :data:`REPAIR_REACH` LSB, and the correction line follows 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from firmware_model.arc_plan import plan_block
-from firmware_model.curves import CurveError, frame_distances, parabola_block
+from firmware_model.curves import (
+    CurveError,
+    curve_distances,
+    exponential_block,
+    exponential_frame,
+    parabola_block,
+)
 from hdl.k3701_model import (
     COORD_MAX,
     MAX_RADIUS_SQUARED,
     Block,
     BlockError,
+    ExponentialPath,
     ParabolicPath,
     Plan,
     make_path,
 )
 
-__all__ = ["CORRECTION_MAX", "PLANE_AXES", "REPAIR_REACH", "Arc", "Dwell", "Event", "Item",
-           "Line", "Move", "Parabola", "PlanError", "Planner", "Program"]
+__all__ = ["CORRECTION_MAX", "PLANE_AXES", "REPAIR_REACH", "Arc", "Dwell", "Event",
+           "Exponential", "Item", "Line", "Move", "Parabola", "PlanError", "Planner", "Program"]
 
 #: Machine-axis indices of a plane's first, second and normal axes (as LinuxCNC's canon).
 PLANE_AXES = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
@@ -149,8 +158,47 @@ def _sweep(i: int, j: int, end: tuple[int, int], cw: bool) -> tuple[float, float
     return a0, ((a0 - a1) if cw else (a1 - a0)) % math.tau or math.tau
 
 
+class _Curve(_Move):
+    """A move along one of the K3701's curves, drawn in the curve's own frame (abscissa p,
+    ordinate v: :class:`hdl.k3701_model.ParabolicPath`, :class:`hdl.k3701_model.ExponentialPath`).
+    ``code``: its G code. The programmed curve is the chip's, through the start and the end."""
+
+    code = ""
+
+    def _path(self) -> ParabolicPath | ExponentialPath:
+        path = make_path(self.block)
+        assert isinstance(path, ParabolicPath | ExponentialPath)
+        return path
+
+    def _curve(self) -> Callable[[np.ndarray], tuple[np.ndarray, ...]]:
+        """The programmed curve in its frame: v, dv/dp and d2v/dp2 at an array of p."""
+        raise NotImplementedError
+
+    def frame(self, points: np.ndarray) -> np.ndarray:
+        """Absolute (x, y) rows in the curve's frame (p, v)."""
+        path = self._path()
+        rel = points - np.array(self.start[:2], dtype=float)
+        p, v = (rel[:, 1], rel[:, 0]) if path.swap else (rel[:, 0], rel[:, 1])
+        return np.column_stack([path.su * p, v])
+
+    def polyline(self, count: int = 720) -> np.ndarray:
+        """``count`` absolute points along the programmed curve."""
+        path = self._path()
+        p = np.linspace(0.0, path.pe, count)
+        v = self._curve()(p)[0]
+        u = path.su * p
+        rel = np.column_stack([v, u] if path.swap else [u, v])
+        return rel + np.array(self.start[:2], dtype=float)
+
+    def distances(self, points: np.ndarray) -> np.ndarray:
+        """Distance of each absolute (x, y) row to the programmed curve between its ends
+        (LSB)."""
+        return curve_distances(self._curve(), self.frame(points),
+                               (0.0, float(self._path().pe)))
+
+
 @dataclass(frozen=True)
-class Parabola(_Move):
+class Parabola(_Curve):
     """A parabolic move (G06) on the two-axis chip.
 
     ``xe, ye``: end relative to the start (LSB); ``i, j``: the tangent point P (the point
@@ -162,34 +210,38 @@ class Parabola(_Move):
     i: int
     j: int
     feed_mm_min: float
+    code = "G06"
 
-    def _path(self) -> ParabolicPath:
-        path = make_path(self.block)
+    def _curve(self) -> Callable[[np.ndarray], tuple[np.ndarray, ...]]:
+        path = self._path()
         assert isinstance(path, ParabolicPath)
-        return path
+        qa, qb = path.b / path.a, path.c / path.a
+        return lambda q: (qa * q * q + qb * q, 2 * qa * q + qb, 2 * qa + 0 * q)
 
-    def frame(self, points: np.ndarray) -> np.ndarray:
-        """Absolute (x, y) rows in the curve's frame (p, v)."""
-        path = self._path()
-        rel = points - np.array(self.start[:2], dtype=float)
-        p, v = (rel[:, 1], rel[:, 0]) if path.swap else (rel[:, 0], rel[:, 1])
-        return np.column_stack([path.su * p, v])
 
-    def polyline(self, count: int = 720) -> np.ndarray:
-        """``count`` absolute points along the programmed parabola."""
-        path = self._path()
-        p = np.linspace(0.0, path.pe, count)
-        v = (path.b * p * p + path.c * p) / path.a
-        u = path.su * p
-        rel = np.column_stack([v, u] if path.swap else [u, v])
-        return rel + np.array(self.start[:2], dtype=float)
+@dataclass(frozen=True)
+class Exponential(_Curve):
+    """An exponential (G06.1) or, with ``log``, logarithmic (G06.2: an exponential of Y) move
+    on the two-axis chip.
 
-    def distances(self, points: np.ndarray) -> np.ndarray:
-        """Distance of each absolute (x, y) row to the programmed parabola between its ends
-        (LSB)."""
+    ``xe, ye``: end relative to the start (LSB); ``constant``: the curve's constant as
+    programmed (LSB along its abscissa, X or with ``log`` Y). ``block`` and ``plan`` are the
+    chip's (:func:`firmware_model.curves.exponential_block`): it ends exactly on the end
+    point. Other fields as in :class:`Line`.
+    """
+
+    constant: int
+    log: bool
+    feed_mm_min: float
+
+    @property
+    def code(self) -> str:
+        return "G06.2" if self.log else "G06.1"
+
+    def _curve(self) -> Callable[[np.ndarray], tuple[np.ndarray, ...]]:
         path = self._path()
-        return frame_distances(path.b / path.a, path.c / path.a, self.frame(points),
-                               (0.0, float(path.pe)))
+        assert isinstance(path, ExponentialPath)
+        return exponential_frame(path)
 
 
 @dataclass(frozen=True)
@@ -214,8 +266,8 @@ class Event:
     value: float | None = None
 
 
-Move = Line | Arc | Parabola
-Item = Line | Arc | Parabola | Dwell | Event
+Move = Line | Arc | Parabola | Exponential
+Item = Line | Arc | Parabola | Exponential | Dwell | Event
 
 
 @dataclass(frozen=True)
@@ -241,7 +293,8 @@ class Program:
     @property
     def moves(self) -> tuple[Move, ...]:
         """The items that move (the K3701's blocks)."""
-        return tuple(it for it in self.items if isinstance(it, Line | Arc | Parabola))
+        return tuple(it for it in self.items
+                     if isinstance(it, Line | Arc | Parabola | Exponential))
 
     @property
     def events(self) -> tuple[Event, ...]:
@@ -265,9 +318,10 @@ class Program:
         }
         if self.events:
             summary["events"] = len(self.events)
-        parabolas = sum(isinstance(it, Parabola) for it in self.items)
-        if parabolas:
-            summary["parabolas"] = parabolas
+        for kind, name in ((Parabola, "parabolas"), (Exponential, "exponentials")):
+            count = sum(isinstance(it, kind) for it in self.items)
+            if count:
+                summary[name] = count
         if self.axes != 2:
             summary["axes"] = self.axes
         return summary
@@ -341,6 +395,26 @@ class Planner:
         self.items.append(Parabola(len(self.items), line_no, xe, ye, *tangent, feed,
                                    start=self._start(), block=block, plan=result,
                                    feed_source=feed_source))
+        self.position = self.programmed = target
+
+    def exponential(self, line_no: int, target: tuple[int, int, int], constant: int,
+                    log: bool, feed: float, *,
+                    feed_source: tuple[int, int, str] | None = None) -> None:
+        """An exponential (G06.1), or with ``log`` a logarithm (G06.2), to ``target`` of
+        constant ``constant`` (LSB along X, or Y with ``log``), on the two-axis chip."""
+        target = self._check_target(target)
+        name = "G06.2" if log else "G06.1"
+        if self.axes == 3:
+            raise PlanError(f"{name}: the three-axis K3701 has no exponential interpolation "
+                            f"(the two-axis machine runs it)")
+        xe, ye = target[0] - self.position[0], target[1] - self.position[1]
+        try:
+            block, result = exponential_block(xe, ye, constant, log=log, sqrt2=self.sqrt2)
+        except CurveError as e:
+            raise PlanError(f"{name}: {e}") from None
+        self.items.append(Exponential(len(self.items), line_no, xe, ye, constant, log, feed,
+                                      start=self._start(), block=block, plan=result,
+                                      feed_source=feed_source))
         self.position = self.programmed = target
 
     def dwell(self, line_no: int, seconds: float) -> None:

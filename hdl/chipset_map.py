@@ -4,6 +4,7 @@ and shape (:class:`hdl.chipset.Chipset` builds the gateware from them)."""
 from __future__ import annotations
 
 import enum
+from dataclasses import replace
 
 from hdl.decel_control_map import DECEL_MAP
 from hdl.encoder_map import ENCODER_MAP
@@ -87,8 +88,9 @@ def chip_selects(axes: int = 2) -> dict[str, tuple[int, RegisterMap]]:
 
 
 #: What the host addresses: every chip of the largest chipset (the two-axis K3701's registers
-#: are at the same ports in the three-axis map).
-_HOST_CHIPS = chip_selects(3)
+#: are at the same ports in the three-axis map, but for its exponential's E, beside them).
+_HOST_CHIPS = {**chip_selects(3), "K3701": (0, replace(
+    K3701_MAP_3, registers=(*K3701_MAP_3.registers, K3701_MAP["E"])))}
 
 
 def _chip(chip: str) -> tuple[int, RegisterMap]:

@@ -35,7 +35,8 @@ class _Phase(enum.Enum, shape=2):
     RUN = 2
 
 
-#: The datapath of each interpolation type (the type is CTRL.parabolic, else CTRL.circular).
+#: The datapath of each interpolation type (the type is CTRL.parabolic or CTRL.exponential,
+#: else CTRL.circular): the parabolic datapath also runs exponentials (CTRL.exponential).
 _DATAPATHS: dict[Kind, type[Datapath]] = {Kind.LINEAR: LinearDatapath,
                                           Kind.CIRCULAR: CircularDatapath,
                                           Kind.PARABOLIC: ParabolicDatapath}
@@ -65,6 +66,7 @@ class K3701(wiring.Component):
     * linear: BUSY and FP intake from S+1; circular: BUSY from S+1, a serial radius check
       until S+``circle_setup``, FP intake from S+1+``circle_setup``; parabolic: the same
       with its setup of ``PARABOLA_SETUP_CYCLES`` (29) cycles and the circular latency;
+      exponential: likewise with ``EXPONENTIAL_SETUP_CYCLES`` (4);
     * a step's pulses appear exactly ``latency_*`` cycles after the FP that completes its
       credit (2 half-FP per FP; a step costs 2, a diagonal one 3 with sqrt(2) control);
       one FP arriving meanwhile is held, a further one sets OVERRUN and is lost;
@@ -72,7 +74,8 @@ class K3701(wiring.Component):
 
     Inside, this core runs the block (registers, commands and status, FP intake and credit,
     the step latency and the pulses) and one datapath per interpolation type decides its
-    steps (:mod:`hdl.k3701_linear`, :mod:`hdl.k3701_circular`, :mod:`hdl.k3701_parabolic`,
+    steps (:mod:`hdl.k3701_linear`, :mod:`hdl.k3701_circular`, :mod:`hdl.k3701_parabolic`
+    (parabolas and exponentials),
     through the interface of :mod:`hdl.k3701_datapath`). Each step is decided before its FP
     can come: a line's next step in the cycle the current one is output, a circle's first step
     during the radius check and each following one in four pipelined cycles of the current
@@ -84,7 +87,7 @@ class K3701(wiring.Component):
     ----------
     latency_linear, latency_circular : int
         Cycles from the credit-completing FP to the step pulses (paper: 11 and 21 at 1 MHz);
-        2..32 linear, 6..32 circular (also the parabolic latency).
+        2..32 linear, 6..32 circular (also the parabolic and exponential latency).
     circle_setup : int
         Cycles of the circular radius check; must equal 25 (24 squarer cycles plus the check).
     axes : int
@@ -161,8 +164,8 @@ class K3701(wiring.Component):
         ctrl = self.regmap["CTRL"]
         cmd = self.regmap["CMD"]
         three = self.axes == 3
-        # the three-axis build has no parabolic datapath (see K3701_MAP_3)
-        kinds = (Kind.LINEAR, Kind.CIRCULAR) if three else tuple(Kind)
+        # the three-axis build has no parabolic or exponential datapath (see K3701_MAP_3)
+        kinds = (Kind.LINEAR, Kind.CIRCULAR) if three else tuple(_DATAPATHS)
         latency = {Kind.LINEAR: self.latency_linear, Kind.CIRCULAR: self.latency_circular,
                    Kind.PARABOLIC: self.latency_circular}
         datapaths = ([LinearDatapath3(), CircularDatapath(axes=3)] if three
@@ -171,7 +174,7 @@ class K3701(wiring.Component):
             m.submodules[k.name.lower()] = datapath
 
         phase = Signal(_Phase)
-        kind = Signal(range(len(Kind)))  # the running block's type
+        kind = Signal(range(len(_DATAPATHS)))  # the running block's datapath
         sqrt2 = Signal()
         xm = Signal(signed(24))
         ym = Signal(signed(24))
@@ -182,7 +185,8 @@ class K3701(wiring.Component):
         word = regs.ctrl.w_data
         # The type of a block starting now.
         new_kind = (word[ctrl.field("circular").offset] if three else
-                    Mux(word[ctrl.field("parabolic").offset], Kind.PARABOLIC,
+                    Mux(word[ctrl.field("parabolic").offset]
+                        | word[ctrl.field("exponential").offset], Kind.PARABOLIC,
                         word[ctrl.field("circular").offset]))
         start = regs.cmd.w_stb & regs.cmd.w_data[cmd.field("start").offset]
         m.d.comb += [
@@ -208,7 +212,8 @@ class K3701(wiring.Component):
                 block.cw.eq(word[ctrl.field("cw").offset]),
                 block.quadrant.eq(_field(word, ctrl.field("quadrant"))),
                 *([block.ze.eq(regs.z.w_data)] if three else
-                  [block.swap.eq(word[ctrl.field("swap").offset])]),
+                  [block.swap.eq(word[ctrl.field("swap").offset]), block.e.eq(regs.e.w_data),
+                   block.exponential.eq(word[ctrl.field("exponential").offset])]),
                 datapath.start.eq(start & (phase == _Phase.IDLE) & (new_kind == k)),
                 datapath.advance.eq(running & (count == 1)),
                 *(datapath.stage[s].eq(running & (count == latency[k] - 1 - s))

@@ -3,7 +3,7 @@
 The core (:class:`hdl.k3701.K3701`) runs a block: the host bus, START, BUSY, the feed intake
 and step credit, the step latency and the step pulses. A datapath (one per interpolation type:
 :class:`hdl.k3701_linear.LinearDatapath`, :class:`hdl.k3701_circular.CircularDatapath`,
-:class:`hdl.k3701_parabolic.ParabolicDatapath`)
+:class:`hdl.k3701_parabolic.ParabolicDatapath`, which also runs exponentials)
 decides the steps: it loads the block, answers with the step to take next, and decides the
 one after when the core takes it. A new interpolation type is one more :class:`Datapath`.
 """
@@ -18,8 +18,8 @@ from amaranth.hdl import Mux, Value, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-__all__ = ["BlockSignature", "Datapath", "DatapathSignature", "StepSignature", "magnitude",
-           "moves", "refused"]
+__all__ = ["BlockSignature", "Datapath", "DatapathSignature", "StepSignature", "frame_step",
+           "magnitude", "moves", "refused", "shorter"]
 
 #: The one 24-bit two's complement value the chip refuses (its coordinates are symmetric).
 _MIN_COORD = -(1 << 23)
@@ -42,6 +42,26 @@ def moves(step: Any, axes: str = "xy") -> tuple[Value, ...]:
     return tuple(Mux(getattr(step, a), Mux(getattr(step, f"{a}_neg"), -1, 1), 0) for a in axes)
 
 
+def frame_step(step: Any, *, swap: Value, su_neg: Value, sv_neg: Value, long_p: Value,
+               diag: Value, final: Value, error: Value) -> list[Any]:
+    """Drive ``step`` (a :class:`StepSignature` port) with a step decided in a curve's own
+    frame: the abscissa p is X (Y with ``swap``), moving towards negative with ``su_neg``,
+    the ordinate v the other axis, moving towards negative with ``sv_neg``; the long axis is
+    p with ``long_p``, and ``diag`` moves both. Returns the assignments (comb)."""
+    p_moves = long_p | diag
+    v_moves = ~long_p | diag
+    return [step.x.eq(Mux(swap, v_moves, p_moves)), step.x_neg.eq(Mux(swap, sv_neg, su_neg)),
+            step.y.eq(Mux(swap, p_moves, v_moves)), step.y_neg.eq(Mux(swap, su_neg, sv_neg)),
+            step.diag.eq(diag), step.final.eq(final), step.error.eq(error)]
+
+
+def shorter(d1: Value, d2: Value, up: Value) -> Value:
+    """|d2| < |d1|, for d2 = d1 + t with t never 0, positive with ``up``: exactly when
+    t (d1 + d2) < 0 (one adder, no magnitudes)."""
+    total = d1 + d2
+    return (total != 0) & ((total < 0) == up)
+
+
 class BlockSignature(wiring.Signature):
     """A block as the host loaded it (the K3701's X, Y, I, J and CTRL registers), as the
     core drives it.
@@ -54,11 +74,14 @@ class BlockSignature(wiring.Signature):
         Circle centre relative to the start; parabolic: the point whose tangent is parallel
         to the chord.
     cw : Out(1)
-        Circular direction: 0 CCW, 1 CW.
+        Circular direction: 0 CCW, 1 CW; exponential: the constant is negative.
     quadrant : Out(2)
         Circular end-point quadrant code (0..3 = quadrant 1..4).
     swap : Out(1)
-        Parabolic: the curve's abscissa is Y (else X).
+        Parabolic, exponential: the curve's abscissa is Y (else X).
+    exponential, e : Out(1), Out(signed(24))
+        Two-axis chip only: the block is an exponential (of the parabolic datapath's type);
+        the fraction of its offset (see the register E).
     ze : Out(signed(24))
         Three-axis chip only (``axes=3``): the end point's third coordinate (lines).
     """
@@ -68,6 +91,8 @@ class BlockSignature(wiring.Signature):
                    "j": Out(signed(24)), "cw": Out(1), "quadrant": Out(2), "swap": Out(1)}
         if axes == 3:
             members["ze"] = Out(signed(24))
+        else:
+            members |= {"exponential": Out(1), "e": Out(signed(24))}
         super().__init__(members)
 
 

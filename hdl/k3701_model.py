@@ -26,6 +26,8 @@ from dataclasses import dataclass, replace
 __all__ = [
     "CIRCLE_SETUP_CYCLES",
     "COORD_MAX",
+    "EXPONENTIAL_R2_BITS",
+    "EXPONENTIAL_SETUP_CYCLES",
     "LATENCY_CIRCULAR",
     "LATENCY_LINEAR",
     "MAX_RADIUS_SQUARED",
@@ -34,6 +36,7 @@ __all__ = [
     "Block",
     "BlockError",
     "CircularPath",
+    "ExponentialPath",
     "HelixPath",
     "K3701Model",
     "K3701Outputs",
@@ -68,6 +71,12 @@ _COST_3 = {1: 4, 2: 6, 3: 7}
 #: Cycles a parabolic block spends before it takes FP: two serial multipliers (24 cycles) form
 #: its coefficients, then four cycles decide its first step.
 PARABOLA_SETUP_CYCLES = 29
+#: Cycles an exponential block spends before it takes FP: it loads its data, then three
+#: cycles decide its first step.
+EXPONENTIAL_SETUP_CYCLES = 4
+#: Width of an exponential's second digit r2 (two's complement, as the chip's register):
+#: within 0..|k|-1 but for what a p step adds (|R| < 2^25) not yet carried.
+EXPONENTIAL_R2_BITS = 28
 
 
 class Kind(enum.IntEnum):
@@ -76,6 +85,7 @@ class Kind(enum.IntEnum):
     LINEAR = 0
     CIRCULAR = 1
     PARABOLIC = 2
+    EXPONENTIAL = 3
 
 
 class BlockError(ValueError):
@@ -156,9 +166,13 @@ class Block:
     """The data of one block as the host loads it.
 
     ``xe, ye``: end point relative to the start. ``i, j``: centre relative to the start
-    (circular), the point whose tangent is parallel to the chord (parabolic). ``quadrant``:
+    (circular), the point whose tangent is parallel to the chord (parabolic); exponential:
+    ``i`` = |k| (k the curve's constant, LSB of the abscissa; ``cw``: k < 0), ``j`` and
+    ``frac`` (the register E) its offset c = j - frac / k (:class:`ExponentialPath`).
+    ``quadrant``:
     the control word's end-point quadrant (circular only). ``swap``: parabolic: the curve's
-    abscissa is Y (the parabola's axis is parallel to X), else X. Three-axis chip only:
+    abscissa is Y (the parabola's axis is parallel to X; an exponential in Y, which is a
+    logarithm in X), else X. Three-axis chip only:
     ``ze``, the travel along the third axis (a line's, or a helix's along the plane's
     normal); ``plane``, the CTRL.plane code routing the block's axes to the machine's
     (:data:`PLANES`); ``helix_steps``, the arc's step count N, over which a helix spreads its
@@ -177,6 +191,7 @@ class Block:
     ze: int = 0
     plane: int = 0
     helix_steps: int = 0
+    frac: int = 0
 
     @classmethod
     def line(cls, xe: int, ye: int, ze: int = 0, *, sqrt2: bool = False) -> Block:
@@ -197,6 +212,16 @@ class Block:
         with ``swap``."""
         return cls(Kind.PARABOLIC, xe, ye, i, j, sqrt2=sqrt2, swap=swap)
 
+    @classmethod
+    def exponential(cls, xe: int, ye: int, k: int, c: int, frac: int, *, swap: bool = False,
+                    sqrt2: bool = False) -> Block:
+        """An exponential from the start to (xe, ye) of constant ``k`` (signed) and offset
+        c = ``c`` + ``frac`` / |k| (:class:`ExponentialPath`: I = |k|, CTRL.cw for k < 0,
+        E = -sign(k) ``frac``); with ``swap`` its abscissa is Y (a logarithm as a function of
+        X)."""
+        return cls(Kind.EXPONENTIAL, xe, ye, abs(k), c, k < 0, sqrt2=sqrt2, swap=swap,
+                   frac=frac if k < 0 else -frac)
+
     @property
     def latency(self) -> int:
         return LATENCY_LINEAR if self.kind is Kind.LINEAR else LATENCY_CIRCULAR
@@ -204,8 +229,14 @@ class Block:
     @property
     def setup_cycles(self) -> int:
         """Cycles from S+1 before the block takes FP (0: none)."""
-        return {Kind.CIRCULAR: CIRCLE_SETUP_CYCLES,
-                Kind.PARABOLIC: PARABOLA_SETUP_CYCLES}.get(self.kind, 0)
+        return {Kind.CIRCULAR: CIRCLE_SETUP_CYCLES, Kind.PARABOLIC: PARABOLA_SETUP_CYCLES,
+                Kind.EXPONENTIAL: EXPONENTIAL_SETUP_CYCLES}.get(self.kind, 0)
+
+
+def _wrap(value: int, bits: int) -> int:
+    """``value`` in ``bits``-bit two's complement."""
+    half = 1 << (bits - 1)
+    return (value + half) % (2 * half) - half
 
 
 def _check_coord(name: str, value: int) -> None:
@@ -388,7 +419,31 @@ class HelicalPath:
         return Step(step.dx, step.dy, self.helix.advance()), final, error
 
 
-class ParabolicPath:
+class _FramePath:
+    """A curve drawn in its own frame: the abscissa p (X, or Y with ``swap``) runs from 0 to
+    pe = |end's p| in the direction of the end (``su``), the ordinate v is the other axis."""
+
+    def __init__(self, pe: int, swap: bool):
+        self.swap = swap
+        self.su = 1 if pe > 0 else -1
+        self.pe = abs(pe)
+        self.p = self.v = 0
+        self.done = False
+
+    @property
+    def x(self) -> int:
+        return self.v if self.swap else self.su * self.p
+
+    @property
+    def y(self) -> int:
+        return self.su * self.p if self.swap else self.v
+
+    def _step(self, dp: int, dv: int) -> Step:
+        du = self.su * dp
+        return Step(dv, du) if self.swap else Step(du, dv)
+
+
+class ParabolicPath(_FramePath):
     """A parabola by evaluation of its function, the circle's method on F = A v - B p^2 - C p.
 
     In the curve's own frame the abscissa p (X, or Y with ``swap``) runs from 0 to
@@ -411,23 +466,13 @@ class ParabolicPath:
         if pe == 0:
             raise BlockError(f"a parabola needs a non-zero {'Y' if swap else 'X'} extent "
                              f"(its abscissa)")
-        self.swap = swap
-        self.su = 1 if pe > 0 else -1
-        self.pe, self.ve = abs(pe), ve
+        super().__init__(pe, swap)
+        self.ve = ve
         self.a = pe * pe
         self.b = 2 * ve - 4 * vp
         self.c = self.pe * (4 * vp - ve)
-        self.p = self.v = self.f = 0
+        self.f = 0
         self.g = self.b + self.c
-        self.done = False
-
-    @property
-    def x(self) -> int:
-        return self.v if self.swap else self.su * self.p
-
-    @property
-    def y(self) -> int:
-        return self.su * self.p if self.swap else self.v
 
     def _decide(self) -> tuple[int, int, int]:
         """The next step's moves in the curve's frame (dp, dv) and the F it leads to."""
@@ -440,10 +485,6 @@ class ParabolicPath:
         d1 = f + a * sv
         d2 = d1 - g
         return (1, sv, d2) if abs(d2) < abs(d1) else (0, sv, d1)
-
-    def _step(self, dp: int, dv: int) -> Step:
-        du = self.su * dp
-        return Step(dv, du) if self.swap else Step(du, dv)
 
     def peek(self) -> Step:
         """The next step (the path must not be done)."""
@@ -462,7 +503,83 @@ class ParabolicPath:
         return self._step(dp, dv), self.done, error
 
 
-Path = LinearPath | CircularPath | HelicalPath | ParabolicPath
+class ExponentialPath(_FramePath):
+    """An exponential by a self-fed DDA whose integrand carries its own fraction.
+
+    In the curve's frame (:class:`_FramePath`) the chip draws v = sv (u_p - c) sign(k),
+    u_p = c r^p with r = 1 + 1/k (|k| = ``i`` >= 2, k < 0 with ``flat``: k > 0 grows, k < 0
+    flattens) and the offset c = ``j`` - ``e`` / k >= 0 (-1 < e / k <= 0); sv is the sign of
+    the end's v (+ for 0). The discrete recursion is the curve: c r^p is exactly
+    c e^(p / k') with k' = 1 / ln(1 + 1/k). u is kept in base |k| as
+    Z = |k|^2 u = |k|^2 Q + |k| R - r2, so that a p step,
+    Z += sign(k) ceil(Z / |k|) = sign(k) (|k| Q + R), is digit-wise: R += sign(k) Q and
+    r2 -= sign(k) R, adders only. Q is the integrand (the integer part of u, moved by one with
+    each v step, which takes |k| from R) and F = sign(k) R + e is the curve's height above
+    the point in 1/|k| LSB (0 at the start): a p step adds Q to F, a v step -|k|, and
+    -sign(k) R = e - F. r2 is normalized lazily: after each step's additions up to two
+    carries move between r2 and R, one at a time while r2 is outside 0..|k|-1 (r2 -= |k|
+    carry, F -= sign(k) carry, carry +-1): a p step moves r2 by at most 1.5 |k| where p is
+    the long axis, and where v is, the steps of a p step's run take what it adds one by one.
+    r2 wraps at 28 bits as the chip's register (only with an ``e`` outside its range: the
+    chip does not check it). The long axis is p where |Q| <= |k|, else v; each step moves
+    the long axis and the short one too if that makes |F| strictly smaller (the parabola's
+    rule). The block ends on the end point (p = pe, v = ve), or with an error if p passes pe
+    or v passes ve (never for a curve the host checked with this model): both move one way
+    only, so every block ends.
+    """
+
+    def __init__(self, xe: int, ye: int, i: int, flat: bool, j: int, e: int, swap: bool):
+        for name, value in (("Xe", xe), ("Ye", ye), ("I", i), ("J", j)):
+            _check_coord(name, value)
+        pe, ve = (ye, xe) if swap else (xe, ye)
+        if pe == 0:
+            raise BlockError(f"an exponential needs a non-zero {'Y' if swap else 'X'} extent "
+                             f"(its abscissa)")
+        if i < 2 or j < 0:
+            raise BlockError(f"an exponential needs I >= 2 (|k|) and J >= 0 (its offset), "
+                             f"not I = {i}, J = {j}")
+        super().__init__(pe, swap)
+        self.ve = ve
+        self.sv = -1 if ve < 0 else 1
+        self.sk = -1 if flat else 1
+        self.k, self.e = i, e
+        self.q, self.f, self.r2 = j, 0, 0
+
+    def _decide(self) -> tuple[int, int, int]:
+        """The next step's moves in the curve's frame (dp, dv) and the F it leads to."""
+        f, q, k = self.f, self.q, self.k
+        if abs(q) <= k:
+            d1, d2 = f + q, f + q - k
+            return (1, 1, d2) if abs(d2) < abs(d1) else (1, 0, d1)
+        # |d2| < |d1| with d2 = d1 + q, as the chip tests it: for q > 0 (every curve the
+        # host loads; q < -|k| only from data no host picks).
+        d1, d2 = f - k, f + q - k
+        return (1, 1, d2) if d1 + d2 < 0 else (0, 1, d1)
+
+    def peek(self) -> Step:
+        """The next step (the path must not be done)."""
+        dp, dv, _ = self._decide()
+        return self._step(dp, self.sv * dv)
+
+    def advance(self) -> tuple[Step, bool, bool]:
+        """Take the next step; returns (step, final, error)."""
+        sr = self.e - self.f  # -sign(k) R before the step
+        dp, dv, self.f = self._decide()
+        if dp:
+            self.r2 = _wrap(self.r2 + sr, EXPONENTIAL_R2_BITS)
+        for _ in range(2):
+            carry = 1 if self.r2 >= self.k else -1 if self.r2 < 0 else 0
+            self.r2 -= carry * self.k
+            self.f -= self.sk * carry
+        self.q += self.sk * dv
+        self.p += dp
+        self.v += self.sv * dv
+        error = self.p > self.pe or self.sv * self.v > abs(self.ve)
+        self.done = error or (self.p == self.pe and self.v == self.ve)
+        return self._step(dp, self.sv * dv), self.done, error
+
+
+Path = LinearPath | CircularPath | HelicalPath | ParabolicPath | ExponentialPath
 
 
 def make_path(block: Block) -> Path:
@@ -471,6 +588,9 @@ def make_path(block: Block) -> Path:
         return LinearPath(block.xe, block.ye, block.ze)
     if block.kind is Kind.PARABOLIC:
         return ParabolicPath(block.xe, block.ye, block.i, block.j, block.swap)
+    if block.kind is Kind.EXPONENTIAL:
+        return ExponentialPath(block.xe, block.ye, block.i, block.cw, block.j, block.frac,
+                               block.swap)
     arc = CircularPath(block.xe, block.ye, block.i, block.j, block.cw, block.quadrant)
     if block.ze:
         return HelicalPath(arc, HelixPath(block.ze, block.helix_steps))
@@ -626,7 +746,7 @@ class K3701Model:
         self.axes = axes
         self.unit = 2 if axes == 2 else 4  # credit units per FP
         self.latency = {Kind.LINEAR: latency_linear, Kind.CIRCULAR: latency_circular,
-                        Kind.PARABOLIC: latency_circular}
+                        Kind.PARABOLIC: latency_circular, Kind.EXPONENTIAL: latency_circular}
         self.circle_setup = circle_setup
         self.out = K3701Outputs()
         self.phase = _Phase.IDLE

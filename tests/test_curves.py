@@ -1,4 +1,5 @@
-"""Host side of the K3701's curves: G06 parabolas parsed, checked and measured."""
+"""Host side of the K3701's curves: G06 parabolas and G06.1/G06.2 exponentials parsed, checked
+and measured."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from firmware_model.curves import MIN_VERTEX_RADIUS
 from firmware_model.firmware import FirmwareError, check_program
 from firmware_model.gcode import GcodeError, parse
 from firmware_model.job import Job, MachineConfig, ServoConfig
-from firmware_model.program import Parabola
+from firmware_model.program import Exponential, Parabola
 from hdl.k3701_model import Block, Kind, plan
 from sim.run.report import HOW_FIELDS
 from sim.run.runner import RunOptions, run_job
@@ -89,11 +90,15 @@ def test_firmware_refuses_a_parabola_faster_than_the_circular_step_rate():
 
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("accel", ["none"])
-def test_parabola_job_is_identical_on_pysim_and_cxxrtl_with_idle_skipping(accel):
-    machine = MachineConfig(accel=accel)
-    program = parse("G21 G91 F2400\nG06 X0.1 Y0 I0.05 J-0.02\nM30", source="p.ngc")
+#: A parabola; an exponential of X, then a flattening logarithm (an exponential of Y).
+CURVE_JOBS = [pytest.param("G21 G91 F2400\nG06 X0.1 Y0 I0.05 J-0.02\nM30", marks=pytest.mark.slow),
+              "G21 G91 F2400\nG06.1 X0.03 Y-0.012 K0.03\nG06.2 X-0.02 Y0.025 K-0.02\nM30"]
+
+
+@pytest.mark.parametrize("gcode", CURVE_JOBS)
+def test_curve_job_is_identical_on_pysim_and_cxxrtl_with_idle_skipping(gcode):
+    machine = MachineConfig(accel="none")
+    program = parse(gcode, source="p.ngc")
     job = Job("p", machine, {"x": ServoConfig(), "y": ServoConfig()}, program)
     results = [run_job(job, RunOptions(backend=backend, max_cycles=2500, sample_every=25,
                                        skip_idle=skip))
@@ -101,7 +106,7 @@ def test_parabola_job_is_identical_on_pysim_and_cxxrtl_with_idle_skipping(accel)
     reports = [{k: v for k, v in r.report.items() if k not in HOW_FIELDS} for r in results]
     assert reports[0] == reports[1] == reports[2]
     assert all(np.array_equal(results[0].samples, r.samples) for r in results[1:])
-    assert results[0].samples[-1][1] > 20, "the parabola must have stepped"
+    assert np.abs(results[0].samples[:, 1]).max() > 20, "the curve must have stepped"
 
 
 def test_parabola_job_runs_to_its_exact_end_on_cxxrtl():
@@ -112,3 +117,45 @@ def test_parabola_job_runs_to_its_exact_end_on_cxxrtl():
     assert result.report["status"] == "ok" and result.report["end_point"]["reached"]
     assert block["fp_pulses"] == block["fp_budget"] == job.program.items[0].plan.fp
     assert [result.report["axes"][a]["command"] for a in "xy"] == [1000, 0]
+
+
+def test_g06_1_loads_an_exponential_of_x_ending_exactly():
+    (item,) = parse("G21 G91 F500\nG06.1 X20 Y7 K9.618", source="e.ngc").items
+    assert isinstance(item, Exponential) and item.code == "G06.1"
+    assert item.block.kind is Kind.EXPONENTIAL and not item.block.swap
+    assert (item.block.i, item.block.cw) == (9618, False)   # 1 / (e^(1 / 9618) - 1) = 9617.5
+    assert item.plan == plan(item.block) and item.end == (20_000, 7_000)
+    assert np.abs(item.distances(item.polyline(301))).max() < 1e-6
+
+
+def test_g06_2_is_the_exponential_of_y_and_k_below_zero_flattens():
+    (item,) = parse("G21 G90 F500\nG06.2 X-15 Y-20 K5", source="e.ngc").items
+    assert item.code == "G06.2" and item.block.swap
+    # p runs towards -Y, so e^(y / K) with K > 0 flattens along p.
+    assert item.block.cw and item.end == (-15_000, -20_000)
+    curve = item.polyline(5)
+    assert curve[0] == pytest.approx([0, 0]) and curve[-1] == pytest.approx([-15_000, -20_000])
+    # The logarithm y = K ln(1 + x (e^(ye / K) - 1) / xe) at x = -7.5 mm.
+    x = -7_500.0
+    y = 5_000 * np.log(1 + x * np.expm1(-20 / 5) / -15_000)
+    assert item.distances(np.array([[x, y]])) == pytest.approx([0], abs=2)
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("G91 F100 G06.1 X10 Y4", "t.ngc:1:10: G06.1 needs K (the curve's constant)"),
+    ("G91 F100 G06.2 X10 Y0 K5", "t.ngc:1:10: G06.2: a logarithm needs a non-zero Y extent"),
+    ("G91 F100 G06.1 X0.05 Y0.01 K0.005", "t.ngc:1:10: G06.1: the curve's constant 5 LSB is "
+                                          "below the K3701's 8 LSB"),
+    ("G91 F100 G06.1 X0.5 Y0.01 K0.02", "t.ngc:1:10: G06.1: the curve grows too fast"),
+    ("G91 F100 G06.1 X0.01 Y10 K100", "t.ngc:1:10: G06.1: the curve is too nearly "
+                                      "straight"),
+    ("G91 F100 G18 G06.1 X1 Z1 K5", "t.ngc:1:14: G06.1 in G18: exponentials are in the XY"),
+    ("G91 F100 G06.1 X1 Y1 I1 K5", "t.ngc:1:22: I1: I is only for arcs"),
+])
+def test_g06_1_errors_name_line_column_and_reason(text, message):
+    assert error_of(text).startswith(message)
+
+
+def test_three_axis_machine_refuses_exponentials():
+    with pytest.raises(GcodeError, match="three-axis K3701 has no exponential"):
+        parse("G91 F100 G06.1 X1 Y1 K5", source="t.ngc", axes=3)

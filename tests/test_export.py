@@ -60,7 +60,7 @@ def test_the_header_names_the_parameters_and_the_register_map_version():
     k3701 = text("k3701")
     assert ("// Parameters: latency_linear = 11, latency_circular = 21, circle_setup = 25, "
             "axes = 2.") in k3701
-    assert "// Register map K3701, version 1 (15 bytes;" in k3701
+    assert "// Register map K3701, version 1 (25 bytes;" in k3701
     assert "//   0x0e  STATUS          8 bits  r" in k3701
     assert "// Parameters: n = 15, counter_width = 24, bidirectional = True." in \
         text("accel_decel_axis")
@@ -73,7 +73,7 @@ def test_the_bus_becomes_the_chips_pins_with_active_low_strobes():
     assert [n for n in by_name if n in ("d", "addr", "cs_n", "rd_n", "wr_n")] == \
         ["d", "addr", "cs_n", "rd_n", "wr_n"]
     assert (by_name["d"].direction, by_name["d"].width) == ("inout", 8)
-    assert (by_name["addr"].direction, by_name["addr"].width) == ("input", 4)
+    assert (by_name["addr"].direction, by_name["addr"].width) == ("input", 5)
     assert {by_name[n].label for n in ("cs_n", "rd_n", "wr_n")} == {"/CS", "/RD", "/WR"}
     assert (by_name["clk"].label, by_name["irq"].label, by_name["x_neg"].label) == \
         ("CP", "INT", "-X")

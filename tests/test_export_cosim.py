@@ -185,10 +185,12 @@ class K3701Chip(Chip):
             if "z" in self.axes:  # the three-axis build: its third axis and plane
                 extra = {"ze": v["Z"], "plane": ctrl_reg.field("plane").decode(ctrl),
                          "helix_steps": v["H"]}
-            else:  # the two-axis build: its parabolic type
-                if ctrl_reg.field("parabolic").decode(ctrl):
+            else:  # the two-axis build: its parabolic and exponential types
+                if ctrl_reg.field("exponential").decode(ctrl):
+                    kind = Kind.EXPONENTIAL
+                elif ctrl_reg.field("parabolic").decode(ctrl):
                     kind = Kind.PARABOLIC
-                extra = {"swap": bool(ctrl_reg.field("swap").decode(ctrl))}
+                extra = {"swap": bool(ctrl_reg.field("swap").decode(ctrl)), "frac": v["E"]}
             block = Block(kind, v["X"], v["Y"], v["I"], v["J"],
                           bool(ctrl_reg.field("cw").decode(ctrl)),
                           bool(ctrl_reg.field("sqrt2").decode(ctrl)),

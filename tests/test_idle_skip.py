@@ -217,24 +217,29 @@ def lone_k3701s():
 
 
 @settings(derandomize=True, max_examples=20, deadline=None)
-@given(kind=st.sampled_from(["line", "circle", "parabola"]), r=st.integers(3, 30),
+@given(kind=st.sampled_from(["line", "circle", "parabola", "exponential"]),
+       r=st.integers(3, 30),
        xe=st.integers(-30, 30), ye=st.integers(-30, 30), cw=st.booleans(), sqrt2=st.booleans(),
        fp=st.lists(st.tuples(st.booleans(), st.integers(1, 40)), min_size=5, max_size=60))
 def test_skipping_the_k3701_step_latency_changes_no_signal(lone_k3701s, kind, r, xe, ye,
                                                           cw, sqrt2, fp):
-    # A whole circle (end = start), a line or a parabola (through the tangent point
-    # (xe / 2, r), or (r, ye / 2) with its axis along X); the FP stream as runs of high and
-    # low cycles.
+    # A whole circle (end = start), a line, a parabola (through the tangent point
+    # (xe / 2, r), or (r, ye / 2) with its axis along X) or an exponential (constant r,
+    # offset r + 1/2; a logarithm with its abscissa along Y); the FP stream as runs of high
+    # and low cycles.
     block = {"circle": lambda: Block.arc(0, 0, r, 0, cw=cw, sqrt2=sqrt2),
              "line": lambda: Block.line(xe, ye, sqrt2=sqrt2),
              "parabola": lambda: Block.parabola(xe or 1, ye, xe // 2, r, swap=cw and ye != 0,
-                                                sqrt2=sqrt2)}[kind]()
+                                                sqrt2=sqrt2),
+             "exponential": lambda: Block.exponential(xe or 1, ye, r if cw else -r, r, r // 2,
+                                                      swap=sqrt2 and ye != 0,
+                                                      sqrt2=sqrt2)}[kind]()
     ctrl = block_registers(block)["CTRL"]
     cmd = K3701_MAP["CMD"]
     for backend in lone_k3701s:
         backend.reset()
         for name, value in (("X", block.xe), ("Y", block.ye), ("I", block.i), ("J", block.j),
-                            ("CTRL", ctrl)):
+                            ("E", block.frac), ("CTRL", ctrl)):
             reg = K3701_MAP[name]
             for k, byte in enumerate(reg.to_bytes(value)):
                 backend.bus_write(reg.addr + k, byte)

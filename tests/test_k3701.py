@@ -41,7 +41,8 @@ def ctrl_word(block: Block) -> int:
 
 
 async def load(ctx, dut: K3701, block: Block) -> None:
-    for name, value in (("X", block.xe), ("Y", block.ye), ("I", block.i), ("J", block.j)):
+    for name, value in (("X", block.xe), ("Y", block.ye), ("I", block.i), ("J", block.j),
+                        ("E", block.frac)):
         await write_reg(ctx, dut.bus, K3701_MAP[name], value)
     await write_reg(ctx, dut.bus, CTRL, ctrl_word(block))
 
@@ -110,6 +111,14 @@ def compare_sequence(blocks: list[Block], fp, max_cycles: int,
 
     simulate(dut, bench)
     return model, result["cycles"], result["xy"]
+
+
+def check_clean_end_on_gateware(block: Block, fp: str, seed: int) -> None:
+    """``block`` on gateware equals the model cycle by cycle under the FP stream ``fp`` (see
+    :func:`fp_source`), and ends on its end point without ERROR."""
+    model, _, xy = compare_with_model(block, fp_source(fp, seed), 20000)
+    assert xy == [0, 0]
+    assert not model.out.error
 
 
 def on_path_end(i: int, j: int, cw: bool, steps: int) -> tuple[int, int]:
@@ -483,7 +492,8 @@ def test_arcs_end_within_one_lsb_of_an_end_point_off_the_path(r, a0, a1, cw):
     i, j = -round(r * math.cos(a0)), -round(r * math.sin(a0))
     radius = math.hypot(i, j)
     # Below a radius of 4 the end rule can stop 2 LSB short of a rounded end point (radii
-    # sqrt(5) and sqrt(13), checked exhaustively below); the host's correction line closes it.
+    # sqrt(5) and sqrt(13), checked exhaustively below); the planner moves such ends and adds
+    # the correction line (firmware_model/program.py, REPAIR_REACH).
     if radius < 4:
         return
     ex, ey = round(radius * math.cos(a1)), round(radius * math.sin(a1))

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from test_k3701 import compare_with_model, fp_kinds, fp_source
+from test_k3701 import check_clean_end_on_gateware, compare_with_model, fp_kinds, fp_source
 
 from firmware_model.curves import frame_distances
 from hdl.k3701_model import COORD_MAX, Block, BlockError, ParabolicPath, make_path, plan
@@ -90,23 +90,17 @@ def test_parabola_with_no_abscissa_is_refused():
         make_path(Block.parabola(10, -COORD_MAX - 1, 5, 0))
 
 
-def check_gateware(block: Block, fp: str, seed: int) -> None:
-    model, _, xy = compare_with_model(block, fp_source(fp, seed), 20000)
-    assert xy == [0, 0]
-    assert not model.out.error
-
-
 @settings(max_examples=8, deadline=None, derandomize=True)
 @given(block=parabolas(span=25), fp=fp_kinds, seed=st.integers(0, 1000))
 def test_parabolic_gateware_matches_model_cycle_by_cycle(block, fp, seed):
-    check_gateware(block, fp, seed)
+    check_clean_end_on_gateware(block, fp, seed)
 
 
 @pytest.mark.slow
 @settings(max_examples=80, deadline=None, derandomize=True)
 @given(block=parabolas(span=60), fp=fp_kinds, seed=st.integers(0, 1000))
 def test_many_parabolas_on_gateware_match_model_cycle_by_cycle(block, fp, seed):
-    check_gateware(block, fp, seed)
+    check_clean_end_on_gateware(block, fp, seed)
 
 
 @pytest.mark.parametrize("block", [

@@ -18,7 +18,7 @@ import numpy as np
 from firmware_model.job import MachineConfig, ServoConfig
 from hdl.accel_decel_model import AccelDecelModel
 from hdl.divider_model import PhaseDividerModel, increment_for
-from hdl.feed_rate import DIVIDER_WIDTH
+from hdl.feed_rate_map import DIVIDER_WIDTH
 from sim.reproduce.paper import FEED_HIGH
 from sim.reproduce.report import Section, pyplot, save_figure
 from sim.reproduce.runs import MACHINE, RunData, RunSpec, Scale, Specs, Trace

@@ -20,7 +20,7 @@ import numpy as np
 
 from firmware_model.firmware import programmed_feed
 from firmware_model.gcode import Arc, Line
-from firmware_model.program import Parabola
+from firmware_model.program import Exponential, Move, Parabola
 from sim.run.plot_data import PlotData, plot_data
 from sim.run.runner import RunResult
 
@@ -54,7 +54,7 @@ def programmed_path(result: RunResult) -> list[np.ndarray]:
             if normal < len(item.start):
                 piece[:, normal] = np.linspace(item.start[normal], item.end[normal], len(t))
             pieces.append(piece)
-        elif isinstance(item, Parabola):
+        elif isinstance(item, Parabola | Exponential):
             pieces.append(item.polyline())
     return pieces
 
@@ -96,10 +96,10 @@ def _series(ax: Axes, t: np.ndarray, data: PlotData, column: str, **style: objec
         ax.fill_between(t, low, high, color=line.get_color(), lw=0)
 
 
-def _code(item: Line | Arc | Parabola) -> str:
+def _code(item: Move) -> str:
     """The G code of a move."""
-    if isinstance(item, Parabola):
-        return "G06"
+    if isinstance(item, Parabola | Exponential):
+        return item.code
     if isinstance(item, Arc):
         return "G02" if item.cw else "G03"
     return "G00" if item.rapid else "G01"

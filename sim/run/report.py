@@ -90,7 +90,8 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
                "items": _obj("a block", {
                    "index": _int("position in the program (0-based, dwells counted)"),
                    "line": _int("G-code line number"),
-                   "kind": {"type": "string", "enum": ["linear", "circular", "parabolic"],
+                   "kind": {"type": "string", "enum": ["linear", "circular", "parabolic",
+                                                     "exponential"],
                             "description": "interpolation type"},
                    "start_cycle": _int("cycle the firmware began loading it"),
                    "end_cycle": {"type": ["integer", "null"],
