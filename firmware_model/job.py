@@ -296,13 +296,14 @@ def parse_for_machine(machine: MachineConfig, text: str, *, source: str, axes_gi
         try:
             program = parsed(replace(machine, axes=3))
         except GcodeError as error:
-            # The two-axis parse's error where it is as far on (a word both refuse: the
+            # A program only the two-axis chip runs (a parabola, an exponential) runs there;
+            # else the two-axis parse's error where it is as far on (a word both refuse: the
             # message as ever), the three-axis one's where that stopped earlier (at a Z).
+            machine = replace(machine, axes=2)
             try:
-                parsed(replace(machine, axes=2))
+                return machine, parsed(machine)
             except GcodeError as error2:
                 raise (error2 if error2.line >= error.line else error) from None
-            raise
         if moves_z(program):
             return replace(machine, axes=3), program
         machine = replace(machine, axes=2)

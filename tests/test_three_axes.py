@@ -9,6 +9,7 @@ import pytest
 from test_backend_equivalence import comparable
 from test_idle_skip import skipped_equals_stepped
 
+from firmware_model.gcode import GcodeError
 from firmware_model.job import MachineConfig, gcode_job
 from sim.run.runner import RunOptions, run_job
 
@@ -40,6 +41,17 @@ def test_a_program_that_moves_z_gets_three_axes_and_ends_every_block_on_its_poin
 def test_a_program_in_the_xy_plane_keeps_the_papers_two_axes():
     job = gcode_job("xy", "G21 G90 F600\nG01 X1 Y1\nM30", "<xy>")
     assert job.machine.axes == 2 and job.program.final_position == (1000, 1000)
+
+
+@pytest.mark.parametrize("curve", ["G06 X6 Y0 I3 J-2", "G06.1 X5 Y3 K4", "G06.2 X5 Y3 K-3"])
+def test_a_curve_only_the_two_axis_chip_runs_gets_two_axes(curve):
+    job = gcode_job("curve", f"G21 G90 F300\n{curve}\nM30", "<curve>")
+    assert job.machine.axes == 2 and job.program.items[0].end[:2] in ((6000, 0), (5000, 3000))
+
+
+def test_a_curve_and_a_z_move_name_the_conflict_at_the_later_line():
+    with pytest.raises(GcodeError, match=r"<both>:3:5: Z1 moves Z: this machine has two axes"):
+        gcode_job("both", "G21 G90 F300\nG06 X6 Y0 I3 J-2\nG01 Z1\nM30", "<both>")
 
 
 @pytest.mark.parametrize("accel", ["pre", pytest.param("post", marks=pytest.mark.slow),
