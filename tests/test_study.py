@@ -57,6 +57,7 @@ def test_a_design_that_cannot_hold_the_factors_says_why(name, levels, message):
         design(name, levels)
 
 
+ROOT = Path(__file__).resolve().parent.parent
 BASE = '''
 [machine]
 accel = "none"
@@ -205,16 +206,15 @@ def dask_cluster():
 
 
 @pytest.mark.slow
-def test_a_sweep_on_a_dask_cluster_gives_the_local_table(tmp_path, dask_cluster):
-    study = load_study(write_study(
-        tmp_path, 'design = "L4"\nmax_cycles = 30_000_000\nsample_every = 500\n'
-                  '[factors]\n"servo.kp" = [20.0, 40.0]\nradius = [5, 10]\nfeed = [600, 1200]'))
+def test_an_l16_study_on_a_dask_cluster_gives_the_local_table(tmp_path, dask_cluster):
+    study = load_study(ROOT / "examples" / "study_l16.toml")
     tables = []
     for out, scheduler in ((tmp_path / "local", None), (tmp_path / "dask", dask_cluster)):
         with open(sweep(study, out, jobs=2, scheduler=scheduler)) as f:
             rows = list(csv.DictReader(f))
         tables.append([{k: v for k, v in r.items() if k != "wall_seconds"} for r in rows])
-    assert len(tables[0]) == 4 and tables[0] == tables[1]
+    assert len(tables[0]) == 16 and tables[0] == tables[1]
+    assert all(r["status"] == "ok" and r["end_reached"] == "True" for r in tables[0])
 
 
 def test_the_response_surface_recovers_a_quadratic_and_its_stationary_point():
