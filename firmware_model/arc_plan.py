@@ -14,7 +14,7 @@ the walk picks it: from an argmin point the walk *is* the argmin curve, and its 
 steps is computed with one integer square root. The walk's long/short choice, its quadrant
 and its end check cannot change inside such a stretch (the jump stops short of an axis, of
 the diagonal and of the end point's coordinate); the few steps around those go through the
-reference :class:`~hdl.k3701_model.CircularPath` itself. Same for Y long, with the axes
+reference :class:`~hdl.k3701_circular_model.CircularPath` itself. Same for Y long, with the axes
 swapped. Tested against :func:`hdl.k3701_model.plan` step for step (``tests/test_arc_plan.py``).
 """
 
@@ -22,7 +22,9 @@ from __future__ import annotations
 
 from math import isqrt
 
-from hdl.k3701_model import _SIGNS, Block, CircularPath, Kind, Plan, make_path, plan
+from hdl.k3701_circular_model import CircularPath
+from hdl.k3701_datapath_model import QUADRANT_SIGNS, Block, Kind
+from hdl.k3701_model import Plan, make_path, plan
 
 __all__ = ["plan_block"]
 
@@ -46,7 +48,7 @@ def _nearest(r2: int, long: int) -> int:
 def _jump(path: CircularPath, r2: int) -> tuple[int, int, int] | None:
     """How far the walk can be jumped from here: (steps, new x, new y), or None."""
     x, y, d = path.x, path.y, path.d
-    sx, sy = _SIGNS[path.cw][path.q]
+    sx, sy = QUADRANT_SIGNS[path.cw][path.q]
     x_long = abs(y) >= abs(x)
     # (long, short) coordinates, their directions and the end check on the long/short axis
     lo, sh, sl, ss = (x, y, sx, sy) if x_long else (y, x, sy, sx)
@@ -77,7 +79,7 @@ def _jump(path: CircularPath, r2: int) -> tuple[int, int, int] | None:
 
 def plan_block(block: Block) -> Plan:
     """:func:`hdl.k3701_model.plan` of ``block``, exactly, without walking every step of an
-    arc. Raises :class:`~hdl.k3701_model.BlockError` for data the chip refuses."""
+    arc. Raises :class:`~hdl.k3701_datapath_model.BlockError` for data the chip refuses."""
     if block.kind is Kind.LINEAR or block.ze:
         return plan(block)  # a line is in closed form there; a helix's FP needs its steps
     path = make_path(block)

@@ -35,8 +35,8 @@ from firmware_model.program import Move
 from hdl.decel_control_model import BUDGET_WIDTH
 from hdl.divider_model import increment_for
 from hdl.feed_rate_map import DIVIDER_WIDTH, FEED_BITS
+from hdl.k3701_datapath_model import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
 from hdl.k3701_map import block_registers
-from hdl.k3701_model import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
 
 __all__ = ["AlarmEvent", "BlockObserver", "BlockRecord", "EventRecord", "Firmware",
            "FirmwareError", "check_program", "feed_word", "max_feed_mm_min",

@@ -54,7 +54,7 @@ from firmware_model.program import (
     Planner,
     Program,
 )
-from hdl.k3701_model import COORD_MAX
+from hdl.k3701_datapath_model import COORD_MAX
 from hdl.limits import Limit
 
 __all__ = ["ARC_TOLERANCE_LIMIT", "ARC_TOLERANCE_MM", "AXES_LIMIT", "INCH_MM", "LSB_MM_LIMIT",

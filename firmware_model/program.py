@@ -36,16 +36,9 @@ from firmware_model.curves import (
     exponential_frame,
     parabola_block,
 )
-from hdl.k3701_model import (
-    COORD_MAX,
-    MAX_RADIUS_SQUARED,
-    Block,
-    BlockError,
-    ExponentialPath,
-    ParabolicPath,
-    Plan,
-    make_path,
-)
+from hdl.k3701_datapath_model import COORD_MAX, MAX_RADIUS_SQUARED, Block, BlockError
+from hdl.k3701_model import Plan, make_path
+from hdl.k3701_parabolic_model import ExponentialPath, ParabolicPath
 
 __all__ = ["CORRECTION_MAX", "PLANE_AXES", "REPAIR_REACH", "Arc", "Dwell", "Event",
            "Exponential", "Item", "Line", "Move", "Parabola", "PlanError", "Planner", "Program"]
@@ -160,7 +153,8 @@ def _sweep(i: int, j: int, end: tuple[int, int], cw: bool) -> tuple[float, float
 
 class _Curve(_Move):
     """A move along one of the K3701's curves, drawn in the curve's own frame (abscissa p,
-    ordinate v: :class:`hdl.k3701_model.ParabolicPath`, :class:`hdl.k3701_model.ExponentialPath`).
+    ordinate v: :class:`hdl.k3701_parabolic_model.ParabolicPath`,
+    :class:`hdl.k3701_parabolic_model.ExponentialPath`).
     ``code``: its G code. The programmed curve is the chip's, through the start and the end."""
 
     code = ""

@@ -13,16 +13,16 @@ from amaranth.lib.wiring import In, Out, connect, flipped
 from hdl.hostbus import HostBus, RegisterBank
 from hdl.k3701_circular import CircularDatapath
 from hdl.k3701_datapath import Datapath, StepSignature, moves
-from hdl.k3701_helix import HelixAxis
-from hdl.k3701_linear import LinearDatapath, LinearDatapath3
-from hdl.k3701_map import k3701_map
-from hdl.k3701_model import (
+from hdl.k3701_datapath_model import (
     CIRCLE_SETUP_CYCLES,
     LATENCY_CIRCULAR,
     LATENCY_LINEAR,
     PLANES,
     Kind,
 )
+from hdl.k3701_helix import HelixAxis
+from hdl.k3701_linear import LinearDatapath, LinearDatapath3
+from hdl.k3701_map import k3701_map
 from hdl.k3701_parabolic import ParabolicDatapath
 from hdl.observation import Countdown, FreeRunning
 from hdl.registers import Field
@@ -341,7 +341,7 @@ class K3701(wiring.Component):
 
     def _pulses_routed(self, m: Module, step: SimpleNamespace, plane: Signal) -> None:
         """The three-axis chip's step pulses: the block's axes to the machine's, by CTRL.plane
-        (:data:`hdl.k3701_model.PLANES`; code 3 routes as 0)."""
+        (:data:`hdl.k3701_datapath_model.PLANES`; code 3 routes as 0)."""
         for code, axes in enumerate((*PLANES, PLANES[0])):
             with m.If(plane == code):
                 for block_axis, machine_axis in zip("xyz", axes, strict=True):

@@ -1,6 +1,6 @@
 """K3701 circular interpolation datapath: the sign-of-D method with a serial radius check.
 
-The reference model is :class:`hdl.k3701_model.CircularPath`.
+The reference model is :class:`hdl.k3701_circular_model.CircularPath`.
 """
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from __future__ import annotations
 from amaranth.hdl import Module, Mux, Signal, Value, signed
 
 from hdl.k3701_datapath import Datapath, magnitude, moves, refused
-from hdl.k3701_model import MAX_RADIUS_SQUARED
+from hdl.k3701_datapath_model import MAX_RADIUS_SQUARED
 
 __all__ = ["CircularDatapath"]
 

@@ -1,6 +1,6 @@
 """The three-axis K3701's helix axis: a DDA on an arc's steps that moves the plane's normal.
 
-The reference model is :class:`hdl.k3701_model.HelixPath`.
+The reference model is :class:`hdl.k3701_helix_model.HelixPath`.
 """
 
 from amaranth.hdl import Module, Mux, Signal, signed

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from hdl.k3701_model import Block, Kind
+from hdl.k3701_datapath_model import Block, Kind
 from hdl.registers import Access, Field, Register, RegisterMap
 
 __all__ = ["K3701_MAP", "K3701_MAP_3", "block_registers", "k3701_map"]

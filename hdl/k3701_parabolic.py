@@ -1,8 +1,8 @@
 """K3701 parabolic and exponential (logarithmic) interpolation datapath: the sign-of-F method
 on F = A v - B p^2 - C p, and on the height of an exponential above the point.
 
-The reference models are :class:`hdl.k3701_model.ParabolicPath` and
-:class:`hdl.k3701_model.ExponentialPath`.
+The reference models are :class:`hdl.k3701_parabolic_model.ParabolicPath` and
+:class:`hdl.k3701_parabolic_model.ExponentialPath`.
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from __future__ import annotations
 from amaranth.hdl import Module, Mux, Signal, signed
 
 from hdl.k3701_datapath import Datapath, frame_step, magnitude, refused, shorter
-from hdl.k3701_model import (
+from hdl.k3701_datapath_model import (
     EXPONENTIAL_R2_BITS,
     EXPONENTIAL_SETUP_CYCLES,
     PARABOLA_SETUP_CYCLES,

@@ -11,7 +11,8 @@ from firmware_model.firmware import FirmwareError, check_program
 from firmware_model.gcode import GcodeError, parse
 from firmware_model.job import Job, MachineConfig, ServoConfig
 from firmware_model.program import Exponential, Parabola
-from hdl.k3701_model import Block, Kind, plan
+from hdl.k3701_datapath_model import Block, Kind
+from hdl.k3701_model import plan
 from sim.run.report import HOW_FIELDS
 from sim.run.runner import RunOptions, run_job
 

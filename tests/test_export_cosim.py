@@ -35,8 +35,9 @@ from hdl.encoder_map import ENCODER_MAP
 from hdl.encoder_model import EncoderModel
 from hdl.feed_rate_map import DIVIDER_WIDTH, FEED_MAP
 from hdl.hostbus_model import RegisterBankModel
+from hdl.k3701_datapath_model import Block, Kind
 from hdl.k3701_map import K3701_MAP, K3701_MAP_3
-from hdl.k3701_model import Block, K3701Model, Kind
+from hdl.k3701_model import K3701Model
 from hdl.k3702_map import K3702_MAP
 from hdl.k3702_model import K3702Model
 from hdl.rate_multiplier_model import RateMultiplierModel

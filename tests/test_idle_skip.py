@@ -19,8 +19,8 @@ from hypothesis import strategies as st
 
 from firmware_model.job import Job, MachineConfig, ServoConfig
 from hdl.k3701 import K3701
+from hdl.k3701_datapath_model import Block
 from hdl.k3701_map import K3701_MAP, block_registers
-from hdl.k3701_model import Block
 from sim.backends.cxxrtl.backend import CxxrtlBackend
 from sim.machine.plant import ServoPlant
 from sim.machine.plant_model import ALPHA_BITS, COUNT_BITS, GAIN_BITS

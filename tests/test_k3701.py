@@ -13,22 +13,19 @@ from testbench import bus_write, read_reg, simulate, write_reg
 
 from hdl.k3701 import K3701
 from hdl.k3701_circular import CircularDatapath
-from hdl.k3701_linear import LinearDatapath
-from hdl.k3701_map import K3701_MAP, block_registers
-from hdl.k3701_model import (
+from hdl.k3701_datapath_model import (
     CIRCLE_SETUP_CYCLES,
     COORD_MAX,
     LATENCY_CIRCULAR,
     LATENCY_LINEAR,
     Block,
     BlockError,
-    K3701Model,
     Kind,
-    make_path,
-    plan,
     quadrant_of,
-    walk,
 )
+from hdl.k3701_linear import LinearDatapath
+from hdl.k3701_map import K3701_MAP, block_registers
+from hdl.k3701_model import K3701Model, make_path, plan, walk
 from sim.reproduce.paper import table1
 
 OUTPUTS = ("x_pos", "x_neg", "y_pos", "y_neg", "busy", "irq", "error", "overrun")

@@ -20,8 +20,10 @@ from firmware_model.curves import (
     exponential_block,
     exponential_frame,
 )
+from hdl.k3701_datapath_model import COORD_MAX, Block, BlockError
 from hdl.k3701_map import block_registers
-from hdl.k3701_model import COORD_MAX, Block, BlockError, ExponentialPath, make_path
+from hdl.k3701_model import make_path
+from hdl.k3701_parabolic_model import ExponentialPath
 
 
 @st.composite

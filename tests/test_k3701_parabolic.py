@@ -10,7 +10,9 @@ from hypothesis import strategies as st
 from test_k3701 import check_clean_end_on_gateware, compare_with_model, fp_kinds, fp_source
 
 from firmware_model.curves import frame_distances
-from hdl.k3701_model import COORD_MAX, Block, BlockError, ParabolicPath, make_path, plan
+from hdl.k3701_datapath_model import COORD_MAX, Block, BlockError
+from hdl.k3701_model import make_path, plan
+from hdl.k3701_parabolic_model import ParabolicPath
 
 
 def curve_distances(path: ParabolicPath, points: list[tuple[int, int]]) -> np.ndarray:
