@@ -10,6 +10,7 @@ printed ratio is the issue's goal (2x or more on two cores).
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -42,20 +43,20 @@ def _processes(folder: Path) -> float:
     return time.perf_counter() - start
 
 
+def _toml(data: dict, table: str = "") -> list[str]:
+    """``data`` as TOML lines: its values in JSON (true, numbers, strings in JSON's escapes,
+    which TOML's basic strings share, arrays), then each sub-table."""
+    lines = [f"[{table}]"] if table else []
+    lines += [f"{k} = {json.dumps(v)}" for k, v in data.items() if not isinstance(v, dict)]
+    for k, v in data.items():
+        if isinstance(v, dict):
+            lines += _toml(v, f"{table}.{k}" if table else k)
+    return lines
+
+
 def _job_toml(study, run) -> str:
-    """The run as a job file: the base job's machine, the dotted factors in their tables."""
-    levels = dict(run.levels)
-    gcode = study.base["program"]["gcode"].format(**{k: v for k, v in levels.items()
-                                                     if "." not in k})
-    tables: dict[str, dict] = {"machine": dict(study.base.get("machine", {}))}
-    for key, value in levels.items():
-        if "." in key:
-            table, name = key.split(".", 1)
-            tables.setdefault(table, {})[name] = value
-    text = "".join(f"[{table}]\n" + "".join(f"{k} = {v!r}\n".replace("'", '"')
-                                            for k, v in keys.items())
-                   for table, keys in tables.items())
-    return f'{text}[program]\ngcode = """{gcode}"""\n'
+    """The run's job (:meth:`~sim.study.studyfile.Study.job_data`) as a job file."""
+    return "\n".join(_toml(study.job_data(run))) + "\n"
 
 
 def test_sweep_throughput_against_a_process_per_run(benchmark, tmp_path):

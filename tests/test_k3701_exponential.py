@@ -6,11 +6,11 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from test_k3701 import check_clean_end_on_gateware, compare_with_model, fp_kinds, fp_source
+from test_k3701_parabolic import visited
 
 from firmware_model.curves import (
     MAX_GROWTH,
@@ -22,7 +22,7 @@ from firmware_model.curves import (
 )
 from hdl.k3701_datapath_model import COORD_MAX, Block, BlockError
 from hdl.k3701_map import block_registers
-from hdl.k3701_model import make_path
+from hdl.k3701_model import make_path, walk
 from hdl.k3701_parabolic_model import ExponentialPath
 
 
@@ -43,22 +43,11 @@ def exponentials(draw, span: int = 60) -> Block:
     return block
 
 
-def visited(block: Block) -> tuple[ExponentialPath, np.ndarray, bool]:
-    """The model's path of ``block``: the path, its points (curve frame) and its error."""
-    path = make_path(block)
-    assert isinstance(path, ExponentialPath)
-    points, final, error = [(0, 0)], False, False
-    while not final:
-        _, final, error = path.advance()
-        points.append((path.p, path.v))
-    return path, np.array(points, dtype=float), error
-
-
 def check_points_and_end(block: Block) -> float:
     """The block ends on its end point; returns the largest distance of its points from the
     chip's exponential through the start and the end."""
     path, points, error = visited(block)
-    assert not error
+    assert isinstance(path, ExponentialPath) and not error
     assert (path.x, path.y) == (block.xe, block.ye)
     distance = curve_distances(exponential_frame(path), points, (0, path.pe)).max()
     # 0.5 LSB from the |F| rule, the offset's rounding to 1/(2|k|) LSB, grown by at most
@@ -97,10 +86,7 @@ def test_host_takes_the_ratio_nearest_the_constant():
 
 def test_exponential_fp_count_counts_its_steps():
     block, result = exponential_block(40, 25, 30.0, log=False, sqrt2=True)
-    path, final, moves = make_path(block), False, []
-    while not final:
-        step, final, _ = path.advance()
-        moves.append((step.dx, step.dy))
+    moves = [(step.dx, step.dy) for step in walk(block)]
     assert result.steps == len(moves)
     assert result.diagonal == sum(dx != 0 and dy != 0 for dx, dy in moves)
     assert result.fp == result.steps + (result.diagonal + 1) // 2

@@ -12,22 +12,24 @@ from test_k3701 import check_clean_end_on_gateware, compare_with_model, fp_kinds
 from firmware_model.curves import frame_distances
 from hdl.k3701_datapath_model import COORD_MAX, Block, BlockError
 from hdl.k3701_model import make_path, plan
-from hdl.k3701_parabolic_model import ParabolicPath
+from hdl.k3701_parabolic_model import FramePath, ParabolicPath
 
 
-def curve_distances(path: ParabolicPath, points: list[tuple[int, int]]) -> np.ndarray:
+def curve_distances(path: ParabolicPath, points: np.ndarray) -> np.ndarray:
     """Euclidean distance of each (p, v) (the curve's frame) to the whole parabola."""
-    return frame_distances(path.b / path.a, path.c / path.a, np.array(points, dtype=float))
+    return frame_distances(path.b / path.a, path.c / path.a, points)
 
 
-def visited(block: Block) -> tuple[ParabolicPath, list[tuple[int, int]], bool]:
-    """The model's path of ``block``: the path, its points (curve frame) and its error."""
+def visited(block: Block) -> tuple[FramePath, np.ndarray, bool]:
+    """The model's path of a curve (a parabola or an exponential): the path, the points it
+    visits from the start on (in the curve's frame) and its error."""
     path = make_path(block)
-    points, final, error = [], False, False
+    assert isinstance(path, FramePath)
+    points, final, error = [(0, 0)], False, False
     while not final:
         _, final, error = path.advance()
         points.append((path.p, path.v))
-    return path, points, error
+    return path, np.array(points, dtype=float), error
 
 
 @st.composite

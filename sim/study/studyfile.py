@@ -64,6 +64,10 @@ class Study:
 
     def job(self, run: StudyRun) -> Job:
         """The job of ``run``: the base job with its levels applied."""
+        return job_from_data(self.base_path, self.job_data(run))
+
+    def job_data(self, run: StudyRun) -> dict[str, Any]:
+        """The job file's tables of ``run``: the base job's, with its levels applied."""
         data = copy.deepcopy(self.base)
         for factor, value in run.levels:
             if "." in factor:
@@ -81,7 +85,7 @@ class Study:
             program["gcode"] = _PARAMETER.sub(lambda m: parameters.get(m[1], m[0]),
                                               program["gcode"])
         data["name"] = f"{self.name}-{run.number}"
-        return job_from_data(self.base_path, data)
+        return data
 
 
 def _fail(source: str, message: str) -> JobError:

@@ -117,7 +117,7 @@ class CxxrtlBackend(Backend):
                 remember_design(design_key, self.model, facts, compiler=compiler)
         else:
             self.model, facts = known
-            if design is not None and hasattr(design, "signature"):
+            if hasattr(design, "signature"):  # a component made by the caller
                 _mark_elaborated(design)
         super().__init__({p["name"]: Port(**p) for p in facts["ports"]}, facts["name"])
         self._free: FreeRunning | None = (pickle.loads(base64.b64decode(facts["free_running"]))
