@@ -147,6 +147,8 @@ struct Recorder {
 	std::vector<uint64_t> rows;  // per sample: the cycle, then each item's value
 };
 
+struct PlantState;
+
 struct Model {
 	std::unique_ptr<cxxrtl::module> top{k37_make_top()};
 	const bool falling_edge = k37_needs_falling_edge();
@@ -169,6 +171,10 @@ struct Model {
 	std::vector<Countdown> countdowns;
 	size_t quiet = SIZE_MAX;  // item: the free-running state affects nothing else
 	Recorder recorder;
+	// Scratch space of a skip (kept to spare an allocation per skip).
+	std::vector<PlantState> plant_states;
+	std::vector<int64_t> plant_steps;
+	std::vector<uint64_t> strobes;
 };
 
 // One clock edge, as CXXRTL's module::step(): evaluate and commit until converged; returns
@@ -187,12 +193,14 @@ inline unsigned edge(Model &m) {
 	}
 }
 
-// Evaluate until nothing changes, so that every combinational value follows the state.
+// Evaluate until the values converge, so that every combinational value follows the state
+// (as CXXRTL's module::step(): a converged evaluation needs no second one after its commit).
 inline void settle(Model &m) {
 	if (m.stale) {
+		bool converged;
 		do
-			m.top->eval();
-		while (m.top->commit());
+			converged = m.top->eval();
+		while (m.top->commit() && !converged);
 		m.stale = false;
 		m.outline_fresh = nullptr;
 	}
@@ -507,10 +515,12 @@ struct PlantState {
 uint64_t advance_plants(Model &m, uint64_t limit) {
 	if (m.plants.empty() || limit == 0)
 		return limit;
-	std::vector<PlantState> states;
+	std::vector<PlantState> &states = m.plant_states;
+	states.clear();
 	for (const Plant &p : m.plants)
 		states.emplace_back(m, p);
-	std::vector<int64_t> steps(states.size());
+	std::vector<int64_t> &steps = m.plant_steps;
+	steps.resize(states.size());
 	uint64_t k = 0;
 	while (k < limit) {
 		if (std::all_of(states.begin(), states.end(),
@@ -584,7 +594,8 @@ bool plants_moved(Model &m) {
 
 // Advance the free-running state by k cycles (k >= 1) in closed form (no carry on the way).
 void advance_free(Model &m, uint64_t k) {
-	std::vector<uint64_t> strobes(m.accumulators.size());  // stb highs seen in the k cycles
+	std::vector<uint64_t> &strobes = m.strobes;  // stb highs seen in the k cycles
+	strobes.resize(m.accumulators.size());
 	for (size_t a = 0; a < m.accumulators.size(); a++) {
 		const Accumulator &acc = m.accumulators[a];
 		u128 phase = read_u64(m, acc.phase), inc = read_u64(m, acc.increment);
@@ -615,28 +626,37 @@ void advance_free(Model &m, uint64_t k) {
 // the free-running state's, no plant's count, and the quiet item reads 1, the rest of the
 // design is at a fixed point until the next event of the free-running state; skip up to `rest`
 // cycles, to just before that event, advancing the free-running state exactly. Not if item
-// `watch` (when given) reads non-zero. Returns the cycles skipped.
+// `watch` (when given) reads non-zero. A recorder sample on the way is taken (settled, as
+// after a stepped cycle) and the skip goes on from it, the rest still at its fixed point.
+// Returns the cycles skipped.
 uint64_t try_skip(Model &m, unsigned flags, uint64_t rest, const Item *watch = nullptr,
                   bool watch_state = false) {
-	rest = std::min(rest, m.recorder.next - m.cycle);  // a sample ends a skip
 	if (flags & REST_CHANGED || rest == 0 || plants_moved(m) ||
 	    (watch && nonzero(m, *watch, watch_state)))
 		return 0;
-	if (flags & CHANGED) {
-		if (m.quiet == SIZE_MAX)
-			return 0;
-		settle(m);
-		if (!read_u64(m, m.quiet))
-			return 0;
-		rest = advance_plants(m, std::min(rest, event_horizon(m)));
-		if (rest == 0)
-			return 0;
-		advance_free(m, rest);
-		m.stale = true;
+	if (flags & CHANGED && m.quiet == SIZE_MAX)
+		return 0;
+	uint64_t skipped = 0;
+	while (skipped < rest) {
+		uint64_t to_sample = m.recorder.next - m.cycle;
+		uint64_t run = std::min(rest - skipped, to_sample);
+		if (flags & CHANGED) {
+			settle(m);
+			if (!read_u64(m, m.quiet))
+				break;
+			run = advance_plants(m, std::min(run, event_horizon(m)));
+			if (run == 0)
+				break;
+			advance_free(m, run);
+			m.stale = true;
+		}
+		m.skipped += run;
+		skipped += run;
+		count_cycles(m, run);
+		if (run < to_sample)
+			break;  // an event of the free-running state comes next, or the skip is done
 	}
-	m.skipped += rest;
-	count_cycles(m, rest);
-	return rest;
+	return skipped;
 }
 
 // Run n untraced cycles; with skip_idle, skip ahead after each cycle that changed only the
