@@ -35,6 +35,9 @@ class PhaseAccumulator:
     """A :class:`hdl.divider.PhaseDivider` at ``path`` (``phase``, ``increment``, ``stb``
     below it): it adds ``increment`` to ``phase`` at every edge, for ever."""
 
+    #: The signals below ``path`` a backend reads (and writes, of the registers).
+    ITEMS = ("phase", "increment", "stb")
+
     path: str
     width: int
 
@@ -48,6 +51,9 @@ class StrobeCounter:
     ``word``): it counts the cycles in which the accumulator at ``clock``'s ``stb`` is high,
     and pulses in those that select a set bit of ``word``. While the signal ``gate`` reads 1
     its pulses matter, so a skip must stop before the next one (None: they never matter)."""
+
+    #: The signals below ``path`` a backend reads (and writes, of the registers).
+    ITEMS = ("count", "select", "word")
 
     path: str
     width: int
@@ -65,6 +71,9 @@ class CarryAccumulator:
     which the accumulator at ``clock``'s ``stb`` is high, ``y += x`` in ``n`` bits; a carry
     out of them changes ``x`` and sends a pulse, so a skip must stop before the next carry.
     ``clock`` is None until the parent that wires the strobe says which accumulator it is."""
+
+    #: The signals below ``path`` a backend reads (and writes, of the registers).
+    ITEMS = ("y", "x")
 
     path: str
     n: int
@@ -95,6 +104,9 @@ class PlantState:
     ``alpha``, ``vmax``, ``stall``): while the rest stands still it is stepped natively, bit
     for bit as its gateware, up to a change of its count. Its fixed-point format is part of
     the declaration, so a backend takes it from the plant itself."""
+
+    #: The signals below ``path`` a backend reads (and writes, of the registers).
+    ITEMS = ("velocity", "before", "dac", "dac_zero", "gain", "alpha", "vmax", "stall")
 
     path: str
     vc_bits: int
@@ -144,6 +156,17 @@ class FreeRunning:
             tuple(s for p in parts for s in p.plants),
             tuple(c for p in parts for c in p.countdowns),
             quiet)
+
+    def reads(self) -> tuple[str, ...]:
+        """Paths of every signal a backend reads to advance this state or to decide a skip:
+        each part's :attr:`ITEMS`, the counters' gates, the countdowns and ``quiet``."""
+        return (*(f"{a.path}.{name}" for a in self.accumulators for name in a.ITEMS),
+                *(f"{c.path}.{name}" for c in self.counters for name in c.ITEMS),
+                *(c.gate for c in self.counters if c.gate is not None),
+                *(f"{c.path}.{name}" for c in self.carries for name in c.ITEMS),
+                *(f"{p.path}.{name}" for p in self.plants for name in p.ITEMS),
+                *(c.path for c in self.countdowns),
+                *(() if self.quiet is None else (self.quiet,)))
 
     def registers(self) -> tuple[str, ...]:
         """Paths of the registers that make up this state (all else is "the rest")."""

@@ -22,13 +22,13 @@ from hypothesis import strategies as st
 from testbench import simulate
 
 from firmware_model.job import MachineConfig, demo_job
-from hdl import observation
+from hdl import chipset_map, observation
 from hdl.hostbus import HostBus, RegisterBank
 from hdl.observation import FreeRunning
 from hdl.registers import Access, Register, RegisterMap
 from sim.backends.contract import Backend
 from sim.backends.cxxrtl.backend import CxxrtlBackend
-from sim.backends.cxxrtl.build import edge_wires, fall_eval
+from sim.backends.cxxrtl.build import edge_wires, fall_eval, skip_eval
 from sim.backends.design import component_ports
 from sim.backends.factory import BACKENDS, make_backend
 from sim.backends.pysim import PysimBackend
@@ -397,6 +397,39 @@ def test_the_simulated_machine_splits_its_commits_and_peeks():
     pruned = fall_eval(cxx)  # the falling edge evaluates the K3702s and the outputs only
     assert pruned is not None and 0 < pruned.count(" = ") < cxx.count(" = ") / 3
     system.close()
+
+
+def test_a_skip_decision_evaluates_its_own_signals_alone_as_a_settle_would():
+    """The machine's skip evaluation (build.skip_eval) computes the free-running state's
+    signals, quiet and every output from the state as a settle does: checked after each of
+    8,000 cycles of the demo's circle in motion (feed pulses, steps, accel/decel, plants,
+    encoders), bus reads and writes of a new feed word, and a new speed limit (the last two
+    change values CXXRTL computes only in its debug outline), each left unsettled."""
+    job = demo_job()
+    backend = runner.build_backend(job, "cxxrtl")
+    cxx = (backend.model.path.parent / "design.cc").read_text()
+    pruned = skip_eval(cxx, backend._free.reads())
+    assert pruned is not None and 0 < pruned.count(" = ") < cxx.count(" = ") / 10
+    outputs = [name for name, port in backend.ports.items()
+               if not port.is_input and port.width <= 64]
+    paths = [*backend._free.reads(), *outputs]
+    runner.run_job(job, runner.RunOptions(max_cycles=400_000), backend)
+    fp = backend.get("fp_total")
+    feed = chipset_map.chip_register("FEED", "FEED").to_bytes(0x1234)
+    checked = []
+    for k in range(8_000):
+        if k % 1000 == 0:
+            backend.bus_read(0)
+        elif 4000 <= k < 4000 + len(feed):  # a new feed word: outlined values change
+            backend.bus_write(chipset_map.port("FEED", "FEED", k - 4000), feed[k - 4000])
+        elif k == 6000:
+            backend.set("x__vmax", 12345)
+        else:
+            backend.step(1)
+        checked.append(backend.check_eval_skip(paths))
+    assert backend.get("fp_total") > fp + 50  # in motion all along
+    backend.close()
+    assert all(checked)
 
 
 @pytest.mark.parametrize("zoo", ["backends", "simple", "peeking"])

@@ -76,6 +76,7 @@ def _load(path: Path) -> ctypes.CDLL:
                                           ctypes.c_uint, ctypes.c_uint]),
         "k37_free_countdown": (ctypes.c_int, [handle, size, u64]),
         "k37_free_quiet": (None, [handle, size]),
+        "k37_check_eval_skip": (ctypes.c_int, [handle, ctypes.POINTER(size), size]),
     }
     for name, (restype, argtypes) in signatures.items():
         function = getattr(lib, name)
@@ -164,6 +165,7 @@ class CxxrtlBackend(Backend):
         if "clk" not in inputs:
             raise ValueError(f"{type(component).__name__} has no sync clock domain to step")
         model = build(rtlil_text, free=free.registers() if free is not None else (),
+                      reads=free.reads() if free is not None else (),
                       compiler=compiler)
         model.seconds["rtlil"] = rtlil_seconds
         signed = sorted(path for path, signal in signal_paths(design).items()
@@ -215,8 +217,7 @@ class CxxrtlBackend(Backend):
                 raise ValueError(f"{carry.path}: y must be an n-bit register, x at most 63 bits, "
                                  f"clocked by a declared accumulator")
         for plant in free.plants:
-            names = ("velocity", "before", "dac", "dac_zero", "gain", "alpha", "vmax", "stall")
-            items = _sizes([item(f"{plant.path}.{n}") for n in names])
+            items = _sizes([item(f"{plant.path}.{n}") for n in plant.ITEMS])
             if lib.k37_free_plant(handle, items, plant.vc_bits, plant.alpha_bits,
                                   plant.frac_bits) < 0:
                 raise ValueError(f"{plant.path}: velocity and position must be registers")
@@ -329,6 +330,15 @@ class CxxrtlBackend(Backend):
 
     def probe_names(self) -> list[str]:
         return sorted(self._probes)
+
+    def check_eval_skip(self, paths: Sequence[str]) -> bool | None:
+        """A self-check of the model's evaluation for skip decisions (for tests): whether,
+        from the current state, it computes the signals ``paths`` (of at most 64 bits) as a
+        settle does; None if the model has none. Leaves the design settled."""
+        result = self._lib.k37_check_eval_skip(self._handle,
+                                               _sizes([self._probes[p] for p in paths]),
+                                               len(paths))
+        return None if result < 0 else bool(result)
 
     def step(self, n: int = 1, *, skip_idle: bool = False) -> None:
         check_count("n", n)

@@ -35,7 +35,7 @@ from sim.backends.toolchain import (
     sha256,
 )
 
-__all__ = ["CXX_FLAGS", "build", "design_main", "edge_wires", "fall_eval"]
+__all__ = ["CXX_FLAGS", "build", "design_main", "edge_wires", "fall_eval", "skip_eval"]
 
 HARNESS = Path(__file__).with_name("harness.cc")
 #: The design's translation unit: Yosys's C++ and what the harness asks of the design.
@@ -52,13 +52,19 @@ inline cxxrtl::chunk_t k37_update(cxxrtl::wire<Bits> &wire) {{
 }}
 namespace cxxrtl_design {{
 // The design with an eval() for falling edges that computes only what they need (fall_eval).
+// And a skip's evaluation of what a skip decision reads, from the state (skip_eval).
 struct k37_top : p_top {{
 	bool eval_fall(performer *performer = nullptr) {{{eval_fall}}}
+	void eval_skip() {{{eval_skip}}}
 }};
 }}
 cxxrtl::module *k37_make_top() {{ return new cxxrtl_design::k37_top; }}
 bool k37_eval_fall(cxxrtl::module *module) {{
 	return static_cast<cxxrtl_design::k37_top *>(module)->eval_fall();
+}}
+bool k37_has_eval_skip() {{ return {has_eval_skip}; }}
+void k37_eval_skip(cxxrtl::module *module) {{
+	static_cast<cxxrtl_design::k37_top *>(module)->eval_skip();
 }}
 bool k37_needs_falling_edge() {{ return {falling}; }}
 bool k37_can_peek() {{ return {peek}; }}
@@ -151,23 +157,26 @@ def remember_design(design_key: str, model: Model, facts: dict[str, Any], *,
     os.replace(scratch, index)
 
 
-def build(rtlil_text: str, *, free: Sequence[str] = (), compiler: str | None = None) -> Model:
+def build(rtlil_text: str, *, free: Sequence[str] = (), reads: Sequence[str] = (),
+          compiler: str | None = None) -> Model:
     """Build (or find in the cache) the model library of a design's RTLIL (top module "top").
 
     The harness is compiled once per toolchain (``runtime-<sha256>.o``, in parallel with the
     first design that needs it); each design then costs a Yosys run, one compile and a link.
     ``free``: probe paths of the registers of the design's free-running state
     (:meth:`sim.backends.contract.FreeRunning.registers`), which the commits tell apart from
-    the rest (:func:`design_main`).
+    the rest (:func:`design_main`); ``reads``: probe paths of what the harness reads to decide
+    a skip (:meth:`~hdl.observation.FreeRunning.reads`), which the model computes alone.
     """
     tools = _toolchain(compiler)
     harness = HARNESS.read_text()
     runtime_key = sha256(harness, DESIGN_MAIN, " ".join(CXX_FLAGS), tools.versions)
     # The design's translation unit is generated (design_main): its generator is in the key.
     generator = (inspect.getsource(f)
-                 for f in (design_main, edge_wires, fall_eval, _clock_as_data))
+                 for f in (design_main, edge_wires, fall_eval, skip_eval, _units, _needed,
+                           _members, _clock_as_data))
     key = sha256(rtlil_text, runtime_key, SPLIT_COMMIT, WHOLE_COMMIT, "\n".join(free),
-                  *generator)
+                 "\n".join(reads), *generator)
     root = cache_root("cxxrtl")
     library = root / key / "model.so"
     if library.exists():
@@ -199,7 +208,7 @@ def build(rtlil_text: str, *, free: Sequence[str] = (), compiler: str | None = N
         # means that the falling edge of clk changes nothing.
         detectors = set(re.findall(r"\b(?:pos|neg)edge_p_\w+\(\)", cxx))
         falling = "false" if detectors <= {"posedge_p_clk()"} else "true"
-        (work / "design_main.cc").write_text(design_main(cxx, falling, free))
+        (work / "design_main.cc").write_text(design_main(cxx, falling, free, reads))
         seconds["yosys"] = time.perf_counter() - start
         progress("cxxrtl", f"compiling the design ({len(cxx.splitlines())} lines of C++) with "
                   f"{Path(tools.compiler).name} {' '.join(CXX_FLAGS)} ...")
@@ -220,12 +229,15 @@ def build(rtlil_text: str, *, free: Sequence[str] = (), compiler: str | None = N
     return Model(library, True, seconds)
 
 
-def design_main(cxx: str, falling: str, free: Sequence[str] = ()) -> str:
+def design_main(cxx: str, falling: str, free: Sequence[str] = (),
+                reads: Sequence[str] = ()) -> str:
     """The design's translation unit for Yosys's C++ ``cxx`` (see :func:`edge_wires`).
 
     Its commits return whether any state changed and whether any but the registers ``free``
     (probe paths) did: one cycle that changes only those proves the rest at a fixed point, at
-    no extra cost per cycle. Raises ValueError if one of them is not a wire of the model.
+    no extra cost per cycle. Its ``eval_skip`` computes the signals ``reads`` (probe paths:
+    what the harness reads to decide a skip) alone (:func:`skip_eval`). Raises ValueError if
+    one of them is not in the model.
     """
     split = edge_wires(cxx)
     pruned = fall_eval(cxx) if split is not None else None
@@ -233,15 +245,16 @@ def design_main(cxx: str, falling: str, free: Sequence[str] = ()) -> str:
     if split is None:
         return DESIGN_MAIN.format(falling=falling, peek="false", eval_fall=eval_fall,
                                   commit_fall=WHOLE_COMMIT, commit_rise=WHOLE_COMMIT,
-                                  discard_fall="")
-    members = dict(re.findall(rf'^\t\titems->add\(path, "([^"]*)", "[^"]*", ({_CXX_NAME}), ',
-                              cxx, re.M))
-    members = {name.replace(" ", "."): member for name, member in members.items()}
+                                  discard_fall="", eval_skip="", has_eval_skip="false")
+    members = _members(cxx)
     missing = [path for path in free if path not in members]
     if missing:
         raise ValueError(f"free-running registers {', '.join(missing)} are not in the "
                          f"compiled model")
     free_wires = {members[path] for path in free}
+    skip = skip_eval(cxx, reads) if reads else None
+    has_eval_skip = "false" if skip is None else "true"
+    eval_skip = "" if skip is None else f"\n{skip}\t"
 
     def commit(names: list[str]) -> str:
         return SPLIT_COMMIT.format(wires="".join(
@@ -252,12 +265,65 @@ def design_main(cxx: str, falling: str, free: Sequence[str] = ()) -> str:
     resets = "".join(f"\ttop.{name}.next = top.{name}.curr;\n" for name in discard)
     return DESIGN_MAIN.format(
         falling=falling, peek="true" if peek else "false", eval_fall=eval_fall,
-        commit_fall=commit(fall),
+        eval_skip=eval_skip, has_eval_skip=has_eval_skip, commit_fall=commit(fall),
         commit_rise=commit(rise),
         discard_fall=f"\n{TOP}{resets}" if resets else "")
 
 
 _CXX_NAME = r"[A-Za-z_]\w*"
+
+
+_HEAD_LINES = ("\tbool converged = true;\n", "\tbool posedge_p_clk = this->posedge_p_clk();\n",
+               "\tbool negedge_p_clk = this->negedge_p_clk();\n")
+
+
+def _body(cxx: str, function: str) -> str | None:
+    """The body of the member function ``function`` of ``p_top`` (``eval(performer
+    *performer)``, ``debug_eval()``), or None."""
+    body = re.search(rf"^\w+ p_top::{re.escape(function)} \{{\n(.*?)^\}}$", cxx, re.M | re.S)
+    return None if body is None else body.group(1)
+
+
+def _units(body: str) -> tuple[list[str], list[tuple[bool, set[str], str]]] | None:
+    """A CXXRTL function body as its head (local declarations) and its units in order: edge
+    blocks (``if (negedge_p_clk) {...}``: (True, no names, the text); a posedge block is
+    (False, {""}, "")) and one-line assignments ((False, {the name assigned}, the line)).
+    None if the body holds anything else."""
+    head, units, block = [], [], None
+    for line in body.splitlines(keepends=True):
+        if block is not None:
+            block.append(line)
+            if line == "\t}\n":
+                edge = block[0].startswith("\tif (neg")
+                units.append((True, set(), "".join(block)) if edge else (False, {""}, ""))
+                block = None
+            elif not line.startswith("\t\t"):
+                return None
+        elif re.fullmatch(r"\tif \((pos|neg)edge_p_clk\) \{\n", line):
+            block = [line]
+        elif line.startswith("\t//"):
+            continue
+        elif re.fullmatch(rf"\tvalue<\d+> {_CXX_NAME};\n", line) or line in _HEAD_LINES:
+            head.append(line)
+        elif line == "\treturn converged;\n":
+            pass
+        else:
+            match = re.match(rf"\t({_CXX_NAME})(?:\.slice<[\d,]+>\(\))? = ", line)
+            if match is None or "performer" in line:
+                return None
+            units.append((False, {match[1]}, line))
+    return None if block is not None else (head, units)
+
+
+def _needed(units: list[tuple[bool, set[str], str]], roots: set[str]) -> tuple[list[str], set[str]]:
+    """The units that compute ``roots`` (and the kept edge blocks), transitively, in order
+    (statements are in dependency order), and every name they read."""
+    needed, kept = set(roots), []
+    for always, defines, text in reversed(units):
+        if always or defines & needed:
+            kept.append(text)
+            needed |= set(re.findall(rf"\b{_CXX_NAME}\b", text))
+    return kept[::-1], needed
 
 
 def fall_eval(cxx: str) -> str | None:
@@ -270,45 +336,65 @@ def fall_eval(cxx: str) -> str | None:
     the last full ``eval()`` left, so the harness treats them as stale. None if the body holds
     anything but declarations, assignments and edge blocks (then eval() serves).
     """
-    body = re.search(r"^bool p_top::eval\(performer \*performer\) \{\n(.*?)^\}$", cxx,
-                     re.M | re.S)
-    if body is None:
+    body = _body(cxx, "eval(performer *performer)")
+    parsed = None if body is None else _units(body)
+    if parsed is None:
         return None
+    head, units = parsed
     outputs = set(re.findall(rf"^\t/\*output\*/ value<\d+> ({_CXX_NAME});$", cxx, re.M))
-    head, units, block = [], [], None  # units: (kept always, names defined, text)
-    for line in body.group(1).splitlines(keepends=True):
-        if block is not None:
-            block.append(line)
-            if line == "\t}\n":
-                edge = block[0].startswith("\tif (neg")
-                units.append((edge, set(), "".join(block)) if edge else (False, {""}, ""))
-                block = None
-            elif not line.startswith("\t\t"):
-                return None
-        elif re.fullmatch(r"\tif \((pos|neg)edge_p_clk\) \{\n", line):
-            block = [line]
-        elif line.startswith("\t//"):
-            continue
-        elif (re.fullmatch(rf"\tvalue<\d+> {_CXX_NAME};\n", line) or line in (
-                "\tbool converged = true;\n", "\tbool posedge_p_clk = this->posedge_p_clk();\n",
-                "\tbool negedge_p_clk = this->negedge_p_clk();\n")):
-            head.append(line)
-        elif line == "\treturn converged;\n":
-            pass
-        else:
-            match = re.match(rf"\t({_CXX_NAME})(?:\.slice<[\d,]+>\(\))? = ", line)
-            if match is None or "performer" in line:
-                return None
-            units.append((match[1] in outputs, {match[1]}, line))
-    if block is not None:
+    units = [(always or bool(defines & outputs), defines, text)
+             for always, defines, text in units]
+    kept, _ = _needed(units, set())
+    return "".join(head) + "".join(kept) + "\treturn converged;\n"
+
+
+def skip_eval(cxx: str, paths: Sequence[str]) -> str | None:
+    """The body of a function that computes the combinational values of the signals
+    ``paths`` (probe paths: what a skip decision reads) and of the output ports (what a wait
+    watches) from the state, and nothing else.
+
+    A settle evaluates the whole design to read a handful of signals; this evaluates only the
+    statements of ``eval()`` those signals depend on, transitively, and for a signal that
+    CXXRTL computes only in its debug outline, the statements of ``debug_eval()`` it depends on
+    (which read members that ``eval()`` computes: those are computed first). Registers and
+    inputs are read as they are. Edge blocks are left out: the harness calls it between
+    edges. None if a body is not shaped as expected, or ``eval()`` writes a combinational
+    wire's next value (then a value may need a second evaluation: the harness settles).
+    """
+    eval_body, debug_body = _body(cxx, "eval(performer *performer)"), _body(cxx, "debug_eval()")
+    if eval_body is None or debug_body is None or re.search(r"^\t\w+\.next = ", eval_body, re.M):
         return None
-    needed: set[str] = set()
-    kept = []
-    for always, defines, text in reversed(units):
-        if always or defines & needed:
-            kept.append(text)
-            needed |= set(re.findall(rf"\b{_CXX_NAME}\b", text))
-    return "".join(head) + "".join(reversed(kept)) + "\treturn converged;\n"
+    parsed, debug = _units(eval_body), _units(debug_body)
+    if parsed is None or debug is None or "converged = false" in eval_body:
+        return None
+    members = _members(cxx)
+    roots = set(re.findall(rf"^\t/\*output\*/ value<\d+> ({_CXX_NAME});$", cxx, re.M))
+    for path in paths:
+        if path not in members:
+            raise ValueError(f"the free-running state's signal {path!r} is not in the "
+                             f"compiled model")
+        roots.add(members[path])
+    head, units = parsed
+    units = [(False, defines, text) for always, defines, text in units if not always]
+    debug_head, debug_units = debug
+    outlined, outline_reads = _needed(debug_units, roots)
+    # The outline's own values (its locals, and the outlined members it assigns) are computed
+    # in its block; the members it reads otherwise are eval()'s, computed before it. Each
+    # part is a block of its own, so that eval()'s locals never shadow the outline's members.
+    in_outline = {re.findall(_CXX_NAME, line)[-1] for line in debug_head}
+    in_outline |= {name for _, defines, _ in debug_units for name in defines}
+    kept, _ = _needed(units, (roots | outline_reads) - in_outline)
+    blocks = (head + kept, debug_head + outlined)
+    return "".join("\t{\n" + "".join("\t" + line for line in block) + "\t}\n"
+                   for block in blocks if block)
+
+
+def _members(cxx: str) -> dict[str, str]:
+    """The C++ member behind each debug item of the design, by probe path (an alias's or an
+    outline's is the member it reads)."""
+    found = re.findall(rf'^\t\titems->add\(path, "([^"]*)", "[^"]*", (?:debug_alias\(\), |'
+                       rf'debug_eval_outline, )?({_CXX_NAME})[,)]', cxx, re.M)
+    return {name.replace(" ", "."): member for name, member in found}
 
 
 def edge_wires(cxx: str) -> tuple[list[str], list[str], list[str], bool] | None:

@@ -37,6 +37,11 @@ bool k37_can_peek();
 // ports, possibly nothing else (build.py, fall_eval); other combinational values are stale.
 bool k37_eval_fall(cxxrtl::module *top);
 void k37_discard_fall(cxxrtl::module *top);
+// Whether k37_eval_skip() computes what a skip decision reads (build.py, skip_eval): the
+// values of the free-running state's declared signals, `quiet` and the output ports, from the
+// state, and nothing else (other combinational values are stale).
+bool k37_has_eval_skip();
+void k37_eval_skip(cxxrtl::module *top);
 
 extern "C" {
 
@@ -153,6 +158,7 @@ struct Model {
 	std::unique_ptr<cxxrtl::module> top{k37_make_top()};
 	const bool falling_edge = k37_needs_falling_edge();
 	const bool can_peek = k37_can_peek();
+	const bool has_eval_skip = k37_has_eval_skip();
 	std::vector<Item> items;
 	chunk_t *clk = nullptr;
 	uint64_t cycle = 0;
@@ -162,6 +168,9 @@ struct Model {
 	// The outline (CXXRTL's combinational values that only debug_eval computes) evaluated
 	// since the last settle, if any.
 	cxxrtl::debug_outline *outline_fresh = nullptr;
+	// The skip's signals computed by k37_eval_skip since the state last changed (outlined
+	// ones included; nothing else may be read).
+	bool skip_values = false;
 	std::unique_ptr<Trace> trace;
 	// Idle skipping with free-running state (see try_skip).
 	std::vector<Accumulator> accumulators;
@@ -203,13 +212,25 @@ inline void settle(Model &m) {
 		while (m.top->commit() && !converged);
 		m.stale = false;
 		m.outline_fresh = nullptr;
+		m.skip_values = false;
+	}
+}
+
+// Bring what a skip decision reads up to date with the state: k37_eval_skip computes just
+// that, where the model has it; else a settle.
+inline void refresh_skip_values(Model &m) {
+	if (!m.has_eval_skip) {
+		settle(m);
+	} else if (m.stale && !m.skip_values) {
+		k37_eval_skip(m.top.get());
+		m.skip_values = true;
 	}
 }
 
 // Compute a settled part's value if CXXRTL outlined it (once per settle: an outline computes
 // all its values).
 void eval_outline(Model &m, const Part &p) {
-	if (p.outline && p.outline != m.outline_fresh) {
+	if (p.outline && p.outline != m.outline_fresh && !m.skip_values) {
 		p.outline->eval();
 		m.outline_fresh = p.outline;
 	}
@@ -622,6 +643,15 @@ void advance_free(Model &m, uint64_t k) {
 	}
 }
 
+// Whether an item a wait watches reads non-zero: a register as it is, an output port after
+// the skip's evaluation (which computes every output), anything else settled.
+bool watched_nonzero(Model &m, const Item &item, bool state) {
+	if (state || !m.has_eval_skip || !(item.flags & cxxrtl::debug_item::OUTPUT))
+		return nonzero(m, item, state);
+	refresh_skip_values(m);
+	return nonzero(m, item, true);
+}
+
 // After a cycle whose commits returned `flags` (the clock high): if it changed no state but
 // the free-running state's, no plant's count, and the quiet item reads 1, the rest of the
 // design is at a fixed point until the next event of the free-running state; skip up to `rest`
@@ -632,7 +662,7 @@ void advance_free(Model &m, uint64_t k) {
 uint64_t try_skip(Model &m, unsigned flags, uint64_t rest, const Item *watch = nullptr,
                   bool watch_state = false) {
 	if (flags & REST_CHANGED || rest == 0 || plants_moved(m) ||
-	    (watch && nonzero(m, *watch, watch_state)))
+	    (watch && watched_nonzero(m, *watch, watch_state)))
 		return 0;
 	if (flags & CHANGED && m.quiet == SIZE_MAX)
 		return 0;
@@ -641,7 +671,7 @@ uint64_t try_skip(Model &m, unsigned flags, uint64_t rest, const Item *watch = n
 		uint64_t to_sample = m.recorder.next - m.cycle;
 		uint64_t run = std::min(rest - skipped, to_sample);
 		if (flags & CHANGED) {
-			settle(m);
+			refresh_skip_values(m);
 			if (!read_u64(m, m.quiet))
 				break;
 			run = advance_plants(m, std::min(run, event_horizon(m)));
@@ -649,6 +679,7 @@ uint64_t try_skip(Model &m, unsigned flags, uint64_t rest, const Item *watch = n
 				break;
 			advance_free(m, run);
 			m.stale = true;
+			m.skip_values = false;
 		}
 		m.skipped += run;
 		skipped += run;
@@ -656,6 +687,7 @@ uint64_t try_skip(Model &m, unsigned flags, uint64_t rest, const Item *watch = n
 		if (run < to_sample)
 			break;  // an event of the free-running state comes next, or the skip is done
 	}
+	m.skip_values = false;  // other reads evaluate what they read
 	return skipped;
 }
 
@@ -961,6 +993,26 @@ size_t k37_recorded(void *handle, uint64_t *out, size_t size) {
 	std::copy_n(rows.begin(), taken, out);
 	rows.erase(rows.begin(), rows.begin() + taken);
 	return held;
+}
+
+// A self-check of k37_eval_skip (for tests): whether, from the current state, it computes
+// items[0 .. n) (of one part each) as a settle does: 1 or 0; -1 if the model has none. It
+// leaves the design settled.
+int k37_check_eval_skip(void *handle, const size_t *items, size_t n) {
+	Model &m = *static_cast<Model *>(handle);
+	if (!m.has_eval_skip)
+		return -1;
+	m.stale = true;
+	refresh_skip_values(m);
+	std::vector<uint64_t> fast;
+	for (size_t i = 0; i < n; i++)
+		fast.push_back(read_u64(m, items[i]));
+	m.skip_values = false;
+	settle(m);
+	for (size_t i = 0; i < n; i++)
+		if (read_u64(m, items[i]) != fast[i])
+			return 0;
+	return 1;
 }
 
 int k37_falling_edge(void *handle) {
