@@ -145,9 +145,10 @@ struct Plant {
 };
 
 // Samples of some items (of at most 64 bits) at every multiple of `every` cycles, taken as
-// the clock reaches it, settled (k37_record).
+// the clock reaches it (k37_record): settled, or outputs as the skip evaluation computes them.
 struct Recorder {
 	std::vector<size_t> items;
+	bool outputs = false;  // every item is an output port or a register
 	uint64_t every = 0, next = UINT64_MAX;
 	std::vector<uint64_t> rows;  // per sample: the cycle, then each item's value
 };
@@ -185,6 +186,12 @@ struct Model {
 	std::vector<int64_t> plant_steps;
 	std::vector<uint64_t> strobes;
 };
+
+// The state (or an input) changed: every combinational value may lag it, the skip's too.
+inline void mark_stale(Model &m) {
+	m.stale = true;
+	m.skip_values = false;
+}
 
 // One clock edge, as CXXRTL's module::step(): evaluate and commit until converged; returns
 // the commits' flags (CHANGED, REST_CHANGED). Combinational values computed from committed state are not
@@ -275,14 +282,14 @@ inline unsigned cycle(Model &m) {
 		// rising edge evaluates everything from the committed state anyway.
 		changed = m.falling_edge || Traced ? edge<false>(m) : k37_commit_fall(m.top.get());
 		if (Traced) {
-			m.stale = true;
+			mark_stale(m);
 			settle(m);
 			sample(*m.trace, fall_time(m.cycle));
 		}
 	}
 	*m.clk = 1;
 	changed |= edge<true>(m);
-	m.stale = true;
+	mark_stale(m);
 	if (Traced) {
 		settle(m);
 		sample(*m.trace, rise_time(m.cycle));
@@ -328,10 +335,13 @@ uint64_t read_u64(Model &m, size_t index) {
 	return p.width > 32 ? uint64_t(p.curr[1]) << 32 | p.curr[0] : p.curr[0];
 }
 
-// Take the recorder's sample of this cycle.
+// Take the recorder's sample of this cycle (outputs as the skip's evaluation computes them).
 void record(Model &m) {
 	Recorder &r = m.recorder;
-	settle(m);
+	if (r.outputs && m.has_eval_skip)
+		refresh_skip_values(m);
+	else
+		settle(m);
 	r.rows.push_back(m.cycle);
 	for (size_t index : r.items)
 		r.rows.push_back(read_u64(m, index));
@@ -678,8 +688,7 @@ uint64_t try_skip(Model &m, unsigned flags, uint64_t rest, const Item *watch = n
 			if (run == 0)
 				break;
 			advance_free(m, run);
-			m.stale = true;
-			m.skip_values = false;
+			mark_stale(m);
 		}
 		m.skipped += run;
 		skipped += run;
@@ -687,7 +696,6 @@ uint64_t try_skip(Model &m, unsigned flags, uint64_t rest, const Item *watch = n
 		if (run < to_sample)
 			break;  // an event of the free-running state comes next, or the skip is done
 	}
-	m.skip_values = false;  // other reads evaluate what they read
 	return skipped;
 }
 
@@ -744,19 +752,19 @@ uint64_t run_until_peek(Model &m, const Item &item, uint64_t limit, bool skip_id
 		if (i > 0 && nonzero(m, item, true)) {
 			*m.clk = 1;
 			k37_discard_fall(m.top.get());
-			m.stale = true;
+			mark_stale(m);
 			return i;
 		}
 		unsigned flags = k37_commit_fall(m.top.get());
 		*m.clk = 1;
 		flags |= edge<true>(m);
-		m.stale = true;
+		mark_stale(m);
 		count_cycles(m, 1);
 		i++;
 		if (skip_idle)
 			i += try_skip(m, flags, limit - i, &item);
 	}
-	m.stale = true;
+	mark_stale(m);
 	return limit;
 }
 
@@ -827,7 +835,8 @@ void k37_write(void *handle, size_t index, const uint32_t *data) {
 				p.next[bit / CHUNK_BITS] |= chunk_t(1) << (bit % CHUNK_BITS);
 		}
 	}
-	m.inputs_written = m.stale = true;
+	m.inputs_written = true;
+	mark_stale(m);
 }
 
 // Fast paths for items of at most 64 bits and one part (every port).
@@ -851,7 +860,8 @@ void k37_set(void *handle, size_t index, uint64_t value) {
 	p.next[0] = chunk_t(value);
 	if (p.width > 32)
 		p.next[1] = chunk_t(value >> 32);
-	m.inputs_written = m.stale = true;
+	m.inputs_written = true;
+	mark_stale(m);
 }
 
 void k37_step(void *handle, uint64_t n, int skip_idle) {
@@ -980,7 +990,12 @@ void k37_free_quiet(void *handle, size_t index) {
 // (every >= 1), as the clock reaches it, until the model is destroyed (taken by k37_recorded).
 void k37_record(void *handle, const size_t *items, size_t n, uint64_t every) {
 	Model &m = *static_cast<Model *>(handle);
-	m.recorder = Recorder{std::vector<size_t>(items, items + n), every,
+	bool outputs = std::all_of(items, items + n, [&](size_t index) {
+		const Item &item = m.items[index];
+		return is_state(item) || (item.flags & cxxrtl::debug_item::OUTPUT &&
+		                          item.parts.size() == 1 && !item.parts.front().outline);
+	});
+	m.recorder = Recorder{std::vector<size_t>(items, items + n), outputs, every,
 	                      (m.cycle / every + 1) * every, {}};
 }
 
@@ -1002,7 +1017,7 @@ int k37_check_eval_skip(void *handle, const size_t *items, size_t n) {
 	Model &m = *static_cast<Model *>(handle);
 	if (!m.has_eval_skip)
 		return -1;
-	m.stale = true;
+	mark_stale(m);
 	refresh_skip_values(m);
 	std::vector<uint64_t> fast;
 	for (size_t i = 0; i < n; i++)
