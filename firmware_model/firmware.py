@@ -32,6 +32,7 @@ from firmware_model.gcode import Dwell, Event, Item, Line, Program
 from firmware_model.host import Host8085
 from firmware_model.job import Job, MachineConfig
 from firmware_model.program import Move
+from hdl.chipset_map import chip_register, port
 from hdl.decel_control_model import BUDGET_WIDTH
 from hdl.divider_model import increment_for
 from hdl.feed_rate_map import DIVIDER_WIDTH, FEED_BITS
@@ -288,23 +289,23 @@ class Firmware:
         timer interrupt wakes the host at every tick (multiples of the tick since reset)."""
         host = self.host
         tick = max(1, round(TIMER_TICK_SECONDS * self.job.machine.clock_hz))
+        chips = self._encoder_chips()
+        status = chip_register(chips[0], "STATUS")
+        ports = tuple(port(chip, "STATUS", k) for chip in chips for k in range(status.nbytes))
+        faults = status.to_bytes(status.encode(**dict.fromkeys(ENCODER_FAULTS, 1)))
         while record.end_cycle is None and not self.stopped:
             left = self.limit - host.cycle
             if left <= 0:
                 return
-            to_tick = tick - host.cycle % tick
-            waited = host.wait_interrupt(min(left, to_tick))
-            if host.interrupts().any():
+            # The timer's routine (entry, the encoders' STATUS, exit) at each tick on the way.
+            read = host.wait_polling(left, tick, ports, tuple(faults) * len(chips))
+            if read is not None:
+                n = status.nbytes
+                self._encoder_faults({chip: status.from_bytes(read[k * n:(k + 1) * n])
+                                      for k, chip in enumerate(chips)})
+                host.work(host.timing.isr_exit)
+            elif host.interrupts().any():
                 self._interrupt(record)
-            elif waited == to_tick and host.cycle < self.limit:
-                self._timer_interrupt()
-
-    def _timer_interrupt(self) -> None:
-        """The timer's routine: poll the encoders."""
-        host = self.host
-        host.work(host.timing.isr_entry)
-        self._check_encoders()
-        host.work(host.timing.isr_exit)
 
     def _interrupt(self, record: BlockRecord | None) -> None:
         """The interrupt routine: alarm first (stop the feed), then the data request."""
@@ -337,21 +338,34 @@ class Firmware:
             host.command("K3701", clear=1)
         self._check_encoders()
 
+    def _encoder_chips(self) -> tuple[str, ...]:
+        return tuple(f"ENCODER_{axis.upper()}" for axis in self.job.machine.axis_names)
+
     def _check_encoders(self) -> None:
-        """Read both encoders' STATUS; a fault (the position is no longer known) stops the
-        feed and the program."""
+        """Read every encoder's STATUS, then handle their faults (:meth:`_encoder_faults`)."""
         host = self.host
-        for axis in self.job.machine.axis_names:
-            chip = f"ENCODER_{axis.upper()}"
-            status = host.status(chip)
-            faults = [flag for flag in ENCODER_FAULTS if status[flag]]
-            for flag in faults:
-                self.alarms.append(AlarmEvent(axis, host.cycle, f"encoder_{flag}"))
-            if faults:
-                host.command(chip, clear=1)
-                if not self.stopped:
-                    host.write("DECEL", "CTRL", 1)  # stop feed at once
-                self.stopped = True
+        self._encoder_faults({chip: host.read(chip, "STATUS") for chip in self._encoder_chips()})
+
+    def _encoder_faults(self, statuses: dict[str, int]) -> None:
+        """The encoders' STATUS words, as read: a fault (the position is no longer known)
+        stops the feed at once, then the faulted encoders' flags are cleared; the program
+        stops."""
+        host = self.host
+        faulted = []
+        for (chip, word), axis in zip(statuses.items(), self.job.machine.axis_names,
+                                      strict=True):
+            status = chip_register(chip, "STATUS").decode(word)
+            for flag in ENCODER_FAULTS:
+                if status[flag]:
+                    self.alarms.append(AlarmEvent(axis, host.cycle, f"encoder_{flag}"))
+                    faulted.append(chip)
+        if not faulted:
+            return
+        if not self.stopped:
+            host.write("DECEL", "CTRL", 1)  # stop feed at once
+        for chip in dict.fromkeys(faulted):
+            host.command(chip, clear=1)
+        self.stopped = True
 
     def _settle(self) -> None:
         """After the last block: poll until both axes hold the programmed end, in position."""

@@ -37,6 +37,9 @@ class HostTiming:
 
 
 T_STATES = HostTiming()
+#: Timer routines handed to a link at a time in :meth:`Host8085.wait_polling` (a compiled
+#: run's sampler pauses it every 10^6 cycles: 50 ticks of 20 ms).
+POLL_BATCH = 64
 
 
 class Host8085:
@@ -118,9 +121,84 @@ class Host8085:
 
     def status(self, chip: str, register: str = "STATUS") -> dict[str, int]:
         """Read a status register and decode its fields."""
-        reg = chip_register(chip, register)
-        word = self.read(chip, register)
-        return {f.name: f.decode(word) for f in reg.fields}
+        return chip_register(chip, register).decode(self.read(chip, register))
+
+    def wait_polling(self, max_cycles: int, period: int, ports: tuple[int, ...],
+                     stops: tuple[int, ...]) -> list[int] | None:
+        """Wait (halted) for an interrupt, at most ``max_cycles`` system cycles, while a timer
+        interrupts every ``period`` cycles (its ticks at multiples of ``period`` since reset)
+        into a routine that only reads: entry, ``IN`` from each of ``ports``, exit.
+
+        A tick is served if the wait up to it saw no interrupt and ``max_cycles`` had not run
+        out; a routine runs to its end. Returns None once an interrupt input is high after a
+        wait or ``max_cycles`` ran out; or the bytes of a routine that read a byte with any
+        bit of its port's ``stops`` mask set, right after its reads (the caller handles them,
+        then leaves with ``work(timing.isr_exit)``).
+
+        A link that runs such waits itself (``wait_polling``, e.g. a compiled simulation) is
+        given batches of routines, with the system cycles of each from the host's T-state
+        clock; it gives the same bus cycles at the same system cycles as this host's own loop.
+        """
+        if not ports or len(stops) != len(ports):
+            raise ValueError("a polling routine reads at least one port, with a mask each")
+        native = getattr(self.link, "wait_polling", None)
+        end = self.cycle + max_cycles
+        due = False  # a routine is due at once (the link paused at its tick)
+        while native is not None:
+            ticks = (end - self.cycle) // period + 1  # at most, before the end
+            count = min(POLL_BATCH, ticks)
+            routines, phases = self._routine_cycles(len(ports), count)
+            result = native(end - self.cycle, period, ports, stops, routines, due)
+            if result is None:
+                break  # the link cannot: the host's own loop serves the rest
+            done, read, more = result
+            t_routine = self.timing.isr_entry + len(ports) * self.timing.in_byte
+            self.t_states += done * (t_routine + self.timing.isr_exit)
+            if read is not None:
+                self.t_states += t_routine
+                self._owed = phases[2 * done]
+                return read
+            if done:
+                self._owed = phases[2 * done - 1]
+            if not more:
+                return None
+            due = more == 2
+        while (left := end - self.cycle) > 0:
+            to_tick = period - self.cycle % period
+            waited = self.wait_interrupt(min(left, to_tick))
+            if self.interrupts().any():
+                return None
+            if waited == to_tick and self.cycle < end:
+                self.work(self.timing.isr_entry)
+                read = [self.inp(address) for address in ports]
+                if any(byte & mask for byte, mask in zip(read, stops, strict=True)):
+                    return read
+                self.work(self.timing.isr_exit)
+        return None
+
+    def _routine_cycles(self, reads: int, count: int) -> tuple[list[int], list[float]]:
+        """The system cycles of the next ``count`` read-only timer routines (``reads`` INs
+        each) from the host's T-state phase now, as :meth:`work` and :meth:`inp` would spend
+        them: per routine, the idle cycles before each read's bus cycle, then after the last.
+        Also the phase after each routine's reads and after its exit (the host's state is
+        unchanged)."""
+        owed, cycles, phases = self._owed, [], []
+        for _ in range(count):
+            for k, t_states in enumerate((self.timing.isr_entry,
+                                          *[self.timing.in_byte] * reads, self.timing.isr_exit)):
+                owed += t_states * self.cycles_per_t
+                whole = int(owed)
+                owed -= whole
+                if k == 0:
+                    entry = whole
+                elif k <= reads:  # an IN: its bus cycle is its last system cycle
+                    cycles.append(entry + max(whole - 1, 0))
+                    entry = 0
+                else:
+                    cycles.append(whole)
+                if k >= reads:
+                    phases.append(owed)
+        return cycles, phases
 
     def wait_interrupt(self, max_cycles: int) -> int:
         """Wait (interrupts enabled, the CPU halted) until an interrupt input goes high, at

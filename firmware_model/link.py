@@ -50,3 +50,9 @@ class ChipsetLink(Protocol):
 
     def interrupts(self) -> Interrupts:
         """The interrupt inputs' levels now."""
+
+    # Optional: ``wait_polling(max_cycles, period, ports, stops, idles, due)``, a halted wait with a
+    # read-only timer routine that the link runs itself, as
+    # :meth:`firmware_model.host.Host8085.wait_polling` would with the operations above
+    # (see :meth:`sim.backends.contract.Backend.wait_polling`); the host looks it up with
+    # getattr and uses its own loop where a link has none or it returns None.

@@ -135,6 +135,10 @@ class Register:
             word |= self.field(name).encode(value)
         return word
 
+    def decode(self, word: int) -> dict[str, int]:
+        """Each field's value in a register value (``encode``'s inverse)."""
+        return {f.name: f.decode(word) for f in self.fields}
+
     def to_bytes(self, value: int) -> list[int]:
         """The bytes a host writes, in bus order (LSB first, the committing MSB last)."""
         lo, hi = self.bounds

@@ -27,9 +27,10 @@ from sim.cli import main
 from sim.run import runner
 from sim.run.contour import contour_errors, contour_summary
 from sim.run.jobfile import load_job
+from sim.run.link import SimulatedLink
 from sim.run.output import summary, write_trace
 from sim.run.progress import Progress, ProgressPrinter
-from sim.run.report import validate
+from sim.run.report import HOW_FIELDS, validate
 from sim.run.runner import RunOptions, RunResult, run_job
 from sim.run.sampler import CHUNK_ROWS, PROGRESS_CYCLES, TRACE_COLUMNS, SampleStore
 
@@ -252,6 +253,42 @@ def test_a_broken_encoder_line_is_reported_within_a_timer_tick_and_stops_the_run
     assert report["cycles"] < tick + 200
     assert report["blocks"][0]["end_cycle"] is None
     assert not report["end_point"]["reached"]
+
+
+@pytest.mark.parametrize(("low_feed", "faults", "options"), [
+    (False, {"y": {"break_a": 1}}, {}),  # a routine reads a fault: the run stops there
+    (False, {}, {"vcd_start": 19_980, "vcd_stop": 20_090, "max_cycles": 300_000}),  # traced
+    (True, {}, {"max_cycles": 3_000_123, "sample_every": 97}),  # a limit inside a wait
+    (True, {}, {"max_cycles": 2_000_000}),  # a limit on a tick: no routine there
+])
+def test_the_compiled_timer_poll_equals_the_hosts_own_loop(make_job, monkeypatch, tmp_path,
+                                                           low_feed, faults, options):
+    """The compiled backend runs the firmware's waits with their 50 Hz encoder polls itself
+    (Host8085.wait_polling); the host's own loop of waits and bus reads gives the same
+    report, samples and waveform."""
+    job = (make_job("G21 G91 F5.3\nG03 X0 Y0 I0.5 J0\nM30") if low_feed else demo_job())
+
+    def run(name: str) -> tuple[dict, np.ndarray, bytes]:
+        vcd = tmp_path / f"{name}.vcd" if "vcd_start" in options else None
+        result = run_job(job, RunOptions(backend="cxxrtl", faults=faults, vcd=vcd, **options))
+        report = {k: v for k, v in result.report.items() if k not in HOW_FIELDS}
+        return report, result.samples, vcd.read_bytes() if vcd else b""
+
+    polled = []
+    wait_polling = SimulatedLink.wait_polling
+
+    def counted(link: SimulatedLink, *args: object) -> object:
+        polled.append(result := wait_polling(link, *args))
+        return result
+
+    monkeypatch.setattr(SimulatedLink, "wait_polling", counted)
+    compiled = run("compiled")
+    assert polled and None not in polled  # the compiled backend ran every wait
+    monkeypatch.setattr(SimulatedLink, "wait_polling", lambda *_: None)  # the host's loop
+    host = run("host")
+    assert host[0] == compiled[0]
+    assert np.array_equal(host[1], compiled[1])
+    assert host[2] == compiled[2]
 
 
 def test_samples_stream_to_the_store_in_bounded_chunks(make_job, monkeypatch):

@@ -235,6 +235,27 @@ class Backend(abc.ABC):
         self.set(f"{bus}__r_stb", 0)
         return self.get(f"{bus}__r_data")
 
+    def wait_polling(self, port_name: str, max_cycles: int, pause: int, period: int,
+                     ports: Sequence[int], stops: Sequence[int], idles: Sequence[int], *,
+                     due: bool = False, skip_idle: bool = False,
+                     bus: str = "bus") -> tuple[int, list[int] | None, int] | None:
+        """A host's halted wait for ``port_name`` with a timer routine that only reads, run by
+        the backend itself (:meth:`firmware_model.host.Host8085.wait_polling`, whose own loop
+        of :meth:`run_until`, :meth:`step` and :meth:`bus_read` it equals): at most
+        ``max_cycles``; at each tick (a multiple of ``period``) that a wait reached without the
+        port high, and before ``max_cycles`` ran out, routine k idles ``idles[k (n + 1) + j]``
+        cycles before reading ``ports[j]`` (n of them), then ``idles[k (n + 1) + n]`` after;
+        with ``due``, the first routine runs at once.
+
+        Returns the routines run to their end; the bytes of the routine after them if it read
+        a byte with a bit of its port's ``stops`` mask set (its last idle cycles not run); and
+        whether the wait goes on (call again with what is left): 0 no (an interrupt or the
+        limit), 1 yes (``pause`` cycles passed, or the routines ran out), 2 yes, with the
+        routine of the tick reached due (``due``). A routine under way is finished before a
+        pause. None if this backend cannot (the caller runs the loop); the default.
+        """
+        return None
+
     @contextmanager
     def tracing(self, path: str, start_cycle: int = 0,
                 stop_cycle: int | None = None) -> Iterator[None]:

@@ -10,6 +10,7 @@ observation counters (feed pulses, K3701 step pulses), which no firmware sees.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from firmware_model.firmware import BlockRecord
@@ -42,6 +43,14 @@ class SimulatedLink:
 
     def wait_interrupt(self, max_cycles: int) -> int:
         return self.sampler.run_until("irq", max_cycles)
+
+    def wait_polling(self, max_cycles: int, period: int, ports: Sequence[int],
+                     stops: Sequence[int], idles: Sequence[int],
+                     due: bool) -> tuple[int, list[int] | None, int] | None:
+        if isinstance(self.sampler, Sampler):
+            return self.sampler.wait_polling(max_cycles, period, ports, stops, idles, due)
+        return self.sampler.wait_polling("irq", max_cycles, max_cycles, period, ports, stops,
+                                         idles, due=due)
 
     def interrupts(self) -> Interrupts:
         return Interrupts(bool(self.sampler.get("irq_interp")),

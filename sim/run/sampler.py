@@ -13,7 +13,7 @@ from __future__ import annotations
 import os
 import tempfile
 import weakref
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 
 import numpy as np
 
@@ -183,6 +183,20 @@ class Sampler:
             if ran < k or self.backend.get(port_name):
                 break
         return done
+
+    def wait_polling(self, max_cycles: int, period: int, ports: Sequence[int],
+                     stops: Sequence[int], idles: Sequence[int],
+                     due: bool) -> tuple[int, list[int] | None, int] | None:
+        """The backend's :meth:`~sim.backends.contract.Backend.wait_polling` on ``irq``, paused
+        at the sampler's next tick; None where samples are taken from Python (each must be
+        taken at its cycle) or the backend cannot."""
+        if not self.native:
+            return None
+        result = self.backend.wait_polling("irq", max_cycles, self.next - self.cycle, period,
+                                           ports, stops, idles, due=due,
+                                           skip_idle=self.skip_idle)
+        self._after()
+        return result
 
     def bus_write(self, addr: int, data: int) -> None:
         self.backend.bus_write(addr, data)

@@ -61,6 +61,10 @@ def _load(path: Path) -> ctypes.CDLL:
         "k37_run_until": (u64, [handle, size, u64, ctypes.c_int]),
         "k37_bus_write": (None, [handle, size, size, size, u64, u64]),
         "k37_bus_read": (u64, [handle, size, size, size, u64]),
+        "k37_wait_polling": (u64, [handle, size, ctypes.POINTER(size), u64, u64, u64,
+                                   ctypes.POINTER(u64), ctypes.POINTER(u64), size,
+                                   ctypes.POINTER(u64), u64, ctypes.c_int, ctypes.c_int,
+                                   ctypes.POINTER(u64)]),
         "k37_cycle": (u64, [handle]),
         "k37_skipped": (u64, [handle]),
         "k37_trace": (ctypes.c_int, [handle, ctypes.c_char_p, ctypes.c_char_p, ctypes.c_char_p,
@@ -307,6 +311,25 @@ class CxxrtlBackend(Backend):
         addr_port, _, i_addr, _, _, i_stb, i_data = self._bus(bus)
         return self._lib.k37_bus_read(self._handle, i_addr, i_stb, i_data,
                                       addr_port.encode(addr))
+
+    def wait_polling(self, port_name: str, max_cycles: int, pause: int, period: int,
+                     ports: Sequence[int], stops: Sequence[int], idles: Sequence[int], *,
+                     due: bool = False, skip_idle: bool = False,
+                     bus: str = "bus") -> tuple[int, list[int] | None, int] | None:
+        for name, value in (("max_cycles", max_cycles), ("pause", pause), ("period", period)):
+            check_count(name, value)
+        n = len(ports)
+        if not n or len(stops) != n or len(idles) % (n + 1) or period < 1:
+            raise ValueError("wait_polling: one stop mask per port, n + 1 idles per routine")
+        addr_port, _, i_addr, _, _, i_stb, i_data = self._bus(bus)
+        u64 = ctypes.c_uint64
+        out = (u64 * (n + 1))()
+        done = self._lib.k37_wait_polling(
+            self._handle, self._index[self.port(port_name).name],
+            _sizes([i_addr, i_stb, i_data]), max_cycles, pause, period,
+            (u64 * n)(*(addr_port.encode(a) for a in ports)), (u64 * n)(*stops), n,
+            (u64 * len(idles))(*idles), len(idles) // (n + 1), due, skip_idle, out)
+        return done, list(out[1:]) if out[0] == 1 else None, {2: 1, 3: 2}.get(out[0], 0)
 
     def _set_raw(self, port: Port, raw: int) -> None:
         index = self._items[port.name]

@@ -768,6 +768,54 @@ uint64_t run_until_peek(Model &m, const Item &item, uint64_t limit, bool skip_id
 	return limit;
 }
 
+// k37_run_until on a model.
+uint64_t run_until(Model &m, const Item &item, uint64_t limit, bool skip_idle) {
+	prepare(m);
+	const bool state = is_state(item);
+	if (m.can_peek && !state && *m.clk && !m.trace)
+		return run_until_peek(m, item, limit, skip_idle);
+	for (uint64_t i = 0; i < limit;) {
+		if (tracing(m)) {
+			cycle<true>(m);
+			i++;
+			if (m.cycle >= m.trace->stop)
+				close_trace(m);
+		} else {
+			unsigned flags = cycle<false>(m);
+			i++;
+			// A skip is taken only if the item reads zero: at a fixed point it stays so.
+			if (skip_idle)
+				i += try_skip(m, flags, until_boundary(m, limit - i), &item, state);
+		}
+		if (nonzero(m, item, state))
+			return i;
+	}
+	return limit;
+}
+
+// Write a port's next value (as k37_set).
+void set_port(Model &m, size_t index, uint64_t value) {
+	const Part &p = m.items[index].parts.front();
+	if (p.width < 64)
+		value &= (uint64_t(1) << p.width) - 1;  // CXXRTL values keep their unused bits zero
+	p.next[0] = chunk_t(value);
+	if (p.width > 32)
+		p.next[1] = chunk_t(value >> 32);
+	m.inputs_written = true;
+	mark_stale(m);
+}
+
+// A host bus read cycle (k37_bus_read) on a model.
+uint64_t bus_read(Model &m, const size_t *bus, uint64_t address) {
+	set_port(m, bus[0], address);
+	set_port(m, bus[1], 1);
+	prepare(m);
+	advance(m, 1, false);
+	set_port(m, bus[1], 0);
+	settle(m);
+	return read_u64(m, bus[2]);
+}
+
 }  // namespace
 
 extern "C" {
@@ -853,15 +901,7 @@ void k37_get_many(void *handle, const size_t *indices, size_t n, uint64_t *out) 
 }
 
 void k37_set(void *handle, size_t index, uint64_t value) {
-	Model &m = *static_cast<Model *>(handle);
-	const Part &p = m.items[index].parts.front();
-	if (p.width < 64)
-		value &= (uint64_t(1) << p.width) - 1;  // CXXRTL values keep their unused bits zero
-	p.next[0] = chunk_t(value);
-	if (p.width > 32)
-		p.next[1] = chunk_t(value >> 32);
-	m.inputs_written = true;
-	mark_stale(m);
+	set_port(*static_cast<Model *>(handle), index, value);
 }
 
 void k37_step(void *handle, uint64_t n, int skip_idle) {
@@ -875,28 +915,7 @@ void k37_step(void *handle, uint64_t n, int skip_idle) {
 // zero for ever) ends the wait at the limit at once.
 uint64_t k37_run_until(void *handle, size_t index, uint64_t limit, int skip_idle) {
 	Model &m = *static_cast<Model *>(handle);
-	prepare(m);
-	const Item &item = m.items[index];
-	const bool state = is_state(item);
-	if (m.can_peek && !state && *m.clk && !m.trace)
-		return run_until_peek(m, item, limit, skip_idle != 0);
-	for (uint64_t i = 0; i < limit;) {
-		if (tracing(m)) {
-			cycle<true>(m);
-			i++;
-			if (m.cycle >= m.trace->stop)
-				close_trace(m);
-		} else {
-			unsigned flags = cycle<false>(m);
-			i++;
-			// A skip is taken only if the item reads zero: at a fixed point it stays so.
-			if (skip_idle)
-				i += try_skip(m, flags, until_boundary(m, limit - i), &item, state);
-		}
-		if (nonzero(m, item, state))
-			return i;
-	}
-	return limit;
+	return run_until(m, m.items[index], limit, skip_idle != 0);
 }
 
 // One host bus write cycle (sim/testbench.py bus_write): the byte is taken at the edge.
@@ -911,11 +930,67 @@ void k37_bus_write(void *handle, size_t addr, size_t w_data, size_t w_stb, uint6
 
 // One host bus read cycle (sim/testbench.py bus_read); returns the byte of the next cycle.
 uint64_t k37_bus_read(void *handle, size_t addr, size_t r_stb, size_t r_data, uint64_t address) {
-	k37_set(handle, addr, address);
-	k37_set(handle, r_stb, 1);
-	k37_step(handle, 1, 0);
-	k37_set(handle, r_stb, 0);
-	return k37_get(handle, r_data);
+	const size_t bus[] = {addr, r_stb, r_data};
+	return bus_read(*static_cast<Model *>(handle), bus, address);
+}
+
+// The host's halted wait for an interrupt (`irq` reads non-zero after a cycle) with a timer
+// routine that only reads (firmware_model.host.Host8085.wait_polling, whose own loop this is):
+// at most `limit` cycles; at each tick (a multiple of `period`) that a wait reached without an
+// interrupt, while `limit` had not run out, routine k (of `routines`) idles idles[k (n + 1) + j]
+// cycles before reading port j (of n; the bus is addr, r_stb, r_data), then idles[k (n + 1) + n]
+// after. Idle cycles are stepped as k37_step with `skip_idle`. With `due`, the first routine is
+// due at once (a call that returned 3 was at its tick). Returns the routines run to their end;
+// out[0] says why it returned: 0 an interrupt is pending after a wait, or `limit` ran out;
+// 1 routine number (the return value) read a byte with a bit of its port's stops[j] set, its
+// bytes in out[1 .. n] (its last idle cycles not run); 2 (come back: the same wait goes on)
+// `pause` cycles have passed (the caller acts between cycles) or the routines ran out; 3 the
+// same, at a tick whose routine is due (come back with `due`).
+uint64_t k37_wait_polling(void *handle, size_t irq, const size_t *bus, uint64_t limit,
+                          uint64_t pause, uint64_t period, const uint64_t *ports,
+                          const uint64_t *stops, size_t n, const uint64_t *idles,
+                          uint64_t routines, int due, int skip_idle, uint64_t *out) {
+	Model &m = *static_cast<Model *>(handle);
+	const Item &item = m.items[irq];
+	const uint64_t start = m.cycle;
+	for (uint64_t done = 0;; done++) {
+		uint64_t to_tick = 0, waited = 1;
+		while (!due && (waited != to_tick || m.cycle - start >= limit)) {
+			// wait up to the next tick that comes before the limit
+			uint64_t elapsed = m.cycle - start;
+			out[0] = elapsed >= limit ? 0 : 2;
+			if (elapsed >= limit || elapsed >= pause || done == routines)
+				return done;
+			to_tick = period - m.cycle % period;
+			uint64_t wait = std::min(limit - elapsed, to_tick);
+			bool paused = elapsed + wait > pause;
+			waited = run_until(m, item, paused ? pause - elapsed : wait, skip_idle != 0);
+			out[0] = 0;
+			if (watched_nonzero(m, item, is_state(item)))
+				return done;
+			out[0] = 2;
+			if (paused)
+				return done;
+		}
+		out[0] = 3;
+		if (!due && m.cycle - start >= pause)
+			return done;  // the routine of this tick is due: after the caller's pause
+		due = false;
+		const uint64_t *idle = idles + done * (n + 1);
+		bool stop = false;
+		for (size_t j = 0; j < n; j++) {
+			prepare(m);
+			advance(m, idle[j], skip_idle != 0);
+			out[1 + j] = bus_read(m, bus, ports[j]);
+			stop |= (out[1 + j] & stops[j]) != 0;
+		}
+		if (stop) {
+			out[0] = 1;
+			return done;
+		}
+		prepare(m);
+		advance(m, idle[n], skip_idle != 0);
+	}
 }
 
 // Declare a free-running phase accumulator (see Accumulator); returns its number, or -1 if
