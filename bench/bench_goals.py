@@ -85,6 +85,35 @@ def test_tiny_job_with_a_warm_cache_start_to_exit(benchmark, tmp_path):
     _show("tiny job, k37 run process", min(seconds, benchmark.stats.stats.min), "s", 0.3, False)
 
 
+#: A child that runs the command line and prints its own peak resident memory (kB) last.
+_PEAK_RSS = ("import atexit, resource, runpy, sys; atexit.register(lambda: print("
+             "resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr)); "
+             "sys.argv = ['k37', *sys.argv[1:]]; runpy.run_module('sim.cli', run_name='__main__')")
+
+
+def test_memory_is_flat_in_the_runs_length(benchmark, tmp_path):
+    """A circle, then a dwell of 10 s, 100 s or 1,000 s (10^7 to 10^9 cycles, 10^4 to 10^6
+    samples): a whole ``k37 run`` process's peak memory (its samples stream to disk)."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env["PYTHONPATH"] = str(ROOT)
+
+    def peak(seconds: int) -> int:
+        job = tmp_path / f"dwell{seconds}.toml"
+        job.write_text(f'[program]\ngcode = """\nG21 G91 F600\nG02 X0 Y0 I2 J0\n'
+                       f'G04 P{seconds}\nM30\n"""\n')
+        done = subprocess.run([sys.executable, "-c", _PEAK_RSS, "run", str(job), "-q",
+                               "--max-cycles", "2000000000"],
+                              check=True, env=env, capture_output=True, text=True)
+        return int(done.stderr.split()[-1])
+
+    peak(10)  # warm the caches
+    small, middle = peak(10), peak(100)
+    large = benchmark.pedantic(peak, args=(1000,), rounds=1, iterations=1)
+    print(f"\npeak memory of a run of 10^7 / 10^8 / 10^9 cycles: {small / 1024:.1f} / "
+          f"{middle / 1024:.1f} / {large / 1024:.1f} MiB: x{large / small:.2f} for x100 the "
+          f"length (flat: 1)")
+
+
 def _zigzag(blocks: int) -> Job:
     """A program of ``blocks`` short lines and arcs."""
     moves = "\n".join(f"G01 X{(k % 2) * 2} Y{k * 0.01:.3f}\nG02 X{(k % 2) * 2 + 1} "
