@@ -57,6 +57,8 @@ class Host8085:
         self.timing = timing
         self.cycles_per_t = clock_hz / host_hz
         self._owed = 0.0
+        #: The read-only timer routines computed ahead (:meth:`_routines`), by where they start.
+        self._routine_cache: tuple[tuple[int, float] | None, list] = (None, [])
         self.t_states = 0
 
     def _advance(self, t_states: int) -> int:
@@ -146,9 +148,9 @@ class Host8085:
         due = False  # a routine is due at once (the link paused at its tick)
         while native is not None:
             ticks = (end - self.cycle) // period + 1  # at most, before the end
-            count = min(POLL_BATCH, ticks)
-            routines, phases = self._routine_cycles(len(ports), count)
-            result = native(end - self.cycle, period, ports, stops, routines, due)
+            routines = self._routines(len(ports), min(POLL_BATCH, ticks))
+            idles = [cycles for routine in routines for cycles in routine[0]]
+            result = native(end - self.cycle, period, ports, stops, idles, due)
             if result is None:
                 break  # the link cannot: the host's own loop serves the rest
             done, read, more = result
@@ -156,10 +158,11 @@ class Host8085:
             self.t_states += done * (t_routine + self.timing.isr_exit)
             if read is not None:
                 self.t_states += t_routine
-                self._owed = phases[2 * done]
+                self._owed = routines[done][1]
                 return read
             if done:
-                self._owed = phases[2 * done - 1]
+                self._owed = routines[done - 1][2]
+                self._routine_cache = ((len(ports), self._owed), self._routine_cache[1][done:])
             if not more:
                 return None
             due = more == 2
@@ -176,14 +179,19 @@ class Host8085:
                 self.work(self.timing.isr_exit)
         return None
 
-    def _routine_cycles(self, reads: int, count: int) -> tuple[list[int], list[float]]:
-        """The system cycles of the next ``count`` read-only timer routines (``reads`` INs
-        each) from the host's T-state phase now, as :meth:`work` and :meth:`inp` would spend
-        them: per routine, the idle cycles before each read's bus cycle, then after the last.
-        Also the phase after each routine's reads and after its exit (the host's state is
-        unchanged)."""
-        owed, cycles, phases = self._owed, [], []
-        for _ in range(count):
+    def _routines(self, reads: int, count: int) -> list[tuple[tuple[int, ...], float, float]]:
+        """The next ``count`` read-only timer routines (``reads`` INs each) from the host's
+        T-state phase now, as :meth:`work` and :meth:`inp` would spend them: each as its idle
+        cycles (before each read's bus cycle, then after the last), the phase after its reads
+        and after its exit. The host's state is unchanged; the routines are remembered while
+        its phase is where they start (the next wait goes on with them)."""
+        key = (reads, self._owed)
+        if self._routine_cache[0] != key:
+            self._routine_cache = (key, [])
+        routines = self._routine_cache[1]
+        owed = routines[-1][2] if routines else self._owed
+        while len(routines) < count:
+            idles, entry = [], 0
             for k, t_states in enumerate((self.timing.isr_entry,
                                           *[self.timing.in_byte] * reads, self.timing.isr_exit)):
                 owed += t_states * self.cycles_per_t
@@ -192,13 +200,13 @@ class Host8085:
                 if k == 0:
                     entry = whole
                 elif k <= reads:  # an IN: its bus cycle is its last system cycle
-                    cycles.append(entry + max(whole - 1, 0))
+                    idles.append(entry + max(whole - 1, 0))
                     entry = 0
+                    after_reads = owed
                 else:
-                    cycles.append(whole)
-                if k >= reads:
-                    phases.append(owed)
-        return cycles, phases
+                    idles.append(whole)
+            routines.append((tuple(idles), after_reads, owed))
+        return routines[:count]
 
     def wait_interrupt(self, max_cycles: int) -> int:
         """Wait (interrupts enabled, the CPU halted) until an interrupt input goes high, at
