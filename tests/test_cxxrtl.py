@@ -28,7 +28,7 @@ from hdl.observation import FreeRunning
 from hdl.registers import Access, Register, RegisterMap
 from sim.backends.contract import Backend
 from sim.backends.cxxrtl.backend import CxxrtlBackend
-from sim.backends.cxxrtl.build import edge_wires, fall_eval, skip_eval
+from sim.backends.cxxrtl.build import edge_wires, fall_eval, rise_eval, skip_eval
 from sim.backends.design import component_ports
 from sim.backends.factory import BACKENDS, make_backend
 from sim.backends.pysim import PysimBackend
@@ -396,6 +396,10 @@ def test_the_simulated_machine_splits_its_commits_and_peeks():
     cxx = (system.model.path.parent / "design.cc").read_text()
     pruned = fall_eval(cxx)  # the falling edge evaluates the K3702s and the outputs only
     assert pruned is not None and 0 < pruned.count(" = ") < cxx.count(" = ") / 3
+    whole = cxx[cxx.index("bool p_top::eval("):cxx.index("void p_top::debug_eval(")]
+    rising = rise_eval(cxx)  # the rising edge leaves out what only outputs and K3702s read
+    assert rising is not None and 0 < rising.count(" = ") < 0.9 * whole.count(" = ")
+    assert "if (posedge_p_clk)" in rising and "if (negedge_p_clk)" not in rising
     system.close()
 
 

@@ -35,7 +35,8 @@ from sim.backends.toolchain import (
     sha256,
 )
 
-__all__ = ["CXX_FLAGS", "build", "design_main", "edge_wires", "fall_eval", "skip_eval"]
+__all__ = ["CXX_FLAGS", "build", "design_main", "edge_wires", "fall_eval", "rise_eval",
+           "skip_eval"]
 
 HARNESS = Path(__file__).with_name("harness.cc")
 #: The design's translation unit: Yosys's C++ and what the harness asks of the design.
@@ -51,16 +52,21 @@ inline cxxrtl::chunk_t k37_update(cxxrtl::wire<Bits> &wire) {{
 	return diff;
 }}
 namespace cxxrtl_design {{
-// The design with an eval() for falling edges that computes only what they need (fall_eval).
-// And a skip's evaluation of what a skip decision reads, from the state (skip_eval).
+// The design with an eval() for falling edges and one for rising edges that compute only what
+// they need (fall_eval, rise_eval), and a skip's evaluation of what a skip decision reads,
+// from the state (skip_eval).
 struct k37_top : p_top {{
 	bool eval_fall(performer *performer = nullptr) {{{eval_fall}}}
+	bool eval_rise(performer *performer = nullptr) {{{eval_rise}}}
 	void eval_skip() {{{eval_skip}}}
 }};
 }}
 cxxrtl::module *k37_make_top() {{ return new cxxrtl_design::k37_top; }}
 bool k37_eval_fall(cxxrtl::module *module) {{
 	return static_cast<cxxrtl_design::k37_top *>(module)->eval_fall();
+}}
+bool k37_eval_rise(cxxrtl::module *module) {{
+	return static_cast<cxxrtl_design::k37_top *>(module)->eval_rise();
 }}
 bool k37_has_eval_skip() {{ return {has_eval_skip}; }}
 void k37_eval_skip(cxxrtl::module *module) {{
@@ -173,8 +179,8 @@ def build(rtlil_text: str, *, free: Sequence[str] = (), reads: Sequence[str] = (
     runtime_key = sha256(harness, DESIGN_MAIN, " ".join(CXX_FLAGS), tools.versions)
     # The design's translation unit is generated (design_main): its generator is in the key.
     generator = (inspect.getsource(f)
-                 for f in (design_main, edge_wires, fall_eval, skip_eval, _units, _needed,
-                           _members, _clock_as_data))
+                 for f in (design_main, edge_wires, fall_eval, rise_eval, skip_eval, _units,
+                           _needed, _members, _clock_as_data))
     key = sha256(rtlil_text, runtime_key, SPLIT_COMMIT, WHOLE_COMMIT, "\n".join(free),
                  "\n".join(reads), *generator)
     root = cache_root("cxxrtl")
@@ -242,10 +248,13 @@ def design_main(cxx: str, falling: str, free: Sequence[str] = (),
     split = edge_wires(cxx)
     pruned = fall_eval(cxx) if split is not None else None
     eval_fall = " return eval(performer); " if pruned is None else f"\n{pruned}\t"
+    rising = rise_eval(cxx) if split is not None else None
+    eval_rise = " return eval(performer); " if rising is None else f"\n{rising}\t"
     if split is None:
         return DESIGN_MAIN.format(falling=falling, peek="false", eval_fall=eval_fall,
-                                  commit_fall=WHOLE_COMMIT, commit_rise=WHOLE_COMMIT,
-                                  discard_fall="", eval_skip="", has_eval_skip="false")
+                                  eval_rise=eval_rise, commit_fall=WHOLE_COMMIT,
+                                  commit_rise=WHOLE_COMMIT, discard_fall="", eval_skip="",
+                                  has_eval_skip="false")
     members = _members(cxx)
     missing = [path for path in free if path not in members]
     if missing:
@@ -265,7 +274,8 @@ def design_main(cxx: str, falling: str, free: Sequence[str] = (),
     resets = "".join(f"\ttop.{name}.next = top.{name}.curr;\n" for name in discard)
     return DESIGN_MAIN.format(
         falling=falling, peek="true" if peek else "false", eval_fall=eval_fall,
-        eval_skip=eval_skip, has_eval_skip=has_eval_skip, commit_fall=commit(fall),
+        eval_rise=eval_rise, eval_skip=eval_skip, has_eval_skip=has_eval_skip,
+        commit_fall=commit(fall),
         commit_rise=commit(rise),
         discard_fall=f"\n{TOP}{resets}" if resets else "")
 
@@ -284,18 +294,17 @@ def _body(cxx: str, function: str) -> str | None:
     return None if body is None else body.group(1)
 
 
-def _units(body: str) -> tuple[list[str], list[tuple[bool, set[str], str]]] | None:
+def _units(body: str) -> tuple[list[str], list[tuple[str, set[str], str]]] | None:
     """A CXXRTL function body as its head (local declarations) and its units in order: edge
-    blocks (``if (negedge_p_clk) {...}``: (True, no names, the text); a posedge block is
-    (False, {""}, "")) and one-line assignments ((False, {the name assigned}, the line)).
-    None if the body holds anything else."""
+    blocks (``if (posedge_p_clk) {...}``: ("pos", no names, the text), likewise "neg") and
+    one-line assignments (("", {the name assigned}, the line)). None if the body holds
+    anything else."""
     head, units, block = [], [], None
     for line in body.splitlines(keepends=True):
         if block is not None:
             block.append(line)
             if line == "\t}\n":
-                edge = block[0].startswith("\tif (neg")
-                units.append((True, set(), "".join(block)) if edge else (False, {""}, ""))
+                units.append((block[0][5:8], set(), "".join(block)))
                 block = None
             elif not line.startswith("\t\t"):
                 return None
@@ -311,7 +320,7 @@ def _units(body: str) -> tuple[list[str], list[tuple[bool, set[str], str]]] | No
             match = re.match(rf"\t({_CXX_NAME})(?:\.slice<[\d,]+>\(\))? = ", line)
             if match is None or "performer" in line:
                 return None
-            units.append((False, {match[1]}, line))
+            units.append(("", {match[1]}, line))
     return None if block is not None else (head, units)
 
 
@@ -342,9 +351,26 @@ def fall_eval(cxx: str) -> str | None:
         return None
     head, units = parsed
     outputs = set(re.findall(rf"^\t/\*output\*/ value<\d+> ({_CXX_NAME});$", cxx, re.M))
-    units = [(always or bool(defines & outputs), defines, text)
-             for always, defines, text in units]
-    kept, _ = _needed(units, set())
+    kept, _ = _needed([(edge == "neg" or bool(defines & outputs), defines, text)
+                       for edge, defines, text in units if edge != "pos"], set())
+    return "".join(head) + "".join(kept) + "\treturn converged;\n"
+
+
+def rise_eval(cxx: str) -> str | None:
+    """The body of an ``eval()`` for rising edges of ``clk`` only, from CXXRTL's C++: the
+    posedge blocks and the statements they read, transitively (as :func:`fall_eval`), not
+    those that only the output ports, the negedge registers or nothing at all read. The
+    harness treats the combinational values as stale after an edge anyway. None where
+    :func:`fall_eval` is, or where ``eval()`` writes a combinational wire's next value (a
+    commit counts its changes) or needs more than one evaluation: then eval() serves."""
+    body = _body(cxx, "eval(performer *performer)")
+    parsed = None if body is None else _units(body)
+    if (parsed is None or re.search(r"^\t\w+\.next = ", body, re.M)
+            or "converged = false" in body):
+        return None
+    head, units = parsed
+    kept, _ = _needed([(edge == "pos", defines, text)
+                       for edge, defines, text in units if edge != "neg"], set())
     return "".join(head) + "".join(kept) + "\treturn converged;\n"
 
 
@@ -375,7 +401,7 @@ def skip_eval(cxx: str, paths: Sequence[str]) -> str | None:
                              f"compiled model")
         roots.add(members[path])
     head, units = parsed
-    units = [(False, defines, text) for always, defines, text in units if not always]
+    units = [(False, defines, text) for edge, defines, text in units if not edge]
     debug_head, debug_units = debug
     outlined, outline_reads = _needed(debug_units, roots)
     # The outline's own values (its locals, and the outlined members it assigns) are computed

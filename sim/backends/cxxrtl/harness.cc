@@ -37,6 +37,9 @@ bool k37_can_peek();
 // ports, possibly nothing else (build.py, fall_eval); other combinational values are stale.
 bool k37_eval_fall(cxxrtl::module *top);
 void k37_discard_fall(cxxrtl::module *top);
+// eval() at a rising edge of `clk`: computes the posedge registers' next values, possibly
+// nothing else (build.py, rise_eval); the combinational values are stale after it.
+bool k37_eval_rise(cxxrtl::module *top);
 // Whether k37_eval_skip() computes what a skip decision reads (build.py, skip_eval): the
 // values of the free-running state's declared signals, `quiet` and the output ports, from the
 // state, and nothing else (other combinational values are stale).
@@ -201,7 +204,7 @@ template<bool Rising>
 inline unsigned edge(Model &m) {
 	unsigned changed = 0;
 	for (;;) {
-		bool converged = Rising ? m.top->eval() : k37_eval_fall(m.top.get());
+		bool converged = Rising ? k37_eval_rise(m.top.get()) : k37_eval_fall(m.top.get());
 		unsigned committed = Rising ? k37_commit_rise(m.top.get()) : k37_commit_fall(m.top.get());
 		changed |= committed;
 		if (!committed || converged)
