@@ -355,15 +355,15 @@ class Firmware:
         for (chip, word), axis in zip(statuses.items(), self.job.machine.axis_names,
                                       strict=True):
             status = chip_register(chip, "STATUS").decode(word)
-            for flag in ENCODER_FAULTS:
-                if status[flag]:
-                    self.alarms.append(AlarmEvent(axis, host.cycle, f"encoder_{flag}"))
-                    faulted.append(chip)
+            flags = [flag for flag in ENCODER_FAULTS if status[flag]]
+            self.alarms.extend(AlarmEvent(axis, host.cycle, f"encoder_{flag}") for flag in flags)
+            if flags:
+                faulted.append(chip)
         if not faulted:
             return
         if not self.stopped:
             host.write("DECEL", "CTRL", 1)  # stop feed at once
-        for chip in dict.fromkeys(faulted):
+        for chip in faulted:
             host.command(chip, clear=1)
         self.stopped = True
 

@@ -180,7 +180,7 @@ def build(rtlil_text: str, *, free: Sequence[str] = (), reads: Sequence[str] = (
     # The design's translation unit is generated (design_main): its generator is in the key.
     generator = (inspect.getsource(f)
                  for f in (design_main, edge_wires, fall_eval, rise_eval, skip_eval, _units,
-                           _needed, _members, _clock_as_data))
+                           _one_pass, _needed, _members, _clock_as_data))
     key = sha256(rtlil_text, runtime_key, SPLIT_COMMIT, WHOLE_COMMIT, "\n".join(free),
                  "\n".join(reads), *generator)
     root = cache_root("cxxrtl")
@@ -324,6 +324,12 @@ def _units(body: str) -> tuple[list[str], list[tuple[str, set[str], str]]] | Non
     return None if block is not None else (head, units)
 
 
+def _one_pass(body: str) -> bool:
+    """Whether an ``eval()`` body writes no combinational wire's next value (a commit would
+    count its changes) and never needs a second evaluation (no feedback)."""
+    return not re.search(r"^\t\w+\.next = ", body, re.M) and "converged = false" not in body
+
+
 def _needed(units: list[tuple[bool, set[str], str]], roots: set[str]) -> tuple[list[str], set[str]]:
     """The units that compute ``roots`` (and the kept edge blocks), transitively, in order
     (statements are in dependency order), and every name they read."""
@@ -364,9 +370,8 @@ def rise_eval(cxx: str) -> str | None:
     :func:`fall_eval` is, or where ``eval()`` writes a combinational wire's next value (a
     commit counts its changes) or needs more than one evaluation: then eval() serves."""
     body = _body(cxx, "eval(performer *performer)")
-    parsed = None if body is None else _units(body)
-    if (parsed is None or re.search(r"^\t\w+\.next = ", body, re.M)
-            or "converged = false" in body):
+    parsed = None if body is None or not _one_pass(body) else _units(body)
+    if parsed is None:
         return None
     head, units = parsed
     kept, _ = _needed([(edge == "pos", defines, text)
@@ -388,10 +393,10 @@ def skip_eval(cxx: str, paths: Sequence[str]) -> str | None:
     wire's next value (then a value may need a second evaluation: the harness settles).
     """
     eval_body, debug_body = _body(cxx, "eval(performer *performer)"), _body(cxx, "debug_eval()")
-    if eval_body is None or debug_body is None or re.search(r"^\t\w+\.next = ", eval_body, re.M):
+    if eval_body is None or debug_body is None or not _one_pass(eval_body):
         return None
     parsed, debug = _units(eval_body), _units(debug_body)
-    if parsed is None or debug is None or "converged = false" in eval_body:
+    if parsed is None or debug is None:
         return None
     members = _members(cxx)
     roots = set(re.findall(rf"^\t/\*output\*/ value<\d+> ({_CXX_NAME});$", cxx, re.M))

@@ -322,9 +322,16 @@ bool is_state(const Item &item) {
 	                      debug_item::UNDRIVEN)) == debug_item::DRIVEN_SYNC;
 }
 
+// Whether an item reads non-zero: as it is where `settled` (a register, or a value just
+// evaluated); an output port after the skip's evaluation (which computes every output);
+// anything else after a settle.
 bool nonzero(Model &m, const Item &item, bool settled) {
-	if (!settled)
-		settle(m);
+	if (!settled) {
+		if (item.flags & cxxrtl::debug_item::OUTPUT)
+			refresh_skip_values(m);
+		else
+			settle(m);
+	}
 	for (const Part &p : item.parts)
 		for (size_t c = 0; c < (p.width + CHUNK_BITS - 1) / CHUNK_BITS; c++)
 			if (p.curr[c])
@@ -341,7 +348,7 @@ uint64_t read_u64(Model &m, size_t index) {
 // Take the recorder's sample of this cycle (outputs as the skip's evaluation computes them).
 void record(Model &m) {
 	Recorder &r = m.recorder;
-	if (r.outputs && m.has_eval_skip)
+	if (r.outputs)
 		refresh_skip_values(m);
 	else
 		settle(m);
@@ -656,26 +663,17 @@ void advance_free(Model &m, uint64_t k) {
 	}
 }
 
-// Whether an item a wait watches reads non-zero: a register as it is, an output port after
-// the skip's evaluation (which computes every output), anything else settled.
-bool watched_nonzero(Model &m, const Item &item, bool state) {
-	if (state || !m.has_eval_skip || !(item.flags & cxxrtl::debug_item::OUTPUT))
-		return nonzero(m, item, state);
-	refresh_skip_values(m);
-	return nonzero(m, item, true);
-}
-
 // After a cycle whose commits returned `flags` (the clock high): if it changed no state but
 // the free-running state's, no plant's count, and the quiet item reads 1, the rest of the
 // design is at a fixed point until the next event of the free-running state; skip up to `rest`
 // cycles, to just before that event, advancing the free-running state exactly. Not if item
-// `watch` (when given) reads non-zero. A recorder sample on the way is taken (settled, as
-// after a stepped cycle) and the skip goes on from it, the rest still at its fixed point.
+// `watch` (when given) reads non-zero. A recorder sample on the way is taken (as after a
+// stepped cycle) and the skip goes on from it, the rest still at its fixed point.
 // Returns the cycles skipped.
 uint64_t try_skip(Model &m, unsigned flags, uint64_t rest, const Item *watch = nullptr,
                   bool watch_state = false) {
 	if (flags & REST_CHANGED || rest == 0 || plants_moved(m) ||
-	    (watch && watched_nonzero(m, *watch, watch_state)))
+	    (watch && nonzero(m, *watch, watch_state)))
 		return 0;
 	if (flags & CHANGED && m.quiet == SIZE_MAX)
 		return 0;
@@ -771,6 +769,12 @@ uint64_t run_until_peek(Model &m, const Item &item, uint64_t limit, bool skip_id
 	return limit;
 }
 
+// Run n cycles (k37_step) on a model.
+void step(Model &m, uint64_t n, bool skip_idle) {
+	prepare(m);
+	advance(m, n, skip_idle);
+}
+
 // k37_run_until on a model.
 uint64_t run_until(Model &m, const Item &item, uint64_t limit, bool skip_idle) {
 	prepare(m);
@@ -812,8 +816,7 @@ void set_port(Model &m, size_t index, uint64_t value) {
 uint64_t bus_read(Model &m, const size_t *bus, uint64_t address) {
 	set_port(m, bus[0], address);
 	set_port(m, bus[1], 1);
-	prepare(m);
-	advance(m, 1, false);
+	step(m, 1, false);
 	set_port(m, bus[1], 0);
 	settle(m);
 	return read_u64(m, bus[2]);
@@ -908,9 +911,7 @@ void k37_set(void *handle, size_t index, uint64_t value) {
 }
 
 void k37_step(void *handle, uint64_t n, int skip_idle) {
-	Model &m = *static_cast<Model *>(handle);
-	prepare(m);
-	advance(m, n, skip_idle != 0);
+	step(*static_cast<Model *>(handle), n, skip_idle != 0);
 }
 
 // Step until item `index` reads non-zero after a rising edge, or `limit` cycles; returns the
@@ -969,7 +970,7 @@ uint64_t k37_wait_polling(void *handle, size_t irq, const size_t *bus, uint64_t 
 			bool paused = elapsed + wait > pause;
 			waited = run_until(m, item, paused ? pause - elapsed : wait, skip_idle != 0);
 			out[0] = 0;
-			if (watched_nonzero(m, item, is_state(item)))
+			if (nonzero(m, item, is_state(item)))
 				return done;
 			out[0] = 2;
 			if (paused)
@@ -982,8 +983,7 @@ uint64_t k37_wait_polling(void *handle, size_t irq, const size_t *bus, uint64_t 
 		const uint64_t *idle = idles + done * (n + 1);
 		bool stop = false;
 		for (size_t j = 0; j < n; j++) {
-			prepare(m);
-			advance(m, idle[j], skip_idle != 0);
+			step(m, idle[j], skip_idle != 0);
 			out[1 + j] = bus_read(m, bus, ports[j]);
 			stop |= (out[1 + j] & stops[j]) != 0;
 		}
@@ -991,8 +991,7 @@ uint64_t k37_wait_polling(void *handle, size_t irq, const size_t *bus, uint64_t 
 			out[0] = 1;
 			return done;
 		}
-		prepare(m);
-		advance(m, idle[n], skip_idle != 0);
+		step(m, idle[n], skip_idle != 0);
 	}
 }
 
@@ -1100,7 +1099,6 @@ int k37_check_eval_skip(void *handle, const size_t *items, size_t n) {
 	std::vector<uint64_t> fast;
 	for (size_t i = 0; i < n; i++)
 		fast.push_back(read_u64(m, items[i]));
-	m.skip_values = false;
 	settle(m);
 	for (size_t i = 0; i < n; i++)
 		if (read_u64(m, items[i]) != fast[i])
