@@ -23,7 +23,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from sim.backends.toolchain import (
     Model,
@@ -51,12 +51,25 @@ inline cxxrtl::chunk_t k37_update(cxxrtl::wire<Bits> &wire) {{
 	}}
 	return diff;
 }}
+// Whether a value changed since `was`, which takes it.
+template<size_t Bits>
+inline bool k37_changed(cxxrtl::value<Bits> &was, const cxxrtl::value<Bits> &now) {{
+	cxxrtl::chunk_t diff = 0;
+	for (size_t i = 0; i < was.chunks; i++) {{
+		diff |= was.data[i] ^ now.data[i];
+		was.data[i] = now.data[i];
+	}}
+	return diff != 0;
+}}
 namespace cxxrtl_design {{
 // The design with an eval() for falling edges and one for rising edges that compute only what
 // they need (fall_eval, rise_eval), and a skip's evaluation of what a skip decision reads,
 // from the state (skip_eval).
 struct k37_top : p_top {{
-	bool eval_fall(performer *performer = nullptr) {{{eval_fall}}}
+	// The parts of the design (rise_eval) whose support changed since they last ran, and those
+	// that the last rising edge ran.
+	uint64_t k37_dirty = ~uint64_t(0), k37_ran = ~uint64_t(0);
+{members}	bool eval_fall(performer *performer = nullptr) {{{eval_fall}}}
 	bool eval_rise(performer *performer = nullptr) {{{eval_rise}}}
 	void eval_skip() {{{eval_skip}}}
 }};
@@ -68,6 +81,10 @@ bool k37_eval_fall(cxxrtl::module *module) {{
 bool k37_eval_rise(cxxrtl::module *module) {{
 	return static_cast<cxxrtl_design::k37_top *>(module)->eval_rise();
 }}
+uint64_t *k37_dirty(cxxrtl::module *module) {{
+	return &static_cast<cxxrtl_design::k37_top *>(module)->k37_dirty;
+}}
+uint64_t k37_touches(cxxrtl::module *module, const cxxrtl::chunk_t *curr) {{{touches}}}
 bool k37_has_eval_skip() {{ return {has_eval_skip}; }}
 void k37_eval_skip(cxxrtl::module *module) {{
 	static_cast<cxxrtl_design::k37_top *>(module)->eval_skip();
@@ -81,10 +98,13 @@ void k37_discard_fall(cxxrtl::module *module) {{{discard_fall}}}
 #: A commit of only some wires of the design (``top`` is the design, ``wires`` its wires,
 #: each adding its change to ``rest`` or, for the free-running state's, to ``free``). It
 #: returns the harness's flags: 1 if any wire changed, 2 if any but the free-running ones.
-TOP = "\tauto &top = *static_cast<cxxrtl_design::p_top *>(module);\n"
+TOP = "\tauto &top = *static_cast<cxxrtl_design::k37_top *>(module);\n"
 SPLIT_COMMIT = """
-""" + TOP + """	cxxrtl::chunk_t rest = 0, free = 0;
-{wires}	top.prev_p_clk = top.p_clk;
+""" + TOP + """	cxxrtl::chunk_t rest = 0, free = 0, c;
+	const uint64_t ran = top.k37_ran;
+	uint64_t marks = 0;
+{wires}	top.k37_dirty |= marks;
+	top.prev_p_clk = top.p_clk;
 	return unsigned(rest != 0) << 1 | unsigned((rest | free) != 0);
 """
 #: CXXRTL's own commit, in those flags (every change counts as a change of the rest).
@@ -249,12 +269,16 @@ def design_main(cxx: str, falling: str, free: Sequence[str] = (),
     pruned = fall_eval(cxx) if split is not None else None
     eval_fall = " return eval(performer); " if pruned is None else f"\n{pruned}\t"
     rising = rise_eval(cxx) if split is not None else None
-    eval_rise = " return eval(performer); " if rising is None else f"\n{rising}\t"
+    eval_rise = " return eval(performer); " if rising is None else f"\n{rising.body}\t"
+    touches = "" if rising is None else "\n" + TOP + "".join(
+        f"\tif (curr == top.{member}.data) "
+        f"return {mask:#x}u;\n" for member, mask in sorted(rising.touches.items()))
+    touches += " return ~uint64_t(0); "
     if split is None:
         return DESIGN_MAIN.format(falling=falling, peek="false", eval_fall=eval_fall,
                                   eval_rise=eval_rise, commit_fall=WHOLE_COMMIT,
                                   commit_rise=WHOLE_COMMIT, discard_fall="", eval_skip="",
-                                  has_eval_skip="false")
+                                  has_eval_skip="false", touches=touches, members="")
     members = _members(cxx)
     missing = [path for path in free if path not in members]
     if missing:
@@ -265,18 +289,32 @@ def design_main(cxx: str, falling: str, free: Sequence[str] = (),
     has_eval_skip = "false" if skip is None else "true"
     eval_skip = "" if skip is None else f"\n{skip}\t"
 
-    def commit(names: list[str]) -> str:
-        return SPLIT_COMMIT.format(wires="".join(
-            f"\t{'free' if name in free_wires else 'rest'} |= k37_update(top.{name});\n"
-            for name in names))
+    def commit(names: list[str], gated: bool) -> str:
+        """Commit wires ``names``, marking their readers where they changed; ``gated``: a
+        part's registers only if the part ran (else their next values are unchanged)."""
+        readers, owner = ({}, {}) if rising is None else (rising.readers, rising.owner)
+        parts: dict[int, list[str]] = {}
+        for name in names:
+            parts.setdefault(owner.get(name, 0) if gated else 0, []).append(name)
+        text = []
+        for part, wires in sorted(parts.items()):
+            text.append(f"\tif (ran & {part:#x}u) {{\n" if part else "\t{\n")
+            for name in wires:
+                flag = "free" if name in free_wires else "rest"
+                text.append(f"\t\tc = k37_update(top.{name});\n\t\t{flag} |= c;\n")
+                if readers.get(name):
+                    text.append(f"\t\tmarks |= c ? {readers[name]:#x}u : 0;\n")
+            text.append("\t}\n")
+        return SPLIT_COMMIT.format(wires="".join(text))
 
     fall, rise, discard, peek = split
     resets = "".join(f"\ttop.{name}.next = top.{name}.curr;\n" for name in discard)
     return DESIGN_MAIN.format(
         falling=falling, peek="true" if peek else "false", eval_fall=eval_fall,
         eval_rise=eval_rise, eval_skip=eval_skip, has_eval_skip=has_eval_skip,
-        commit_fall=commit(fall),
-        commit_rise=commit(rise),
+        commit_fall=commit(fall, False),
+        commit_rise=commit(rise, rising is not None), touches=touches,
+        members="" if rising is None else rising.members,
         discard_fall=f"\n{TOP}{resets}" if resets else "")
 
 
@@ -362,21 +400,187 @@ def fall_eval(cxx: str) -> str | None:
     return "".join(head) + "".join(kept) + "\treturn converged;\n"
 
 
-def rise_eval(cxx: str) -> str | None:
-    """The body of an ``eval()`` for rising edges of ``clk`` only, from CXXRTL's C++: the
-    posedge blocks and the statements they read, transitively (as :func:`fall_eval`), not
-    those that only the output ports, the negedge registers or nothing at all read. The
-    harness treats the combinational values as stale after an edge anyway. None where
-    :func:`fall_eval` is, or where ``eval()`` writes a combinational wire's next value (a
-    commit counts its changes) or needs more than one evaluation: then eval() serves."""
+class RiseEval(NamedTuple):
+    """An ``eval()`` for rising edges that evaluates only the parts of the design whose inputs
+    changed (:func:`rise_eval`)."""
+
+    #: The function's body: it reads ``k37_dirty``, clears it and leaves in ``k37_ran`` the
+    #: parts that ran.
+    body: str
+    #: Declarations of the members it keeps between calls: ``eval()``'s locals (renamed
+    #: ``k37_<name>``) and the last value of each combinational value one part passes another.
+    members: str
+    #: The part (its bit) that computes each posedge register's next value.
+    owner: dict[str, int]
+    #: The parts (a mask) that read each wire or input, or own it (must run after a harness
+    #: writes it), by the member that holds its current value (``p_a.curr``, ``p_input``).
+    touches: dict[str, int]
+    #: The parts that read each wire.
+    readers: dict[str, int]
+
+
+#: Most parts :func:`rise_eval` tells apart (bits of one 64-bit mask).
+PARTS = 64
+
+
+def _hdl_paths(cxx: str) -> dict[str, list[str]]:
+    """The design hierarchy's path of each member or local that CXXRTL names (its
+    ``\\hdlname``)."""
+    return {m[2]: m[1].split() for m in re.finditer(
+        rf"// \\hdlname: ([^\n]*)\n(?:\t//[^\n]*\n)*\t(?:/\*\w+\*/ )?(?:wire|value)<\d+> "
+        rf"({_CXX_NAME});", cxx)}
+
+
+def _module(name: str, paths: dict[str, list[str]]) -> tuple[str, ...]:
+    """The module of the hierarchy that a C++ name of CXXRTL's belongs to: from its
+    ``\\hdlname``, else from the name itself (CXXRTL writes ``_`` as ``__`` and any other
+    character but a letter or a digit as ``_`` and two hex digits:
+    ``i_flatten_5c_plant__x_2e__24_19`` is cell ``flatten\\plant_x.$19`` of module
+    ``plant_x``)."""
+    if name in paths:
+        return tuple(paths[name][:-1])
+    text = re.sub(r"_(_|[0-9a-f]{2})", lambda m: "_" if m[1] == "_" else chr(int(m[1], 16)),
+                  name[2:])
+    return tuple(text.removeprefix("flatten\\").replace("\\", "").split(".")[:-1])
+
+
+def rise_eval(cxx: str) -> RiseEval | None:
+    """An ``eval()`` for rising edges of ``clk`` only, from CXXRTL's C++, that evaluates only
+    the parts of the design whose inputs changed since they last ran.
+
+    The statements that the posedge registers' next values read, transitively (as
+    :func:`fall_eval`: not those that only the output ports, the negedge registers or nothing
+    read), are split into parts: those of one module of the hierarchy (coarser modules if there
+    are more than :data:`PARTS`). Each runs under ``if (dirty & part)``. Every value a statement
+    computes is kept between calls (``eval()``'s locals become members), so a statement whose
+    inputs are unchanged since it last ran still holds its value, and a part whose registers,
+    inputs and values read from other parts are unchanged computes the next values it computed
+    then, which its registers still hold (a commit copies next to current and leaves next as it
+    is): it need not run. So a part runs if the commits marked it (the readers of each wire
+    that changed, :func:`design_main`), the harness did (the readers of what it writes), or a
+    part before it in this evaluation changed a combinational value it reads (each such value
+    is compared with its last value after the part that computes it). The harness treats the
+    combinational values as stale after an edge anyway. None where :func:`fall_eval` is, or
+    where ``eval()`` writes a combinational wire's next value (a commit counts its changes) or
+    needs more than one evaluation: then eval() serves, whole."""
     body = _body(cxx, "eval(performer *performer)")
     parsed = None if body is None or not _one_pass(body) else _units(body)
     if parsed is None:
         return None
     head, units = parsed
-    kept, _ = _needed([(edge == "pos", defines, text)
-                       for edge, defines, text in units if edge != "neg"], set())
-    return "".join(head) + "".join(kept) + "\treturn converged;\n"
+    kept = set(_needed([(edge == "pos", defines, text) for edge, defines, text in units
+                        if edge != "neg"], set())[0])
+    units = [unit for unit in units if unit[0] != "neg" and unit[2] in kept]
+    targets = [set(re.findall(rf"\b({_CXX_NAME})\.next = ", text)) for _, _, text in units]
+    reads = [set(re.findall(rf"\b{_CXX_NAME}\b", re.sub(rf"\b{_CXX_NAME}\.next = ", "", text)))
+             for _, _, text in units]
+    paths = _hdl_paths(cxx)
+    registers = {name: _module(name, paths) for target in targets for name in target}
+    depth = max(map(len, registers.values()), default=0)
+    while len({module[:depth] for module in registers.values()}) > PARTS:
+        depth -= 1
+    parts = sorted({module[:depth] for module in registers.values()})
+    owner = {name: 1 << parts.index(module[:depth]) for name, module in registers.items()}
+    # A statement belongs to the part of its registers; a combinational one to the part whose
+    # values it reads if one part's only (so that a value passes to another part where it is
+    # narrowest: the encoder's quadrature lines, not the plant's position), else to its
+    # module's part (that of the nearest module above it with registers, for one without).
+    # Which part a statement is in matters for speed only: the readers of what it reads follow.
+    part_of: dict[str, int] = {}
+    masks = []
+    for (edge, defines, _), target, read in zip(units, targets, reads, strict=True):
+        if edge == "pos":
+            mask = owner[min(target)]
+        else:
+            sources = {part_of.get(name, owner.get(name)) for name in read} - {None}
+            module = _module(min(defines), paths)
+            above = [k for k in range(len(module), -1, -1) if module[:k] in parts]
+            mask = (sources.pop() if len(sources) == 1 else
+                    1 << parts.index(module[:above[0]]) if above else 1)
+        masks.append(mask)
+        part_of.update(dict.fromkeys(defines, mask))
+    needs: dict[str, int] = {}
+    for read, mask in zip(reads, masks, strict=True):
+        for name in read:
+            needs[name] = needs.get(name, 0) | mask
+    passed = {name: needs[name] & ~mask for name, mask in part_of.items()
+              if needs.get(name, 0) & ~mask}
+    wires = set(re.findall(rf"^\t(?:/\*\w+\*/ )?wire<\d+> ({_CXX_NAME});$", cxx, re.M))
+    inputs = set(re.findall(rf"^\t/\*input\*/ value<\d+> ({_CXX_NAME});$", cxx, re.M))
+    readers = {name: mask for name, mask in needs.items() if name in wires}
+    touches = {name: needs.get(name, 0) for name in inputs}
+    for name in wires:
+        touches[f"{name}.curr"] = needs.get(name, 0) | owner.get(name, 0)
+    # Each passed value is compared after its last definition, before any reader.
+    widths = {name: width for width, name in
+              re.findall(rf"^\t(?:/\*\w+\*/ )?value<(\d+)> ({_CXX_NAME});$", cxx, re.M)}
+    last = {name: i for i, (_, defines, _) in enumerate(units) for name in defines}
+    after: dict[int, list[str]] = {}
+    for name in sorted(passed):
+        after.setdefault(last[name], []).append(name)
+    statements = []  # (defines, reads, text, part), each compare after its value's definition
+    for i, ((_, defines, text), read, mask) in enumerate(zip(units, reads, masks, strict=True)):
+        statements.append((defines, read, text, mask))
+        statements += [({name}, {name}, f"\tif (k37_changed(k37_was_{name}, {name})) dirty |= "
+                        f"{passed[name]:#x}u;\n", mask) for name in after.get(i, ())]
+    order = _grouped([(defines, read) for defines, read, _, _ in statements],
+                     [mask for *_, mask in statements])
+    lines, run = [], 0
+    for _, _, text, mask in (statements[i] for i in order):
+        if mask != run:
+            lines.append(("\t}\n" if run else "") + f"\tif (dirty & {mask:#x}u) {{\n")
+            run = mask
+        lines.append(text)
+    lines.append("\t}\n" if run else "")
+    # eval()'s locals become members, renamed so as not to hide the design's outlined members
+    # of the same names.
+    scratch = [line for line in head if line not in _HEAD_LINES]
+    renamed = {re.findall(_CXX_NAME, line)[-1] for line in scratch}
+    members = "".join(re.sub(rf"({_CXX_NAME});\n$", r"k37_\1;\n", line) for line in scratch)
+    members += "".join(f"\tvalue<{widths[name]}> k37_was_{name};\n" for name in sorted(passed))
+    body = re.sub(rf"\b{_CXX_NAME}\b", lambda m: f"k37_{m[0]}" if m[0] in renamed else m[0],
+                  "".join(lines))
+    body = ("".join(line for line in head if line in _HEAD_LINES) +
+            "\tuint64_t dirty = k37_dirty;\n\tk37_dirty = 0;\n" + body +
+            "\tk37_ran = dirty;\n\treturn converged;\n")
+    return RiseEval(body, members, owner, touches, readers)
+
+
+def _grouped(units: list[tuple[set[str], set[str]]], masks: list[int]) -> list[int]:
+    """An order of statements (each: the names it defines, those it reads) that keeps their
+    dependencies and runs statements of one mask together, so that few guards test them: a
+    statement comes after every earlier one that defines a name it reads or defines, or reads
+    a name it defines; among those ready, one of the current mask comes first."""
+    last: dict[str, int] = {}    # the latest definition of each name so far
+    readers: dict[str, list[int]] = {}  # the reads of each name since its latest definition
+    after: list[set[int]] = []
+    for i, (defines, reads) in enumerate(units):
+        deps = {last[name] for name in reads | defines if name in last}
+        for name in defines:
+            deps.update(readers.pop(name, ()))
+        after.append(deps)
+        for name in reads:
+            readers.setdefault(name, []).append(i)
+        for name in defines:
+            last[name] = i
+    waiting = [len(deps) for deps in after]
+    unblocks: list[list[int]] = [[] for _ in units]
+    for i, deps in enumerate(after):
+        for j in deps:
+            unblocks[j].append(i)
+    ready = {i for i, n in enumerate(waiting) if n == 0}
+    order, mask = [], None
+    while ready:
+        same = [i for i in ready if masks[i] == mask]
+        i = min(same or ready)
+        mask = masks[i]
+        ready.remove(i)
+        order.append(i)
+        for j in unblocks[i]:
+            waiting[j] -= 1
+            if waiting[j] == 0:
+                ready.add(j)
+    return order
 
 
 def skip_eval(cxx: str, paths: Sequence[str]) -> str | None:

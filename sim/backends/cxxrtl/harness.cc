@@ -40,6 +40,12 @@ void k37_discard_fall(cxxrtl::module *top);
 // eval() at a rising edge of `clk`: computes the posedge registers' next values, possibly
 // nothing else (build.py, rise_eval); the combinational values are stale after it.
 bool k37_eval_rise(cxxrtl::module *top);
+// The parts of the design that the next k37_eval_rise() runs (build.py, rise_eval): those
+// whose support changed; the commits add the readers of each wire that changed, and what writes
+// state or an input adds k37_touches() of the value it writes (by its current value's chunks):
+// the parts that read it or own it (all for an unknown value).
+uint64_t *k37_dirty(cxxrtl::module *top);
+uint64_t k37_touches(cxxrtl::module *top, const cxxrtl::chunk_t *curr);
 // Whether k37_eval_skip() computes what a skip decision reads (build.py, skip_eval): the
 // values of the free-running state's declared signals, `quiet` and the output ports, from the
 // state, and nothing else (other combinational values are stale).
@@ -86,6 +92,7 @@ struct Part {
 	size_t width;
 	size_t lsb;
 	cxxrtl::debug_outline *outline;
+	uint64_t touches;  // k37_touches()
 };
 
 struct Item {
@@ -163,6 +170,7 @@ struct Model {
 	const bool falling_edge = k37_needs_falling_edge();
 	const bool can_peek = k37_can_peek();
 	const bool has_eval_skip = k37_has_eval_skip();
+	uint64_t *const dirty = k37_dirty(top.get());
 	std::vector<Item> items;
 	chunk_t *clk = nullptr;
 	uint64_t cycle = 0;
@@ -369,6 +377,7 @@ void count_cycles(Model &m, uint64_t n) {
 // Set a register (both its committed and its next value) to `value`.
 void write_state(Model &m, size_t index, uint64_t value) {
 	const Part &p = m.items[index].parts.front();
+	*m.dirty |= p.touches;
 	for (chunk_t *v : {p.curr, p.next}) {
 		v[0] = chunk_t(value);
 		if (p.width > 32)
@@ -808,6 +817,7 @@ void set_port(Model &m, size_t index, uint64_t value) {
 	p.next[0] = chunk_t(value);
 	if (p.width > 32)
 		p.next[1] = chunk_t(value >> 32);
+	*m.dirty |= p.touches;
 	m.inputs_written = true;
 	mark_stale(m);
 }
@@ -835,7 +845,8 @@ void *k37_create() {
 			continue;
 		Item item{entry.first, {}, 0, entry.second.front().flags};
 		for (const cxxrtl::debug_item &d : entry.second) {
-			item.parts.push_back(Part{d.curr, d.next, d.width, d.lsb_at, d.outline});
+			item.parts.push_back(Part{d.curr, d.next, d.width, d.lsb_at, d.outline,
+			                          k37_touches(m->top.get(), d.curr)});
 			item.width = std::max(item.width, d.lsb_at + d.width);
 		}
 		if (entry.first == "clk")
@@ -888,6 +899,7 @@ void k37_write(void *handle, size_t index, const uint32_t *data) {
 			if (data[at / 32] >> (at % 32) & 1)
 				p.next[bit / CHUNK_BITS] |= chunk_t(1) << (bit % CHUNK_BITS);
 		}
+		*m.dirty |= p.touches;
 	}
 	m.inputs_written = true;
 	mark_stale(m);
