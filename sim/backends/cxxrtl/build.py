@@ -434,12 +434,12 @@ def _hdl_paths(cxx: str) -> dict[str, list[str]]:
 def _module(name: str, paths: dict[str, list[str]]) -> tuple[str, ...]:
     """The module of the hierarchy that a C++ name of CXXRTL's belongs to: from its
     ``\\hdlname``, else from the name itself (CXXRTL writes ``_`` as ``__`` and any other
-    character but a letter or a digit as ``_`` and two hex digits:
+    character but a letter or a digit as two hex digits between ``_``:
     ``i_flatten_5c_plant__x_2e__24_19`` is cell ``flatten\\plant_x.$19`` of module
     ``plant_x``)."""
     if name in paths:
         return tuple(paths[name][:-1])
-    text = re.sub(r"_(_|[0-9a-f]{2})", lambda m: "_" if m[1] == "_" else chr(int(m[1], 16)),
+    text = re.sub(r"_(?:([0-9a-f]{2})_|_)", lambda m: chr(int(m[1], 16)) if m[1] else "_",
                   name[2:])
     return tuple(text.removeprefix("flatten\\").replace("\\", "").split(".")[:-1])
 
