@@ -70,6 +70,8 @@ struct k37_top : p_top {{
 	// that the last rising edge ran.
 	uint64_t k37_dirty = ~uint64_t(0), k37_ran = ~uint64_t(0);
 {members}	bool eval_fall(performer *performer = nullptr) {{{eval_fall}}}
+	bool eval_peek(performer *performer = nullptr) {{{eval_peek}}}
+	bool eval_port(const cxxrtl::chunk_t *curr) {{{eval_port}}}
 	bool eval_rise(performer *performer = nullptr) {{{eval_rise}}}
 	void eval_skip() {{{eval_skip}}}
 }};
@@ -77,6 +79,12 @@ struct k37_top : p_top {{
 cxxrtl::module *k37_make_top() {{ return new cxxrtl_design::k37_top; }}
 bool k37_eval_fall(cxxrtl::module *module) {{
 	return static_cast<cxxrtl_design::k37_top *>(module)->eval_fall();
+}}
+bool k37_eval_peek(cxxrtl::module *module) {{
+	return static_cast<cxxrtl_design::k37_top *>(module)->eval_peek();
+}}
+bool k37_eval_port(cxxrtl::module *module, const cxxrtl::chunk_t *curr) {{
+	return static_cast<cxxrtl_design::k37_top *>(module)->eval_port(curr);
 }}
 bool k37_eval_rise(cxxrtl::module *module) {{
 	return static_cast<cxxrtl_design::k37_top *>(module)->eval_rise();
@@ -199,10 +207,11 @@ def build(rtlil_text: str, *, free: Sequence[str] = (), reads: Sequence[str] = (
     runtime_key = sha256(harness, DESIGN_MAIN, " ".join(CXX_FLAGS), tools.versions)
     # The design's translation unit is generated (design_main): its generator is in the key.
     generator = (inspect.getsource(f)
-                 for f in (design_main, edge_wires, fall_eval, rise_eval, skip_eval, _units,
-                           _one_pass, _needed, _members, _clock_as_data))
+                 for f in (design_main, edge_wires, fall_eval, rise_eval, port_eval, skip_eval,
+                           _units, _one_pass, _needed, _grouped, _module, _hdl_paths, _members,
+                           _clock_as_data))
     key = sha256(rtlil_text, runtime_key, SPLIT_COMMIT, WHOLE_COMMIT, "\n".join(free),
-                 "\n".join(reads), *generator)
+                 "\n".join(reads), f"{PARTS} {FALL}", *generator)
     root = cache_root("cxxrtl")
     library = root / key / "model.so"
     if library.exists():
@@ -266,19 +275,37 @@ def design_main(cxx: str, falling: str, free: Sequence[str] = (),
     one of them is not in the model.
     """
     split = edge_wires(cxx)
-    pruned = fall_eval(cxx) if split is not None else None
-    eval_fall = " return eval(performer); " if pruned is None else f"\n{pruned}\t"
+    peeked = fall_eval(cxx) if split is not None else None
+    eval_peek = " return eval(performer); " if peeked is None else f"\n{peeked[0]}\t"
     rising = rise_eval(cxx) if split is not None else None
     eval_rise = " return eval(performer); " if rising is None else f"\n{rising.body}\t"
+    falling_only = fall_eval(cxx, outputs=False) if rising is not None else None
+    readers, touches_of = ({}, {}) if rising is None else (rising.readers, rising.touches)
+    eval_fall, fall_ran = eval_peek, ""
+    if falling_only is not None:
+        # The falling edge runs only if what its negedge registers read changed (the FALL
+        # part, marked as the rising edge's parts are); the outputs' statements only in a peek.
+        eval_fall = (f"\n\tif (!(k37_dirty & {FALL:#x}u)) return true;\n"
+                     f"\tk37_dirty &= ~{FALL:#x}u;\n{falling_only[0]}\t")
+        fall_ran = f"\tk37_dirty &= ~{FALL:#x}u;\n"
+        readers, touches_of = dict(readers), dict(touches_of)
+        for name in falling_only[1]:
+            readers[name] = readers.get(name, 0) | FALL
+            for member in (name, f"{name}.curr"):
+                if member in touches_of:
+                    touches_of[member] |= FALL
     touches = "" if rising is None else "\n" + TOP + "".join(
         f"\tif (curr == top.{member}.data) "
-        f"return {mask:#x}u;\n" for member, mask in sorted(rising.touches.items()))
+        f"return {mask:#x}u;\n" for member, mask in sorted(touches_of.items()))
     touches += " return ~uint64_t(0); "
+    ports = port_eval(cxx) if falling_only is not None else None
+    eval_port = " return false; " if ports is None else f"\n{ports}\t"
     if split is None:
         return DESIGN_MAIN.format(falling=falling, peek="false", eval_fall=eval_fall,
-                                  eval_rise=eval_rise, commit_fall=WHOLE_COMMIT,
-                                  commit_rise=WHOLE_COMMIT, discard_fall="", eval_skip="",
-                                  has_eval_skip="false", touches=touches, members="")
+                                  eval_peek=eval_peek, eval_rise=eval_rise,
+                                  commit_fall=WHOLE_COMMIT, commit_rise=WHOLE_COMMIT,
+                                  discard_fall="", eval_skip="", has_eval_skip="false",
+                                  touches=touches, members="", eval_port=eval_port)
     members = _members(cxx)
     missing = [path for path in free if path not in members]
     if missing:
@@ -292,7 +319,7 @@ def design_main(cxx: str, falling: str, free: Sequence[str] = (),
     def commit(names: list[str], gated: bool) -> str:
         """Commit wires ``names``, marking their readers where they changed; ``gated``: a
         part's registers only if the part ran (else their next values are unchanged)."""
-        readers, owner = ({}, {}) if rising is None else (rising.readers, rising.owner)
+        owner = {} if rising is None else rising.owner
         parts: dict[int, list[str]] = {}
         for name in names:
             parts.setdefault(owner.get(name, 0) if gated else 0, []).append(name)
@@ -308,9 +335,12 @@ def design_main(cxx: str, falling: str, free: Sequence[str] = (),
         return SPLIT_COMMIT.format(wires="".join(text))
 
     fall, rise, discard, peek = split
+    # Undoing a falling edge leaves its next values to compute again.
     resets = "".join(f"\ttop.{name}.next = top.{name}.curr;\n" for name in discard)
+    resets += f"\ttop.k37_dirty |= {FALL:#x}u;\n" if resets and fall_ran else ""
     return DESIGN_MAIN.format(
         falling=falling, peek="true" if peek else "false", eval_fall=eval_fall,
+        eval_peek=fall_ran + eval_peek if fall_ran else eval_peek, eval_port=eval_port,
         eval_rise=eval_rise, eval_skip=eval_skip, has_eval_skip=has_eval_skip,
         commit_fall=commit(fall, False),
         commit_rise=commit(rise, rising is not None), touches=touches,
@@ -379,25 +409,28 @@ def _needed(units: list[tuple[bool, set[str], str]], roots: set[str]) -> tuple[l
     return kept[::-1], needed
 
 
-def fall_eval(cxx: str) -> str | None:
-    """The body of an ``eval()`` for falling edges of ``clk`` only, from CXXRTL's C++.
+def fall_eval(cxx: str, outputs: bool = True) -> tuple[str, set[str]] | None:
+    """The body of an ``eval()`` for falling edges of ``clk`` only, from CXXRTL's C++, and the
+    names it reads.
 
     CXXRTL's ``eval()`` computes every combinational value, although a falling edge needs only
-    those that the negedge registers' next values and the output ports depend on: the body
-    keeps the negedge blocks, the statements that compute an output port, and those they read,
-    transitively (statements are in dependency order). Other combinational values keep what
-    the last full ``eval()`` left, so the harness treats them as stale. None if the body holds
-    anything but declarations, assignments and edge blocks (then eval() serves).
+    those that the negedge registers' next values (and, with ``outputs``, the output ports)
+    depend on: the body keeps the negedge blocks, the statements that compute an output port,
+    and those they read, transitively (statements are in dependency order). Other
+    combinational values keep what the last full ``eval()`` left, so the harness treats them
+    as stale. None if the body holds anything but declarations, assignments and edge blocks
+    (then eval() serves).
     """
     body = _body(cxx, "eval(performer *performer)")
     parsed = None if body is None else _units(body)
     if parsed is None:
         return None
     head, units = parsed
-    outputs = set(re.findall(rf"^\t/\*output\*/ value<\d+> ({_CXX_NAME});$", cxx, re.M))
-    kept, _ = _needed([(edge == "neg" or bool(defines & outputs), defines, text)
-                       for edge, defines, text in units if edge != "pos"], set())
-    return "".join(head) + "".join(kept) + "\treturn converged;\n"
+    ports = (set(re.findall(rf"^\t/\*output\*/ value<\d+> ({_CXX_NAME});$", cxx, re.M))
+             if outputs else set())
+    kept, reads = _needed([(edge == "neg" or bool(defines & ports), defines, text)
+                           for edge, defines, text in units if edge != "pos"], set())
+    return "".join(head) + "".join(kept) + "\treturn converged;\n", reads
 
 
 class RiseEval(NamedTuple):
@@ -419,8 +452,11 @@ class RiseEval(NamedTuple):
     readers: dict[str, int]
 
 
-#: Most parts :func:`rise_eval` tells apart (bits of one 64-bit mask).
-PARTS = 64
+#: Most parts :func:`rise_eval` tells apart (bits of one 64-bit mask, less the falling
+#: edge's: :data:`FALL`).
+PARTS = 63
+#: The part that stands for the falling edge's statements (:func:`design_main`).
+FALL = 1 << 63
 
 
 def _hdl_paths(cxx: str) -> dict[str, list[str]]:
@@ -541,7 +577,7 @@ def rise_eval(cxx: str) -> RiseEval | None:
     body = re.sub(rf"\b{_CXX_NAME}\b", lambda m: f"k37_{m[0]}" if m[0] in renamed else m[0],
                   "".join(lines))
     body = ("".join(line for line in head if line in _HEAD_LINES) +
-            "\tuint64_t dirty = k37_dirty;\n\tk37_dirty = 0;\n" + body +
+            f"\tuint64_t dirty = k37_dirty;\n\tk37_dirty = dirty & {FALL:#x}u;\n" + body +
             "\tk37_ran = dirty;\n\treturn converged;\n")
     return RiseEval(body, members, owner, touches, readers)
 
@@ -581,6 +617,27 @@ def _grouped(units: list[tuple[set[str], set[str]]], masks: list[int]) -> list[i
             if waiting[j] == 0:
                 ready.add(j)
     return order
+
+
+def port_eval(cxx: str) -> str | None:
+    """The body of ``bool eval_port(const chunk_t *curr)``: it computes the output port whose
+    value is at ``curr`` from the state, with the statements of ``eval()`` it depends on
+    (transitively) and nothing else, and returns true; false for any other value. A wait that
+    peeks at one port needs no other (``k37_eval_port``). None where :func:`skip_eval` is."""
+    body = _body(cxx, "eval(performer *performer)")
+    parsed = None if body is None or not _one_pass(body) else _units(body)
+    if parsed is None:
+        return None
+    head, units = parsed
+    comb = [(False, defines, text) for edge, defines, text in units if not edge]
+    local = {re.findall(_CXX_NAME, line)[-1]: line for line in head if line not in _HEAD_LINES}
+    cases = []
+    for port in re.findall(rf"^\t/\*output\*/ value<\d+> ({_CXX_NAME});$", cxx, re.M):
+        kept, names = _needed(comb, {port})
+        lines = [local[name] for name in sorted(names & local.keys())] + kept
+        cases.append(f"\tif (curr == {port}.data) {{\n" + "".join(f"\t{line}" for line in lines)
+                     + "\t\treturn true;\n\t}\n")
+    return "".join(cases) + "\treturn false;\n"
 
 
 def skip_eval(cxx: str, paths: Sequence[str]) -> str | None:

@@ -33,10 +33,18 @@ unsigned k37_commit_rise(cxxrtl::module *top);
 // Whether the eval() of a falling edge computes every combinational value as a settle would;
 // then k37_discard_fall() forgets the next values that eval() wrote, undoing the edge.
 bool k37_can_peek();
-// eval() at a falling edge of `clk`: computes the negedge registers' next values and the output
-// ports, possibly nothing else (build.py, fall_eval); other combinational values are stale.
+// eval() at a falling edge of `clk`: computes the negedge registers' next values, possibly
+// nothing else (build.py, fall_eval), and nothing at all if none of their inputs changed since
+// it last ran (build.py, design_main); other combinational values are stale.
 bool k37_eval_fall(cxxrtl::module *top);
 void k37_discard_fall(cxxrtl::module *top);
+// eval() at a falling edge of `clk` that computes the output ports too, whatever changed: for
+// a peek (k37_can_peek); k37_eval_fall() may compute nothing where no input of the negedge
+// registers changed.
+bool k37_eval_peek(cxxrtl::module *top);
+// Compute the output port whose value is at `curr` from the state, and nothing else (build.py,
+// port_eval); false (computing nothing) for any other value.
+bool k37_eval_port(cxxrtl::module *top, const cxxrtl::chunk_t *curr);
 // eval() at a rising edge of `clk`: computes the posedge registers' next values, possibly
 // nothing else (build.py, rise_eval); the combinational values are stale after it.
 bool k37_eval_rise(cxxrtl::module *top);
@@ -758,7 +766,12 @@ void advance(Model &m, uint64_t n, bool skip_idle) {
 uint64_t run_until_peek(Model &m, const Item &item, uint64_t limit, bool skip_idle) {
 	for (uint64_t i = 0; i < limit;) {
 		*m.clk = 0;
-		k37_eval_fall(m.top.get());
+		// The falling edge's next values, and the port from the state that the rising edge
+		// left (the falling edge's commit comes after the peek).
+		if (item.parts.size() == 1 && k37_eval_port(m.top.get(), item.parts[0].curr))
+			k37_eval_fall(m.top.get());
+		else
+			k37_eval_peek(m.top.get());
 		if (i > 0 && nonzero(m, item, true)) {
 			*m.clk = 1;
 			k37_discard_fall(m.top.get());
