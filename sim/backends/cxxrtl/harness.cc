@@ -355,7 +355,7 @@ bool nonzero(Model &m, const Item &item, bool settled) {
 	return false;
 }
 
-uint64_t read_u64(Model &m, size_t index) {
+inline __attribute__((always_inline)) uint64_t read_u64(Model &m, size_t index) {
 	const Part &p = m.items[index].parts.front();
 	eval_outline(m, p);
 	return p.width > 32 ? uint64_t(p.curr[1]) << 32 | p.curr[0] : p.curr[0];
