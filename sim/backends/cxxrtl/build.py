@@ -69,6 +69,7 @@ struct k37_top : p_top {{
 	// The parts of the design (rise_eval) whose support changed since they last ran, and those
 	// that the last rising edge ran.
 	uint64_t k37_dirty = ~uint64_t(0), k37_ran = ~uint64_t(0);
+	bool k37_fall_ran = true;  // whether the last falling edge's evaluation ran
 {members}	bool eval_fall(performer *performer = nullptr) {{{eval_fall}}}
 	bool eval_peek(performer *performer = nullptr) {{{eval_peek}}}
 	bool eval_port(const cxxrtl::chunk_t *curr) {{{eval_port}}}
@@ -109,7 +110,7 @@ void k37_discard_fall(cxxrtl::module *module) {{{discard_fall}}}
 TOP = "\tauto &top = *static_cast<cxxrtl_design::k37_top *>(module);\n"
 SPLIT_COMMIT = """
 """ + TOP + """	cxxrtl::chunk_t rest = 0, free = 0, c;
-	const uint64_t ran = top.k37_ran;
+	const uint64_t ran = {ran};
 	uint64_t marks = 0;
 {wires}	top.k37_dirty |= marks;
 	top.prev_p_clk = top.p_clk;
@@ -285,9 +286,9 @@ def design_main(cxx: str, falling: str, free: Sequence[str] = (),
     if falling_only is not None:
         # The falling edge runs only if what its negedge registers read changed (the FALL
         # part, marked as the rising edge's parts are); the outputs' statements only in a peek.
-        eval_fall = (f"\n\tif (!(k37_dirty & {FALL:#x}u)) return true;\n"
-                     f"\tk37_dirty &= ~{FALL:#x}u;\n{falling_only[0]}\t")
-        fall_ran = f"\tk37_dirty &= ~{FALL:#x}u;\n"
+        fall_ran = f"\tk37_dirty &= ~{FALL:#x}u;\n\tk37_fall_ran = true;\n"
+        eval_fall = (f"\n\tk37_fall_ran = false;\n\tif (!(k37_dirty & {FALL:#x}u)) return true;\n"
+                     f"{fall_ran}{falling_only[0]}\t")
         readers, touches_of = dict(readers), dict(touches_of)
         for name in falling_only[1]:
             readers[name] = readers.get(name, 0) | FALL
@@ -316,13 +317,13 @@ def design_main(cxx: str, falling: str, free: Sequence[str] = (),
     has_eval_skip = "false" if skip is None else "true"
     eval_skip = "" if skip is None else f"\n{skip}\t"
 
-    def commit(names: list[str], gated: bool) -> str:
-        """Commit wires ``names``, marking their readers where they changed; ``gated``: a
-        part's registers only if the part ran (else their next values are unchanged)."""
-        owner = {} if rising is None else rising.owner
+    def commit(names: list[str], owner: dict[str, int], ran: str) -> str:
+        """Commit wires ``names``, marking their readers where they changed; those of a part
+        in ``owner`` only if the part ran (``ran``: the mask of those that did), else their
+        next values are unchanged."""
         parts: dict[int, list[str]] = {}
         for name in names:
-            parts.setdefault(owner.get(name, 0) if gated else 0, []).append(name)
+            parts.setdefault(owner.get(name, 0), []).append(name)
         text = []
         for part, wires in sorted(parts.items()):
             text.append(f"\tif (ran & {part:#x}u) {{\n" if part else "\t{\n")
@@ -332,7 +333,7 @@ def design_main(cxx: str, falling: str, free: Sequence[str] = (),
                 if readers.get(name):
                     text.append(f"\t\tmarks |= c ? {readers[name]:#x}u : 0;\n")
             text.append("\t}\n")
-        return SPLIT_COMMIT.format(wires="".join(text))
+        return SPLIT_COMMIT.format(wires="".join(text), ran=ran)
 
     fall, rise, discard, peek = split
     # Undoing a falling edge leaves its next values to compute again.
@@ -342,8 +343,10 @@ def design_main(cxx: str, falling: str, free: Sequence[str] = (),
         falling=falling, peek="true" if peek else "false", eval_fall=eval_fall,
         eval_peek=fall_ran + eval_peek if fall_ran else eval_peek, eval_port=eval_port,
         eval_rise=eval_rise, eval_skip=eval_skip, has_eval_skip=has_eval_skip,
-        commit_fall=commit(fall, False),
-        commit_rise=commit(rise, rising is not None), touches=touches,
+        commit_fall=commit(fall, dict.fromkeys(discard, FALL) if fall_ran else {},
+                           f"top.k37_fall_ran ? {FALL:#x}u : 0"),
+        commit_rise=commit(rise, {} if rising is None else rising.owner, "top.k37_ran"),
+        touches=touches,
         members="" if rising is None else rising.members,
         discard_fall=f"\n{TOP}{resets}" if resets else "")
 
