@@ -28,7 +28,7 @@ from hdl.observation import FreeRunning
 from hdl.registers import Access, Register, RegisterMap
 from sim.backends.contract import Backend
 from sim.backends.cxxrtl.backend import CxxrtlBackend
-from sim.backends.cxxrtl.build import edge_wires, fall_eval, rise_eval, skip_eval
+from sim.backends.cxxrtl.codegen import edge_wires, fall_eval, rise_eval, skip_eval
 from sim.backends.design import component_ports
 from sim.backends.factory import BACKENDS, make_backend
 from sim.backends.pysim import PysimBackend
@@ -355,7 +355,7 @@ PEEKING = tuple(name for name in BLOCKS if name != "chain")
 
 @pytest.fixture(scope="module")
 def peeking():
-    """A third Zoo, on CXXRTL's fast path for waits (sim.backends.cxxrtl.build.edge_wires)."""
+    """A third Zoo, on CXXRTL's fast path for waits (sim.backends.cxxrtl.codegen.edge_wires)."""
     yield from zoo_pair(PEEKING)
 
 
@@ -404,7 +404,7 @@ def test_the_simulated_machine_splits_its_commits_and_peeks():
 
 
 def test_a_rising_edge_runs_a_part_only_when_what_it_reads_changed():
-    """The machine's rising edge (build.rise_eval) runs each module's statements under a guard
+    """The machine's rising edge (codegen.rise_eval) runs each module's statements under a guard
     of its own, and the plants' position and velocity, which change at every cycle of a move,
     are read by the plants alone: an encoder reads its plant through the quadrature lines,
     compared after the plant's statements, and the K3701 not at all."""
@@ -432,7 +432,7 @@ def test_a_rising_edge_runs_a_part_only_when_what_it_reads_changed():
 
 
 def test_a_skip_decision_evaluates_its_own_signals_alone_as_a_settle_would():
-    """The machine's skip evaluation (build.skip_eval) computes the free-running state's
+    """The machine's skip evaluation (codegen.skip_eval) computes the free-running state's
     signals, quiet and every output from the state as a settle does: checked after each of
     8,000 cycles of the demo's circle in motion (feed pulses, steps, accel/decel, plants,
     encoders), bus reads and writes of a new feed word, and a new speed limit (the last two

@@ -26,7 +26,7 @@ cxxrtl::module *k37_make_top();
 // Whether anything but rising edges of `clk` matters (falling-edge logic, derived clocks).
 bool k37_needs_falling_edge();
 // Commits after a falling or a rising edge of `clk`: of the wires that edge can change (and
-// those written outside any edge), or all wires (build.py, edge_wires). They return CHANGED if
+// those written outside any edge), or all wires (codegen.py, edge_wires). They return CHANGED if
 // any wire changed, | REST_CHANGED if any but the free-running state's did.
 unsigned k37_commit_fall(cxxrtl::module *top);
 unsigned k37_commit_rise(cxxrtl::module *top);
@@ -34,27 +34,27 @@ unsigned k37_commit_rise(cxxrtl::module *top);
 // then k37_discard_fall() forgets the next values that eval() wrote, undoing the edge.
 bool k37_can_peek();
 // eval() at a falling edge of `clk`: computes the negedge registers' next values, possibly
-// nothing else (build.py, fall_eval), and nothing at all if none of their inputs changed since
-// it last ran (build.py, design_main); other combinational values are stale.
+// nothing else (codegen.py, fall_eval), and nothing at all if none of their inputs changed since
+// it last ran (codegen.py, design_main); other combinational values are stale.
 bool k37_eval_fall(cxxrtl::module *top);
 void k37_discard_fall(cxxrtl::module *top);
 // eval() at a falling edge of `clk` that computes the output ports too, whatever changed: for
 // a peek (k37_can_peek); k37_eval_fall() may compute nothing where no input of the negedge
 // registers changed.
 bool k37_eval_peek(cxxrtl::module *top);
-// Compute the output port whose value is at `curr` from the state, and nothing else (build.py,
+// Compute the output port whose value is at `curr` from the state, and nothing else (codegen.py,
 // port_eval); false (computing nothing) for any other value.
 bool k37_eval_port(cxxrtl::module *top, const cxxrtl::chunk_t *curr);
 // eval() at a rising edge of `clk`: computes the posedge registers' next values, possibly
-// nothing else (build.py, rise_eval); the combinational values are stale after it.
+// nothing else (codegen.py, rise_eval); the combinational values are stale after it.
 bool k37_eval_rise(cxxrtl::module *top);
-// The parts of the design that the next k37_eval_rise() runs (build.py, rise_eval): those
+// The parts of the design that the next k37_eval_rise() runs (codegen.py, rise_eval): those
 // whose support changed; the commits add the readers of each wire that changed, and what writes
 // state or an input adds k37_touches() of the value it writes (by its current value's chunks):
 // the parts that read it or own it (all for an unknown value).
 uint64_t *k37_dirty(cxxrtl::module *top);
 uint64_t k37_touches(cxxrtl::module *top, const cxxrtl::chunk_t *curr);
-// Whether k37_eval_skip() computes what a skip decision reads (build.py, skip_eval): the
+// Whether k37_eval_skip() computes what a skip decision reads (codegen.py, skip_eval): the
 // values of the free-running state's declared signals, `quiet` and the output ports, from the
 // state, and nothing else (other combinational values are stale).
 bool k37_has_eval_skip();
