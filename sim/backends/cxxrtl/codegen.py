@@ -102,6 +102,7 @@ SPLIT_COMMIT = """
 #: CXXRTL's own commit, in those flags (every change counts as a change of the rest).
 WHOLE_COMMIT = " return module->commit() ? 3 : 0; "
 
+
 def design_main(cxx: str, falling: str, free: Sequence[str] = (),
                 reads: Sequence[str] = ()) -> str:
     """The design's translation unit for Yosys's C++ ``cxx`` (see :func:`edge_wires`).
@@ -109,8 +110,10 @@ def design_main(cxx: str, falling: str, free: Sequence[str] = (),
     Its commits return whether any state changed and whether any but the registers ``free``
     (probe paths) did: one cycle that changes only those proves the rest at a fixed point, at
     no extra cost per cycle. Its ``eval_skip`` computes the signals ``reads`` (probe paths:
-    what the harness reads to decide a skip) alone (:func:`skip_eval`). Raises ValueError if
-    one of them is not in the model.
+    what the harness reads to decide a skip) alone (:func:`skip_eval`). Its edges run only
+    the parts of the design whose inputs changed (:func:`rise_eval`; the falling edge is the
+    part :data:`FALL`), and a peek computes the one port it reads (:func:`port_eval`). Raises
+    ValueError if one of ``free`` or ``reads`` is not in the model.
     """
     split = edge_wires(cxx)
     peeked = fall_eval(cxx) if split is not None else None
@@ -178,7 +181,7 @@ def design_main(cxx: str, falling: str, free: Sequence[str] = (),
     resets += f"\ttop.k37_dirty |= {FALL:#x}u;\n" if resets and fall_ran else ""
     return DESIGN_MAIN.format(
         falling=falling, peek="true" if peek else "false", eval_fall=eval_fall,
-        eval_peek=fall_ran + eval_peek if fall_ran else eval_peek, eval_port=eval_port,
+        eval_peek=fall_ran + eval_peek, eval_port=eval_port,
         eval_rise=eval_rise, eval_skip=eval_skip, has_eval_skip=has_eval_skip,
         commit_fall=commit(fall, dict.fromkeys(discard, FALL) if fall_ran else {},
                            f"top.k37_fall_ran ? {FALL:#x}u : 0"),
