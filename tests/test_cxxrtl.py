@@ -424,7 +424,7 @@ def test_a_rising_edge_runs_a_part_only_when_what_it_reads_changed():
     for guard, block in re.findall(r"if \(dirty & (0x[0-9a-f]+)u\) \{\n(.*?)\n\t\}\n",
                                    rising.body, re.S):
         passed += [(int(guard, 16), name, int(mask, 16)) for name, mask in re.findall(
-            r"k37_changed\(k37_was_(\w+), \w+\)\) dirty \|= (0x[0-9a-f]+)u", block)]
+            r"k37_take\(k37_was_(\w+), \w+\)\) dirty \|= (0x[0-9a-f]+)u", block)]
     lines = {name for source, name, marks in passed if source == plant and marks & encoder}
     assert lines == {f"p_chipset_2e_encoder__x_2e_{line}" for line in ("a", "a__n", "b", "b__n")}
     assert not any(marks & k3701 for source, _, marks in passed if source == plant)

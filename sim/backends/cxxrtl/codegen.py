@@ -24,25 +24,16 @@ __all__ = ["DESIGN_MAIN", "FALL", "PARTS", "SPLIT_COMMIT", "WHOLE_COMMIT", "Rise
 
 #: The design's translation unit: Yosys's C++ and what the harness asks of the design.
 DESIGN_MAIN = """#include "design.cc"
-// A wire's commit without branches (CXXRTL's compares first): whether it changed is `!= 0`.
+// `to` takes `now`, without branches (CXXRTL's commit compares first): whether it changed is
+// `!= 0`. A wire's commit is k37_take(wire.curr, wire.next).
 template<size_t Bits>
-inline cxxrtl::chunk_t k37_update(cxxrtl::wire<Bits> &wire) {{
+inline cxxrtl::chunk_t k37_take(cxxrtl::value<Bits> &to, const cxxrtl::value<Bits> &now) {{
 	cxxrtl::chunk_t diff = 0;
-	for (size_t i = 0; i < wire.curr.chunks; i++) {{
-		diff |= wire.curr.data[i] ^ wire.next.data[i];
-		wire.curr.data[i] = wire.next.data[i];
+	for (size_t i = 0; i < to.chunks; i++) {{
+		diff |= to.data[i] ^ now.data[i];
+		to.data[i] = now.data[i];
 	}}
 	return diff;
-}}
-// Whether a value changed since `was`, which takes it.
-template<size_t Bits>
-inline bool k37_changed(cxxrtl::value<Bits> &was, const cxxrtl::value<Bits> &now) {{
-	cxxrtl::chunk_t diff = 0;
-	for (size_t i = 0; i < was.chunks; i++) {{
-		diff |= was.data[i] ^ now.data[i];
-		was.data[i] = now.data[i];
-	}}
-	return diff != 0;
 }}
 namespace cxxrtl_design {{
 // The design with an eval() for falling edges and one for rising edges that compute only what
@@ -169,7 +160,8 @@ def design_main(cxx: str, falling: str, free: Sequence[str] = (),
             text.append(f"\tif (ran & {part:#x}u) {{\n" if part else "\t{\n")
             for name in wires:
                 flag = "free" if name in free_wires else "rest"
-                text.append(f"\t\tc = k37_update(top.{name});\n\t\t{flag} |= c;\n")
+                text.append(f"\t\tc = k37_take(top.{name}.curr, top.{name}.next);\n"
+                            f"\t\t{flag} |= c;\n")
                 if readers.get(name):
                     text.append(f"\t\tmarks |= c ? {readers[name]:#x}u : 0;\n")
             text.append("\t}\n")
@@ -192,6 +184,21 @@ def design_main(cxx: str, falling: str, free: Sequence[str] = (),
 
 
 _CXX_NAME = r"[A-Za-z_]\w*"
+
+
+def _declared(cxx: str, kind: str) -> list[str]:
+    """The members of a kind the design declares, in order: ``"wire"`` (registers),
+    ``"input"`` or ``"output"`` (ports computed by ``eval()``, not registers)."""
+    pattern = (rf"^\t(?:/\*\w+\*/ )?wire<\d+> ({_CXX_NAME});$" if kind == "wire" else
+               rf"^\t/\*{kind}\*/ value<\d+> ({_CXX_NAME});$")
+    return re.findall(pattern, cxx, re.M)
+
+
+def _eval_units(cxx: str) -> tuple[list[str], list[tuple[str, set[str], str]]] | None:
+    """``eval()``'s head and units (:func:`_units`), if it computes every value in one pass
+    (:func:`_one_pass`); else None."""
+    body = _body(cxx, "eval(performer *performer)")
+    return None if body is None or not _one_pass(body) else _units(body)
 
 
 _HEAD_LINES = ("\tbool converged = true;\n", "\tbool posedge_p_clk = this->posedge_p_clk();\n",
@@ -269,8 +276,7 @@ def fall_eval(cxx: str, outputs: bool = True) -> tuple[str, set[str]] | None:
     if parsed is None:
         return None
     head, units = parsed
-    ports = (set(re.findall(rf"^\t/\*output\*/ value<\d+> ({_CXX_NAME});$", cxx, re.M))
-             if outputs else set())
+    ports = set(_declared(cxx, "output")) if outputs else set()
     kept, reads = _needed([(edge == "neg" or bool(defines & ports), defines, text)
                            for edge, defines, text in units if edge != "pos"], set())
     return "".join(head) + "".join(kept) + "\treturn converged;\n", reads
@@ -342,8 +348,7 @@ def rise_eval(cxx: str) -> RiseEval | None:
     combinational values as stale after an edge anyway. None where :func:`fall_eval` is, or
     where ``eval()`` writes a combinational wire's next value (a commit counts its changes) or
     needs more than one evaluation: then eval() serves, whole."""
-    body = _body(cxx, "eval(performer *performer)")
-    parsed = None if body is None or not _one_pass(body) else _units(body)
+    parsed = _eval_units(cxx)
     if parsed is None:
         return None
     head, units = parsed
@@ -384,10 +389,9 @@ def rise_eval(cxx: str) -> RiseEval | None:
             needs[name] = needs.get(name, 0) | mask
     passed = {name: needs[name] & ~mask for name, mask in part_of.items()
               if needs.get(name, 0) & ~mask}
-    wires = set(re.findall(rf"^\t(?:/\*\w+\*/ )?wire<\d+> ({_CXX_NAME});$", cxx, re.M))
-    inputs = set(re.findall(rf"^\t/\*input\*/ value<\d+> ({_CXX_NAME});$", cxx, re.M))
+    wires = set(_declared(cxx, "wire"))
     readers = {name: mask for name, mask in needs.items() if name in wires}
-    touches = {name: needs.get(name, 0) for name in inputs}
+    touches = {name: needs.get(name, 0) for name in _declared(cxx, "input")}
     for name in wires:
         touches[f"{name}.curr"] = needs.get(name, 0) | owner.get(name, 0)
     # Each passed value is compared after its last definition, before any reader.
@@ -400,7 +404,7 @@ def rise_eval(cxx: str) -> RiseEval | None:
     statements = []  # (defines, reads, text, part), each compare after its value's definition
     for i, ((_, defines, text), read, mask) in enumerate(zip(units, reads, masks, strict=True)):
         statements.append((defines, read, text, mask))
-        statements += [({name}, {name}, f"\tif (k37_changed(k37_was_{name}, {name})) dirty |= "
+        statements += [({name}, {name}, f"\tif (k37_take(k37_was_{name}, {name})) dirty |= "
                         f"{passed[name]:#x}u;\n", mask) for name in after.get(i, ())]
     order = _grouped([(defines, read) for defines, read, _, _ in statements],
                      [mask for *_, mask in statements])
@@ -467,15 +471,14 @@ def port_eval(cxx: str) -> str | None:
     value is at ``curr`` from the state, with the statements of ``eval()`` it depends on
     (transitively) and nothing else, and returns true; false for any other value. A wait that
     peeks at one port needs no other (``k37_eval_port``). None where :func:`skip_eval` is."""
-    body = _body(cxx, "eval(performer *performer)")
-    parsed = None if body is None or not _one_pass(body) else _units(body)
+    parsed = _eval_units(cxx)
     if parsed is None:
         return None
     head, units = parsed
     comb = [(False, defines, text) for edge, defines, text in units if not edge]
     local = {re.findall(_CXX_NAME, line)[-1]: line for line in head if line not in _HEAD_LINES}
     cases = []
-    for port in re.findall(rf"^\t/\*output\*/ value<\d+> ({_CXX_NAME});$", cxx, re.M):
+    for port in _declared(cxx, "output"):
         kept, names = _needed(comb, {port})
         lines = [local[name] for name in sorted(names & local.keys())] + kept
         cases.append(f"\tif (curr == {port}.data) {{\n" + "".join(f"\t{line}" for line in lines)
@@ -496,14 +499,12 @@ def skip_eval(cxx: str, paths: Sequence[str]) -> str | None:
     edges. None if a body is not shaped as expected, or ``eval()`` writes a combinational
     wire's next value (then a value may need a second evaluation: the harness settles).
     """
-    eval_body, debug_body = _body(cxx, "eval(performer *performer)"), _body(cxx, "debug_eval()")
-    if eval_body is None or debug_body is None or not _one_pass(eval_body):
-        return None
-    parsed, debug = _units(eval_body), _units(debug_body)
+    debug_body = _body(cxx, "debug_eval()")
+    parsed, debug = _eval_units(cxx), None if debug_body is None else _units(debug_body)
     if parsed is None or debug is None:
         return None
     members = _members(cxx)
-    roots = set(re.findall(rf"^\t/\*output\*/ value<\d+> ({_CXX_NAME});$", cxx, re.M))
+    roots = set(_declared(cxx, "output"))
     for path in paths:
         if path not in members:
             raise ValueError(f"the free-running state's signal {path!r} is not in the "
@@ -555,15 +556,14 @@ def edge_wires(cxx: str) -> tuple[list[str], list[str], list[str], bool] | None:
                      re.M | re.S)
     if commit is None or body is None:
         return None
-    wires = []
+    wires, declared = [], set(_declared(cxx, "wire"))
     for line in commit.group(1).splitlines():
         line = line.strip()
         if line in ("bool changed = false;", "prev_p_clk = p_clk;"):
             continue
         match = re.fullmatch(rf"if \(({_CXX_NAME})\.commit\(observer\)\) changed = true;",
                              line)
-        if match is None or not re.search(rf"^\t(?:/\*\w+\*/ )?wire<\d+> {match[1]};$", cxx,
-                                           re.M):
+        if match is None or match[1] not in declared:
             return None
         wires.append(match[1])
     written: dict[str, set[str]] = {"pos": set(), "neg": set(), "comb": set()}
