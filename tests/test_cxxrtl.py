@@ -6,6 +6,7 @@ and the blocks that keep CXXRTL on its fast paths), a few seconds each, once per
 thanks to the cache, and shares them between tests.
 """
 
+import inspect
 import os
 import random
 import re
@@ -27,6 +28,7 @@ from hdl.hostbus import HostBus, RegisterBank
 from hdl.observation import FreeRunning
 from hdl.registers import Access, Register, RegisterMap
 from sim.backends.contract import Backend
+from sim.backends.cxxrtl import build
 from sim.backends.cxxrtl.backend import CxxrtlBackend
 from sim.backends.cxxrtl.codegen import edge_wires, fall_eval, rise_eval, skip_eval
 from sim.backends.design import component_ports
@@ -673,6 +675,21 @@ def test_the_design_key_follows_the_parameters_and_every_source(monkeypatch, mak
         monkeypatch.undo()
         runner._design_sources.cache_clear()
     assert runner.design_key(pre) == before
+
+
+@pytest.mark.parametrize("maker", ["build.py", "codegen.py", "harness.cc"])
+def test_a_remembered_design_is_forgotten_when_what_makes_its_model_changes(monkeypatch, maker):
+    """A model built by an older harness or generator must not stand for the design."""
+    job = demo_job()
+    runner.build_backend(job, "cxxrtl").close()  # remembered
+    key = runner.design_key(job)
+    assert build.find_design(key) is not None
+    read, source = Path.read_text, inspect.getsource
+    monkeypatch.setattr(Path, "read_text", lambda path, *args, **kwargs: read(
+        path, *args, **kwargs) + ("//" if path.name == maker else ""))
+    monkeypatch.setattr(inspect, "getsource", lambda obj: source(obj) + (
+        "#" if Path(getattr(obj, "__file__", "")).name == maker else ""))
+    assert build.find_design(key) is None
 
 
 def _busy_then_idle(backend: Backend, seed: int) -> None:

@@ -74,16 +74,22 @@ def _toolchain(compiler: str | None) -> _Toolchain:
     return _Toolchain(compiler, include, versions)
 
 
+def _makers() -> tuple[str, str, str]:
+    """The source of everything that turns a design into its model besides the toolchain:
+    this module, the generator of the design's translation unit and the harness."""
+    return Path(__file__).read_text(), inspect.getsource(codegen), HARNESS.read_text()
+
+
 def _index(design_key: str, compiler: str | None) -> Path:
     """Where the model of a design named by ``design_key`` is remembered, with what the
     backend would otherwise read from its RTLIL and its signals.
 
-    The key is the design's, this module's and the harness's source and the compiler's name,
-    not the toolchain's versions (asking g++ and Yosys for them costs more than a small run):
-    a model keeps standing for its design across toolchain upgrades, as any correct build of
-    the same RTLIL simulates it alike (delete the cache to rebuild with new tools)."""
-    key = sha256(design_key, FACTS_VERSION, Path(__file__).read_text(), HARNESS.read_text(),
-                 compiler or find_compiler() or "")
+    The key is the design's key, the sources that make a model of it (:func:`_makers`) and
+    the compiler's name, not the toolchain's versions (asking g++ and Yosys for them costs
+    more than a small run): a model keeps standing for its design across toolchain upgrades,
+    as any correct build of the same RTLIL simulates it alike (delete the cache to rebuild
+    with new tools)."""
+    key = sha256(design_key, FACTS_VERSION, *_makers(), compiler or find_compiler() or "")
     return cache_root("cxxrtl") / "designs" / f"{key}.json"
 
 
