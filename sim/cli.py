@@ -360,6 +360,10 @@ def _tolerance(text: str) -> float:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    # NumPy's OpenBLAS starts a thread per core that spins for about 0.1 s of CPU per process
+    # though K37 has no matrix work worth a thread: one thread leaves the cores to the runs.
+    # Set before NumPy's first import; study workers inherit it.
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)

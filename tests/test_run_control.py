@@ -378,3 +378,17 @@ def test_trace_csv_is_written_from_the_store_chunk_by_chunk(tmp_path, monkeypatc
     volts = 10 * (raw[4, 7] - 2048) / 2048
     assert lines[5].split(",")[7] == f"{volts:.4f}"
     assert lines[5].split(",")[:3] == [str(v) for v in raw[4, :3]]
+
+
+@pytest.mark.parametrize(("before", "after"), [(None, "1"), ("3", "3")])
+def test_the_command_line_gives_numpys_blas_one_thread_unless_told_otherwise(
+        monkeypatch, tmp_path, before, after):
+    """OpenBLAS's idle threads spin a tenth of a CPU second per process: ``k37`` (and the
+    study workers it starts, which inherit its environment) ask for one thread, as a user's
+    own setting may override."""
+    if before is None:
+        monkeypatch.delenv("OPENBLAS_NUM_THREADS", raising=False)
+    else:
+        monkeypatch.setenv("OPENBLAS_NUM_THREADS", before)
+    assert main(["docs", "--output", str(tmp_path)]) == 0
+    assert os.environ["OPENBLAS_NUM_THREADS"] == after
