@@ -569,14 +569,17 @@ struct PlantState {
 // and return the cycles stepped (their state written). Exact, and in pieces: while every
 // velocity is steady, in closed form; while each ramps (v += s every cycle for a constant
 // rounded step s), piece by piece, the position a quadratic in the cycles; a cycle that lands
-// a velocity, one at a time.
-uint64_t advance_plants(Model &m, uint64_t limit) {
+// a velocity, one at a time. `resume`: the plants' states are those the last call left (a
+// skip going on past a sample), not read again from the model.
+uint64_t advance_plants(Model &m, uint64_t limit, bool resume) {
 	if (m.plants.empty() || limit == 0)
 		return limit;
 	std::vector<PlantState> &states = m.plant_states;
-	states.clear();
-	for (const Plant &p : m.plants)
-		states.emplace_back(m, p);
+	if (!resume) {
+		states.clear();
+		for (const Plant &p : m.plants)
+			states.emplace_back(m, p);
+	}
 	std::vector<int64_t> &steps = m.plant_steps;
 	steps.resize(states.size());
 	uint64_t k = 0;
@@ -695,17 +698,24 @@ uint64_t try_skip(Model &m, unsigned flags, uint64_t rest, const Item *watch = n
 	if (flags & CHANGED && m.quiet == SIZE_MAX)
 		return 0;
 	uint64_t skipped = 0;
+	// The cycles to the free-running state's next event: computed once, as the skip's samples
+	// change nothing it depends on.
+	uint64_t horizon = 0;
 	while (skipped < rest) {
 		uint64_t to_sample = m.recorder.next - m.cycle;
 		uint64_t run = std::min(rest - skipped, to_sample);
 		if (flags & CHANGED) {
-			refresh_skip_values(m);
-			if (!read_u64(m, m.quiet))
-				break;
-			run = advance_plants(m, std::min(run, event_horizon(m)));
+			if (skipped == 0) {
+				refresh_skip_values(m);
+				if (!read_u64(m, m.quiet))
+					break;
+				horizon = event_horizon(m);
+			}
+			run = advance_plants(m, std::min(run, horizon), skipped != 0);
 			if (run == 0)
 				break;
 			advance_free(m, run);
+			horizon -= run;
 			mark_stale(m);
 		}
 		m.skipped += run;
