@@ -21,6 +21,7 @@ from hdl.k3701_datapath_model import (
     Kind,
 )
 from hdl.k3701_helix import HelixAxis
+from hdl.k3701_latency import StepLatency
 from hdl.k3701_linear import LinearDatapath, LinearDatapath3
 from hdl.k3701_map import k3701_map
 from hdl.k3701_parabolic import ParabolicDatapath
@@ -73,7 +74,8 @@ class K3701(wiring.Component):
     * BUSY falls and ``irq`` rises in the cycle of the final step's pulses.
 
     Inside, this core runs the block (registers, commands and status, FP intake and credit,
-    the step latency and the pulses) and one datapath per interpolation type decides its
+    the pulses), its step latency count times the steps and the datapaths' stages
+    (:mod:`hdl.k3701_latency`), and one datapath per interpolation type decides its
     steps (:mod:`hdl.k3701_linear`, :mod:`hdl.k3701_circular`, :mod:`hdl.k3701_parabolic`
     (parabolas and exponentials),
     through the interface of :mod:`hdl.k3701_datapath`). Each step is decided before its FP
@@ -122,11 +124,12 @@ class K3701(wiring.Component):
         cycle until it reaches 1: FP is low, and the count is 0 (waiting for FP) or at least
         2 and past the running datapath's decision stages; combinational.
     FREE_RUNNING : FreeRunning
-        The latency count, a :class:`hdl.observation.Countdown` that stops before 1.
+        The latency count (``latency.count``, of :class:`hdl.k3701_latency.StepLatency`), a
+        :class:`hdl.observation.Countdown` that stops before 1.
     """
 
     #: See "Simulation only" above (names local to the K3701).
-    FREE_RUNNING = FreeRunning(countdowns=(Countdown("count", stop=1),), quiet="quiet")
+    FREE_RUNNING = FreeRunning(countdowns=(Countdown("latency.count", stop=1),), quiet="quiet")
 
     def __init__(self, *, latency_linear: int = LATENCY_LINEAR,
                  latency_circular: int = LATENCY_CIRCULAR,
@@ -178,7 +181,10 @@ class K3701(wiring.Component):
         sqrt2 = Signal()
         xm = Signal(signed(24))
         ym = Signal(signed(24))
-        count = Signal(range(max(latency.values())))
+        m.submodules.latency = step_latency = StepLatency(
+            [latency[k] for k in kinds], [d.STAGES for d in datapaths])
+        count = step_latency.count
+        m.d.comb += step_latency.run.eq(phase == _Phase.RUN)
         held = Signal()
         credit = Signal(4 if three else 3)
 
@@ -203,8 +209,7 @@ class K3701(wiring.Component):
                          helix.n.eq(regs.h.w_data),
                          helix.start.eq(datapaths[Kind.CIRCULAR].start),
                          helix.advance.eq(datapaths[Kind.CIRCULAR].advance)]
-        for k, datapath in zip(kinds, datapaths, strict=True):
-            running = (phase == _Phase.RUN) & (kind == k)
+        for i, (k, datapath) in enumerate(zip(kinds, datapaths, strict=True)):
             block = datapath.block
             m.d.comb += [
                 block.xe.eq(regs.x.w_data), block.ye.eq(regs.y.w_data),
@@ -215,9 +220,9 @@ class K3701(wiring.Component):
                   [block.swap.eq(word[ctrl.field("swap").offset]), block.e.eq(regs.e.w_data),
                    block.exponential.eq(word[ctrl.field("exponential").offset])]),
                 datapath.start.eq(start & (phase == _Phase.IDLE) & (new_kind == k)),
-                datapath.advance.eq(running & (count == 1)),
-                *(datapath.stage[s].eq(running & (count == latency[k] - 1 - s))
-                  for s in range(datapath.STAGES)),
+                step_latency.running[i].eq((phase == _Phase.RUN) & (kind == k)),
+                datapath.advance.eq(step_latency.advance[i]),
+                *([datapath.stage.eq(step_latency.stage[i])] if datapath.STAGES else []),
             ]
             if datapath.SETUP:
                 m.d.comb += datapath.setup.eq((phase == _Phase.SETUP) & (kind == k))
@@ -245,7 +250,7 @@ class K3701(wiring.Component):
                                    for d in datapaths])
 
         # --- feed intake: hold one FP while the engine is busy, lose (and flag) a second ---
-        engine_busy = (phase == _Phase.SETUP) | ((phase == _Phase.RUN) & (count != 0))
+        engine_busy = (phase == _Phase.SETUP) | ((phase == _Phase.RUN) & ~step_latency.zero)
 
         pulses = [getattr(self, f"{a}_{d}") for a in "xyz"[:self.axes] for d in ("pos", "neg")]
         m.d.sync += [p.eq(0) for p in pulses]
@@ -260,8 +265,8 @@ class K3701(wiring.Component):
                 m.d.sync += held.eq(1)
 
         def finish(error: Value) -> None:
-            m.d.sync += [phase.eq(_Phase.IDLE), self.busy.eq(0), self.irq.eq(1), held.eq(0),
-                         count.eq(0)]
+            m.d.sync += [phase.eq(_Phase.IDLE), self.busy.eq(0), self.irq.eq(1), held.eq(0)]
+            m.d.comb += step_latency.clear.eq(1)
             with m.If(error):
                 m.d.sync += self.error.eq(1)
 
@@ -276,11 +281,12 @@ class K3701(wiring.Component):
                         xm.eq(regs.x.w_data), ym.eq(regs.y.w_data),
                         *([zm.eq(regs.z.w_data),
                            plane.eq(_field(word, ctrl.field("plane")))] if three else []),
-                        credit.eq(0), held.eq(0), count.eq(0),
+                        credit.eq(0), held.eq(0),
                         phase.eq(_select(new_kind, [_Phase.SETUP if d.SETUP else _Phase.RUN
                                                     for d in datapaths])),
                         self.busy.eq(1),
                     ]
+                    m.d.comb += step_latency.clear.eq(1)
                     with m.If(answer(new_kind, "end", setup=False)):
                         finish(answer(new_kind, "error", setup=False))
             with m.Case(_Phase.SETUP):
@@ -293,7 +299,7 @@ class K3701(wiring.Component):
                 with m.Elif(ready):
                     m.d.sync += phase.eq(_Phase.RUN)
             with m.Case(_Phase.RUN):
-                with m.If(count == 0):
+                with m.If(step_latency.zero):
                     take = held | self.fp
                     m.d.sync += held.eq(held & self.fp)
                     if three:
@@ -305,13 +311,13 @@ class K3701(wiring.Component):
                         cost = Mux(sqrt2 & running_step().diag, 3, 2)
                     with m.If(take):
                         with m.If(credit2 >= cost):
-                            m.d.sync += [credit.eq(credit2 - cost),
-                                         count.eq(_select(kind, [latency[k] - 1 for k in kinds]))]
+                            m.d.sync += credit.eq(credit2 - cost)
+                            m.d.comb += [step_latency.load.eq(1), step_latency.value.eq(
+                                _select(kind, [latency[k] - 1 for k in kinds]))]
                         with m.Else():
                             m.d.sync += credit.eq(credit2)
                 with m.Else():
-                    m.d.sync += count.eq(count - 1)
-                    with m.If(count == 1):
+                    with m.If(step_latency.last):
                         step = running_step()
                         if three:
                             self._pulses_routed(m, step, plane)
@@ -350,3 +356,4 @@ class K3701(wiring.Component):
                     out = "xyz"[machine_axis]
                     m.d.sync += [getattr(self, f"{out}_pos").eq(move & ~neg),
                                  getattr(self, f"{out}_neg").eq(move & neg)]
+

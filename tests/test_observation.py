@@ -62,7 +62,7 @@ def test_the_machine_declares_the_registers_that_run_on_by_themselves(accel):
                                                   clock="chipset.feed.fa_clock")
                                  for path in carries)
     assert [p.path for p in free.plants] == ["plant_x", "plant_y"]
-    assert free.countdowns == (Countdown("chipset.k3701.count", stop=1),)
+    assert free.countdowns == (Countdown("chipset.k3701.latency.count", stop=1),)
     assert free.quiet == "quiet"
     # Every declared register and signal is a signal of the design, by that path.
     signals = design_signals(system)
