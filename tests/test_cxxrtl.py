@@ -677,7 +677,7 @@ def test_the_design_key_follows_the_parameters_and_every_source(monkeypatch, mak
     assert runner.design_key(pre) == before
 
 
-@pytest.mark.parametrize("maker", ["build.py", "codegen.py", "harness.cc"])
+@pytest.mark.parametrize("maker", ["build.py", "codegen.py", "words.h", "harness.cc"])
 def test_a_remembered_design_is_forgotten_when_what_makes_its_model_changes(monkeypatch, maker):
     """A model built by an older harness or generator must not stand for the design."""
     job = demo_job()
@@ -887,3 +887,57 @@ def test_a_free_running_register_missing_from_the_model_is_refused():
 def test_a_design_without_clock_is_refused_before_building():
     with pytest.raises(ValueError, match="Combinational has no sync clock domain"):
         CxxrtlBackend(Combinational())
+
+
+#: Result and operand widths for the word arithmetic's check: either side of a chunk and of a
+#: machine word, and past 128 bits (CXXRTL's own ops).
+_WORD_CASES = [(y, a, b) for y in (1, 7, 32, 33, 64, 65, 127, 129)
+               for a, b in ((1, 1), (5, 38), (32, 32), (33, 64), (64, 64), (65, 17), (128, 100),
+                            (130, 3))]
+_WORD_OPS = ("add_uu", "add_ss", "sub_uu", "sub_ss", "mul_uu", "mul_ss", "lt_uu", "gt_uu",
+             "le_uu", "ge_uu", "lt_ss", "gt_ss", "le_ss", "ge_ss")
+
+
+def test_machine_word_arithmetic_equals_cxxrtls_for_every_op_and_width(tmp_path):
+    """words.h computes the design's arithmetic in machine words: each op equals CXXRTL's
+    own on random operands and on the edge cases (0, all ones, the sign bit alone)."""
+    checks = [f"\tCHECK(k37_{op}<{y}>(a, b), {op}<{y}>(a, b), {a}, {b}, \"{op}<{y}>({a}, {b})\");"
+              for op in _WORD_OPS for y, a, b in _WORD_CASES]
+    checks += [f"\tCHECK(k37_{op}<{y}>(a), {op}<{y}>(a), {a}, 1, \"{op}<{y}>({a})\");"
+               for op in ("neg_u", "neg_s") for y, a, _ in _WORD_CASES]
+    undefs = "".join(f"#undef {op}\n" for op in (*_WORD_OPS, "neg_u", "neg_s"))
+    (tmp_path / "check.cc").write_text(f"""#include "words.h"
+{undefs}#include <cstdio>
+#include <random>
+using namespace cxxrtl_yosys;
+static std::mt19937_64 rng(37);
+template<size_t N> value<N> operand(int k) {{
+	value<N> v;
+	for (size_t i = 0; i < v.chunks; i++)
+		v.data[i] = k % 4 == 0 ? 0 : k % 4 == 1 ? ~chunk_t(0) : chunk_t(rng());
+	if (k % 4 == 2) {{
+		v = value<N>();
+		v.data[(N - 1) / 32] = chunk_t(1) << ((N - 1) % 32);
+	}}
+	v.data[v.chunks - 1] &= v.msb_mask;
+	return v;
+}}
+static int failures = 0;
+#define CHECK(ours, theirs, A, B, what) \\
+	for (int k = 0; k < 64; k++) {{ \\
+		auto a = operand<A>(k); auto b = operand<B>(k / 4 + k); (void)b; \\
+		if (ours != theirs) {{ std::printf("%s differs\\n", what); failures++; break; }} \\
+	}}
+int main() {{
+{chr(10).join(checks)}
+	std::printf("%d failures\\n", failures);
+	return failures != 0;
+}}
+""")
+    from sim.backends.cxxrtl.build import WORDS, _toolchain
+    tools = _toolchain(None)
+    subprocess.run([tools.compiler, "-std=c++17", "-O1", f"-I{tools.include}",
+                    f"-I{WORDS.parent}", "check.cc", "-o", "check"], cwd=tmp_path, check=True)
+    result = subprocess.run([str(tmp_path / "check")], capture_output=True, text=True)
+    assert result.stdout.strip().endswith("0 failures"), result.stdout
+    assert result.returncode == 0

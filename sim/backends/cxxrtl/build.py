@@ -6,7 +6,8 @@ links it with a small C ABI harness (``harness.cc``, compiled once per toolchain
 shared library, loaded with ctypes. The library is cached under
 ``~/.cache/k37/cxxrtl/<sha256>/`` (or ``$K37_CACHE_DIR/cxxrtl``), keyed by the RTLIL, the
 harness, the compiler flags, the versions of g++, Amaranth and Yosys and the code that
-generates the design's translation unit (:mod:`sim.backends.cxxrtl.codegen`), so an unchanged
+generates the design's translation unit (:mod:`sim.backends.cxxrtl.codegen`, and the header
+``words.h`` it includes: CXXRTL's arithmetic in machine words), so an unchanged
 design is built once; a build reports its phases on stderr. Nothing is ever evicted from the
 cache.
 """
@@ -41,6 +42,8 @@ from sim.backends.toolchain import (
 __all__ = ["CXX_FLAGS", "build", "find_design", "remember_design"]
 
 HARNESS = Path(__file__).with_name("harness.cc")
+#: CXXRTL's arithmetic in machine words, included by the design's translation unit.
+WORDS = Path(__file__).with_name("words.h")
 #: The form of the facts :func:`remember_design` keeps (part of their index's key).
 FACTS_VERSION = "facts 2: name, ports, signed, free_running"
 #: g++ flags of the model objects (part of the cache key); the library links with -shared.
@@ -55,8 +58,9 @@ class _Toolchain:
     versions: str
 
     def compile(self, source: str, output: str, cwd: Path) -> subprocess.Popen:
-        return subprocess.Popen([self.compiler, *CXX_FLAGS, f"-I{self.include}", "-c", source,
-                                 "-o", output], cwd=cwd, stderr=subprocess.PIPE, text=True)
+        return subprocess.Popen([self.compiler, *CXX_FLAGS, f"-I{self.include}",
+                                 f"-I{WORDS.parent}", "-c", source, "-o", output], cwd=cwd,
+                                stderr=subprocess.PIPE, text=True)
 
 
 def _toolchain(compiler: str | None) -> _Toolchain:
@@ -74,10 +78,12 @@ def _toolchain(compiler: str | None) -> _Toolchain:
     return _Toolchain(compiler, include, versions)
 
 
-def _makers() -> tuple[str, str, str]:
+def _makers() -> tuple[str, str, str, str]:
     """The source of everything that turns a design into its model besides the toolchain:
-    this module, the generator of the design's translation unit and the harness."""
-    return Path(__file__).read_text(), inspect.getsource(codegen), HARNESS.read_text()
+    this module, the generator of the design's translation unit, the header it includes and
+    the harness."""
+    return (Path(__file__).read_text(), inspect.getsource(codegen), WORDS.read_text(),
+            HARNESS.read_text())
 
 
 def _index(design_key: str, compiler: str | None) -> Path:
@@ -135,10 +141,10 @@ def build(rtlil_text: str, *, free: Sequence[str] = (), reads: Sequence[str] = (
     tools = _toolchain(compiler)
     harness = HARNESS.read_text()
     runtime_key = sha256(harness, DESIGN_MAIN, " ".join(CXX_FLAGS), tools.versions)
-    # The design's translation unit is generated (codegen.design_main): its generator is in
-    # the key.
-    key = sha256(rtlil_text, runtime_key, inspect.getsource(codegen), "\n".join(free),
-                 "\n".join(reads))
+    # The design's translation unit is generated (codegen.design_main): its generator and the
+    # header it includes are in the key.
+    key = sha256(rtlil_text, runtime_key, inspect.getsource(codegen), WORDS.read_text(),
+                 "\n".join(free), "\n".join(reads))
     root = cache_root("cxxrtl")
     library = root / key / "model.so"
     if library.exists():

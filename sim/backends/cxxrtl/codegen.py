@@ -22,8 +22,10 @@ from typing import NamedTuple
 __all__ = ["DESIGN_MAIN", "FALL", "PARTS", "SPLIT_COMMIT", "WHOLE_COMMIT", "RiseEval",
            "design_main", "edge_wires", "fall_eval", "port_eval", "rise_eval", "skip_eval"]
 
-#: The design's translation unit: Yosys's C++ and what the harness asks of the design.
-DESIGN_MAIN = """#include "design.cc"
+#: The design's translation unit: Yosys's C++ (its arithmetic in machine words: words.h) and
+#: what the harness asks of the design.
+DESIGN_MAIN = """#include "words.h"
+#include "design.cc"
 // `to` takes `now`, without branches (CXXRTL's commit compares first): whether it changed is
 // `!= 0`. A wire's commit is k37_take(wire.curr, wire.next).
 template<size_t Bits>
