@@ -15,9 +15,11 @@ namespace cxxrtl_yosys {
 using k37_u128 = unsigned __int128;
 using k37_i128 = __int128;
 
+// A machine word of at least N bits.
 template<size_t N>
 using k37_word = typename std::conditional<(N <= 64), uint64_t, k37_u128>::type;
 
+// v zero-extended to a word of at least W >= N bits.
 template<size_t W, size_t N>
 CXXRTL_ALWAYS_INLINE k37_word<W> k37_zx(const value<N> &v) {
 	k37_word<W> r = v.data[0];
@@ -26,6 +28,7 @@ CXXRTL_ALWAYS_INLINE k37_word<W> k37_zx(const value<N> &v) {
 	return r;
 }
 
+// v sign-extended to a word of at least W >= N bits.
 template<size_t W, size_t N>
 CXXRTL_ALWAYS_INLINE k37_word<W> k37_sx(const value<N> &v) {
 	constexpr size_t bits = sizeof(k37_word<W>) * 8;
@@ -35,6 +38,7 @@ CXXRTL_ALWAYS_INLINE k37_word<W> k37_sx(const value<N> &v) {
 	return r;
 }
 
+// The low N bits of word r.
 template<size_t N, class T>
 CXXRTL_ALWAYS_INLINE value<N> k37_value(T r) {
 	value<N> v;
@@ -44,7 +48,7 @@ CXXRTL_ALWAYS_INLINE value<N> k37_value(T r) {
 	return v;
 }
 
-// Whether an op of these widths runs in machine words of W = max(widths) bits.
+// Whether an op of these widths runs in machine words (of the widest's width).
 template<size_t Y, size_t A, size_t B = 1>
 constexpr bool k37_fast = Y >= 1 && A >= 1 && B >= 1 && Y <= 128 && A <= 128 && B <= 128;
 
@@ -89,21 +93,17 @@ K37_COMPARE(le_ss, sx, S, <=)
 K37_COMPARE(ge_ss, sx, S, >=)
 #undef K37_COMPARE
 
-template<size_t Y, size_t A>
-CXXRTL_ALWAYS_INLINE value<Y> k37_neg_u(const value<A> &a) {
-	if constexpr (k37_fast<Y, A>)
-		return k37_value<Y>(-k37_zx<(Y > A ? Y : A)>(a));
-	else
-		return neg_u<Y>(a);
+#define K37_NEGATE(name, ext)                                                               \
+template<size_t Y, size_t A>                                                                \
+CXXRTL_ALWAYS_INLINE value<Y> k37_##name(const value<A> &a) {                               \
+	if constexpr (k37_fast<Y, A>)                                                           \
+		return k37_value<Y>(-k37_##ext<(Y > A ? Y : A)>(a));                                \
+	else                                                                                    \
+		return name<Y>(a);                                                                  \
 }
-
-template<size_t Y, size_t A>
-CXXRTL_ALWAYS_INLINE value<Y> k37_neg_s(const value<A> &a) {
-	if constexpr (k37_fast<Y, A>)
-		return k37_value<Y>(-k37_sx<(Y > A ? Y : A)>(a));
-	else
-		return neg_s<Y>(a);
-}
+K37_NEGATE(neg_u, zx)
+K37_NEGATE(neg_s, sx)
+#undef K37_NEGATE
 
 }  // namespace cxxrtl_yosys
 
