@@ -382,13 +382,18 @@ void count_cycles(Model &m, uint64_t n) {
 		record(m);
 }
 
-// Set a register (both its committed and its next value) to `value`.
+// Set a register (both its committed and its next value) to `value`. The parts that read it
+// or compute it run at the next edge only if it changed (a commit leaves next = curr).
 void write_state(Model &m, size_t index, uint64_t value) {
 	const Part &p = m.items[index].parts.front();
+	const bool wide = p.width > 32;
+	auto word = [wide](const chunk_t *v) { return wide ? uint64_t(v[1]) << 32 | v[0] : v[0]; };
+	if (word(p.curr) == value && word(p.next) == value)
+		return;
 	*m.dirty |= p.touches;
 	for (chunk_t *v : {p.curr, p.next}) {
 		v[0] = chunk_t(value);
-		if (p.width > 32)
+		if (wide)
 			v[1] = chunk_t(value >> 32);
 	}
 }
