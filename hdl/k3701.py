@@ -356,4 +356,3 @@ class K3701(wiring.Component):
                     out = "xyz"[machine_axis]
                     m.d.sync += [getattr(self, f"{out}_pos").eq(move & ~neg),
                                  getattr(self, f"{out}_neg").eq(move & neg)]
-

@@ -934,10 +934,10 @@ int main() {{
 	return failures != 0;
 }}
 """)
-    from sim.backends.cxxrtl.build import WORDS, _toolchain
-    tools = _toolchain(None)
+    tools = build._toolchain(None)
     subprocess.run([tools.compiler, "-std=c++17", "-O1", f"-I{tools.include}",
-                    f"-I{WORDS.parent}", "check.cc", "-o", "check"], cwd=tmp_path, check=True)
+                    f"-I{build.WORDS.parent}", "check.cc", "-o", "check"], cwd=tmp_path,
+                   check=True)
     result = subprocess.run([str(tmp_path / "check")], capture_output=True, text=True)
     assert result.stdout.strip().endswith("0 failures"), result.stdout
     assert result.returncode == 0

@@ -7,11 +7,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import simulate
 
+from hdl.k3701_circular import CircularDatapath
+from hdl.k3701_datapath_model import LATENCY_CIRCULAR, LATENCY_LINEAR
 from hdl.k3701_latency import StepLatency
 from hdl.k3701_latency_model import StepLatencyModel
+from hdl.k3701_parabolic import ParabolicDatapath
 
-#: The chip's datapaths: linear (latency 10, no stages), circular and parabolic (20, 4 each).
-LATENCIES, STAGES = (10, 20, 20), (0, 4, 4)
+#: The chip's datapaths at the paper's latencies: linear (no stages), circular, parabolic.
+LATENCIES = (LATENCY_LINEAR, LATENCY_CIRCULAR, LATENCY_CIRCULAR)
+STAGES = (0, CircularDatapath.STAGES, ParabolicDatapath.STAGES)
 
 Inputs = tuple[bool, bool, int, bool, tuple[bool, ...]]  # clear, load, value, run, running
 
@@ -46,9 +50,12 @@ def model(cycles: list[Inputs]) -> list[tuple]:
     return seen
 
 
-# clear and load are rare, run is mostly high (as in the chip), so that counts run down.
+# clear and load are rare, run is mostly high (as in the chip), so that counts run down; a
+# load is mostly of a latency's L - 1, as the chip's.
 _cycle = st.tuples(st.sampled_from([False] * 9 + [True]),
-                   st.sampled_from([False] * 6 + [True]), st.integers(0, 19),
+                   st.sampled_from([False] * 6 + [True]),
+                   st.sampled_from([latency - 1 for latency in LATENCIES])
+                   | st.integers(0, max(LATENCIES) - 1),
                    st.sampled_from([True] * 4 + [False]),
                    st.tuples(*[st.booleans()] * 3))
 
@@ -60,16 +67,17 @@ def test_gateware_equals_model_cycle_by_cycle(cycles):
 
 
 def test_a_load_times_the_stages_then_the_step_then_counts_to_zero():
-    """Loaded with L - 1 = 19 while the circular datapath runs: stage s in the s-th cycle
-    after the load, advance 18 cycles after it, zero one cycle later."""
-    cycles = [(False, True, 19, True, (False, True, False))] + \
-        [(False, False, 0, True, (False, True, False))] * 21
+    """Loaded with L - 1 in cycle 0 while the circular datapath runs: stage s in cycle
+    1 + s, advance (the count at 1) in cycle L - 1, zero from cycle L on."""
+    latency = LATENCY_CIRCULAR
+    cycles = [(False, True, latency - 1, True, (False, True, False))] + \
+        [(False, False, 0, True, (False, True, False))] * (latency + 1)
     seen = model(cycles)
     assert gateware(cycles) == seen
     stages = [k for k, (*_, stage) in enumerate(seen) if stage[1]]
     assert [seen[k][4][1] for k in stages] == [1, 2, 4, 8] and stages == [1, 2, 3, 4]
-    assert [k for k, row in enumerate(seen) if row[3][1]] == [19]
-    assert [k for k, row in enumerate(seen) if row[1]] == [0, 20, 21]
+    assert [k for k, row in enumerate(seen) if row[3][1]] == [latency - 1]
+    assert [k for k, row in enumerate(seen) if row[1]] == [0, latency, latency + 1]
     assert all(row[4][2] == 0 and not row[3][2] for row in seen)  # parabolic not running
 
 

@@ -355,10 +355,15 @@ bool nonzero(Model &m, const Item &item, bool settled) {
 	return false;
 }
 
+// The value at `v` (a part's current or next chunks) of a part of at most 64 bits.
+inline uint64_t word(const Part &p, const chunk_t *v) {
+	return p.width > 32 ? uint64_t(v[1]) << 32 | v[0] : v[0];
+}
+
 inline __attribute__((always_inline)) uint64_t read_u64(Model &m, size_t index) {
 	const Part &p = m.items[index].parts.front();
 	eval_outline(m, p);
-	return p.width > 32 ? uint64_t(p.curr[1]) << 32 | p.curr[0] : p.curr[0];
+	return word(p, p.curr);
 }
 
 // Take the recorder's sample of this cycle (outputs as the skip's evaluation computes them).
@@ -386,14 +391,12 @@ void count_cycles(Model &m, uint64_t n) {
 // or compute it run at the next edge only if it changed (a commit leaves next = curr).
 void write_state(Model &m, size_t index, uint64_t value) {
 	const Part &p = m.items[index].parts.front();
-	const bool wide = p.width > 32;
-	auto word = [wide](const chunk_t *v) { return wide ? uint64_t(v[1]) << 32 | v[0] : v[0]; };
-	if (word(p.curr) == value && word(p.next) == value)
+	if (word(p, p.curr) == value && word(p, p.next) == value)
 		return;
 	*m.dirty |= p.touches;
 	for (chunk_t *v : {p.curr, p.next}) {
 		v[0] = chunk_t(value);
-		if (wide)
+		if (p.width > 32)
 			v[1] = chunk_t(value >> 32);
 	}
 }
