@@ -409,7 +409,9 @@ def test_a_rising_edge_runs_a_part_only_when_what_it_reads_changed():
     """The machine's rising edge (codegen.rise_eval) runs each module's statements under a guard
     of its own, and the plants' position and velocity, which change at every cycle of a move,
     are read by the plants alone: an encoder reads its plant through the quadrature lines,
-    compared after the plant's statements, and the K3701 not at all."""
+    compared after the plant's statements, and the K3701 not at all. What follows the inputs
+    alone (the plants' fault sampling, their speed limit) has a part of its own, which a
+    move does not run."""
     system = make_backend(System(), "cxxrtl")
     cxx = (system.model.path.parent / "design.cc").read_text()
     system.close()
@@ -431,6 +433,13 @@ def test_a_rising_edge_runs_a_part_only_when_what_it_reads_changed():
     assert lines == {f"p_chipset_2e_encoder__x_2e_{line}" for line in ("a", "a__n", "b", "b__n")}
     assert not any(marks & k3701 for source, _, marks in passed if source == plant)
     assert rising.body.count("if (dirty & ") >= len(set(rising.owner.values()))
+    faults = {rising.owner[f"p_plant__{axis}_2e_{name}"]
+              for axis in "xy" for name in ("glitch__a", "glitch__b", "break__a")}
+    assert len(faults) == 1 and not faults & {plant, encoder, k3701}
+    inputs = faults.pop()
+    assert rising.touches["p_x____glitch__a"] & inputs and not rising.touches["p_x____vmax"] & plant
+    assert not any(rising.readers[name] & inputs for name in rising.readers
+                   if rising.owner.get(name) == plant)
 
 
 def test_a_skip_decision_evaluates_its_own_signals_alone_as_a_settle_would():

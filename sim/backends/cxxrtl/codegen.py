@@ -338,7 +338,8 @@ def rise_eval(cxx: str) -> RiseEval | None:
     The statements that the posedge registers' next values read, transitively (as
     :func:`fall_eval`: not those that only the output ports, the negedge registers or nothing
     read), are split into parts: those of one module of the hierarchy (coarser modules if there
-    are more than :data:`PARTS`). Each runs under ``if (dirty & part)``. Every value a statement
+    are more than :data:`PARTS`), and those that follow the inputs alone (:func:`_input_driven`).
+    Each runs under ``if (dirty & part)``. Every value a statement
     computes is kept between calls (``eval()``'s locals become members), so a statement whose
     inputs are unchanged since it last ran still holds its value, and a part whose registers,
     inputs and values read from other parts are unchanged computes the next values it computed
@@ -360,25 +361,36 @@ def rise_eval(cxx: str) -> RiseEval | None:
     targets = [set(re.findall(rf"\b({_CXX_NAME})\.next = ", text)) for _, _, text in units]
     reads = [set(re.findall(rf"\b{_CXX_NAME}\b", re.sub(rf"\b{_CXX_NAME}\.next = ", "", text)))
              for _, _, text in units]
+    driven = _input_driven(cxx, units, targets, reads)
     paths = _hdl_paths(cxx)
-    registers = {name: _module(name, paths) for target in targets for name in target}
+    registers = {name: _module(name, paths) for i, target in enumerate(targets)
+                 if i not in driven for name in target}
     depth = max(map(len, registers.values()), default=0)
-    while len({module[:depth] for module in registers.values()}) > PARTS:
+    while len({module[:depth] for module in registers.values()}) > PARTS - bool(driven):
         depth -= 1
     parts = sorted({module[:depth] for module in registers.values()})
     owner = {name: 1 << parts.index(module[:depth]) for name, module in registers.items()}
+    # The statements that read the inputs alone have a part of their own, after the modules'.
+    inputs_part = 1 << len(parts)
+    owner.update(dict.fromkeys((name for i in driven for name in targets[i]), inputs_part))
     # A statement belongs to the part of its registers; a combinational one to the part whose
-    # values it reads if one part's only (so that a value passes to another part where it is
-    # narrowest: the encoder's quadrature lines, not the plant's position), else to its
-    # module's part (that of the nearest module above it with registers, for one without).
+    # values it reads if one part's only, the inputs' part aside (so that a value passes to
+    # another part where it is narrowest: the encoder's quadrature lines, not the plant's
+    # position), else to its module's part (that of the nearest module above it with
+    # registers, for one without).
     # Which part a statement is in matters for speed only: the readers of what it reads follow.
     part_of: dict[str, int] = {}
     masks = []
-    for (edge, defines, _), target, read in zip(units, targets, reads, strict=True):
-        if edge == "pos":
+    for i, ((edge, defines, _), target, read) in enumerate(zip(units, targets, reads,
+                                                                 strict=True)):
+        if i in driven:
+            mask = inputs_part
+        elif edge == "pos":
             mask = owner[min(target)]
         else:
             sources = {part_of.get(name, owner.get(name)) for name in read} - {None}
+            if len(sources - {inputs_part}) == 1:
+                sources -= {inputs_part}
             module = _module(min(defines), paths)
             above = [k for k in range(len(module), -1, -1) if module[:k] in parts]
             mask = (sources.pop() if len(sources) == 1 else
@@ -429,6 +441,23 @@ def rise_eval(cxx: str) -> RiseEval | None:
             f"\tuint64_t dirty = k37_dirty;\n\tk37_dirty = dirty & {FALL:#x}u;\n" + body +
             "\tk37_ran = dirty;\n\treturn converged;\n")
     return RiseEval(body, members, owner, touches, readers)
+
+
+def _input_driven(cxx: str, units: list[tuple[str, set[str], str]], targets: list[set[str]],
+                  reads: list[set[str]]) -> set[int]:
+    """The units (by index) whose values follow the input ports alone: every value of the
+    design that they read is an input or a value of such a unit (a register whose next value
+    reads no state: a fault input's sampling register, a bus register bank's write strobe; a
+    combinational copy or limit of a parameter). Kept in a part of their own, they run when an
+    input changes, not whenever a register of their module does."""
+    inputs = set(_declared(cxx, "input"))
+    driven: set[int] = set()
+    for i, ((_, defines, _), target, read) in enumerate(zip(units, targets, reads, strict=True)):
+        values = {name for name in read if re.match(r"[pi]_", name)} - defines
+        if values <= inputs:
+            driven.add(i)
+            inputs |= defines | target
+    return driven
 
 
 def _grouped(units: list[tuple[set[str], set[str]]], masks: list[int]) -> list[int]:
