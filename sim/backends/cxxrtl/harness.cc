@@ -14,6 +14,7 @@
 #include <cxxrtl/cxxrtl_vcd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <memory>
@@ -542,6 +543,29 @@ struct PlantState {
 	bool offset_keeps(i128 offset) const {
 		return offset >= 0 && offset < (i128(1) << frac_bits);
 	}
+	// On a monotonic stretch of steps where step `good` keeps the count and step `bad` does
+	// not, move both towards the last step that keeps it, from where the offset's quadratic
+	// crosses the bound it leaves by (rounded, then checked exactly: only a bracket of
+	// checked steps is kept).
+	void narrow(int64_t s, uint64_t &good, uint64_t &bad) const {
+		bool above = offset_after(s, bad) >= (i128(1) << frac_bits);
+		double bound = above ? double(int64_t(1) << frac_bits) : 0.0;
+		// s/2 j^2 + (v + s/2) j + (offset now - bound) = 0
+		double a = 0.5 * double(s), b = double(v) + 0.5 * double(s);
+		double c = double(position - low) - bound;
+		double disc = b * b - 4 * a * c;
+		if (disc < 0)
+			return;
+		for (double root : {(-b + std::sqrt(disc)) / (2 * a), (-b - std::sqrt(disc)) / (2 * a)}) {
+			if (!(root > double(good) && root < double(bad) + 1))
+				continue;
+			uint64_t j = uint64_t(root);  // the real crossing lies after step j
+			for (uint64_t k : {j - 1, j, j + 1})
+				if (k > good && k < bad)
+					(offset_keeps(offset_after(s, k)) ? good : bad) = k;
+			return;
+		}
+	}
 	// Of n ramp steps of s, how many keep the count (every one up to that point does): the
 	// offset is a quadratic in the steps taken, monotonic on each side of its vertex.
 	uint64_t ramp_keeps(int64_t s, uint64_t n) const {
@@ -557,6 +581,7 @@ struct PlantState {
 				return lo - 1;
 			if (!offset_keeps(offset_after(s, hi))) {
 				uint64_t good = lo, bad = hi;
+				narrow(s, good, bad);
 				while (bad - good > 1) {
 					uint64_t mid = good + (bad - good) / 2;
 					(offset_keeps(offset_after(s, mid)) ? good : bad) = mid;
