@@ -411,7 +411,7 @@ def test_a_rising_edge_runs_a_part_only_when_what_it_reads_changed():
     are read by the plants alone: an encoder reads its plant through the quadrature lines,
     compared after the plant's statements, and the K3701 not at all. What follows the inputs
     alone (the plants' fault sampling, their speed limit) has a part of its own, which a
-    move does not run."""
+    move does not run; so has a plant's velocity command, which follows the DAC."""
     system = make_backend(System(), "cxxrtl")
     cxx = (system.model.path.parent / "design.cc").read_text()
     system.close()
@@ -440,6 +440,10 @@ def test_a_rising_edge_runs_a_part_only_when_what_it_reads_changed():
     assert rising.touches["p_x____glitch__a"] & inputs and not rising.touches["p_x____vmax"] & plant
     assert not any(rising.readers[name] & inputs for name in rising.readers
                    if rising.owner.get(name) == plant)
+    command = {int(guard, 16) for guard, block in re.findall(
+        r"if \(dirty & (0x[0-9a-f]+)u\) \{\n(.*?)\n\t\}\n", rising.body, re.S)
+        if "p_x____dac" in block}
+    assert command and not command & {plant, encoder, k3701, inputs}
 
 
 def test_a_skip_decision_evaluates_its_own_signals_alone_as_a_settle_would():

@@ -338,19 +338,20 @@ def rise_eval(cxx: str) -> RiseEval | None:
     The statements that the posedge registers' next values read, transitively (as
     :func:`fall_eval`: not those that only the output ports, the negedge registers or nothing
     read), are split into parts: those of one module of the hierarchy (coarser modules if there
-    are more than :data:`PARTS`), and those that follow the inputs alone (:func:`_input_driven`).
-    Each runs under ``if (dirty & part)``. Every value a statement
-    computes is kept between calls (``eval()``'s locals become members), so a statement whose
-    inputs are unchanged since it last ran still holds its value, and a part whose registers,
-    inputs and values read from other parts are unchanged computes the next values it computed
-    then, which its registers still hold (a commit copies next to current and leaves next as it
-    is): it need not run. So a part runs if the commits marked it (the readers of each wire
-    that changed, :func:`design_main`), the harness did (the readers of what it writes), or a
-    part before it in this evaluation changed a combinational value it reads (each such value
-    is compared with its last value after the part that computes it). The harness treats the
-    combinational values as stale after an edge anyway. None where :func:`fall_eval` is, or
-    where ``eval()`` writes a combinational wire's next value (a commit counts its changes) or
-    needs more than one evaluation: then eval() serves, whole."""
+    are more than :data:`PARTS`), those that follow the inputs alone (:func:`_input_driven`),
+    and per module those of its values that read none of its part's. Each runs under
+    ``if (dirty & part)``. Every value a statement computes is kept between calls (``eval()``'s
+    locals become members), so a statement whose inputs are unchanged since it last ran still
+    holds its value, and a part whose registers, inputs and values read from other parts are
+    unchanged computes the next values it computed then, which its registers still hold (a
+    commit copies next to current and leaves next as it is): it need not run. So a part runs if
+    the commits marked it (the readers of each wire that changed, :func:`design_main`), the
+    harness did (the readers of what it writes), or a part before it in this evaluation changed
+    a combinational value it reads (each such value is compared with its last value after the
+    part that computes it). The harness treats the combinational values as stale after an edge
+    anyway. None where :func:`fall_eval` is, or where ``eval()`` writes a combinational wire's
+    next value (a commit counts its changes) or needs more than one evaluation: then eval()
+    serves, whole."""
     parsed = _eval_units(cxx)
     if parsed is None:
         return None
@@ -377,10 +378,13 @@ def rise_eval(cxx: str) -> RiseEval | None:
     # values it reads if one part's only, the inputs' part aside (so that a value passes to
     # another part where it is narrowest: the encoder's quadrature lines, not the plant's
     # position), else to its module's part (that of the nearest module above it with
-    # registers, for one without).
+    # registers, for one without) if it reads a value of that part, else to a part set aside
+    # for such values of the module (while bits last): a plant's velocity command follows the
+    # DAC and the commands, and its position's part need not compute it at every cycle.
     # Which part a statement is in matters for speed only: the readers of what it reads follow.
     part_of: dict[str, int] = {}
     masks = []
+    aside: dict[int, int] = {}  # a module's part: the part of its values that read no state of it
     for i, ((edge, defines, _), target, read) in enumerate(zip(units, targets, reads,
                                                                  strict=True)):
         if i in driven:
@@ -393,8 +397,13 @@ def rise_eval(cxx: str) -> RiseEval | None:
                 sources -= {inputs_part}
             module = _module(min(defines), paths)
             above = [k for k in range(len(module), -1, -1) if module[:k] in parts]
-            mask = (sources.pop() if len(sources) == 1 else
-                    1 << parts.index(module[:above[0]]) if above else 1)
+            home = 1 << parts.index(module[:above[0]]) if above else 1
+            if len(sources) == 1:
+                mask = sources.pop()
+            elif home in sources or (home not in aside and len(parts) + len(aside) >= PARTS - 1):
+                mask = home
+            else:
+                mask = aside.setdefault(home, inputs_part << (len(aside) + 1))
         masks.append(mask)
         part_of.update(dict.fromkeys(defines, mask))
     needs: dict[str, int] = {}
