@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from amaranth.hdl import Module
+from amaranth.hdl import Const, Module, Mux
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
@@ -73,7 +73,9 @@ class StepLatency(wiring.Component):
             m.d.sync += self.count.eq(self.count - 1)
         m.d.comb += [self.zero.eq(self.count == 0), self.last.eq(self.count == 1)]
         for i, (latency, stages) in enumerate(zip(self.latencies, self.stages, strict=True)):
+            # Bit s of 2^(L - 1) >> count is set when count is L - 1 - s: one shift decodes
+            # every stage (a compiled simulation evaluates one statement, not one per stage).
+            window = (Const(1 << (latency - 1), latency) >> self.count)[:stages]
             m.d.comb += [self.advance[i].eq(self.running[i] & self.last),
-                         *(self.stage[i][s].eq(self.running[i] & (self.count == latency - 1 - s))
-                           for s in range(stages))]
+                         self.stage[i].eq(Mux(self.running[i], window, 0))]
         return m
