@@ -80,9 +80,11 @@ unsigned k37_rm_selected_bit(uint64_t state, unsigned width) {
 // UINT64_MAX if `word` is 0.
 uint64_t k37_rm_clocks_before_pulse(uint64_t count, uint64_t word, unsigned width) {
 	uint64_t first = count + 1, clocks = UINT64_MAX;
-	for (unsigned t = 0; t < width; t++)
-		if (word >> (width - 1 - t) & 1)
-			clocks = std::min(clocks, ((uint64_t(1) << t) - 1 - first) & ((uint64_t(2) << t) - 1));
+	uint64_t bits = width < 64 ? word & ((uint64_t(1) << width) - 1) : word;
+	for (; bits; bits &= bits - 1) {
+		unsigned t = width - 1 - unsigned(__builtin_ctzll(bits));  // word bit width - 1 - t
+		clocks = std::min(clocks, ((uint64_t(1) << t) - 1 - first) & ((uint64_t(2) << t) - 1));
+	}
 	return clocks;
 }
 
@@ -405,10 +407,18 @@ void write_state(Model &m, size_t index, uint64_t value) {
 using u128 = unsigned __int128;
 using i128 = __int128;
 
+// a / b truncated, as C++ divides (b != 0): in 64 bits where both fit (the common case; a
+// 128-bit division is a library call).
+inline i128 div(i128 a, i128 b) {
+	if (a == int64_t(a) && b == int64_t(b) && !(int64_t(a) == INT64_MIN && b == -1))
+		return int64_t(a) / int64_t(b);
+	return a / b;
+}
+
 // a / b rounded up (b > 0).
 i128 ceil_div(i128 a, i128 b) {
-	i128 q = a / b;
-	return q + (a % b > 0 ? 1 : 0);
+	i128 q = div(a, b);
+	return q + (a - q * b > 0 ? 1 : 0);
 }
 
 int64_t sign_extend(uint64_t raw, size_t width) {
@@ -433,7 +443,8 @@ uint64_t cycles_within(Model &m, const Accumulator &acc, uint64_t safe) {
 		return UINT64_MAX;
 	// Strobes seen in k cycles: s0 + floor((phase + (k - 1) inc) / 2^w) <= safe.
 	u128 limit = (u128(safe - s0 + 1) << acc.width) - read_u64(m, acc.phase);
-	u128 cycles = (limit + inc - 1) / inc;
+	u128 top = limit + inc - 1;
+	u128 cycles = top >> 64 ? top / inc : uint64_t(top) / uint64_t(inc);
 	return cycles < UINT64_MAX ? uint64_t(cycles) : UINT64_MAX;
 }
 
@@ -530,11 +541,11 @@ struct PlantState {
 		i128 e = i128(vc) - v, scale = i128(1) << alpha_bits, half = scale >> 1;
 		if (s > 0) {  // e * alpha + half >= s * 2^bits: e >= e_min
 			i128 e_min = ceil_div(i128(s) * scale - half, alpha);
-			return uint64_t((e - e_min) / s) + 1;
+			return uint64_t(div(e - e_min, s)) + 1;
 		}
 		// e * alpha + half < (s + 1) * 2^bits: e <= e_max
 		i128 e_max = ceil_div((i128(s) + 1) * scale - half, alpha) - 1;
-		return uint64_t((e_max - e) / -s) + 1;
+		return uint64_t(div(e_max - e, -i128(s))) + 1;
 	}
 	// The position's offset in its count after j ramp steps of s.
 	i128 offset_after(int64_t s, uint64_t j) const {
@@ -570,7 +581,7 @@ struct PlantState {
 	// offset is a quadratic in the steps taken, monotonic on each side of its vertex.
 	uint64_t ramp_keeps(int64_t s, uint64_t n) const {
 		// vertex of j v + s j (j + 1) / 2: j* = -v / s - 1/2; split [1, n] there
-		i128 vertex = -i128(v) / s;
+		i128 vertex = div(-i128(v), s);
 		uint64_t split = vertex < 1 ? 0 : vertex >= i128(n) ? n : uint64_t(vertex);
 		uint64_t lo = 1;
 		for (uint64_t hi : {split, n}) {
