@@ -159,7 +159,8 @@ struct Countdown {
 
 // A servo plant (sim/machine/plant.py), stepped natively while it moves within one encoder count:
 // v += round((vc - v) alpha / 2^alpha_bits), or v = vc if that rounds to 0 (0 if stalled);
-// before += v; the count is (before + v) >> frac_bits. Skips stop before a count changes.
+// before += v; the count is (before + v) >> frac_bits. A skip ends with the cycle that changes
+// a count.
 struct Plant {
 	size_t velocity, before, dac, dac_zero, gain, alpha, vmax, stall;  // item indices
 	unsigned vc_bits, alpha_bits, frac_bits;
@@ -609,13 +610,17 @@ struct PlantState {
 	}
 };
 
-// Step the plants natively for up to `limit` cycles, stopping before any count would change,
-// and return the cycles stepped (their state written). Exact, and in pieces: while every
-// velocity is steady, in closed form; while each ramps (v += s every cycle for a constant
-// rounded step s), piece by piece, the position a quadratic in the cycles; a cycle that lands
-// a velocity, one at a time. `resume`: the plants' states are those the last call left (a
-// skip going on past a sample), not read again from the model.
-uint64_t advance_plants(Model &m, uint64_t limit, bool resume) {
+// Step the plants natively for up to `limit` cycles, up to and including the first cycle
+// that changes a count (then `crossed`), and return the cycles stepped (their state written).
+// That cycle is the skip's last: what reads a plant (its encoder lines, its count) reads the
+// position before the cycle's update, still in the old count, and the new count is first
+// read by the next cycle, which is evaluated. Exact, and in pieces: while every velocity is
+// steady, in closed form; while each ramps (v += s every cycle for a constant rounded step
+// s), piece by piece, the position a quadratic in the cycles; a cycle that lands a velocity,
+// one at a time. `resume`: the plants' states are those the last call left (a skip going on
+// past a sample), not read again from the model.
+uint64_t advance_plants(Model &m, uint64_t limit, bool resume, bool &crossed) {
+	crossed = false;
 	if (m.plants.empty() || limit == 0)
 		return limit;
 	std::vector<PlantState> &states = m.plant_states;
@@ -676,6 +681,12 @@ uint64_t advance_plants(Model &m, uint64_t limit, bool resume) {
 		k += keep;
 		if (keep < run)
 			break;  // the next cycle changes a count
+	}
+	if (k < limit) {  // stopped before a cycle that changes a count: step it, the last
+		for (PlantState &s : states)
+			s.take(s.next_v());
+		k++;
+		crossed = true;
 	}
 	for (size_t i = 0; i < states.size(); i++) {
 		const Plant &p = m.plants[i];
@@ -745,6 +756,7 @@ uint64_t try_skip(Model &m, unsigned flags, uint64_t rest, const Item *watch = n
 	// The cycles to the free-running state's next event: computed once, as the skip's samples
 	// change nothing it depends on.
 	uint64_t horizon = 0;
+	bool crossed = false;  // a plant's count changed in the last cycle skipped
 	while (skipped < rest) {
 		uint64_t to_sample = m.recorder.next - m.cycle;
 		uint64_t run = std::min(rest - skipped, to_sample);
@@ -755,7 +767,7 @@ uint64_t try_skip(Model &m, unsigned flags, uint64_t rest, const Item *watch = n
 					break;
 				horizon = event_horizon(m);
 			}
-			run = advance_plants(m, std::min(run, horizon), skipped != 0);
+			run = advance_plants(m, std::min(run, horizon), skipped != 0, crossed);
 			if (run == 0)
 				break;
 			advance_free(m, run);
@@ -765,8 +777,8 @@ uint64_t try_skip(Model &m, unsigned flags, uint64_t rest, const Item *watch = n
 		m.skipped += run;
 		skipped += run;
 		count_cycles(m, run);
-		if (run < to_sample)
-			break;  // an event of the free-running state comes next, or the skip is done
+		if (run < to_sample || crossed)
+			break;  // an event comes next (a count read, or the free-running state's), or done
 	}
 	return skipped;
 }
