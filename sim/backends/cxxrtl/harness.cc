@@ -410,7 +410,7 @@ using i128 = __int128;
 
 // a / b truncated, as C++ divides (b != 0): in 64 bits where both fit (the common case; a
 // 128-bit division is a library call).
-inline i128 div(i128 a, i128 b) {
+inline i128 quotient(i128 a, i128 b) {
 	if (a == int64_t(a) && b == int64_t(b) && !(int64_t(a) == INT64_MIN && b == -1))
 		return int64_t(a) / int64_t(b);
 	return a / b;
@@ -418,7 +418,7 @@ inline i128 div(i128 a, i128 b) {
 
 // a / b rounded up (b > 0).
 i128 ceil_div(i128 a, i128 b) {
-	i128 q = div(a, b);
+	i128 q = quotient(a, b);
 	return q + (a - q * b > 0 ? 1 : 0);
 }
 
@@ -542,11 +542,11 @@ struct PlantState {
 		i128 e = i128(vc) - v, scale = i128(1) << alpha_bits, half = scale >> 1;
 		if (s > 0) {  // e * alpha + half >= s * 2^bits: e >= e_min
 			i128 e_min = ceil_div(i128(s) * scale - half, alpha);
-			return uint64_t(div(e - e_min, s)) + 1;
+			return uint64_t(quotient(e - e_min, s)) + 1;
 		}
 		// e * alpha + half < (s + 1) * 2^bits: e <= e_max
 		i128 e_max = ceil_div((i128(s) + 1) * scale - half, alpha) - 1;
-		return uint64_t(div(e_max - e, -i128(s))) + 1;
+		return uint64_t(quotient(e_max - e, -i128(s))) + 1;
 	}
 	// The position's offset in its count after j ramp steps of s.
 	i128 offset_after(int64_t s, uint64_t j) const {
@@ -582,7 +582,7 @@ struct PlantState {
 	// offset is a quadratic in the steps taken, monotonic on each side of its vertex.
 	uint64_t ramp_keeps(int64_t s, uint64_t n) const {
 		// vertex of j v + s j (j + 1) / 2: j* = -v / s - 1/2; split [1, n] there
-		i128 vertex = div(-i128(v), s);
+		i128 vertex = quotient(-i128(v), s);
 		uint64_t split = vertex < 1 ? 0 : vertex >= i128(n) ? n : uint64_t(vertex);
 		uint64_t lo = 1;
 		for (uint64_t hi : {split, n}) {
