@@ -28,7 +28,7 @@ from hdl.hostbus import HostBus, RegisterBank
 from hdl.observation import FreeRunning
 from hdl.registers import Access, Register, RegisterMap
 from sim.backends.contract import Backend
-from sim.backends.cxxrtl import build
+from sim.backends.cxxrtl import build, codegen
 from sim.backends.cxxrtl.backend import CxxrtlBackend
 from sim.backends.cxxrtl.codegen import edge_wires, fall_eval, rise_eval, skip_eval
 from sim.backends.design import component_ports
@@ -444,6 +444,24 @@ def test_a_rising_edge_runs_a_part_only_when_what_it_reads_changed():
         r"if \(dirty & (0x[0-9a-f]+)u\) \{\n(.*?)\n\t\}\n", rising.body, re.S)
         if "p_x____dac" in block}
     assert command and not command & {plant, encoder, k3701, inputs}
+
+
+def test_only_statements_that_read_inputs_alone_count_as_input_driven():
+    """codegen._input_driven: a copy of an input, a register sampling it and what reads only
+    that register follow the inputs; a statement that reads a memory (state, whatever its
+    name) or a register with state of its own does not."""
+    cxx = ("\t/*input*/ value<1> p_a;\n\twire<1> p_r;\n\twire<1> p_s;\n"
+           "\tmemory<1> memory_p_m { 4u };\n")
+    units = [("", {"i_x"}, "\ti_x = not_u<1>(p_a);\n"),
+             ("pos", set(), "\tif (posedge_p_clk) {\n\t\tp_r.next = i_x;\n\t}\n"),
+             ("", {"i_y"}, "\ti_y = memory_p_m[0];\n"),
+             ("", {"i_z"}, "\ti_z = and_uu<1>(p_r.curr, p_a);\n"),
+             ("pos", set(), "\tif (posedge_p_clk) {\n\t\tp_s.next = not_u<1>(p_s.curr);\n\t}\n"),
+             ("", {"i_w"}, "\ti_w = or_uu<1>(p_s.curr, p_a);\n")]
+    targets = [set(re.findall(r"\b(\w+)\.next = ", text)) for *_, text in units]
+    reads = [set(re.findall(r"\b[A-Za-z_]\w*\b", re.sub(r"\b\w+\.next = ", "", text)))
+             for *_, text in units]
+    assert codegen._input_driven(cxx, units, targets, reads) == {0, 1, 3}
 
 
 def test_a_skip_decision_evaluates_its_own_signals_alone_as_a_settle_would():

@@ -458,12 +458,16 @@ def _input_driven(cxx: str, units: list[tuple[str, set[str], str]], targets: lis
     design that they read is an input or a value of such a unit (a register whose next value
     reads no state: a fault input's sampling register, a bus register bank's write strobe; a
     combinational copy or limit of a parameter). Kept in a part of their own, they run when an
-    input changes, not whenever a register of their module does."""
+    input changes, not whenever a register of their module does. A value is a name the C++
+    declares as a wire, a value or a memory (a member or a local), or one named as CXXRTL names
+    them (``p_``, ``i_``, ``memory_``)."""
+    declared = set(re.findall(rf"\b(?:wire|value|memory)<\d+> ({_CXX_NAME})\b", cxx))
     inputs = set(_declared(cxx, "input"))
     driven: set[int] = set()
     for i, ((_, defines, _), target, read) in enumerate(zip(units, targets, reads, strict=True)):
-        values = {name for name in read if re.match(r"[pi]_", name)} - defines
-        if values <= inputs:
+        values = {name for name in read if name in declared or
+                  re.match(r"(?:p|i|memory)_", name)}
+        if values - defines <= inputs:
             driven.add(i)
             inputs |= defines | target
     return driven
