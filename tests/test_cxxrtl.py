@@ -424,10 +424,11 @@ def test_a_rising_edge_runs_a_part_only_when_what_it_reads_changed():
     assert len(set(rising.owner.values())) > 10 and len({plant, encoder, k3701}) == 3
     for register in ("p_plant__x_2e_before", "p_plant__x_2e_velocity"):
         assert rising.readers[register] == plant
+    blocks = [(int(guard, 16), block) for guard, block in re.findall(
+        r"if \(dirty & (0x[0-9a-f]+)u\) \{\n(.*?)\n\t\}\n", rising.body, re.S)]
     passed = []  # (the part that computes a value, the value, the parts it marks)
-    for guard, block in re.findall(r"if \(dirty & (0x[0-9a-f]+)u\) \{\n(.*?)\n\t\}\n",
-                                   rising.body, re.S):
-        passed += [(int(guard, 16), name, int(mask, 16)) for name, mask in re.findall(
+    for guard, block in blocks:
+        passed += [(guard, name, int(mask, 16)) for name, mask in re.findall(
             r"k37_take\(k37_was_(\w+), \w+\)\) dirty \|= (0x[0-9a-f]+)u", block)]
     lines = {name for source, name, marks in passed if source == plant and marks & encoder}
     assert lines == {f"p_chipset_2e_encoder__x_2e_{line}" for line in ("a", "a__n", "b", "b__n")}
@@ -440,9 +441,7 @@ def test_a_rising_edge_runs_a_part_only_when_what_it_reads_changed():
     assert rising.touches["p_x____glitch__a"] & inputs and not rising.touches["p_x____vmax"] & plant
     assert not any(rising.readers[name] & inputs for name in rising.readers
                    if rising.owner.get(name) == plant)
-    command = {int(guard, 16) for guard, block in re.findall(
-        r"if \(dirty & (0x[0-9a-f]+)u\) \{\n(.*?)\n\t\}\n", rising.body, re.S)
-        if "p_x____dac" in block}
+    command = {guard for guard, block in blocks if "p_x____dac" in block}
     assert command and not command & {plant, encoder, k3701, inputs}
 
 
@@ -458,10 +457,7 @@ def test_only_statements_that_read_inputs_alone_count_as_input_driven():
              ("", {"i_z"}, "\ti_z = and_uu<1>(p_r.curr, p_a);\n"),
              ("pos", set(), "\tif (posedge_p_clk) {\n\t\tp_s.next = not_u<1>(p_s.curr);\n\t}\n"),
              ("", {"i_w"}, "\ti_w = or_uu<1>(p_s.curr, p_a);\n")]
-    targets = [set(re.findall(r"\b(\w+)\.next = ", text)) for *_, text in units]
-    reads = [set(re.findall(r"\b[A-Za-z_]\w*\b", re.sub(r"\b\w+\.next = ", "", text)))
-             for *_, text in units]
-    assert codegen._input_driven(cxx, units, targets, reads) == {0, 1, 3}
+    assert codegen._input_driven(cxx, units, *codegen._targets_and_reads(units)) == {0, 1, 3}
 
 
 def test_a_skip_decision_evaluates_its_own_signals_alone_as_a_settle_would():

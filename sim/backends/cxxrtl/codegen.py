@@ -359,9 +359,7 @@ def rise_eval(cxx: str) -> RiseEval | None:
     kept = set(_needed([(edge == "pos", defines, text) for edge, defines, text in units
                         if edge != "neg"], set())[0])
     units = [unit for unit in units if unit[0] != "neg" and unit[2] in kept]
-    targets = [set(re.findall(rf"\b({_CXX_NAME})\.next = ", text)) for _, _, text in units]
-    reads = [set(re.findall(rf"\b{_CXX_NAME}\b", re.sub(rf"\b{_CXX_NAME}\.next = ", "", text)))
-             for _, _, text in units]
+    targets, reads = _targets_and_reads(units)
     driven = _input_driven(cxx, units, targets, reads)
     paths = _hdl_paths(cxx)
     registers = {name: _module(name, paths) for i, target in enumerate(targets)
@@ -450,6 +448,15 @@ def rise_eval(cxx: str) -> RiseEval | None:
             f"\tuint64_t dirty = k37_dirty;\n\tk37_dirty = dirty & {FALL:#x}u;\n" + body +
             "\tk37_ran = dirty;\n\treturn converged;\n")
     return RiseEval(body, members, owner, touches, readers)
+
+
+def _targets_and_reads(units: list[tuple[str, set[str], str]]
+                       ) -> tuple[list[set[str]], list[set[str]]]:
+    """Per unit, the registers whose next values it writes and every name it reads."""
+    targets = [set(re.findall(rf"\b({_CXX_NAME})\.next = ", text)) for _, _, text in units]
+    reads = [set(re.findall(rf"\b{_CXX_NAME}\b", re.sub(rf"\b{_CXX_NAME}\.next = ", "", text)))
+             for _, _, text in units]
+    return targets, reads
 
 
 def _input_driven(cxx: str, units: list[tuple[str, set[str], str]], targets: list[set[str]],
