@@ -719,6 +719,18 @@ def test_a_remembered_design_is_forgotten_when_what_makes_its_model_changes(monk
     assert build.find_design(key) is None
 
 
+@pytest.mark.parametrize("maker", ["build.py", "codegen.py", "words.h", "harness.cc"])
+def test_a_models_cache_key_changes_with_what_makes_it(monkeypatch, maker):
+    """A model built by an older Yosys script, generator, header or harness is not reused."""
+    before = build._model_key("rtlil", "runtime", ["free"], ["reads"])
+    read, source = Path.read_text, inspect.getsource
+    monkeypatch.setattr(Path, "read_text", lambda path, *args, **kwargs: read(
+        path, *args, **kwargs) + ("//" if path.name == maker else ""))
+    monkeypatch.setattr(inspect, "getsource", lambda obj: source(obj) + (
+        "#" if Path(getattr(obj, "__file__", "")).name == maker else ""))
+    assert build._model_key("rtlil", "runtime", ["free"], ["reads"]) != before
+
+
 def _busy_then_idle(backend: Backend, seed: int) -> None:
     rng = random.Random(seed)
     for _ in range(30):

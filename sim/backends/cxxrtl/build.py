@@ -86,6 +86,14 @@ def _makers() -> tuple[str, str, str, str]:
             HARNESS.read_text())
 
 
+def _model_key(rtlil_text: str, runtime_key: str, free: Sequence[str],
+               reads: Sequence[str]) -> str:
+    """The cache key of a design's model: its RTLIL, the harness's object (``runtime_key``),
+    what makes the model (:func:`_makers`: this module's Yosys script among them) and what the
+    skip reads (:func:`build`'s ``free`` and ``reads``)."""
+    return sha256(rtlil_text, runtime_key, *_makers(), "\n".join(free), "\n".join(reads))
+
+
 def _index(design_key: str, compiler: str | None) -> Path:
     """Where the model of a design named by ``design_key`` is remembered, with what the
     backend would otherwise read from its RTLIL and its signals.
@@ -141,10 +149,7 @@ def build(rtlil_text: str, *, free: Sequence[str] = (), reads: Sequence[str] = (
     tools = _toolchain(compiler)
     harness = HARNESS.read_text()
     runtime_key = sha256(harness, DESIGN_MAIN, " ".join(CXX_FLAGS), tools.versions)
-    # The design's translation unit is generated (codegen.design_main): its generator and the
-    # header it includes are in the key.
-    key = sha256(rtlil_text, runtime_key, inspect.getsource(codegen), WORDS.read_text(),
-                 "\n".join(free), "\n".join(reads))
+    key = _model_key(rtlil_text, runtime_key, free, reads)
     root = cache_root("cxxrtl")
     library = root / key / "model.so"
     if library.exists():
