@@ -68,6 +68,34 @@ def test_cycles_per_second(benchmark, name, gcode, goal):
     if gcode is None:
         per_event = report["wall_seconds"] / _events(report) * 1e6
         _show(f"demo, {_events(report):,} events", per_event, "us/event", 0.25, False)
+        evaluated = report["cycles"] - report["skipped_cycles"]
+        print(f"demo: {evaluated:,} cycles evaluated, {evaluated / _events(report):.2f} per "
+              f"event")
+
+
+def test_an_evaluated_cycle_at_rest_bounds_the_cost_per_event(benchmark):
+    """Not a goal: the floor under the demo's cost per event. After the demo, with the axes
+    at rest, cycles are evaluated without skipping, so only the free-running clocks move;
+    the demo's evaluated cycles per event (the RTL's pipelines) times this cost is a lower
+    bound on its cost per event, before the pipelines' own work and the skips."""
+    job = demo_job()
+    backend = build_backend(job, "cxxrtl")
+    report = run_job(job, RunOptions(backend="cxxrtl"), backend).report
+    cycles = 2_000_000
+
+    costs: list[float] = []  # us per cycle
+
+    def at_rest() -> None:
+        start = time.perf_counter()
+        backend.step(cycles, skip_idle=False)
+        costs.append((time.perf_counter() - start) / cycles * 1e6)
+
+    benchmark.pedantic(at_rest, rounds=3, iterations=1)
+    backend.close()
+    floor = min(costs)
+    per_event = (report["cycles"] - report["skipped_cycles"]) / _events(report)
+    print(f"\nan evaluated cycle at rest: {floor:.4f} us; x {per_event:.2f} evaluated cycles "
+          f"per event on the demo = {floor * per_event:.3f} us per event at least (goal 0.25)")
 
 
 def test_tiny_job_with_a_warm_cache_start_to_exit(benchmark, tmp_path):
