@@ -704,6 +704,15 @@ def test_the_design_key_follows_the_parameters_and_every_source(monkeypatch, mak
     assert runner.design_key(pre) == before
 
 
+def _edit_maker(monkeypatch: pytest.MonkeyPatch, maker: str) -> None:
+    """Make the model's maker named ``maker`` (a file of sim/backends/cxxrtl) read as edited."""
+    read, source = Path.read_text, inspect.getsource
+    monkeypatch.setattr(Path, "read_text", lambda path, *args, **kwargs: read(
+        path, *args, **kwargs) + ("//" if path.name == maker else ""))
+    monkeypatch.setattr(inspect, "getsource", lambda obj: source(obj) + (
+        "#" if Path(getattr(obj, "__file__", "")).name == maker else ""))
+
+
 @pytest.mark.parametrize("maker", ["build.py", "codegen.py", "words.h", "harness.cc"])
 def test_a_remembered_design_is_forgotten_when_what_makes_its_model_changes(monkeypatch, maker):
     """A model built by an older harness or generator must not stand for the design."""
@@ -711,11 +720,7 @@ def test_a_remembered_design_is_forgotten_when_what_makes_its_model_changes(monk
     runner.build_backend(job, "cxxrtl").close()  # remembered
     key = runner.design_key(job)
     assert build.find_design(key) is not None
-    read, source = Path.read_text, inspect.getsource
-    monkeypatch.setattr(Path, "read_text", lambda path, *args, **kwargs: read(
-        path, *args, **kwargs) + ("//" if path.name == maker else ""))
-    monkeypatch.setattr(inspect, "getsource", lambda obj: source(obj) + (
-        "#" if Path(getattr(obj, "__file__", "")).name == maker else ""))
+    _edit_maker(monkeypatch, maker)
     assert build.find_design(key) is None
 
 
@@ -723,11 +728,7 @@ def test_a_remembered_design_is_forgotten_when_what_makes_its_model_changes(monk
 def test_a_models_cache_key_changes_with_what_makes_it(monkeypatch, maker):
     """A model built by an older Yosys script, generator, header or harness is not reused."""
     before = build._model_key("rtlil", "runtime", ["free"], ["reads"])
-    read, source = Path.read_text, inspect.getsource
-    monkeypatch.setattr(Path, "read_text", lambda path, *args, **kwargs: read(
-        path, *args, **kwargs) + ("//" if path.name == maker else ""))
-    monkeypatch.setattr(inspect, "getsource", lambda obj: source(obj) + (
-        "#" if Path(getattr(obj, "__file__", "")).name == maker else ""))
+    _edit_maker(monkeypatch, maker)
     assert build._model_key("rtlil", "runtime", ["free"], ["reads"]) != before
 
 
