@@ -704,6 +704,10 @@ def test_the_design_key_follows_the_parameters_and_every_source(monkeypatch, mak
     assert runner.design_key(pre) == before
 
 
+#: The files that make a compiled model (build._makers).
+MAKERS = ("build.py", "codegen.py", "words.h", "harness.cc")
+
+
 def _edit_maker(monkeypatch: pytest.MonkeyPatch, maker: str) -> None:
     """Make the model's maker named ``maker`` (a file of sim/backends/cxxrtl) read as edited."""
     read, source = Path.read_text, inspect.getsource
@@ -713,7 +717,7 @@ def _edit_maker(monkeypatch: pytest.MonkeyPatch, maker: str) -> None:
         "#" if Path(getattr(obj, "__file__", "")).name == maker else ""))
 
 
-@pytest.mark.parametrize("maker", ["build.py", "codegen.py", "words.h", "harness.cc"])
+@pytest.mark.parametrize("maker", MAKERS)
 def test_a_remembered_design_is_forgotten_when_what_makes_its_model_changes(monkeypatch, maker):
     """A model built by an older harness or generator must not stand for the design."""
     job = demo_job()
@@ -724,7 +728,7 @@ def test_a_remembered_design_is_forgotten_when_what_makes_its_model_changes(monk
     assert build.find_design(key) is None
 
 
-@pytest.mark.parametrize("maker", ["build.py", "codegen.py", "words.h", "harness.cc"])
+@pytest.mark.parametrize("maker", MAKERS)
 def test_a_models_cache_key_changes_with_what_makes_it(monkeypatch, maker):
     """A model built by an older Yosys script, generator, header or harness is not reused."""
     before = build._model_key("rtlil", "runtime", ["free"], ["reads"])
