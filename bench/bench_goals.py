@@ -40,6 +40,11 @@ def _events(report: dict) -> int:
     return fp + 2 * steps
 
 
+def _evaluated_per_event(report: dict) -> float:
+    """The cycles a run evaluated (not skipped) per event."""
+    return (report["cycles"] - report["skipped_cycles"]) / _events(report)
+
+
 def _timed_run(job: Job) -> dict:
     backend = build_backend(job, "cxxrtl")  # built (or loaded) outside the timing
     report = run_job(job, RunOptions(backend="cxxrtl"), backend).report
@@ -68,9 +73,8 @@ def test_cycles_per_second(benchmark, name, gcode, goal):
     if gcode is None:
         per_event = report["wall_seconds"] / _events(report) * 1e6
         _show(f"demo, {_events(report):,} events", per_event, "us/event", 0.25, False)
-        evaluated = report["cycles"] - report["skipped_cycles"]
-        print(f"demo: {evaluated:,} cycles evaluated, {evaluated / _events(report):.2f} per "
-              f"event")
+        print(f"demo: {report['cycles'] - report['skipped_cycles']:,} cycles evaluated, "
+              f"{_evaluated_per_event(report):.2f} per event")
 
 
 def test_an_evaluated_cycle_at_rest_bounds_the_cost_per_event(benchmark):
@@ -93,7 +97,7 @@ def test_an_evaluated_cycle_at_rest_bounds_the_cost_per_event(benchmark):
     benchmark.pedantic(at_rest, rounds=3, iterations=1)
     backend.close()
     floor = min(costs)
-    per_event = (report["cycles"] - report["skipped_cycles"]) / _events(report)
+    per_event = _evaluated_per_event(report)
     print(f"\nan evaluated cycle at rest: {floor:.4f} us; x {per_event:.2f} evaluated cycles "
           f"per event on the demo = {floor * per_event:.3f} us per event at least (goal 0.25)")
 
