@@ -14,8 +14,8 @@ from amaranth.hdl import Module, Mux, Signal, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out, connect, flipped
 
-from hdl.hostbus import HostBus, RegisterBank
-from hdl.registers import Access, Register, RegisterMap
+from hdl.bus.hostbus import HostBus, RegisterBank
+from hdl.bus.registers import Access, Register, RegisterMap
 from sim.backends.contract import Backend
 from sim.backends.cxxrtl.backend import CxxrtlBackend
 from sim.backends.pysim import PysimBackend

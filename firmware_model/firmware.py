@@ -28,16 +28,16 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
-from firmware_model.gcode import Dwell, Event, Item, Line, Program
+from firmware_model.gcode.parser import Dwell, Event, Item, Line, Program
+from firmware_model.gcode.program import Move
 from firmware_model.host import Host8085
 from firmware_model.job import Job, MachineConfig
-from firmware_model.program import Move
-from hdl.chipset_map import chip_register, port
-from hdl.decel_control_model import BUDGET_WIDTH
-from hdl.divider_model import increment_for
-from hdl.feed_rate_map import DIVIDER_WIDTH, FEED_BITS
-from hdl.k3701_datapath_model import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
-from hdl.k3701_map import block_registers
+from hdl.chipset.map import chip_register, port
+from hdl.feed.decel_control_model import BUDGET_WIDTH
+from hdl.feed.divider_model import increment_for
+from hdl.feed.feed_rate_map import DIVIDER_WIDTH, FEED_BITS
+from hdl.k3701.block import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
+from hdl.k3701.map import block_registers
 
 __all__ = ["AlarmEvent", "BlockObserver", "BlockRecord", "EventRecord", "Firmware",
            "FirmwareError", "check_program", "feed_word", "max_feed_mm_min",
@@ -93,7 +93,7 @@ class AlarmEvent:
 
 @dataclass
 class EventRecord:
-    """A word with no hardware here (:class:`firmware_model.gcode.Event`) and the cycle the
+    """A word with no hardware here (:class:`firmware_model.gcode.parser.Event`) and the cycle the
     firmware reached it at."""
 
     event: Event

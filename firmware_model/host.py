@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from firmware_model.link import ChipsetLink, Interrupts
-from hdl.chipset_map import chip_register, port
+from hdl.chipset.map import chip_register, port
 
 __all__ = ["T_STATES", "Host8085", "HostTiming"]
 

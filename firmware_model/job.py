@@ -5,8 +5,8 @@ G-code), or is built here: :func:`demo_job` (the paper's circle) and :func:`gcod
 program on the default machine).
 
 Every :class:`MachineConfig` value is checked when it is built, against the limit of the block
-that has it: the chipset's accel/decel widths and placements (:mod:`hdl.chipset`), the
-feed-rate generator's divider (:func:`hdl.divider_model.rate_limit`), the chips' register
+that has it: the chipset's accel/decel widths and placements (:mod:`hdl.chipset.chip`), the
+feed-rate generator's divider (:func:`hdl.feed.divider_model.rate_limit`), the chips' register
 ranges (their register maps), the G-code front end's LSB length. A :class:`ServoConfig` holds
 the simulated plants' settings, which the firmware never sees: here only their type is
 checked; their ranges are the plant's fixed point on the machine's clock and LSB, which the
@@ -19,14 +19,14 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any, Protocol
 
-from firmware_model.canon import FRONTENDS
-from firmware_model.gcode import LSB_MM_LIMIT, GcodeError, Program
-from hdl.chipset_map import ACCEL_BITS, AXES, MACHINE_AXES, Accel, AccelShape, axis_names
-from hdl.divider_model import rate_limit
-from hdl.encoder_map import ENCODER_MAP
-from hdl.feed_rate_map import DIVIDER_WIDTH
-from hdl.k3702_map import K3702_MAP
-from hdl.limits import Limit
+from firmware_model.gcode.canon import FRONTENDS
+from firmware_model.gcode.parser import LSB_MM_LIMIT, GcodeError, Program
+from hdl.chipset.map import ACCEL_BITS, AXES, MACHINE_AXES, Accel, AccelShape, axis_names
+from hdl.common.params import Limit
+from hdl.encoder.map import ENCODER_MAP
+from hdl.feed.divider_model import rate_limit
+from hdl.feed.feed_rate_map import DIVIDER_WIDTH
+from hdl.k3702.map import K3702_MAP
 
 __all__ = ["AXES", "DEMO_GCODE", "AxisAccelConfig", "Boolean", "Job", "MachineConfig", "OneOf",
            "OrAbsent", "RunConfig", "ServoConfig", "Valid", "demo_job", "gcode_job", "moves_z",
@@ -45,7 +45,7 @@ M30
 
 
 class Valid(Protocol):
-    """The values a key takes (a :class:`hdl.limits.Limit`, or one of the classes below)."""
+    """The values a key takes (a :class:`hdl.common.params.Limit`, or one of the classes below)."""
 
     def check(self, name: str, value: Any) -> Any:
         """``value``, normalised; raises TypeError or ValueError naming ``name``."""
@@ -270,7 +270,7 @@ def gcode_job(name: str, text: str, source: str, *, frontend: str = "builtin",
               arc_tolerance: float | None = None) -> Job:
     """G-code ``text`` (``source`` names it in errors) on the default machine and servos (three
     axes if the program moves Z: :func:`parse_for_machine`), read by the front end
-    ``frontend`` (:data:`firmware_model.canon.FRONTENDS`)."""
+    ``frontend`` (:data:`firmware_model.gcode.canon.FRONTENDS`)."""
     machine, program = parse_for_machine(MachineConfig(), text, source=source,
                                          frontend=frontend, arc_tolerance=arc_tolerance)
     return Job(name, machine, dict.fromkeys(machine.axis_names, ServoConfig()), program)

@@ -5,7 +5,7 @@ drives (Glasgow's split of an abstract interface and its implementations): a bus
 read at an 8-bit port address, time passing with no bus activity, waiting for an interrupt,
 and the levels of the interrupt inputs (what the 8085's RIM instruction reads). Time is
 counted in system clock cycles. The firmware model uses nothing else, so it runs unchanged
-on any implementation: the simulated machine (:class:`sim.run.link.SimulatedLink`) or a
+on any implementation: the simulated machine (:class:`sim.run.simulated_link.SimulatedLink`) or a
 test double.
 """
 

@@ -17,7 +17,7 @@ One entry point over the command line's machinery (nothing here is a second runn
 :func:`load` is :func:`sim.run.jobfile.load_job` (plus G-code text); :func:`run` is
 :func:`sim.run.runner.run_job`; :class:`Machine` is a backend built and configured as a run
 builds it, driven through :class:`firmware_model.host.Host8085` (8085 bus timing) with the
-register maps of :data:`hdl.chipset_map.CHIP_SELECTS`.
+register maps of :data:`hdl.chipset.map.CHIP_SELECTS`.
 """
 
 from __future__ import annotations
@@ -27,12 +27,12 @@ from typing import Any
 
 from firmware_model.host import Host8085
 from firmware_model.job import Job, gcode_job
-from hdl.chipset_map import CHIP_SELECTS
+from hdl.chipset.map import CHIP_SELECTS
 from sim.backends.contract import Backend
 from sim.backends.factory import BACKEND_NAMES
 from sim.run.jobfile import load_job
-from sim.run.link import SimulatedLink
 from sim.run.runner import RunOptions, RunResult, build_backend, configure_plants, run_job
+from sim.run.simulated_link import SimulatedLink
 
 __all__ = ["Machine", "load", "run"]
 
@@ -42,7 +42,7 @@ def load(path: str | PathLike[str] | None = None, *, gcode: str | None = None,
     """The job in ``path`` (TOML, or G-code on the default machine), or the G-code text
     ``gcode`` on the default machine (named ``name``); neither: the built-in demo.
 
-    Raises :class:`sim.run.jobfile.JobError` or :class:`firmware_model.gcode.GcodeError`.
+    Raises :class:`sim.run.jobfile.JobError` or :class:`firmware_model.gcode.parser.GcodeError`.
     """
     if gcode is not None:
         if path is not None:

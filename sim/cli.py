@@ -39,7 +39,7 @@ EXIT_INTERRUPTED = 130
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from firmware_model.firmware import FirmwareError
-    from firmware_model.gcode import GcodeError
+    from firmware_model.gcode.parser import GcodeError
     from sim.run.jobfile import JobError, load_job, load_step_fault
     from sim.run.output import OutputError, add_ballbar, check_outputs, write_outputs
     from sim.run.progress import ProgressPrinter
@@ -100,7 +100,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     import json
 
     from firmware_model.firmware import FirmwareError, check_program
-    from firmware_model.gcode import GcodeError
+    from firmware_model.gcode.parser import GcodeError
     from sim.run.jobfile import JobError, load_job
     from sim.run.plan import plan_rows, plan_table
 
@@ -232,7 +232,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="k37", description="Cycle-accurate emulator of the TOKO KM3701/KM3702 NC chipset.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    from hdl.chipset_map import ALL_AXES
+    from hdl.chipset.map import ALL_AXES
     from sim.backends.factory import BACKEND_NAMES
 
     p = sub.add_parser("run", help="run a job (TOML or G-code); no job: the built-in demo")
@@ -340,7 +340,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _program_options(p: argparse.ArgumentParser) -> None:
-    from firmware_model.canon import FRONTENDS
+    from firmware_model.gcode.canon import FRONTENDS
 
     p.add_argument("--frontend", choices=list(FRONTENDS), default="builtin",
                    help="G-code front end: builtin (default), or linuxcnc (full RS-274/NGC "
@@ -351,7 +351,7 @@ def _program_options(p: argparse.ArgumentParser) -> None:
 
 
 def _tolerance(text: str) -> float:
-    from firmware_model.gcode import ARC_TOLERANCE_LIMIT
+    from firmware_model.gcode.parser import ARC_TOLERANCE_LIMIT
 
     try:
         return ARC_TOLERANCE_LIMIT.check("arc tolerance", float(text))

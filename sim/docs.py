@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from firmware_model.gcode_words import markdown as gcode_markdown
-from hdl.chipset_map import CHIP_SELECTS, REG_BITS, SUB_WINDOWS, chip_selects, port
-from hdl.registers import RegisterMap, registers_markdown
+from firmware_model.gcode.words import markdown as gcode_markdown
+from hdl.bus.registers import RegisterMap, registers_markdown
+from hdl.chipset.map import CHIP_SELECTS, REG_BITS, SUB_WINDOWS, chip_selects, port
 
 __all__ = ["REGISTER_MAPS", "documents", "registers_document"]
 

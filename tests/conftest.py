@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from firmware_model.gcode import parse
+from firmware_model.gcode.parser import parse
 from firmware_model.job import AxisAccelConfig, Job, MachineConfig, ServoConfig
 
 

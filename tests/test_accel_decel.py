@@ -10,9 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import simulate
 
-from hdl.accel_decel import AccelDecel
-from hdl.accel_decel_model import AccelDecelModel
-from hdl.divider_model import FA_INCREMENT, PhaseDividerModel, frequency_of, increment_for
+from hdl.accel.exponential import AccelDecel
+from hdl.accel.exponential_model import AccelDecelModel
+from hdl.feed.divider_model import FA_INCREMENT, PhaseDividerModel, frequency_of, increment_for
 from sim.backends.contract import CLOCK_PERIOD
 
 #: One cycle of stimulus: (positive input pulse, negative input pulse, addition pulse).

@@ -6,13 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from firmware_model.curves import MIN_VERTEX_RADIUS
 from firmware_model.firmware import FirmwareError, check_program
-from firmware_model.gcode import GcodeError, parse
+from firmware_model.gcode.curves import MIN_VERTEX_RADIUS
+from firmware_model.gcode.parser import GcodeError, parse
+from firmware_model.gcode.program import Exponential, Parabola
 from firmware_model.job import Job, MachineConfig, ServoConfig
-from firmware_model.program import Exponential, Parabola
-from hdl.k3701_datapath_model import Block, Kind
-from hdl.k3701_model import plan
+from hdl.k3701.block import Block, Kind
+from hdl.k3701.model import plan
 from sim.run.report import HOW_FIELDS
 from sim.run.runner import RunOptions, run_job
 

@@ -23,16 +23,17 @@ from hypothesis import strategies as st
 from testbench import simulate
 
 from firmware_model.job import MachineConfig, demo_job
-from hdl import chipset_map, observation
-from hdl.hostbus import HostBus, RegisterBank
-from hdl.observation import FreeRunning
-from hdl.registers import Access, Register, RegisterMap
+from hdl.bus.hostbus import HostBus, RegisterBank
+from hdl.bus.registers import Access, Register, RegisterMap
+from hdl.chipset import map as chipset_map
+from hdl.common import observation
+from hdl.common.observation import FreeRunning
 from sim.backends.contract import Backend
 from sim.backends.cxxrtl import build, codegen
 from sim.backends.cxxrtl.backend import CxxrtlBackend
 from sim.backends.cxxrtl.codegen import edge_wires, fall_eval, rise_eval, skip_eval
-from sim.backends.design import component_ports
 from sim.backends.factory import BACKENDS, make_backend
+from sim.backends.introspect import component_ports
 from sim.backends.pysim import PysimBackend
 from sim.machine.system import System
 from sim.run import runner

@@ -7,8 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import simulate
 
-from hdl.divider import PhaseDivider
-from hdl.divider_model import (
+from hdl.feed.divider import PhaseDivider
+from hdl.feed.divider_model import (
     FA_INCREMENT,
     PhaseDividerModel,
     frequency_of,

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from amaranth.back import verilog
 
-from hdl.divider import PhaseDivider
+from hdl.feed.divider import PhaseDivider
 from sim.backends.verilator.model import lint
 from sim.fpga.blocks import BLOCKS, Exportable, block
 from sim.fpga.export import CORE_WAIVERS, export_verilog, pins, verilog_text
@@ -130,7 +130,9 @@ def test_the_core_is_amaranths_verilog_unchanged():
 class BadProbes(PhaseDivider):
     """A divider that declares an observation output it does not have."""
 
-    PROBES = ("stb", "nope")
+    @property
+    def probes(self) -> tuple[str, ...]:
+        return ("stb", "nope")
 
 
 def test_a_probe_that_is_not_an_output_port_is_refused(monkeypatch):

@@ -6,7 +6,7 @@ it) is driven through its chip pins with seeded random stimulus: random host bus
 D/address//CS//RD//WR (whole registers, stray bytes, unmapped addresses, strobes while not
 selected, junk on D), random block inputs and one reset pulse. Every output pin, and D with
 its output enable, is compared cycle by cycle with the block's plain-Python reference model,
-which sees the same inputs through a bus model of :class:`hdl.hostbus.RegisterBank`.
+which sees the same inputs through a bus model of :class:`hdl.bus.hostbus.RegisterBank`.
 
 One Verilator build per block per session (and a disk cache keyed by the file's hash).
 Icarus (four-state, event-driven: it reads the file as another simulator or a synthesis tool
@@ -24,24 +24,24 @@ import pytest
 from amaranth.hdl import ClockDomain, Module
 from amaranth.sim import Simulator
 
-from hdl.accel_bell_model import AccelBellModel
-from hdl.accel_decel_model import AccelDecelModel
-from hdl.accel_linear_model import AccelLinearModel
-from hdl.chipset_map import CHIP_SELECTS, REG_BITS
-from hdl.decel_control_map import DECEL_MAP
-from hdl.decel_control_model import DecelControlModel
-from hdl.divider_model import PhaseDividerModel
-from hdl.encoder_map import ENCODER_MAP
-from hdl.encoder_model import EncoderModel
-from hdl.feed_rate_map import DIVIDER_WIDTH, FEED_MAP
-from hdl.hostbus_model import RegisterBankModel
-from hdl.k3701_datapath_model import Block, Kind
-from hdl.k3701_map import K3701_MAP, K3701_MAP_3
-from hdl.k3701_model import K3701Model
-from hdl.k3702_map import K3702_MAP
-from hdl.k3702_model import K3702Model
-from hdl.rate_multiplier_model import RateMultiplierModel
-from hdl.registers import Register, RegisterMap
+from hdl.accel.bell_model import AccelBellModel
+from hdl.accel.exponential_model import AccelDecelModel
+from hdl.accel.linear_model import AccelLinearModel
+from hdl.bus.hostbus_model import RegisterBankModel
+from hdl.bus.registers import Register, RegisterMap
+from hdl.chipset.map import CHIP_SELECTS, REG_BITS
+from hdl.encoder.map import ENCODER_MAP
+from hdl.encoder.model import EncoderModel
+from hdl.feed.decel_control_map import DECEL_MAP
+from hdl.feed.decel_control_model import DecelControlModel
+from hdl.feed.divider_model import PhaseDividerModel
+from hdl.feed.feed_rate_map import DIVIDER_WIDTH, FEED_MAP
+from hdl.feed.rate_multiplier_model import RateMultiplierModel
+from hdl.k3701.block import Block, Kind
+from hdl.k3701.map import K3701_MAP, K3701_MAP_3
+from hdl.k3701.model import K3701Model
+from hdl.k3702.map import K3702_MAP
+from hdl.k3702.model import K3702Model
 from sim.backends.verilator.model import Model, VerilatedModel, build
 from sim.fpga.blocks import BLOCKS, block
 from sim.fpga.export import pins as export_pins
@@ -62,7 +62,7 @@ def built(name: str) -> Model:
 # --- the host bus as the wrapper's pins see it -------------------------------------------------
 
 class BusModel:
-    """Byte-level :class:`~hdl.hostbus.RegisterBank`: shadows for writes, latches for reads."""
+    """Byte-level :class:`~hdl.bus.hostbus.RegisterBank`: shadows for writes, latches for reads."""
 
     def __init__(self, regmap: RegisterMap):
         self.regmap = regmap

@@ -15,9 +15,9 @@ from firmware_model.firmware import (
 )
 from firmware_model.host import T_STATES, Host8085
 from firmware_model.job import MachineConfig
-from hdl.chipset_map import port
-from hdl.feed_rate_map import FEED_BITS
-from hdl.k3701_datapath_model import Kind
+from hdl.chipset.map import port
+from hdl.feed.feed_rate_map import FEED_BITS
+from hdl.k3701.block import Kind
 
 
 class FakeLink:

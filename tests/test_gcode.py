@@ -6,9 +6,9 @@ import math
 
 import pytest
 
-from firmware_model.gcode import Arc, Dwell, GcodeError, Line, parse
-from hdl.k3701_datapath_model import COORD_MAX, Block, Kind, quadrant_of
-from hdl.k3701_model import plan
+from firmware_model.gcode.parser import Arc, Dwell, GcodeError, Line, parse
+from hdl.k3701.block import COORD_MAX, Block, Kind, quadrant_of
+from hdl.k3701.model import plan
 
 
 def moves(text: str, **kwargs) -> list[tuple[int, int]]:

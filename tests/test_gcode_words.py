@@ -8,8 +8,8 @@ import math
 import pytest
 from test_gcode import error_of
 
-from firmware_model.gcode import MAX_ERRORS, Arc, Dwell, Event, GcodeError, Line, parse
-from firmware_model.gcode_words import G_CODES, M_CODES, markdown
+from firmware_model.gcode.parser import MAX_ERRORS, Arc, Dwell, Event, GcodeError, Line, parse
+from firmware_model.gcode.words import G_CODES, M_CODES, markdown
 from firmware_model.job import gcode_job
 from sim.run.jobfile import load_job
 from sim.run.report import validate

@@ -18,9 +18,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from firmware_model.job import Job, MachineConfig, ServoConfig
-from hdl.k3701 import K3701
-from hdl.k3701_datapath_model import Block
-from hdl.k3701_map import K3701_MAP, block_registers
+from hdl.k3701.block import Block
+from hdl.k3701.chip import K3701
+from hdl.k3701.map import K3701_MAP, block_registers
 from sim.backends.cxxrtl.backend import CxxrtlBackend
 from sim.machine.plant import ServoPlant
 from sim.machine.plant_model import ALPHA_BITS, COUNT_BITS, GAIN_BITS
@@ -139,7 +139,7 @@ class LonePlant(wiring.Component):
     counts the D/A code is one step further from 0 V, so a skip that ran past a count change moves
     the plant differently."""
 
-    free_running = ServoPlant.FREE_RUNNING.under("plant").merge(quiet="quiet")
+    free_running = ServoPlant.declare().under("plant").merge(quiet="quiet")
 
     def __init__(self):
         super().__init__({"dac": In(16), "dac_zero": In(16), "gain": In(GAIN_BITS),
@@ -204,16 +204,9 @@ def test_native_plant_steps_equal_the_plants_gateware(lone_plants, phases):
     assert skipping.skipped_cycles > 0 or max(phase[-1] for phase in phases) < 1000
 
 
-class FreeK3701(K3701):
-    """The K3701 alone, with its own free-running declaration: between feed pulses (an input
-    here, changed only between calls), a skip runs the step latency count down to its step."""
-
-    free_running = K3701.FREE_RUNNING
-
-
 @pytest.fixture(scope="module")
 def lone_k3701s():
-    yield from stepped_and_skipping(FreeK3701)
+    yield from stepped_and_skipping(K3701)
 
 
 @settings(derandomize=True, max_examples=20, deadline=None)

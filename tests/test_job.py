@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from firmware_model.gcode import Arc, GcodeError, Line, parse
+from firmware_model.gcode.parser import Arc, GcodeError, Line, parse
 from firmware_model.job import (
     AXES,
     DEMO_GCODE,
@@ -21,12 +21,12 @@ from firmware_model.job import (
     ServoConfig,
     demo_job,
 )
-from hdl.chipset import Chipset
-from hdl.divider_model import increment_for
-from hdl.encoder_map import ENCODER_MAP
-from hdl.feed_rate_map import DIVIDER_WIDTH
-from hdl.k3702_map import K3702_MAP
-from hdl.limits import Limit
+from hdl.chipset.chip import Chipset
+from hdl.common.params import Limit
+from hdl.encoder.map import ENCODER_MAP
+from hdl.feed.divider_model import increment_for
+from hdl.feed.feed_rate_map import DIVIDER_WIDTH
+from hdl.k3702.map import K3702_MAP
 from sim.cli import main
 from sim.machine.plant_model import ALPHA_BITS, GAIN_BITS, VMAX_BITS, PlantParams
 from sim.run.jobfile import JobError, job_keys_markdown, load_job, plant_params, servo_limits

@@ -11,9 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import bus_write, read_reg, simulate, write_reg
 
-from hdl.k3701 import K3701
-from hdl.k3701_circular import CircularDatapath
-from hdl.k3701_datapath_model import (
+from hdl.k3701.block import (
     CIRCLE_SETUP_CYCLES,
     COORD_MAX,
     LATENCY_CIRCULAR,
@@ -23,9 +21,11 @@ from hdl.k3701_datapath_model import (
     Kind,
     quadrant_of,
 )
-from hdl.k3701_linear import LinearDatapath
-from hdl.k3701_map import K3701_MAP, block_registers
-from hdl.k3701_model import K3701Model, make_path, plan, walk
+from hdl.k3701.chip import K3701
+from hdl.k3701.datapaths.circular import CircularDatapath
+from hdl.k3701.datapaths.linear import LinearDatapath
+from hdl.k3701.map import K3701_MAP, block_registers
+from hdl.k3701.model import K3701Model, make_path, plan, walk
 from sim.reproduce.paper import table1
 
 OUTPUTS = ("x_pos", "x_neg", "y_pos", "y_neg", "busy", "irq", "error", "overrun")
@@ -490,7 +490,7 @@ def test_arcs_end_within_one_lsb_of_an_end_point_off_the_path(r, a0, a1, cw):
     radius = math.hypot(i, j)
     # Below a radius of 4 the end rule can stop 2 LSB short of a rounded end point (radii
     # sqrt(5) and sqrt(13), checked exhaustively below); the planner moves such ends and adds
-    # the correction line (firmware_model/program.py, REPAIR_REACH).
+    # the correction line (firmware_model/gcode/program.py, REPAIR_REACH).
     if radius < 4:
         return
     ex, ey = round(radius * math.cos(a1)), round(radius * math.sin(a1))

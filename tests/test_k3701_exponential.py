@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from test_k3701 import check_clean_end_on_gateware, compare_with_model, fp_kinds, fp_source
 from test_k3701_parabolic import visited
 
-from firmware_model.curves import (
+from firmware_model.gcode.curves import (
     MAX_GROWTH,
     MIN_CONSTANT,
     CurveError,
@@ -20,10 +20,10 @@ from firmware_model.curves import (
     exponential_block,
     exponential_frame,
 )
-from hdl.k3701_datapath_model import COORD_MAX, Block, BlockError
-from hdl.k3701_map import block_registers
-from hdl.k3701_model import make_path, walk
-from hdl.k3701_parabolic_model import ExponentialPath
+from hdl.k3701.block import COORD_MAX, Block, BlockError
+from hdl.k3701.datapaths.parabolic_model import ExponentialPath
+from hdl.k3701.map import block_registers
+from hdl.k3701.model import make_path, walk
 
 
 @st.composite

@@ -18,9 +18,9 @@ from testbench import (
     write_reg,
 )
 
-from hdl.k3702 import K3702
-from hdl.k3702_map import K3702_MAP
-from hdl.k3702_model import K3702Model, K3702Outputs, wrap
+from hdl.k3702.chip import K3702
+from hdl.k3702.map import K3702_MAP
+from hdl.k3702.model import K3702Model, K3702Outputs, wrap
 from sim.backends.contract import CLOCK_PERIOD
 
 INPUTS = ("com_pos", "com_neg", "fb_pos", "fb_neg")

@@ -6,8 +6,8 @@ from __future__ import annotations
 import pytest
 from amaranth.hdl import Fragment
 
-from hdl.chipset_map import Accel
-from hdl.observation import (
+from hdl.chipset.map import Accel
+from hdl.common.observation import (
     CarryAccumulator,
     Countdown,
     FreeRunning,
@@ -15,7 +15,7 @@ from hdl.observation import (
     PlantState,
     StrobeCounter,
 )
-from sim.backends.design import signal_paths
+from sim.backends.introspect import signal_paths
 from sim.machine.system import System
 
 

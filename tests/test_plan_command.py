@@ -10,8 +10,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from firmware_model import canon
-from firmware_model.gcode import GcodeError, parse
+from firmware_model.gcode import canon
+from firmware_model.gcode.parser import GcodeError, parse
 from sim.cli import main
 
 HAVE_RS274 = canon.shutil.which(canon.RS274) is not None

@@ -15,8 +15,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import simulate
 
-from hdl.rate_multiplier import RateMultiplier
-from hdl.rate_multiplier_model import (
+from hdl.feed.rate_multiplier import RateMultiplier
+from hdl.feed.rate_multiplier_model import (
     STAGE_BITS,
     RateMultiplierModel,
     gate,

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from firmware_model.firmware import feed_word, word_rate
-from firmware_model.gcode import Line
+from firmware_model.gcode.parser import Line
 from sim.reproduce import seed002, seed003
 from sim.reproduce.runs import RunSpec
 from sim.reproduce.theory import following_error

@@ -21,18 +21,18 @@ import numpy as np
 import pytest
 
 from firmware_model.firmware import TIMER_TICK_SECONDS, FirmwareError, check_program
-from firmware_model.gcode import Arc
+from firmware_model.gcode.parser import Arc
 from firmware_model.job import MachineConfig, RunConfig, demo_job
 from sim.cli import main
 from sim.run import runner
 from sim.run.contour import contour_errors, contour_summary
 from sim.run.jobfile import load_job
-from sim.run.link import SimulatedLink
 from sim.run.output import summary, write_trace
 from sim.run.progress import Progress, ProgressPrinter
 from sim.run.report import HOW_FIELDS, validate
 from sim.run.runner import RunOptions, RunResult, run_job
 from sim.run.sampler import CHUNK_ROWS, PROGRESS_CYCLES, TRACE_COLUMNS, SampleStore
+from sim.run.simulated_link import SimulatedLink
 
 ROOT = Path(__file__).resolve().parent.parent
 

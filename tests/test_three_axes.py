@@ -9,7 +9,7 @@ import pytest
 from test_backend_equivalence import comparable
 from test_idle_skip import skipped_equals_stepped
 
-from firmware_model.gcode import GcodeError
+from firmware_model.gcode.parser import GcodeError
 from firmware_model.job import MachineConfig, gcode_job
 from sim.run.runner import RunOptions, run_job
 

@@ -14,7 +14,7 @@ from typing import Any, NamedTuple
 from amaranth.lib import wiring
 from amaranth.sim import Simulator
 
-from hdl.registers import Register
+from hdl.bus.registers import Register
 
 __all__ = [
     "CLOCK_PERIOD",

@@ -90,7 +90,7 @@ class Backend(abc.ABC):
     """
 
     def __init__(self, ports: Mapping[str, Port], name: str):
-        #: The top-level ports by name (:func:`sim.backends.design.component_ports`).
+        #: The top-level ports by name (:func:`sim.backends.introspect.component_ports`).
         self.ports: dict[str, Port] = dict(ports)
         #: The design's class name, for messages.
         self.design_name = name
@@ -117,7 +117,7 @@ class Backend(abc.ABC):
 
         With ``skip_idle``, a backend may count cycles without evaluating them once the design
         is provably at a fixed point (nothing changes and the inputs are held, or only the
-        component's declared :class:`hdl.observation.FreeRunning` state changes while it is
+        component's declared :class:`hdl.common.observation.FreeRunning` state changes while it is
         quiet, which is then advanced in closed form); the state is exactly that of stepping.
         """
 
@@ -220,7 +220,7 @@ class Backend(abc.ABC):
         return sign_extend(raw, width) if signed else raw
 
     def bus_write(self, addr: int, data: int, *, bus: str = "bus") -> None:
-        """One host write cycle on the :class:`hdl.hostbus.HostBus` named ``bus``."""
+        """One host write cycle on the :class:`hdl.bus.hostbus.HostBus` named ``bus``."""
         self.set(f"{bus}__addr", addr)
         self.set(f"{bus}__w_data", data)
         self.set(f"{bus}__w_stb", 1)

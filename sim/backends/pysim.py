@@ -19,7 +19,7 @@ from sim.backends.contract import (
     check_window,
     select_signals,
 )
-from sim.backends.design import component_ports, signal_paths
+from sim.backends.introspect import component_ports, signal_paths
 
 __all__ = ["PysimBackend"]
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
-from hdl.registers import RegisterMap
+from hdl.bus.registers import RegisterMap
 
 if TYPE_CHECKING:
     from amaranth.lib import wiring
@@ -29,7 +29,7 @@ class Exportable:
 
     ``factory`` is ``"module:Class"``; ``params`` are constructor arguments (the defaults, the
     paper's values, otherwise); ``top`` marks the chipset top (synthesis reports it as the
-    total). The block's own ``PROBES`` name its output ports that are not pins of the chip;
+    total). The block's own ``probes`` name its output ports that are not pins of the chip;
     its register maps are found in its module (every :class:`RegisterMap` there).
     """
 
@@ -45,9 +45,9 @@ class Exportable:
 
     @property
     def probes(self) -> tuple[str, ...]:
-        """The block's observation outputs (its ``PROBES``, those of the instance built with
-        ``params``), kept out of the pins."""
-        return getattr(self.component(), "PROBES", ())
+        """The block's observation outputs (the ``probes`` of the instance built with
+        ``params``: :class:`hdl.common.observation.Observed`), kept out of the pins."""
+        return getattr(self.component(), "probes", ())
 
     def _module(self):
         return importlib.import_module(self.factory.split(":")[0])
@@ -91,36 +91,37 @@ def _params(**kwargs: Any) -> MappingProxyType:
 #: Every exportable block, in the order the files are written; ``top=True`` marks the
 #: chipset tops (the two-axis one first: synthesis reports it as the total).
 BLOCKS: tuple[Exportable, ...] = (
-    Exportable("k3701", "hdl.k3701:K3701", "KM3701 two-axis interpolator"),
-    Exportable("k3702", "hdl.k3702:K3702", "KM3702 position controller (one axis)"),
-    Exportable("encoder", "hdl.encoder:EncoderInterface", "encoder interface (one axis)"),
-    Exportable("accel_decel", "hdl.accel_decel:AccelDecel",
+    Exportable("k3701", "hdl.k3701.chip:K3701", "KM3701 two-axis interpolator"),
+    Exportable("k3702", "hdl.k3702.chip:K3702", "KM3702 position controller (one axis)"),
+    Exportable("encoder", "hdl.encoder.chip:EncoderInterface", "encoder interface (one axis)"),
+    Exportable("accel_decel", "hdl.accel.exponential:AccelDecel",
                "exponential accel/decel, pre-interpolation (FP) form"),
-    Exportable("accel_decel_axis", "hdl.accel_decel:AccelDecel",
+    Exportable("accel_decel_axis", "hdl.accel.exponential:AccelDecel",
                "exponential accel/decel, post-interpolation (signed, one axis) form",
                params=_params(bidirectional=True)),
-    Exportable("accel_linear", "hdl.accel_linear:AccelLinear",
+    Exportable("accel_linear", "hdl.accel.linear:AccelLinear",
                "linear accel/decel (moving average over T), pre-interpolation (FP) form"),
-    Exportable("accel_linear_axis", "hdl.accel_linear:AccelLinear",
+    Exportable("accel_linear_axis", "hdl.accel.linear:AccelLinear",
                "linear accel/decel, post-interpolation (signed, one axis) form",
                params=_params(bidirectional=True)),
-    Exportable("accel_bell", "hdl.accel_bell:AccelBell",
+    Exportable("accel_bell", "hdl.accel.bell:AccelBell",
                "bell accel/decel (linear then exponential), pre-interpolation (FP) form"),
-    Exportable("accel_bell_axis", "hdl.accel_bell:AccelBell",
+    Exportable("accel_bell_axis", "hdl.accel.bell:AccelBell",
                "bell accel/decel, post-interpolation (signed, one axis) form",
                params=_params(bidirectional=True)),
-    Exportable("rate_multiplier", "hdl.rate_multiplier:RateMultiplier",
+    Exportable("rate_multiplier", "hdl.feed.rate_multiplier:RateMultiplier",
                "cascaded SN7497-style binary rate multiplier (feedrate)"),
-    Exportable("divider", "hdl.divider:PhaseDivider", "phase-accumulator clock-enable divider"),
-    Exportable("decel_control", "hdl.decel_control:DecelControl",
+    Exportable("divider", "hdl.feed.divider:PhaseDivider",
+               "phase-accumulator clock-enable divider"),
+    Exportable("decel_control", "hdl.feed.decel_control:DecelControl",
                "decel control (FP budget gate)"),
-    Exportable("feed_rate", "hdl.feed_rate:FeedRate",
+    Exportable("feed_rate", "hdl.feed.feed_rate:FeedRate",
                "feed-rate generator (rate multiplier and its two dividers on the host bus)"),
-    Exportable("chipset", "hdl.chipset:Chipset", "two-axis chipset top", top=True),
-    Exportable("k3701_3axis", "hdl.k3701:K3701", "KM3701 three-axis build (3-D lines, planes, "
-               "helices)", params=_params(axes=3)),
-    Exportable("chipset_3axis", "hdl.chipset:Chipset", "three-axis chipset top (machine.axes = "
-               "3)", params=_params(axes=3), top=True),
+    Exportable("chipset", "hdl.chipset.chip:Chipset", "two-axis chipset top", top=True),
+    Exportable("k3701_3axis", "hdl.k3701.chip:K3701",
+               "KM3701 three-axis build (3-D lines, planes, helices)", params=_params(axes=3)),
+    Exportable("chipset_3axis", "hdl.chipset.chip:Chipset",
+               "three-axis chipset top (machine.axes = 3)", params=_params(axes=3), top=True),
 )
 
 

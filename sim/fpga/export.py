@@ -10,7 +10,7 @@ Each exported file holds two layers:
   8-bit host bus as ``d[7:0]`` (bidirectional), ``addr``, ``cs_n``, ``rd_n``, ``wr_n``
   (active low, as on the chips); every other signature port keeps its name (``x_pos`` is
   +X, ``alarm_n`` is ALARM, active low already in the core). Output ports a block declares
-  in its ``PROBES`` (simulation observability, not chip pins) stay inside.
+  in its ``probes`` (simulation observability, not chip pins) stay inside.
 
 The header names the block's parameters, its register map(s) and version, and the clocking
 and bus protocol; the port list gives each pin its SPEC name and meaning. Waivers for
@@ -34,8 +34,8 @@ from amaranth.back import verilog
 from amaranth.hdl import Shape
 from amaranth.lib import wiring
 
-from hdl.chipset_map import SUB_WINDOWS
-from hdl.hostbus import HostBus
+from hdl.bus.hostbus import HostBus
+from hdl.chipset.map import SUB_WINDOWS
 from sim.fpga.blocks import BLOCKS, Exportable, block
 
 __all__ = ["CORE_WAIVERS", "Pin", "export_verilog", "pins", "verilog_text"]

@@ -14,7 +14,7 @@ from amaranth.hdl import Module, Mux, Signal, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.observation import FreeRunning, PlantState
+from hdl.common.observation import FreeRunning, Observed, PlantState
 from sim.machine.plant_model import (
     ALPHA_BITS,
     COUNT_BITS,
@@ -30,7 +30,7 @@ from sim.machine.plant_model import (
 
 __all__ = ["ServoPlant"]
 
-class ServoPlant(wiring.Component):
+class ServoPlant(Observed, wiring.Component):
     """Servo amplifier + motor (first-order velocity lag) + incremental encoder.
 
     Every cycle: e = dac - dac_zero; vc = clamp(e * gain + ff, +-vmax) (vmax 0: 2^37 - 1),
@@ -90,9 +90,16 @@ class ServoPlant(wiring.Component):
     count: Out(signed(COUNT_BITS))
     velocity: Out(signed(VC_BITS + 1))
 
-    #: While the chipset stands still, a compiled backend steps the plant natively, with this
-    #: fixed-point format, up to its next count (:mod:`hdl.observation`).
-    FREE_RUNNING = FreeRunning(plants=(PlantState("", VC_BITS, ALPHA_BITS, FRAC_BITS),))
+    @property
+    def free_running(self) -> FreeRunning:
+        """See :meth:`declare`."""
+        return self.declare()
+
+    @staticmethod
+    def declare() -> FreeRunning:
+        """While the chipset stands still, a compiled backend steps the plant natively, with
+        this fixed-point format, up to its next count (:mod:`hdl.common.observation`)."""
+        return FreeRunning(plants=(PlantState("", VC_BITS, ALPHA_BITS, FRAC_BITS),))
 
     def elaborate(self, platform) -> Module:
         m = Module()

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from hdl.limits import Limit
+from hdl.common.params import Limit
 
 __all__ = ["ALPHA_BITS", "COUNT_BITS", "DAC_VOLTS", "FRAC_BITS", "GAIN_BITS", "KF_BITS", "KF_LIMIT",
            "POSITION_BITS", "PRODUCT_BITS", "VC_BITS", "VC_MAX", "VMAX_BITS", "PlantParams",

@@ -9,11 +9,11 @@ from amaranth.hdl import Module, Mux, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.chipset import Chipset
-from hdl.chipset_map import Accel, AccelShape
-from hdl.hostbus import HostBus
-from hdl.k3702_map import COUNTER_WIDTH
-from hdl.observation import FreeRunning
+from hdl.bus.hostbus import HostBus
+from hdl.chipset.chip import Chipset
+from hdl.chipset.map import Accel, AccelShape
+from hdl.common.observation import FreeRunning, Observed
+from hdl.k3702.map import COUNTER_WIDTH
 from sim.machine.plant import ServoPlant
 from sim.machine.plant_model import ALPHA_BITS, COUNT_BITS, GAIN_BITS, KF_BITS, VMAX_BITS
 from sim.machine.torque_drive import TorqueDrive
@@ -68,8 +68,8 @@ class AxisProbe(wiring.Signature):
         })
 
 
-class System(wiring.Component):
-    """Chipset + plants. See :class:`hdl.chipset.Chipset` for ``accel``, ``accel_bits``,
+class System(Observed, wiring.Component):
+    """Chipset + plants. See :class:`hdl.chipset.chip.Chipset` for ``accel``, ``accel_bits``,
     ``axes`` (one plant per axis), ``accel_shape`` and ``axis_accel``; ``drives``: per axis,
     the servo drive's name in :data:`DRIVES` (default ``"first_order"``).
 
@@ -88,7 +88,7 @@ class System(wiring.Component):
     x, y : Out(AxisProbe())
         Per-axis plant settings, faults and observations (and ``z`` on three axes).
 
-    ``free_running`` (:mod:`hdl.observation`) is what runs on while the machine stands still:
+    ``free_running`` (:mod:`hdl.common.observation`) is what runs on while the machine stands still:
     the chipset's (the feed-rate generator's dividers and rate multiplier, the accel/decel
     accumulators, the K3701's step latency count) and the plants while they move within one
     encoder count. That is a dwell, the host busy, the axes settling, and, at a low feed, most
@@ -108,14 +108,18 @@ class System(wiring.Component):
                 raise ValueError(f"drives: {axis!r}: {drive!r} is not an axis's drive "
                                  f"({', '.join(DRIVES)})")
         self.drives = {axis: DRIVES[drives.get(axis, "first_order")] for axis in self.axes}
-        self.free_running: FreeRunning = self.chipset.free_running.under("chipset").merge(
-            *(self.drives[axis].FREE_RUNNING.under(f"plant_{axis}") for axis in self.axes),
-            quiet="quiet")
         super().__init__({
             "bus": In(HostBus(8)), "irq": Out(1), "irq_interp": Out(1), "irq_alarm": Out(1),
             "fp_total": Out(32), "quiet": Out(1),
             **{axis: Out(AxisProbe()) for axis in self.axes},
         })
+
+    @property
+    def free_running(self) -> FreeRunning:
+        """See the class docstring."""
+        return self.chipset.free_running.under("chipset").merge(
+            *(self.drives[axis].declare().under(f"plant_{axis}") for axis in self.axes),
+            quiet="quiet")
 
     def elaborate(self, platform) -> Module:
         m = Module()

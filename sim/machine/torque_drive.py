@@ -26,7 +26,7 @@ while it moves, its registers change and every cycle is evaluated; at rest it is
 from amaranth.hdl import Module, Mux, Signal, signed
 from amaranth.lib.wiring import In
 
-from hdl.observation import FreeRunning
+from hdl.common.observation import FreeRunning
 from sim.machine.plant import ServoPlant
 from sim.machine.plant_model import ALPHA_BITS, VC_BITS
 from sim.machine.torque_drive_model import ACCEL_BITS, AFTER_BITS, INTEGRAL_BITS, KI_BITS, KI_FRAC
@@ -60,8 +60,10 @@ class TorqueDrive(ServoPlant):
     load_step: In(signed(ACCEL_BITS))
     load_after: In(AFTER_BITS)
 
-    #: No native update: the drive is stepped (see the module docstring).
-    FREE_RUNNING = FreeRunning()
+    @staticmethod
+    def declare() -> FreeRunning:
+        """No native update: the drive is stepped (see the module docstring)."""
+        return FreeRunning()
 
     def next_velocity(self, m: Module, vc: Signal):
         v = self.velocity

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from hdl.limits import Limit
+from hdl.common.params import Limit
 from sim.machine.plant_model import (
     ALPHA_BITS,
     FRAC_BITS,

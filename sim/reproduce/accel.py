@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 
 from firmware_model.firmware import word_feed
-from firmware_model.gcode import Line
+from firmware_model.gcode.parser import Line
 from firmware_model.job import AXES
 from sim.machine.plant_model import DAC_VOLTS
+from sim.reproduce.markdown import Section, pct, pyplot, save_figure
 from sim.reproduce.paper import FEED_HIGH, PAPER_TAU_S
-from sim.reproduce.report import Section, pct, pyplot, save_figure
 from sim.reproduce.runs import MACHINE, SERVO, RunData, Specs, Trace
 from sim.reproduce.theory import E63, fp_rate, hardware_tau, lag, servo
 

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from firmware_model.gcode import Line
-from sim.reproduce.report import Section, pyplot, save_figure
+from firmware_model.gcode.parser import Line
+from sim.reproduce.markdown import Section, pyplot, save_figure
 from sim.reproduce.runs import MACHINE, RunData, Scale, Specs, Trace
 from sim.reproduce.theory import fp_rate, hardware_tau
 

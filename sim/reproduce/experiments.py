@@ -40,7 +40,7 @@ from sim.reproduce import (
     seed002,
     seed003,
 )
-from sim.reproduce.report import Reproduction, report_markdown
+from sim.reproduce.markdown import Reproduction, report_markdown
 from sim.reproduce.runs import FULL, QUICK, RunData, Scale, Specs, run_specs
 from sim.reproduce.workers import run_all
 

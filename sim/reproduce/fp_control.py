@@ -11,10 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
-from firmware_model.gcode import Line
+from firmware_model.gcode.parser import Line
 from firmware_model.job import AXES
+from sim.reproduce.markdown import Section, pyplot, save_figure
 from sim.reproduce.path_error import Circle
-from sim.reproduce.report import Section, pyplot, save_figure
 from sim.reproduce.runs import MACHINE, RunData, Specs, Trace
 
 __all__ = ["section"]

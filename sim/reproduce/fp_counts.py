@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.reproduce.markdown import Section, pyplot, save_figure
 from sim.reproduce.paper import table1
-from sim.reproduce.report import Section, pyplot, save_figure
 from sim.reproduce.runs import RunData
 from sim.reproduce.theory import quarter_counts
 

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from firmware_model.gcode import Line
-from firmware_model.program import Parabola
-from sim.reproduce.report import Section, pyplot, save_figure
+from firmware_model.gcode.parser import Line
+from firmware_model.gcode.program import Parabola
+from sim.reproduce.markdown import Section, pyplot, save_figure
 from sim.reproduce.runs import MACHINE, PARABOLA_FEED, RunData, Specs, Trace
 
 __all__ = ["section"]

@@ -6,8 +6,8 @@ Measured on the gateware inside the post machine with the feed path wide open (t
 
 from __future__ import annotations
 
+from sim.reproduce.markdown import Section
 from sim.reproduce.paper import PAPER_RATE_CIRCULAR, PAPER_RATE_LINEAR
-from sim.reproduce.report import Section
 from sim.reproduce.runs import MACHINE, RunData, Specs
 
 __all__ = ["section"]

@@ -16,10 +16,10 @@ from typing import TypeVar
 import numpy as np
 
 from firmware_model.firmware import word_feed
-from firmware_model.gcode import Arc, Line, parse
+from firmware_model.gcode.parser import Arc, Line, parse
+from firmware_model.gcode.program import Parabola
 from firmware_model.job import AxisAccelConfig, Job, MachineConfig, ServoConfig
-from firmware_model.program import Parabola
-from hdl.k3701_datapath_model import Block
+from hdl.k3701.block import Block
 from sim.reproduce.paper import FEED_HIGH, FEED_LOW
 from sim.reproduce.theory import hardware_tau
 from sim.run.sampler import TRACE_COLUMNS

@@ -16,11 +16,11 @@ from pathlib import Path
 import numpy as np
 
 from firmware_model.job import MachineConfig, ServoConfig
-from hdl.accel_decel_model import AccelDecelModel
-from hdl.divider_model import PhaseDividerModel, increment_for
-from hdl.feed_rate_map import DIVIDER_WIDTH
+from hdl.accel.exponential_model import AccelDecelModel
+from hdl.feed.divider_model import PhaseDividerModel, increment_for
+from hdl.feed.feed_rate_map import DIVIDER_WIDTH
+from sim.reproduce.markdown import Section, pyplot, save_figure
 from sim.reproduce.paper import FEED_HIGH
-from sim.reproduce.report import Section, pyplot, save_figure
 from sim.reproduce.runs import MACHINE, RunData, RunSpec, Scale, Specs, Trace
 from sim.reproduce.theory import accel_filter, fp_rate, hardware_tau, servo
 

@@ -34,7 +34,7 @@ from sim.reproduce.circle_error import (
     run_key,
     steady,
 )
-from sim.reproduce.report import Section, pct, pyplot, save_figure
+from sim.reproduce.markdown import Section, pct, pyplot, save_figure
 from sim.reproduce.runs import QUICK, RunData, RunSpec, Scale, Specs
 from sim.reproduce.seed000 import SHAPES, filter_machine
 from sim.reproduce.theory import mismatch_amplitude

@@ -22,9 +22,9 @@ from pathlib import Path
 import numpy as np
 from numpy.polynomial import Polynomial
 
-from firmware_model.gcode import Line, parse
+from firmware_model.gcode.parser import Line, parse
 from firmware_model.job import MachineConfig, ServoConfig
-from sim.reproduce.report import Section, pyplot, save_figure
+from sim.reproduce.markdown import Section, pyplot, save_figure
 from sim.reproduce.runs import RunData, RunSpec, Scale, Specs, Trace
 from sim.reproduce.theory import servo
 

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from firmware_model.job import AxisAccelConfig, MachineConfig, ServoConfig
-from sim.reproduce.report import Section, pyplot, save_figure
+from sim.reproduce.markdown import Section, pyplot, save_figure
 from sim.reproduce.runs import RateSpec, RunData, RunSpec, Scale, Specs, Trace
 from sim.reproduce.theory import following_error, hardware_tau, mismatch_amplitude
 from sim.run.ballbar import Ballbar, ballbar_of

@@ -16,12 +16,12 @@ import numpy as np
 
 from firmware_model.host import Host8085
 from firmware_model.job import AXES
-from hdl.decel_control_map import DECEL_MAP
-from hdl.feed_rate_map import FEED_MAP
-from hdl.k3701_map import block_registers
+from hdl.feed.decel_control_map import DECEL_MAP
+from hdl.feed.feed_rate_map import FEED_MAP
+from hdl.k3701.map import block_registers
 from sim.reproduce.runs import RateSpec, RunData, RunSpec, Specs, minus_spec
-from sim.run.link import SimulatedLink
 from sim.run.runner import RunOptions, design_key, reused_backend, run_job
+from sim.run.simulated_link import SimulatedLink
 
 __all__ = ["run_all"]
 

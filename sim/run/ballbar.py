@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from firmware_model.gcode import Arc
+from firmware_model.gcode.parser import Arc
 from sim.run.report import BALLBAR_FIGURES as FIGURES
 
 if TYPE_CHECKING:

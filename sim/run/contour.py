@@ -10,7 +10,7 @@ from functools import reduce
 
 import numpy as np
 
-from firmware_model.gcode import Arc, Line
+from firmware_model.gcode.parser import Arc, Line
 from firmware_model.job import Job
 from sim.run.sampler import CHUNK_ROWS, SampleStore
 

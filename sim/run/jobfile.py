@@ -31,7 +31,7 @@ machine key against the chipset's or the host's (:class:`firmware_model.job.Mach
 a servo key (and each ``[servo.x]``/``[servo.y]`` override) against the simulated plant's
 fixed point on the job's clock and LSB (:func:`servo_limits`). An unknown key anywhere is an
 error naming its full path. All errors are :class:`JobError` (bad file or value, naming the
-key, its value and its range) or :class:`~firmware_model.gcode.GcodeError` (bad program),
+key, its value and its range) or :class:`~firmware_model.gcode.parser.GcodeError` (bad program),
 each one line of text.
 """
 
@@ -44,7 +44,7 @@ from os import PathLike
 from pathlib import Path
 from typing import Any, NoReturn
 
-from firmware_model.gcode import ARC_TOLERANCE_LIMIT, ARC_TOLERANCE_MM, Program
+from firmware_model.gcode.parser import ARC_TOLERANCE_LIMIT, ARC_TOLERANCE_MM, Program
 from firmware_model.job import (
     AxisAccelConfig,
     Job,
@@ -57,8 +57,8 @@ from firmware_model.job import (
     gcode_job,
     parse_for_machine,
 )
-from hdl.chipset_map import ALL_AXES
-from hdl.limits import Limit
+from hdl.chipset.map import ALL_AXES
+from hdl.common.params import Limit
 from sim.machine.plant_model import PlantParams
 from sim.machine.torque_drive_model import TorqueParams
 
@@ -130,7 +130,7 @@ def load_step_fault(job: Job, axis: str, torque: float, at_s: float) -> dict[str
 def load_job(path: str | PathLike[str] | None, *, frontend: str = "builtin",
              arc_tolerance: float | None = None) -> Job:
     """Load a TOML job, or a G-code file run on the default machine; None: the demo.
-    ``frontend`` reads the program (:data:`firmware_model.canon.FRONTENDS`);
+    ``frontend`` reads the program (:data:`firmware_model.gcode.canon.FRONTENDS`);
     ``arc_tolerance`` (LSB), if given, replaces the job's.
 
     Raises

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from firmware_model.gcode import Arc, Dwell, Event, Line
+from firmware_model.gcode.parser import Arc, Dwell, Event, Line
 from firmware_model.job import Job
 
 __all__ = ["plan_rows", "plan_table"]

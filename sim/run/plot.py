@@ -19,8 +19,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from firmware_model.firmware import programmed_feed
-from firmware_model.gcode import Arc, Line
-from firmware_model.program import Exponential, Move, Parabola
+from firmware_model.gcode.parser import Arc, Line
+from firmware_model.gcode.program import Exponential, Move, Parabola
 from sim.run.plot_data import PlotData, plot_data
 from sim.run.runner import RunResult
 

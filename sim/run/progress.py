@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import TextIO
 
 from firmware_model.firmware import planned_seconds
-from firmware_model.gcode import Dwell, Item
+from firmware_model.gcode.parser import Dwell, Item
 from firmware_model.job import Job
 
 __all__ = ["ProgramPlan", "Progress", "ProgressPrinter"]

@@ -31,10 +31,10 @@ import numpy as np
 import hdl
 import sim.machine
 from firmware_model.firmware import BlockRecord, Firmware, check_program
-from firmware_model.gcode import Dwell, Event
+from firmware_model.gcode.parser import Dwell, Event
 from firmware_model.host import Host8085
 from firmware_model.job import Job
-from hdl.chipset_map import chip_register, port
+from hdl.chipset.map import chip_register, port
 from sim.backends.contract import Backend
 from sim.backends.factory import BACKEND_NAMES, make_backend
 
@@ -44,10 +44,10 @@ from sim.machine.plant_model import dac_zero
 from sim.run.contour import contour_summary
 from sim.run.fst import vcd_to_fst
 from sim.run.jobfile import plant_params, torque_params
-from sim.run.link import BlockMeasure, BlockMeter, SimulatedLink
 from sim.run.progress import ProgramPlan, Progress
 from sim.run.report import SCHEMA_VERSION, validate
 from sim.run.sampler import Sampler, SampleStore
+from sim.run.simulated_link import BlockMeasure, BlockMeter, SimulatedLink
 from sim.run.waveform import is_fst
 
 __all__ = ["OptionError", "RunOptions", "RunResult", "RunStopped", "build_backend",

@@ -17,7 +17,7 @@ from collections.abc import Callable, Iterator, Sequence
 
 import numpy as np
 
-from hdl.chipset_map import AXES
+from hdl.chipset.map import AXES
 from sim.backends.contract import Backend
 from sim.machine.plant_model import DAC_VOLTS
 

@@ -8,7 +8,7 @@ import os
 import re
 from pathlib import Path
 
-from hdl.chipset_map import ALL_AXES
+from hdl.chipset.map import ALL_AXES
 from sim.run.fst import fst_signals, fst_span
 
 __all__ = ["GTKW_GROUPS", "GTKW_WIDTH_PX", "WAVE_FORMATS", "gtkw_flags", "is_fst",

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from hdl.observation import FreeRunning
+from hdl.common.observation import FreeRunning
 from sim.backends.contract import (
     CLOCK_PERIOD,
     Backend,
@@ -95,12 +95,13 @@ class CxxrtlBackend(Backend):
     Construction converts and builds the design (or loads it from the cache; ``model`` tells
     which). ``step(n, skip_idle=True)`` and ``run_until(..., skip_idle=True)`` stop evaluating once
     a whole clock cycle changed no state but the component's declared
-    :class:`hdl.observation.FreeRunning` state, while its ``quiet`` probe reads 1: with the
+    :class:`hdl.common.observation.FreeRunning` state, while its ``quiet`` probe reads 1: with the
     inputs held, the rest is at a fixed point, so the cycles up to the next event of the
     free-running state are only counted (``skipped_cycles``) and that state is advanced in closed
     form; the result is bit-identical to stepping. The commits tell after every cycle whether the
     rest changed (:func:`design_main`), so a skip starts at the first quiet cycle. An undeclared
-    free-running counter keeps skipping from firing.
+    free-running counter keeps skipping from firing; a declaration with no ``quiet`` (a part of
+    some parent's state, such as the FEED chip's) declares nothing to skip on.
 
     Probes are CXXRTL debug items; their names follow the Amaranth hierarchy, so they are the
     same as :class:`sim.backends.pysim.PysimBackend`'s wherever Yosys kept the signal.
@@ -149,14 +150,16 @@ class CxxrtlBackend(Backend):
         it has a clock to step, and build its model; with the facts the backend needs of the
         design itself, so that a design found by its key is never elaborated: its name, ports,
         signed signals and free-running state (pickled: plain data of
-        :mod:`hdl.observation`)."""
+        :mod:`hdl.common.observation`)."""
         from amaranth.back import rtlil
         from amaranth.hdl import Fragment, Shape
         from amaranth.hdl._ir import PortDirection
 
-        from sim.backends.design import component_ports, signal_paths
+        from sim.backends.introspect import component_ports, signal_paths
 
         free: FreeRunning | None = getattr(component, "free_running", None)
+        if free is not None and free.quiet is None:
+            free = None  # a part of a parent's state, with no quiet of its own: nothing to skip
         ports = component_ports(component)
         start = time.perf_counter()
         design = Fragment.get(component, None).prepare(
@@ -228,9 +231,7 @@ class CxxrtlBackend(Backend):
         for countdown in free.countdowns:
             if lib.k37_free_countdown(handle, item(countdown.path), countdown.stop) < 0:
                 raise ValueError(f"{countdown.path}: must be a register of <= 64 bits")
-        if free.quiet is None:
-            raise ValueError("the top's free-running declaration names no quiet signal")
-        lib.k37_free_quiet(handle, item(free.quiet))
+        lib.k37_free_quiet(handle, item(str(free.quiet)))
 
     def _set_inits(self) -> None:
         if self._free is not None:

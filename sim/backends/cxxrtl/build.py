@@ -144,7 +144,7 @@ def build(rtlil_text: str, *, free: Sequence[str] = (), reads: Sequence[str] = (
     ``free``: probe paths of the registers of the design's free-running state
     (:meth:`sim.backends.contract.FreeRunning.registers`), which the commits tell apart from
     the rest (:func:`design_main`); ``reads``: probe paths of what the harness reads to decide
-    a skip (:meth:`~hdl.observation.FreeRunning.reads`), which the model computes alone.
+    a skip (:meth:`~hdl.common.observation.FreeRunning.reads`), which the model computes alone.
     """
     tools = _toolchain(compiler)
     harness = HARNESS.read_text()

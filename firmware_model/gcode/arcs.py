@@ -1,0 +1,108 @@
+"""The exact plan of a circular block without walking every step: the host's FP count.
+
+:func:`hdl.k3701.model.plan` runs a block through the reference algorithm one step at a time
+(a circle of radius R takes about 5.7 R steps: minutes of Python for a large circle).
+:func:`plan_block` gives the same :class:`~hdl.k3701.model.Plan`, exactly, in time
+independent of the radius for all but a few steps per octant.
+
+Why the jumps are exact: where X is the long axis (|y| >= |x|), each step moves X one LSB and
+moves Y too when that makes |D| = |x^2 + y^2 - R0^2| strictly smaller (no ties: the two
+values differ by an odd number). If the point is the integer y nearest the circle in that
+sense (the argmin of |D| over y) and the true circle's y changes by less than one LSB per
+step (|x| + 2 <= |y|), the next argmin is y or its neighbour in the direction of motion, so
+the walk picks it: from an argmin point the walk *is* the argmin curve, and its point after n
+steps is computed with one integer square root. The walk's long/short choice, its quadrant
+and its end check cannot change inside such a stretch (the jump stops short of an axis, of
+the diagonal and of the end point's coordinate); the few steps around those go through the
+reference :class:`~hdl.k3701.datapaths.circular_model.CircularPath` itself. Same for Y long, with
+the axes swapped. Tested against :func:`hdl.k3701.model.plan` step for step
+(``tests/test_arc_plan.py``).
+"""
+
+from __future__ import annotations
+
+from math import isqrt
+
+from hdl.k3701.block import QUADRANT_SIGNS, Block, Kind
+from hdl.k3701.datapaths.circular_model import CircularPath
+from hdl.k3701.model import Plan, make_path, plan
+
+__all__ = ["plan_block"]
+
+#: Stretches shorter than this are walked step by step.
+_MIN_JUMP = 8
+
+
+def _nearest(r2: int, long: int) -> int:
+    """The integer s >= 0 minimising |long^2 + s^2 - r2|: the smallest s with s(s+1) >= t."""
+    t = r2 - long * long
+    if t <= 0:
+        return 0
+    s = isqrt(t)
+    while s * (s + 1) < t:
+        s += 1
+    while s > 0 and (s - 1) * s >= t:
+        s -= 1
+    return s
+
+
+def _jump(path: CircularPath, r2: int) -> tuple[int, int, int] | None:
+    """How far the walk can be jumped from here: (steps, new x, new y), or None."""
+    x, y, d = path.x, path.y, path.d
+    sx, sy = QUADRANT_SIGNS[path.cw][path.q]
+    x_long = abs(y) >= abs(x)
+    # (long, short) coordinates, their directions and the end check on the long/short axis
+    lo, sh, sl, ss = (x, y, sx, sy) if x_long else (y, x, sy, sx)
+    if lo == 0 or sh == 0:
+        return None
+    if abs(d) >= abs(d + 2 * sh + 1) or abs(d) >= abs(d - 2 * sh + 1):
+        return None  # not the argmin of its column
+    # the long coordinate may run to 1 LSB short of its axis (no quadrant change) ...
+    n = abs(lo) - 1 if lo * sl < 0 else None
+    # ... and, moving towards the diagonal, while the margin |long| + 2 <= |short| holds
+    if lo * sl > 0:
+        n = max(0, isqrt(r2 // 2) - 3 - abs(lo))
+    if path.armed and path.q == path.end_q:
+        end = path.ex if path.end_on_x else path.ey
+        if path.end_on_x == x_long:  # the end check watches the long coordinate
+            if (end - lo) * sl >= 0:
+                n = min(n, (end - lo) * sl - 1)
+        elif (end - sh) * ss >= 0:  # ... the short one: stop before it could reach it
+            n = min(n, max(0, abs(end - sh) - 1))
+    while n >= _MIN_JUMP:
+        lo2 = lo + n * sl
+        sh2 = _nearest(r2, lo2) * (1 if sh > 0 else -1)
+        if abs(lo2) + 2 <= abs(sh2) and abs(lo) + 2 <= abs(sh) and lo2 * lo > 0:
+            return (n, lo2, sh2) if x_long else (n, sh2, lo2)
+        n //= 2
+    return None
+
+
+def plan_block(block: Block) -> Plan:
+    """:func:`hdl.k3701.model.plan` of ``block``, exactly, without walking every step of an
+    arc. Raises :class:`~hdl.k3701.block.BlockError` for data the chip refuses."""
+    if block.kind is Kind.LINEAR or block.ze:
+        return plan(block)  # a line is in closed form there; a helix's FP needs its steps
+    path = make_path(block)
+    assert isinstance(path, CircularPath)
+    r2 = block.i * block.i + block.j * block.j
+    x0, y0 = path.x, path.y
+    n = diag = 0
+    pulses = {"x+": 0, "x-": 0, "y+": 0, "y-": 0, "z+": 0, "z-": 0}
+    final = error = False
+    while not final:
+        jump = _jump(path, r2)
+        if jump is None:
+            step, final, error = path.advance()
+            dx, dy, steps = step.dx, step.dy, 1
+            diag += dx != 0 and dy != 0
+        else:
+            steps, nx, ny = jump
+            dx, dy = nx - path.x, ny - path.y
+            diag += min(abs(dx), abs(dy))
+            path.x, path.y, path.d = nx, ny, nx * nx + ny * ny - r2
+        n += steps
+        pulses["x+" if dx > 0 else "x-"] += abs(dx)
+        pulses["y+" if dy > 0 else "y-"] += abs(dy)
+    fp = n + (diag + 1) // 2 if block.sqrt2 else n
+    return Plan(n, diag, fp, (path.x - x0, path.y - y0), error, pulses)

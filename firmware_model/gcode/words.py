@@ -1,0 +1,160 @@
+"""The G-code words the built-in front end takes: defined once, documented from here.
+
+:data:`G_CODES` and :data:`M_CODES` give every code its modal group and meaning, and
+:data:`LETTERS` every other word; the interpreter (:mod:`firmware_model.gcode.parser`) dispatches on
+these tables and ``docs/gcode.md`` is generated from them (:func:`markdown`). A new G code
+is one entry here and one handler there.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from decimal import Decimal
+
+__all__ = ["G_CODES", "LETTERS", "M_CODES", "NGC_ONLY", "REFUSED_G", "Code", "code_key", "markdown"]
+
+
+@dataclass(frozen=True)
+class Code:
+    """A G or M code: its group (codes of one group exclude each other in a block), the
+    event it records (M codes with no hardware here), and its meaning."""
+
+    group: str
+    doc: str
+    event: str | None = None
+
+
+def code_key(value: Decimal) -> int:
+    """The table key of a code's number: tenths (G90.1 is 901, G0 is 0)."""
+    return int(value * 10)
+
+
+def _g(number: float) -> int:
+    return round(number * 10)
+
+
+G_CODES: dict[int, Code] = {
+    _g(0): Code("motion", "rapid line (the machine's `rapid_mm_min`)"),
+    _g(1): Code("motion", "feed line"),
+    _g(2): Code("motion", "CW arc or helix: I/J/K centre offsets or R radius (R < 0: the "
+                          "arc over 180 degrees); an end equal to the start: a full circle"),
+    _g(3): Code("motion", "CCW arc or helix, as G02"),
+    _g(4): Code("non-modal", "dwell of P seconds"),
+    _g(6): Code("motion", "parabola (DIN 66025; two-axis machine, XY plane): X/Y the end, I/J "
+                          "the point whose tangent is parallel to the chord, relative to the "
+                          "start as arc centres; the parabola's axis parallel to X or Y"),
+    _g(6.1): Code("motion", "exponential (K37; two-axis machine, XY plane): X/Y the end, K "
+                            "the curve's constant, a length along X: y - y0 = (ye - y0) "
+                            "(e^((x - x0) / K) - 1) / (e^((xe - x0) / K) - 1); K < 0 "
+                            "flattens towards the end"),
+    _g(6.2): Code("motion", "logarithm (K37; two-axis machine, XY plane): the exponential of "
+                            "Y, as G06.1 with X and Y exchanged (K a length along Y): "
+                            "y - y0 = K ln(1 + (x - x0) (e^((ye - y0) / K) - 1) / (xe - x0))"),
+    _g(17): Code("plane", "XY plane (arcs take I, J)"),
+    _g(18): Code("plane", "ZX plane (arcs take K, I; three-axis machines)"),
+    _g(19): Code("plane", "YZ plane (arcs take J, K; three-axis machines)"),
+    _g(20): Code("units", "inch"),
+    _g(21): Code("units", "millimetre"),
+    _g(28): Code("non-modal", "rapid to the home position, the machine origin (through the "
+                              "programmed point first, moving only the named axes, if any)"),
+    _g(30): Code("non-modal", "as G28 (the second home position is the origin too)"),
+    _g(40): Code("cutter", "cutter radius compensation off (the only state)"),
+    _g(43): Code("tool length", "tool length offset: H's length (or the loaded tool's) from "
+                                "the job's tool table; no table: zero"),
+    _g(49): Code("tool length", "tool length offset off"),
+    _g(53): Code("non-modal", "this G00/G01 block in machine coordinates"),
+    **{_g(54 + n): Code("coordinate system", f"work coordinate system {n + 1} (offsets zero: "
+                                             f"K37 has no G10 to set them)")
+       for n in range(6)},
+    _g(61): Code("path", "exact path (accepted: the K3701 runs every block to its end, "
+                         "one path mode)"),
+    _g(64): Code("path", "continuous path, P/Q tolerances ignored (accepted: one path mode)"),
+    _g(80): Code("motion", "cancel the canned cycle (no motion mode)"),
+    _g(81): Code("motion", "drilling cycle: rapid to X/Y, to R, feed to Z, rapid out"),
+    _g(82): Code("motion", "drilling cycle with a dwell of P seconds at the bottom"),
+    _g(83): Code("motion", "peck drilling: pecks of Q, rapid out to R between pecks"),
+    _g(90): Code("distance", "absolute coordinates"),
+    _g(91): Code("distance", "incremental coordinates"),
+    _g(90.1): Code("arc distance", "I/J/K absolute (with the offsets in force)"),
+    _g(91.1): Code("arc distance", "I/J/K relative to the arc's start (the default)"),
+    _g(92): Code("non-modal", "offset the coordinates so the current point is the given one"),
+    _g(92.1): Code("non-modal", "clear the G92 offset"),
+    _g(94): Code("feed mode", "feed in units per minute (the only feed mode; G93 inverse "
+                              "time is refused)"),
+    _g(98): Code("retract", "canned cycles retract to the Z before the cycle (or R if higher)"),
+    _g(99): Code("retract", "canned cycles retract to R (the initial mode, as rs274's)"),
+}
+
+M_CODES: dict[int, Code] = {
+    0: Code("stop", "program stop: recorded; the emulator has no operator, the program goes "
+                    "on", "program_stop"),
+    1: Code("stop", "optional stop: recorded; the optional-stop switch is off", "optional_stop"),
+    2: Code("stop", "program end", "program_end"),
+    30: Code("stop", "program end", "program_end"),
+    3: Code("spindle", "spindle on, CW (no spindle: recorded)", "spindle_cw"),
+    4: Code("spindle", "spindle on, CCW (recorded)", "spindle_ccw"),
+    5: Code("spindle", "spindle stop (recorded)", "spindle_stop"),
+    6: Code("tool change", "tool change to the selected T (no changer: recorded)",
+            "tool_change"),
+    7: Code("coolant", "mist coolant on (recorded)", "coolant_mist"),
+    8: Code("coolant", "flood coolant on (recorded)", "coolant_flood"),
+    9: Code("coolant", "coolant off (recorded)", "coolant_off"),
+}
+
+LETTERS: dict[str, str] = {
+    "G": "preparatory code (table above)",
+    "M": "miscellaneous code (table above); several per block in different groups",
+    "N": "sequence number (ignored)",
+    "X": "X coordinate", "Y": "Y coordinate", "Z": "Z coordinate (moving Z needs "
+                                                   "machine.axes = 3)",
+    "I": "arc centre offset along X", "J": "arc centre offset along Y",
+    "K": "arc centre offset along Z; G06.1/G06.2: the curve's constant",
+    "R": "arc radius; canned cycles' retract plane",
+    "F": "feed, units per minute (modal)",
+    "S": "spindle speed (recorded)",
+    "T": "tool select (recorded; M06 loads it)",
+    "H": "tool length offset number (G43)",
+    "P": "dwell seconds (G04, G82); G64's tolerance (ignored)",
+    "Q": "peck depth (G83); G64's tolerance (ignored)",
+}
+
+#: G codes refused with a reason (by table key).
+REFUSED_G: dict[int, str] = {
+    **dict.fromkeys((410, 411, 420, 421), "cutter radius compensation is unsupported: K37 "
+                                          "runs the programmed path (compensate in the CAM)"),
+    930: "inverse time feed is unsupported: K37 takes feeds in units per minute (G94)",
+    **dict.fromkeys((382, 383, 384, 385), "probing is unsupported: K37 has no probe input"),
+    100: "G10 (setting offsets and tools) is unsupported: G54-G59 offsets are zero, tool "
+         "lengths come from the job's program.tools",
+}
+
+#: What only a full RS-274/NGC interpreter runs, and why it is refused here.
+NGC_ONLY = {
+    "O": "O-words (subroutines, loops)",
+    "#": "parameters (#)",
+    "[": "expressions ([...])",
+    "@": "polar coordinates (@, ^)",
+    "^": "polar coordinates (@, ^)",
+}
+
+
+def markdown() -> str:
+    """``docs/gcode.md``: the dialect's words, generated from the tables above."""
+    def code(prefix: str, key: int) -> str:
+        number = f"{key // 10:02d}" if key % 10 == 0 else f"{key / 10:04.1f}"
+        return prefix + number
+
+    rows = ["# G-code words of the built-in front end", "",
+            "Generated from `firmware_model/gcode/words.py` (`k37 docs`). Anything else is "
+            "an error naming its line and column; `--frontend linuxcnc` runs full RS-274/NGC "
+            "through LinuxCNC's `rs274`.", "",
+            "| code | group | meaning |", "|---|---|---|"]
+    rows += [f"| {code('G', k)} | {c.group} | {c.doc} |" for k, c in G_CODES.items()]
+    rows += [f"| M{k:02d} | {c.group} | {c.doc} |" for k, c in M_CODES.items()]
+    rows += ["", "| word | meaning |", "|---|---|"]
+    rows += [f"| {letter} | {doc} |" for letter, doc in LETTERS.items()]
+    rows += ["", "| refused | why |", "|---|---|"]
+    rows += [f"| {code('G', k)} | {why} |" for k, why in REFUSED_G.items()]
+    rows += ["", "Refused with a hint to `--frontend linuxcnc`: "
+             + ", ".join(dict.fromkeys(NGC_ONLY.values())) + ".", ""]
+    return "\n".join(rows)

@@ -1,0 +1,1 @@
+"""The quadrature encoder interface: the chip, its register map and reference model."""

@@ -1,0 +1,3 @@
+"""The KM3701 interpolator: the chip (:mod:`hdl.k3701.chip`), its shared core, step latency and
+datapaths, its register map and reference model.
+"""

@@ -1,0 +1,96 @@
+"""The three-axis K3701: the core with a 3-D linear datapath, the circular one and a helix.
+
+A block is given in its own axes (first, second, third); CTRL.plane routes them to the
+machine's X, Y and Z (:data:`hdl.k3701.block.PLANES`). A line moves all three
+(:class:`hdl.k3701.datapaths.linear.LinearDatapath3`), an arc runs in the first two and a
+helix moves the third with the arc's steps (:class:`hdl.k3701.datapaths.helix.HelixAxis`); a
+helix of more third-axis moves than arc steps is refused. There is no parabolic or
+exponential datapath (see :data:`hdl.k3701.map.K3701_MAP_3`). The FP credit is in quarter-FP
+units: a step moving 1, 2 or 3 axes costs 4, 6 or 7 with sqrt(2) control.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from types import SimpleNamespace
+
+from amaranth.hdl import Module, Mux, Signal, Value, signed
+from amaranth.lib import wiring
+
+from hdl.bus.hostbus import RegisterBank
+from hdl.bus.registers import Register
+from hdl.k3701.block import PLANES, Kind
+from hdl.k3701.core import Axes, field_of
+from hdl.k3701.datapaths.base import Datapath, StepSignature, moves
+from hdl.k3701.datapaths.circular import CircularDatapath
+from hdl.k3701.datapaths.helix import HelixAxis
+from hdl.k3701.datapaths.linear import LinearDatapath3
+
+__all__ = ["ThreeAxes"]
+
+
+class ThreeAxes(Axes):
+    """The three-axis build (:data:`hdl.k3701.map.K3701_MAP_3`)."""
+
+    KINDS = (Kind.LINEAR, Kind.CIRCULAR)
+    CREDIT_WIDTH = 4
+
+    def datapaths(self) -> list[Datapath]:
+        return [LinearDatapath3(), CircularDatapath(axes=3)]
+
+    def new_kind(self, word: Value, ctrl: Register) -> Value:
+        return word[ctrl.field("circular").offset]
+
+    def connect(self, m: Module, regs: RegisterBank, datapaths: list[Datapath]) -> None:
+        # the block's third axis: its remaining distance, its plane and an arc's helix
+        self.zm = Signal(signed(24))
+        zm = self.zm
+        self.plane = Signal(2)
+        m.submodules.helix = self.helix = helix = HelixAxis()
+        arc = datapaths[Kind.CIRCULAR]
+        m.d.comb += [regs.z.r_data.eq(zm), helix.ze.eq(regs.z.w_data),
+                     helix.n.eq(regs.h.w_data),
+                     helix.start.eq(arc.start), helix.advance.eq(arc.advance)]
+
+    def block_inputs(self, block: wiring.PureInterface, regs: RegisterBank, word: Value,
+                     ctrl: Register) -> list:
+        return [block.ze.eq(regs.z.w_data)]
+
+    def running_step(self, steps: list) -> list:
+        # an arc's third axis is the helix's; an arc step moves one plane axis or two
+        circular = steps[Kind.CIRCULAR]
+        arc = SimpleNamespace(**{n: getattr(circular, n) for n in StepSignature(2).members},
+                              z=self.helix.move, z_neg=self.helix.neg,
+                              diag3=circular.diag & self.helix.move)
+        arc.diag = arc.diag | self.helix.move
+        return [*steps[:Kind.CIRCULAR], arc, *steps[Kind.CIRCULAR + 1:]]
+
+    def latch(self, regs: RegisterBank, word: Value, ctrl: Register) -> list:
+        return [self.zm.eq(regs.z.w_data), self.plane.eq(field_of(word, ctrl.field("plane")))]
+
+    def setup_refusal(self, ready: Value) -> Value:
+        return ready & self.helix.error
+
+    def credit(self, credit: Value, sqrt2: Value,
+               step: Callable[[], SimpleNamespace]) -> tuple[Value, Value]:
+        running = step()
+        return credit + 4, Mux(sqrt2 & running.diag, Mux(running.diag3, 7, 6), 4)
+
+    def output(self, m: Module, chip: wiring.Component, step: SimpleNamespace,
+               position: tuple[Signal, Signal]) -> None:
+        xm, ym = position
+        self._route(m, chip, step)
+        dx, dy, dz = moves(step, "xyz")
+        m.d.sync += [xm.eq(xm - dx), ym.eq(ym - dy), self.zm.eq(self.zm - dz)]
+
+    def _route(self, m: Module, chip: wiring.Component, step: SimpleNamespace) -> None:
+        """The step pulses: the block's axes to the machine's, by CTRL.plane (code 3 routes
+        as 0)."""
+        for code, axes in enumerate((*PLANES, PLANES[0])):
+            with m.If(self.plane == code):
+                for block_axis, machine_axis in zip("xyz", axes, strict=True):
+                    move = getattr(step, block_axis)
+                    neg = getattr(step, f"{block_axis}_neg")
+                    out = "xyz"[machine_axis]
+                    m.d.sync += [getattr(chip, f"{out}_pos").eq(move & ~neg),
+                                 getattr(chip, f"{out}_neg").eq(move & neg)]

@@ -1,0 +1,66 @@
+"""The paper's two-axis K3701: the core with the linear, circular and parabolic datapaths.
+
+A block moves X and Y; CTRL.parabolic or CTRL.exponential runs the parabolic datapath (which
+also draws exponentials), else CTRL.circular picks the circular or the linear one. The FP
+credit is in half-FP units: a step costs 2, a diagonal one 3 with sqrt(2) control.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from types import SimpleNamespace
+
+from amaranth.hdl import Module, Mux, Signal, Value
+from amaranth.lib import wiring
+
+from hdl.bus.hostbus import RegisterBank
+from hdl.bus.registers import Register
+from hdl.k3701.block import Kind
+from hdl.k3701.core import Axes
+from hdl.k3701.datapaths.base import Datapath, moves
+from hdl.k3701.datapaths.circular import CircularDatapath
+from hdl.k3701.datapaths.linear import LinearDatapath
+from hdl.k3701.datapaths.parabolic import ParabolicDatapath
+
+__all__ = ["DATAPATHS", "TwoAxes"]
+
+#: The datapath of each interpolation type (the type is CTRL.parabolic or CTRL.exponential,
+#: else CTRL.circular): the parabolic datapath also runs exponentials (CTRL.exponential).
+DATAPATHS: dict[Kind, type[Datapath]] = {Kind.LINEAR: LinearDatapath,
+                                         Kind.CIRCULAR: CircularDatapath,
+                                         Kind.PARABOLIC: ParabolicDatapath}
+
+
+class TwoAxes(Axes):
+    """The two-axis build (:data:`hdl.k3701.map.K3701_MAP`)."""
+
+    KINDS = tuple(DATAPATHS)
+    CREDIT_WIDTH = 3
+
+    def datapaths(self) -> list[Datapath]:
+        return [DATAPATHS[k]() for k in self.KINDS]
+
+    def new_kind(self, word: Value, ctrl: Register) -> Value:
+        return Mux(word[ctrl.field("parabolic").offset] | word[ctrl.field("exponential").offset],
+                   Kind.PARABOLIC, word[ctrl.field("circular").offset])
+
+    def block_inputs(self, block: wiring.PureInterface, regs: RegisterBank, word: Value,
+                     ctrl: Register) -> list:
+        return [block.swap.eq(word[ctrl.field("swap").offset]), block.e.eq(regs.e.w_data),
+                block.exponential.eq(word[ctrl.field("exponential").offset])]
+
+    def credit(self, credit: Value, sqrt2: Value,
+               step: Callable[[], SimpleNamespace]) -> tuple[Value, Value]:
+        return credit + 2, Mux(sqrt2 & step().diag, 3, 2)
+
+    def output(self, m: Module, chip: wiring.Component, step: SimpleNamespace,
+               position: tuple[Signal, Signal]) -> None:
+        xm, ym = position
+        dx, dy = moves(step)
+        m.d.sync += [
+            chip.x_pos.eq(step.x & ~step.x_neg),
+            chip.x_neg.eq(step.x & step.x_neg),
+            chip.y_pos.eq(step.y & ~step.y_neg),
+            chip.y_neg.eq(step.y & step.y_neg),
+            xm.eq(xm - dx), ym.eq(ym - dy),
+        ]
