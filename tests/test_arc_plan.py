@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import time
 
 import pytest
 from hypothesis import given, settings
@@ -53,12 +52,11 @@ def test_the_fast_plan_equals_the_walk_on_random_arcs(radius, start, end, jitter
     _both(xe, ye, i, j, cw, sqrt2)
 
 
-def test_a_large_circle_plans_in_milliseconds():
-    # a full circle of radius 200,000 LSB: about 1.1 million steps for the walk
+def test_a_large_circle_plans_to_its_start_with_consistent_counts():
+    # a full circle of radius 200,000 LSB: about 1.1 million steps for the walk (its speed
+    # against the walk is in bench/bench_planning.py)
     block = Block.arc(0, 0, -200_000, 0, sqrt2=True)
-    t0 = time.perf_counter()
     result = plan_block(block)
-    assert time.perf_counter() - t0 < 0.05
     assert result.end == (0, 0) and not result.error
     assert result.steps == sum(result.pulses.values()) - result.diagonal
     assert result.fp == result.steps + (result.diagonal + 1) // 2
