@@ -8,8 +8,9 @@ every register access costs the 8085's T-states and the firmware runs unchanged 
 simulation backend.
 
 Before anything is loaded, :func:`check_program` refuses what the hardware cannot do: a feed
-above the interpolator's step rate or below the rate multiplier's resolution, an FP budget
-beyond 24 bits, a dwell longer than the clock can count.
+below the rate multiplier's resolution (or, with ``run.strict_feed``, above the interpolator's
+step rate: else it runs at that rate, :func:`run_feed`, as a controller clamps it), an FP
+budget beyond 24 bits, a dwell longer than the clock can count.
 
 A feed (mm/min) becomes FP/s (:meth:`firmware_model.job.MachineConfig.lsb_per_s`) and then the
 rate multiplier's word at the input clock the firmware sets (:func:`feed_word`); a word gives
@@ -39,10 +40,10 @@ from hdl.feed.feed_rate_map import DIVIDER_WIDTH, FEED_BITS
 from hdl.k3701.block import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
 from hdl.k3701.map import block_registers
 
-__all__ = ["AlarmEvent", "BlockObserver", "BlockRecord", "EventRecord", "Firmware",
-           "FirmwareError", "check_program", "feed_word", "max_feed_mm_min",
-           "planned_seconds", "programmed_feed",
-           "rm_clock_hz", "word_feed", "word_rate"]
+__all__ = ["BLOCK_HOST_SECONDS", "AlarmEvent", "BlockObserver", "BlockRecord", "EventRecord",
+           "Firmware", "FirmwareError", "accel_lag_seconds", "check_program", "clamped_feeds",
+           "feed_limit", "feed_word", "max_feed_mm_min", "planned_seconds", "program_seconds",
+           "programmed_feed", "rm_clock_hz", "run_feed", "word_feed", "word_rate"]
 
 #: Rate-multiplier input clock: one input clock per linear step time, so the FP stream into
 #: the K3701 never has two pulses closer than the linear step latency.
@@ -111,9 +112,19 @@ def max_feed_mm_min(machine: MachineConfig, kind: Kind) -> float:
     return machine.mm_per_min(machine.clock_hz / latency)
 
 
+def feed_limit(machine: MachineConfig, kind: Kind) -> float:
+    """The feed a faster one is clamped to: the fastest whose rate-multiplier word's rate is
+    not above :func:`max_feed_mm_min` (nor the word above its register's largest)."""
+    top = machine.lsb_per_s(max_feed_mm_min(machine, kind))
+    word = math.floor(top / rm_clock_hz(machine) * (1 << FEED_BITS))
+    return word_feed(machine, min(word, (1 << FEED_BITS) - 1))
+
+
 def feed_word(machine: MachineConfig, feed_mm_min: float) -> int:
-    """The rate-multiplier word for a feed: FP/s = f_in * W / 2^FEED_BITS (nearest)."""
-    return round(machine.lsb_per_s(feed_mm_min) / rm_clock_hz(machine) * (1 << FEED_BITS))
+    """The rate-multiplier word for a feed: FP/s = f_in * W / 2^FEED_BITS (nearest, and at
+    most the register's largest, 2^FEED_BITS - 1)."""
+    word = round(machine.lsb_per_s(feed_mm_min) / rm_clock_hz(machine) * (1 << FEED_BITS))
+    return min(word, (1 << FEED_BITS) - 1)
 
 
 def word_rate(machine: MachineConfig, word: int) -> float:
@@ -133,7 +144,39 @@ def planned_seconds(item: Item, machine: MachineConfig) -> float:
         return item.seconds
     if isinstance(item, Event):
         return 0.0
-    return item.plan.fp / word_rate(machine, feed_word(machine, programmed_feed(item, machine)))
+    return item.plan.fp / word_rate(machine, feed_word(machine, run_feed(item, machine)))
+
+
+#: The host's own time per block in :func:`program_seconds` (loading the K3701, the feed and
+#: the budget over the bus: about 0.3 ms at 3.072 MHz, rounded up).
+BLOCK_HOST_SECONDS = 0.001
+
+
+def accel_lag_seconds(machine: MachineConfig, fp: int, rate: float) -> float:
+    """How long after its last FP entered a block of ``fp`` FP at ``rate`` FP/s ends when the
+    FP pass the accel/decel circuit (``machine.accel = "pre"``): an exponential circuit holds
+    at most m = min(fp, rate tau) pulses, which leave one per tau / k when k are left, the
+    last after about tau (ln m + 0.58); 0 for other placements (the K3701 then ends a block
+    with its last FP) and empty blocks. An upper estimate, tau (1 + ln m), which also covers
+    the linear and bell circuits."""
+    if machine.accel != "pre" or fp == 0:
+        return 0.0
+    tau = machine.tau_s
+    return tau * (1 + math.log(max(1.0, min(fp, rate * tau))))
+
+
+def program_seconds(job: Job) -> float:
+    """The program's planned machine time, an upper estimate: each block's FP at its feed
+    word's rate (:func:`planned_seconds`), its end behind the accel/decel circuit
+    (:func:`accel_lag_seconds`) and the host's time (:data:`BLOCK_HOST_SECONDS`), the dwells,
+    and the settling at the end (:data:`SETTLE_SECONDS`)."""
+    machine, total = job.machine, SETTLE_SECONDS
+    for item in job.program.items:
+        total += planned_seconds(item, machine)
+        if not isinstance(item, Dwell | Event):
+            rate = word_rate(machine, feed_word(machine, run_feed(item, machine)))
+            total += accel_lag_seconds(machine, item.plan.fp, rate) + BLOCK_HOST_SECONDS
+    return total
 
 
 def _where(item: Item, program: Program) -> str:
@@ -141,11 +184,57 @@ def _where(item: Item, program: Program) -> str:
 
 
 def programmed_feed(item: Move, machine: MachineConfig) -> float:
-    """The feed a move runs at (mm/min): its F word, or the machine's rapid feed for G00."""
+    """The feed a move is programmed at (mm/min): its F word, or the machine's rapid feed for
+    G00."""
     if isinstance(item, Line) and item.rapid:
         return machine.rapid_mm_min
     assert item.feed_mm_min is not None
     return item.feed_mm_min
+
+
+def run_feed(item: Move, machine: MachineConfig) -> float:
+    """The feed a move runs at (mm/min): :func:`programmed_feed`, clamped to
+    :func:`feed_limit` where it is above the K3701's maximum (``run.strict_feed`` refuses
+    such a feed instead: :func:`check_program`)."""
+    feed = programmed_feed(item, machine)
+    if feed > max_feed_mm_min(machine, item.block.kind):
+        return feed_limit(machine, item.block.kind)
+    return feed
+
+
+def clamped_feeds(job: Job) -> list[str]:
+    """One warning naming every line whose feed :func:`run_feed` clamps (none: empty)."""
+    machine, program = job.machine, job.program
+    lines: dict[str, list[int]] = {}
+    for item in program.moves:
+        kind = item.block.kind
+        if programmed_feed(item, machine) > max_feed_mm_min(machine, kind):
+            lines.setdefault(_block_name(kind), []).append(item.line_no)
+    if not lines:
+        return []
+    kinds = [(name, limit) for name, limit in
+             ((_block_name(k), feed_limit(machine, k)) for k in Kind) if name in lines]
+    return [f"{program.locate(min(min(v) for v in lines.values()))}: feeds above the K3701's "
+            f"maximum run at it: "
+            + "; ".join(f"{_line_list(lines[name])} at {limit:.2f} mm/min (the maximum for "
+                        f"{name}s)" for name, limit in kinds)
+            + " (run.strict_feed = true refuses them)"]
+
+
+def _block_name(kind: Kind) -> str:
+    return {Kind.LINEAR: "line", Kind.CIRCULAR: "arc"}.get(kind, f"{kind.name.lower()} block")
+
+
+def _line_list(lines: list[int]) -> str:
+    """``lines 3, 5-7`` of sorted line numbers, runs joined."""
+    runs: list[list[int]] = []
+    for line in sorted(set(lines)):
+        if runs and line == runs[-1][-1] + 1:
+            runs[-1].append(line)
+        else:
+            runs.append([line])
+    text = ", ".join(str(r[0]) if len(r) == 1 else f"{r[0]}-{r[-1]}" for r in runs)
+    return f"line{'s' if len(lines) > 1 else ''} {text}"
 
 
 def check_program(job: Job) -> None:
@@ -164,7 +253,7 @@ def check_program(job: Job) -> None:
             continue
         feed = programmed_feed(item, machine)
         limit = max_feed_mm_min(machine, item.block.kind)
-        if feed > limit:
+        if feed > limit and job.run.strict_feed:
             what = {Kind.LINEAR: "a line", Kind.CIRCULAR: "an arc",
                     Kind.EXPONENTIAL: "an exponential"}.get(
                 item.block.kind, f"a {item.block.kind.name.lower()} block")
@@ -178,7 +267,7 @@ def check_program(job: Job) -> None:
                 f"{math.floor(limit * 100) / 100:.2f} mm/min (one step per "
                 f"{item.block.latency} cycles at {machine.clock_hz / 1e6:g} MHz; the block at "
                 f"line {item.line_no}): lower {word}, or raise machine.clock_hz or "
-                f"machine.lsb_mm")
+                f"machine.lsb_mm (run.strict_feed = false clamps it to the maximum)")
         if feed_word(machine, feed) < 1:
             raise FirmwareError(f"{_where(item, program)}: feed {feed:g} mm/min is below the "
                                 f"rate multiplier's resolution, {word_feed(machine, 1):.3g} "
@@ -269,7 +358,7 @@ class Firmware:
         host, machine = self.host, self.job.machine
         host.work(host.timing.block_setup)
         block = item.block
-        word = feed_word(machine, programmed_feed(item, machine))
+        word = feed_word(machine, run_feed(item, machine))
         budget = max(0, item.plan.fp + self.budget_offset)
         record = BlockRecord(item.index, item.line_no, block.kind.name.lower(),
                              host.cycle, budget, word)

@@ -229,6 +229,9 @@ class RunConfig(_Checked):
     max_time_s: float | None = _key(None, OrAbsent(Limit(0, low_open=True, unit="s")),
                                     "stop the run after this much simulated time (s); absent: "
                                     "the command line's limit")
+    strict_feed: bool = _key(False, Boolean(),
+                             "refuse a feed above the K3701's maximum; false: run it at the "
+                             "maximum, as a controller clamps it, with one warning")
 
 
 @dataclass(frozen=True)

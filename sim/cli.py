@@ -99,7 +99,7 @@ def _print_error(e: Exception) -> None:
 def _cmd_plan(args: argparse.Namespace) -> int:
     import json
 
-    from firmware_model.firmware import FirmwareError, check_program
+    from firmware_model.firmware import FirmwareError, check_program, clamped_feeds
     from firmware_model.gcode.parser import GcodeError
     from sim.run.jobfile import JobError, load_job
     from sim.run.plan import plan_rows, plan_table
@@ -114,6 +114,9 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         print(json.dumps({"program": job.program.to_dict(), "items": plan_rows(job)}))
     else:
         print(plan_table(job), end="")
+    sys.stdout.flush()
+    for warning in (*job.program.notes, *clamped_feeds(job)):
+        print(f"k37: warning: {warning}", file=sys.stderr)
     return 0
 
 
@@ -239,8 +242,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("job", nargs="?", help="job file: .toml, or G-code run on the default machine")
     p.add_argument("--backend", choices=BACKEND_NAMES, default=BACKEND_NAMES[0],
                    help="simulation backend (auto: compiled when a C++ compiler exists)")
-    p.add_argument("--max-cycles", type=_positive_int, default=10**9,
-                   help="stop after this many clock cycles (default 1e9)")
+    p.add_argument("--max-cycles", type=_positive_int, default=None,
+                   help="stop after this many clock cycles (default: twice the program's "
+                        "planned machine time and 10 s)")
     p.add_argument("--sample-every", type=_positive_int, default=1000,
                    help="sample the machine every N cycles for trace, plot and path error")
     p.add_argument("--no-skip-idle", action="store_true",

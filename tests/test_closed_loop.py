@@ -8,12 +8,14 @@ in ``tests/test_backend_equivalence.py``.
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from firmware_model.firmware import FirmwareError, check_program
+from firmware_model.job import RunConfig
 from sim.run.jobfile import load_job
 from sim.run.runner import RunOptions, build_backend, run_job
 from sim.run.sampler import TRACE_COLUMNS
@@ -125,7 +127,8 @@ def test_k37_run_exits_non_zero_with_the_alarm_in_the_json(job_file, k37):
     ("[program]\ngcode = 'G01 X1'\n", "F"),
     ("[machine\n", "job.toml:1"),
     ("[program]\ngcode = 'G01 X9000 F100'\n", "outside"),
-    ("[program]\ngcode = 'G02 X0 Y0 I5 J0 F4000'\n", "above the K3701's maximum"),
+    ("[program]\ngcode = 'G02 X0 Y0 I5 J0 F4000'\n[run]\nstrict_feed = true\n",
+     "above the K3701's maximum"),
 ])
 def test_bad_jobs_give_one_error_line_and_no_traceback(tmp_path, content, message, k37):
     path = tmp_path / "job.toml"
@@ -140,9 +143,11 @@ def test_bad_jobs_give_one_error_line_and_no_traceback(tmp_path, content, messag
 
 def test_feed_above_the_interpolator_maximum_is_refused_before_loading(job_file):
     job = load_job(job_file("G21 G90 G02 X0 Y0 I5 J0 F4000\nM30"))
+    job = replace(job, run=RunConfig(strict_feed=True))
     # the F word's line and column in the job file (the inline program starts on line 2)
     with pytest.raises(FirmwareError, match=r"job.toml:7:25: feed 4000 mm/min is "
                                             r"above the K3701's maximum for an arc, 2857.*"
                                             r"lower F4000, or raise machine.clock_hz or "
-                                            r"machine.lsb_mm$"):
+                                            r"machine.lsb_mm \(run.strict_feed = false "
+                                            r"clamps it to the maximum\)$"):
         check_program(job)

@@ -10,7 +10,7 @@ from firmware_model.firmware import FirmwareError, check_program
 from firmware_model.gcode.curves import MIN_VERTEX_RADIUS
 from firmware_model.gcode.parser import GcodeError, parse
 from firmware_model.gcode.program import Exponential, Parabola
-from firmware_model.job import Job, MachineConfig, ServoConfig
+from firmware_model.job import Job, MachineConfig, RunConfig, ServoConfig
 from hdl.k3701.block import Block, Kind
 from hdl.k3701.model import plan
 from sim.run.report import HOW_FIELDS
@@ -85,7 +85,8 @@ def test_parabola_distances_measure_the_true_curve_between_its_ends():
 def test_firmware_refuses_a_parabola_faster_than_the_circular_step_rate():
     machine = MachineConfig()
     program = parse("G21 G91 F3000\nG06 X10 Y0 I5 J-2", source="p.ngc")
-    job = Job("p", machine, {"x": ServoConfig(), "y": ServoConfig()}, program)
+    job = Job("p", machine, {"x": ServoConfig(), "y": ServoConfig()}, program,
+              RunConfig(strict_feed=True))
     with pytest.raises(FirmwareError, match="above the K3701's maximum for a parabolic block"):
         check_program(job)
 

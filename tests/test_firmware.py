@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -9,12 +11,16 @@ from hypothesis import strategies as st
 from firmware_model.firmware import (
     FirmwareError,
     check_program,
+    clamped_feeds,
+    feed_limit,
     feed_word,
     max_feed_mm_min,
+    run_feed,
     word_feed,
+    word_rate,
 )
 from firmware_model.host import T_STATES, Host8085
-from firmware_model.job import MachineConfig
+from firmware_model.job import MachineConfig, RunConfig
 from hdl.chipset.map import port
 from hdl.feed.feed_rate_map import FEED_BITS
 from hdl.k3701.block import Kind
@@ -93,15 +99,42 @@ def test_maximum_feeds_follow_the_step_latencies():
 @pytest.mark.parametrize(("gcode", "message"), [
     ("G01 X1 F6000", r"t.ngc:1:8: feed 6000 mm/min is above the K3701's maximum for a line, "
                      r"5454.54 mm/min .*: lower F6000, or raise machine.clock_hz or "
-                     r"machine.lsb_mm$"),
+                     r"machine.lsb_mm \(run.strict_feed = false clamps it to the "
+                     r"maximum\)$"),
     ("G01 X1 F5455", r"t.ngc:1:8: feed 5455 mm/min is above the K3701's maximum for a line, "
                      r"5454.54 mm/min"),
     ("G01 X1 F0.01", r"t.ngc:1: feed 0.01 mm/min is below the rate multiplier's resolution, "
                      r"0.0208 mm/min"),
 ])
-def test_impossible_feeds_are_refused_with_the_line(make_job, gcode, message):
+def test_impossible_feeds_are_refused_with_the_line_under_strict_feed(make_job, gcode, message):
+    job = replace(make_job(gcode, source="t.ngc"), run=RunConfig(strict_feed=True))
     with pytest.raises(FirmwareError, match=message):
-        check_program(make_job(gcode, source="t.ngc"))
+        check_program(job)
+
+
+def test_feeds_above_the_maximum_run_at_it_with_one_warning_naming_the_lines(make_job):
+    job = make_job("G21 G90 F9000\nG01 X10\nG01 X20\nG02 X30 I5 F4000\nG01 X0 F100\n"
+                   "G01 X1 F6000", source="t.ngc")
+    check_program(job)
+    moves = job.program.moves
+    assert [run_feed(m, job.machine) for m in moves] == [
+        feed_limit(job.machine, Kind.LINEAR)] * 2 + [feed_limit(job.machine, Kind.CIRCULAR),
+                                                      100, feed_limit(job.machine, Kind.LINEAR)]
+    assert clamped_feeds(job) == [
+        "t.ngc:2: feeds above the K3701's maximum run at it: lines 2-3, 6 at 5454.52 mm/min "
+        "(the maximum for lines); line 4 at 2857.13 mm/min (the maximum for arcs) "
+        "(run.strict_feed = true refuses them)"]
+    assert clamped_feeds(make_job("G01 X1 F5000")) == []
+
+
+def test_a_clamped_feed_is_the_fastest_word_not_above_the_step_rate():
+    machine = MachineConfig()
+    for kind in (Kind.LINEAR, Kind.CIRCULAR):
+        word = feed_word(machine, feed_limit(machine, kind))
+        assert word_rate(machine, word) <= machine.clock_hz / (11 if kind is Kind.LINEAR else 21)
+        assert word_rate(machine, word + 1) > machine.clock_hz / (11 if kind is Kind.LINEAR
+                                                                    else 21) \
+            or word + 1 == 1 << FEED_BITS
 
 
 def test_rapid_moves_use_the_machine_rapid_feed(make_job):

@@ -212,10 +212,23 @@ def test_rs274_ngc_constructs_are_one_error_saying_how_to_run_them():
     assert "--frontend linuxcnc" in info.value.errors[0][2]
 
 
-def test_blocks_after_the_program_end_are_one_error():
-    with pytest.raises(GcodeError) as info:
-        parse("M30\nG00 X1\nG00 X2\nG05")
-    assert info.value.errors == [(2, 1, "block after the program end (M02/M30)")]
+def test_blocks_after_the_program_end_are_ignored_with_one_note():
+    # as LinuxCNC: the first M02/M30 ends the program, even a file of several jobs
+    program = parse("G01 X1 F100\nM30\n(next job)\nG00 X1\nG00 X2\nG05", source="jobs.nc")
+    assert program.end and len(program.moves) == 1
+    assert program.notes == ("jobs.nc:4: the program ended (M02/M30) before this line: the "
+                             "rest of the file is ignored",)
+
+
+def test_grbl_setting_and_status_lines_are_notes_not_errors():
+    program = parse("$110=5000\n?\nG01 X1 F100\n$H\nM30", source="g.nc")
+    assert len(program.moves) == 1
+    assert [note.split(": ")[0] for note in program.notes] == ["g.nc:1", "g.nc:2", "g.nc:4"]
+    assert all("ignored" in note for note in program.notes)
+
+
+def test_a_program_with_nothing_after_its_end_has_no_note():
+    assert parse("G01 X1 F100\nM30\n\n(trailing comment)\n%\n").notes == ()
 
 
 def test_errors_stop_at_the_limit():

@@ -26,7 +26,20 @@ def test_plan_prints_every_block_with_its_line_end_and_fp(tmp_path, capsys):
     assert out[2].split() == ["1", "2", "line", "(1000,", "0)", "1000"]
     assert out[3].split()[:3] == ["2", "3", "arc"] and out[4].split()[:4] == [
         "3", "3", "correction", "(1000,"]
-    assert out[-1].startswith("3 blocks, ") and out[-1].endswith("M02/M30")
+    assert out[-2].startswith("3 blocks, ") and out[-2].endswith("M02/M30")
+    assert out[-1].startswith("planned machine time ") and ", 1.000 s of dwells, " in out[-1]
+
+
+def test_plan_of_many_short_blocks_on_an_exact_stop_machine_names_the_keys_that_shorten_it(
+        tmp_path, capsys):
+    path = tmp_path / "z.ngc"
+    path.write_text("G21 G90 F600\n" + "\n".join(f"G01 X{k % 2} Y{k / 100:.2f}"
+                                                   for k in range(1, 41)) + "\nM30\n")
+    assert main(["plan", str(path)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[-2].startswith("planned machine time 1 min ")
+    assert out[-1].startswith("the exact stop behind the accel/decel circuit at each of the 40 "
+                              "blocks (tau 300 ms) takes most of it: machine.accel = \"post\"")
 
 
 def test_plan_json_has_the_program_and_its_items(tmp_path, capsys):
@@ -35,8 +48,10 @@ def test_plan_json_has_the_program_and_its_items(tmp_path, capsys):
     assert main(["plan", "--json", str(path)]) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["program"]["lines"] == 1
+    # 1000 diagonal steps (1.414 mm) at F100: 1500 FP at 1,667 FP/s
     assert data["items"] == [
-        {"index": 0, "line": 1, "kind": "line", "end": [1000, 1000], "fp": 1500, "steps": 1000},
+        {"index": 0, "line": 1, "kind": "line", "end": [1000, 1000], "fp": 1500, "steps": 1000,
+         "seconds": pytest.approx(0.9, rel=1e-4)},
         {"index": 1, "line": 2, "kind": "dwell", "seconds": 0.5}]
 
 

@@ -63,6 +63,9 @@ __all__ = ["ARC_TOLERANCE_LIMIT", "ARC_TOLERANCE_MM", "AXES_LIMIT", "INCH_MM", "
 
 #: Millimetres per inch (G20).
 INCH_MM = Decimal("25.4")
+#: First characters of a line that is a controller's own command, not G-code (grbl's ``$``
+#: settings and ``?`` status requests, as sender programs leave them in files).
+_CONTROLLER_LINES = ("$", "?")
 #: Default arc tolerance (mm) in G21 and G20: LinuxCNC's (0.028 mm, 0.0028 in): how far the
 #: end's distance from the centre may differ from the start's.
 ARC_TOLERANCE_MM = {False: 0.028, True: 0.0028 * 25.4}
@@ -224,8 +227,6 @@ class _Interpreter:
     # -- one block --------------------------------------------------------------------------
 
     def block(self, words: list[Word]) -> None:
-        if self.end:
-            raise _BlockError(words[0].col, "block after the program end (M02/M30)")
         b = _Block(words)
         n = b.word("N")
         if n is not None and (n.value < 0 or n.value != n.value.to_integral_value()):
@@ -613,10 +614,23 @@ def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: b
     planner = Planner(axes=axes, sqrt2=bool(sqrt2), lsb_mm=lsb_mm)
     interp = _Interpreter(planner, lsb_mm=lsb_mm, tolerance=arc_tolerance, tools=tools)
     errors: list[tuple[int, int, str]] = []
+    notes: list[tuple[int, str]] = []
     text = text.removeprefix("\ufeff")
     for number, line in enumerate(text.split("\n"), start=1):
         interp.line_no = number
-        if line.strip(" \t\r") == "%":
+        stripped = line.strip(" \t\r")
+        if stripped == "%":
+            continue
+        if interp.end:
+            if stripped and not stripped.startswith(("(", ";", "%")):
+                # LinuxCNC stops at the program end; a file of several jobs runs the first
+                notes.append((number, "the program ended (M02/M30) before this line: the "
+                                      "rest of the file is ignored"))
+                break
+            continue
+        if stripped.startswith(_CONTROLLER_LINES):
+            notes.append((number, f"{stripped[:1]!r} line (a controller's own command, as "
+                                  f"grbl's settings and status): ignored"))
             continue
         try:
             words = words_of(line)
@@ -626,8 +640,6 @@ def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: b
             if NGC_HINT in e.message and any(NGC_HINT in m for _, _, m in errors):
                 continue  # how to run RS-274/NGC is said once
             errors.append((number, e.col, e.message))
-            if interp.end:
-                break  # the first block after the program end is enough said
             if len(errors) == MAX_ERRORS:
                 errors.append((number, 1, f"stopped after {MAX_ERRORS} errors"))
                 break
@@ -635,4 +647,5 @@ def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: b
     if errors:
         raise GcodeError(name, [(line + first - 1, col, msg) for line, col, msg in errors])
     return Program(tuple(planner.items), interp.end, source, lsb_mm, bool(sqrt2),
-                   arc_tolerance, axes, origin)
+                   arc_tolerance, axes, origin,
+                   notes=tuple(f"{name}:{line + first - 1}: {text}" for line, text in notes))

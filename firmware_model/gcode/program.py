@@ -278,6 +278,9 @@ class Program:
     #: The file and line the program's first line is on, for messages (None: ``source``,
     #: line 1; a program inline in a job file is on the job file's lines).
     origin: tuple[str, int] | None = field(default=None, compare=False)
+    #: What the front end left out and why, each ``file:line: text`` (blocks after the program
+    #: end, a controller's own command lines): reported as warnings, never errors.
+    notes: tuple[str, ...] = field(default=(), compare=False)
 
     def locate(self, line: int, col: int | None = None) -> str:
         """``file:line[:col]`` of a program line, in the file it is written in."""

@@ -10,13 +10,18 @@ from __future__ import annotations
 
 from typing import Any
 
-from firmware_model.gcode.parser import Arc, Dwell, Event, Line
+from firmware_model.firmware import SETTLE_SECONDS, planned_seconds, program_seconds
+from firmware_model.gcode.parser import Arc, Dwell, Event, Item, Line
 from firmware_model.job import Job
 
-__all__ = ["plan_rows", "plan_table"]
+__all__ = ["MANY_BLOCKS", "machine_time", "plan_rows", "plan_table"]
+
+#: From this many blocks on, a program whose exact stops take longer than its moves is told
+#: what shortens them.
+MANY_BLOCKS = 10
 
 
-def _kind(item: Line | Arc | Dwell | Event) -> str:
+def _kind(item: Item) -> str:
     if isinstance(item, Line):
         return "correction" if item.correction else "rapid" if item.rapid else "line"
     return type(item).__name__.lower()
@@ -27,14 +32,15 @@ def plan_rows(job: Job) -> list[dict[str, Any]]:
     rows = []
     for item in job.program.items:
         row: dict[str, Any] = {"index": item.index, "line": item.line_no, "kind": _kind(item)}
-        if isinstance(item, Line | Arc):
-            row |= {"end": list(item.end), "fp": item.plan.fp, "steps": item.plan.steps}
+        if isinstance(item, Dwell):
+            row["seconds"] = item.seconds
+        elif isinstance(item, Event):
+            row |= {"word": item.word, "event": item.kind, "value": item.value}
+        else:  # a move: a line, an arc, a parabola or an exponential
+            row |= {"end": list(item.end), "fp": item.plan.fp, "steps": item.plan.steps,
+                    "seconds": planned_seconds(item, job.machine)}
             if isinstance(item, Arc):
                 row |= {"plane": item.plane, "cw": item.cw}
-        elif isinstance(item, Dwell):
-            row["seconds"] = item.seconds
-        else:
-            row |= {"word": item.word, "event": item.kind, "value": item.value}
         rows.append(row)
     return rows
 
@@ -59,4 +65,36 @@ def plan_table(job: Job) -> str:
     lines.append(f"{len(program.moves)} blocks, {fp} FP, {len(program.events)} events; ends at "
                  f"{tuple(program.final_position)} LSB; "
                  f"{'M02/M30' if program.end else 'no program end'}")
+    lines += machine_time(job)
     return "\n".join(lines) + "\n"
+
+
+def machine_time(job: Job) -> list[str]:
+    """The program's planned machine time in words, and what shortens it where the exact stops
+    behind the accel/decel circuit take most of it."""
+    machine = job.machine
+    moving = sum(planned_seconds(m, machine) for m in job.program.moves)
+    dwells = sum(d.seconds for d in job.program.items if isinstance(d, Dwell))
+    total = program_seconds(job)
+    stops = total - moving - dwells
+    text = [f"planned machine time {_hms(total)}: {_hms(moving)} moving at the programmed "
+            f"feeds, {_hms(dwells)} of dwells, {_hms(stops)} of block ends and settling (an "
+            f"upper estimate; the run's default limit follows it)"]
+    if (machine.accel == "pre" and len(job.program.moves) >= MANY_BLOCKS
+            and stops - SETTLE_SECONDS > moving):
+        text.append(f"the exact stop behind the accel/decel circuit at each of the "
+                    f"{len(job.program.moves)} blocks (tau {1e3 * machine.tau_s:g} ms) takes "
+                    f"most of it: machine.accel = \"post\" (one circuit per axis after the "
+                    f"K3701) or a shorter tau (machine.accel_bits, machine.accel_fa_hz) "
+                    f"shortens it")
+    return text
+
+
+def _hms(seconds: float) -> str:
+    """``1 h 02 min 03.4 s``, ``2 min 03.4 s`` or ``3.400 s``."""
+    if seconds < 60:
+        return f"{seconds:.3f} s"
+    minutes, secs = divmod(seconds, 60)
+    hours, minutes = divmod(int(minutes), 60)
+    return (f"{hours} h {minutes:02d} min {secs:04.1f} s" if hours
+            else f"{minutes} min {secs:04.1f} s")

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from firmware_model.firmware import programmed_feed
+from firmware_model.firmware import run_feed
 from firmware_model.gcode.parser import Arc, Line
 from firmware_model.gcode.program import Exponential, Move, Parabola
 from sim.run.plot_data import PlotData, plot_data
@@ -176,7 +176,7 @@ def figure(result: RunResult) -> Figure:
     path_speed = reduce(np.hypot, [v for _, v in speeds.values()])
     speed_ax.plot(tx, machine.mm_per_min(path_speed), color="k", lw=1.0, label="path")
     items = result.job.program.items
-    feeds = [programmed_feed(items[b["index"]], machine) for b in blocks]
+    feeds = [run_feed(items[b["index"]], machine) for b in blocks]
     for k, block in enumerate(blocks):
         end = block["end_cycle"] if block["end_cycle"] is not None else cycles[-1] if len(s) \
             else block["start_cycle"]

@@ -15,6 +15,7 @@ a run ends within a tick of it, and still reports.
 from __future__ import annotations
 
 import hashlib
+import math
 import signal
 import threading
 import time
@@ -30,7 +31,13 @@ import numpy as np
 
 import hdl
 import sim.machine
-from firmware_model.firmware import BlockRecord, Firmware, check_program
+from firmware_model.firmware import (
+    BlockRecord,
+    Firmware,
+    check_program,
+    clamped_feeds,
+    program_seconds,
+)
 from firmware_model.gcode.parser import Dwell, Event
 from firmware_model.host import Host8085
 from firmware_model.job import Job
@@ -60,7 +67,8 @@ class RunOptions:
 
     #: One of :data:`sim.backends.factory.BACKEND_NAMES`.
     backend: str = BACKEND_NAMES[0]
-    max_cycles: int = 10**9
+    #: The run's cycle limit; None: the program's (:func:`cycle_limit`).
+    max_cycles: int | None = None
     sample_every: int = 1000
     vcd: Path | None = None
     vcd_start: int = 0
@@ -129,7 +137,7 @@ def check_options(options: RunOptions) -> None:
     if stop is not None and start >= stop:
         raise OptionError(f"--vcd-start {start:,} must come before --vcd-stop {stop:,}: "
                           f"the waveform window would be empty")
-    if options.vcd is not None and start >= options.max_cycles:
+    if options.vcd is not None and options.max_cycles is not None and start >= options.max_cycles:
         raise OptionError(f"--vcd-start {start:,} is at or past --max-cycles "
                           f"{options.max_cycles:,}: the waveform window would never be reached")
 
@@ -339,15 +347,31 @@ def _waveform_warnings(options: RunOptions, cycles: int) -> list[str]:
             f"{options.vcd_start:,}: no waveform written (nor a GTKWave save file)"]
 
 
+#: The default cycle limit follows the program: this many times its planned machine time
+#: (:func:`firmware_model.firmware.program_seconds`), plus :data:`PLAN_MARGIN_SECONDS`.
+PLAN_MARGIN_FACTOR = 2
+PLAN_MARGIN_SECONDS = 10.0
+
+
 def cycle_limit(job: Job, options: RunOptions) -> tuple[int, str]:
-    """The run's cycle limit, the fewer of ``max_cycles`` and the job's ``run.max_time_s`` of
-    simulated time, and its name in words."""
-    by_option = (options.max_cycles, f"the cycle limit, --max-cycles {options.max_cycles:,},")
+    """The run's cycle limit, the fewer of ``max_cycles`` (None: the program's planned machine
+    time with a margin, :data:`PLAN_MARGIN_FACTOR` and :data:`PLAN_MARGIN_SECONDS`) and the
+    job's ``run.max_time_s`` of simulated time, and its name in words."""
+    if options.max_cycles is None:
+        planned = program_seconds(job)
+        limit = math.ceil((PLAN_MARGIN_FACTOR * planned + PLAN_MARGIN_SECONDS)
+                          * job.machine.clock_hz)
+        by_option = (limit, f"the program's limit ({limit:,} cycles: {PLAN_MARGIN_FACTOR} x "
+                            f"its planned {planned:.3f} s + {PLAN_MARGIN_SECONDS:g} s; "
+                            f"--max-cycles sets another),")
+    else:
+        by_option = (options.max_cycles,
+                     f"the cycle limit, --max-cycles {options.max_cycles:,},")
     seconds = job.run.max_time_s
     if seconds is None:
         return by_option
     cycles = max(1, round(seconds * job.machine.clock_hz))
-    if cycles >= options.max_cycles:
+    if cycles >= by_option[0]:
         return by_option
     return cycles, f"the job's limit, run.max_time_s = {seconds:g} s ({cycles:,} cycles),"
 
@@ -427,7 +451,7 @@ def _report(job: Job, backend: Backend, firmware: Firmware, meter: BlockMeter,
             "samples": store.rows,
         },
         "alarms": [{"axis": a.axis, "cycle": a.cycle, "kind": a.kind} for a in firmware.alarms],
-        "warnings": [],
+        "warnings": [*job.program.notes, *clamped_feeds(job)],
         **({"events": [{"line": r.event.line_no, "word": r.event.word, "kind": r.event.kind,
                         "value": r.event.value, "cycle": r.cycle} for r in firmware.events]}
            if job.program.events else {}),
