@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any, Protocol
 
 from firmware_model.gcode.canon import FRONTENDS
-from firmware_model.gcode.parser import LSB_MM_LIMIT, GcodeError, Program
+from firmware_model.gcode.parser import LSB_MM_LIMIT, GcodeError, Program, names_third_axis
 from hdl.chipset.map import ACCEL_BITS, AXES, MACHINE_AXES, Accel, AccelShape, axis_names
 from hdl.common.params import Limit
 from hdl.encoder.map import ENCODER_MAP
@@ -300,13 +300,13 @@ def parse_for_machine(machine: MachineConfig, text: str, *, source: str, axes_gi
             program = parsed(replace(machine, axes=3))
         except GcodeError as error:
             # A program only the two-axis chip runs (a parabola, an exponential) runs there;
-            # else the two-axis parse's error where it is as far on (a word both refuse: the
-            # message as ever), the three-axis one's where that stopped earlier (at a Z).
+            # else the errors of the machine its words ask for: three axes where they name Z
+            # (or a plane with Z), two otherwise, never "two axes" hiding a real error.
             machine = replace(machine, axes=2)
             try:
                 return machine, parsed(machine)
             except GcodeError as error2:
-                raise (error2 if error2.line >= error.line else error) from None
+                raise (error if names_third_axis(text) else error2) from None
         if moves_z(program):
             return replace(machine, axes=3), program
         machine = replace(machine, axes=2)

@@ -7,6 +7,7 @@ import math
 import pytest
 
 from firmware_model.gcode.parser import Arc, Dwell, GcodeError, Line, parse
+from firmware_model.job import gcode_job
 from hdl.k3701.block import COORD_MAX, Block, Kind, quadrant_of
 from hdl.k3701.model import plan
 
@@ -357,3 +358,22 @@ def test_bad_parser_parameters_are_refused(kwargs, message):
 def test_an_empty_program_has_no_items():
     prog = parse("")
     assert (prog.items, prog.end, prog.final_position) == ((), False, (0, 0))
+
+
+def test_a_refused_block_is_reported_once_and_the_blocks_after_it_start_at_its_end():
+    # the arc at line 3 starts where line 2 meant to end (X10), so it is on its circle
+    with pytest.raises(GcodeError) as info:
+        parse("G21 G90 F100\nG01 X10 F-1\nG02 X20 I5 J0\nG03 X10 I-5 J0\nG01 X0\nM30")
+    assert info.value.errors == [(2, 9, "F-1: the feed must be positive")]
+
+
+def test_a_refused_incremental_block_moves_the_next_start_by_its_distance():
+    with pytest.raises(GcodeError) as info:
+        parse("G21 G91 F100\nG01 X4 Y0\nG01 X6 Y0 P2\nG02 X10 Y0 I5 J0\nM30")
+    assert [line for line, _, _ in info.value.errors] == [3]
+
+
+def test_an_error_in_a_program_that_names_z_is_never_hidden_behind_two_axes():
+    with pytest.raises(GcodeError) as info:
+        gcode_job("t", "G21 G90 F100\nG18\nG01 X1 Z1 F-3\nG01 Z5\nM30", "t.ngc")
+    assert info.value.errors == [(3, 11, "F-3: the feed must be positive")]

@@ -49,8 +49,11 @@ def test_a_curve_only_the_two_axis_chip_runs_gets_two_axes(curve):
     assert job.machine.axes == 2 and job.program.items[0].end[:2] in ((6000, 0), (5000, 3000))
 
 
-def test_a_curve_and_a_z_move_name_the_conflict_at_the_later_line():
-    with pytest.raises(GcodeError, match=r"<both>:3:5: Z1 moves Z: this machine has two axes"):
+def test_a_curve_in_a_program_that_moves_z_is_refused_on_the_three_axis_machine():
+    # the program names Z, so its errors are the three-axis machine's: the curve, not the Z
+    with pytest.raises(GcodeError, match=r"^<both>:2:1: G06: the three-axis K3701 has no "
+                                         r"parabolic interpolation \(the two-axis machine runs "
+                                         r"it\)$"):
         gcode_job("both", "G21 G90 F300\nG06 X6 Y0 I3 J-2\nG01 Z1\nM30", "<both>")
 
 

@@ -59,7 +59,7 @@ from hdl.k3701.block import COORD_MAX
 
 __all__ = ["ARC_TOLERANCE_LIMIT", "ARC_TOLERANCE_MM", "AXES_LIMIT", "INCH_MM", "LSB_MM_LIMIT",
            "MAX_ERRORS", "Arc", "Dwell", "Event", "GcodeError", "Item", "Line", "Move",
-           "Parabola", "Program", "parse"]
+           "Parabola", "Program", "names_third_axis", "parse"]
 
 #: Millimetres per inch (G20).
 INCH_MM = Decimal("25.4")
@@ -250,6 +250,26 @@ class _Interpreter:
                 self.end = True
             else:
                 self.event(w, M_CODES[key].event)
+
+    def recover(self, words: list[Word]) -> None:
+        """After a refused block: its programmed end becomes the next block's start, as if it
+        had run, so that the blocks after it are checked from where the program meant to be
+        and one fault is reported once. A block that sets rather than moves (G04, G10, G28,
+        G92, ...) or whose end cannot be known moves nothing."""
+        try:
+            b = _Block(words)
+        except _BlockError:
+            return
+        if "non-modal" in b.g or not any(b.word(a) for a in _AXIS_LETTERS):
+            return
+        target = list(self.pos)
+        for axis, letter in enumerate(_AXIS_LETTERS):
+            w = b.word(letter)
+            if w is not None and (axis < 2 or self.planner.axes == 3):
+                base = self.pos[axis] if self.incremental else self.offset(axis)
+                target[axis] = base + self.lsb(w.value)
+        if all(abs(v) <= COORD_MAX for v in target):
+            self.planner.position = self.planner.programmed = (target[0], target[1], target[2])
 
     def takes_p(self, b: _Block) -> bool:
         motion = b.code("motion") if "motion" in b.g else self.motion
@@ -572,6 +592,19 @@ class _Interpreter:
 
 
 
+def names_third_axis(text: str) -> bool:
+    """Whether a program's words name the third axis: a Z word, or G18/G19 (an arc plane with
+    Z). Lines the lexer cannot read are passed over."""
+    for line in text.split("\n"):
+        try:
+            words = words_of(line)
+        except LexError:
+            continue
+        if any(w.letter == "Z" or (w.letter == "G" and w.value in (18, 19)) for w in words):
+            return True
+    return False
+
+
 def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: bool = True,
           arc_tolerance: float | None = None, axes: int = 2,
           tools: Mapping[int, float] | None = None,
@@ -637,6 +670,8 @@ def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: b
             if words:
                 interp.block(words)
         except (LexError, _BlockError) as e:
+            if isinstance(e, _BlockError):
+                interp.recover(words)
             if NGC_HINT in e.message and any(NGC_HINT in m for _, _, m in errors):
                 continue  # how to run RS-274/NGC is said once
             errors.append((number, e.col, e.message))
