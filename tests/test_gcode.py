@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from itertools import pairwise
 
 import pytest
 
@@ -246,10 +247,10 @@ def test_an_arc_of_radius_zero_is_an_error():
         "t.ngc:2:4: the arc's centre is its start point (radius 0)")
 
 
-def test_an_arc_whose_circle_is_too_big_for_the_k3701_is_an_error():
+def test_an_arc_too_big_for_the_k3701_that_leaves_the_coordinate_range_is_an_error():
     assert error_of("G03 I6000 J-6000 F1") == (
-        "t.ngc:1:1: the K3701 refuses this arc: the circle of radius 8485281.4 leaves the 24-bit "
-        "coordinate range")
+        "t.ngc:1:1: the arc leaves the coordinate range on X: it reaches 14485281 LSB, beyond "
+        "+-(2^23-1) LSB (+-8388.607 mm)")
 
 
 def test_an_arc_bulging_out_of_the_coordinate_range_is_an_error():
@@ -273,8 +274,6 @@ def test_an_arc_bulging_out_of_the_coordinate_range_is_an_error():
                                "-(2^23-1)..2^23-1 LSB (+-8388.607 mm)"),
     ("G00 X-5000\nX5000", "2:1: X5000: the move 10000000 LSB is outside "
                           "-(2^23-1)..2^23-1 LSB (+-8388.607 mm)"),
-    ("G00 Y-5000\nG02 Y-4000 J8388.608 F1", "2:12: J8388.608: the centre offset 8388608 LSB is "
-                                            "outside -(2^23-1)..2^23-1 LSB (+-8388.607 mm)"),
 ])
 def test_out_of_range_coordinates_are_errors(text, message):
     if message is None:
@@ -377,3 +376,53 @@ def test_an_error_in_a_program_that_names_z_is_never_hidden_behind_two_axes():
     with pytest.raises(GcodeError) as info:
         gcode_job("t", "G21 G90 F100\nG18\nG01 X1 Z1 F-3\nG01 Z5\nM30", "t.ngc")
     assert info.value.errors == [(3, 11, "F-3: the feed must be positive")]
+
+
+@pytest.mark.parametrize(("cycle", "message"), [
+    ("G83 X1 Y1 Z-3 R2 Q0.0004", "3:1: G83: the peck Q0.0004 is under half an LSB (0.001 mm)"),
+    ("G83 X1 Y1 Z-8000 R2 Q0.5", "3:1: G83: 16004 pecks of Q0.5 from R to Z; at most 10000 a "
+                                 "hole"),
+])
+def test_a_peck_drilling_cycle_too_fine_to_expand_is_refused_before_expanding(cycle, message):
+    with pytest.raises(GcodeError) as info:
+        parse(f"G21 G90 F100\nG0 Z5\n{cycle}\nM30", source="t.ngc", axes=3)
+    assert str(info.value) == f"t.ngc:{message}"
+
+
+def _chord_errors(program, centre: tuple[float, float], radius: float) -> list[float]:
+    """Each line's largest distance from the circle (its ends' and its midpoint's), LSB."""
+    errors = []
+    start = (0, 0)
+    for move in program.moves:
+        for point in (move.end[:2], ((start[0] + move.end[0]) / 2, (start[1] + move.end[1]) / 2)):
+            errors.append(abs(math.dist(point, centre) - radius))
+        start = move.end[:2]
+    return errors
+
+
+def test_an_arc_beyond_the_24_bit_registers_runs_as_chords_within_the_tolerance():
+    # a near-straight arc: its centre 9,238 mm away, beyond the K3701's radius registers
+    program = parse("G21 G90 F500\nG03 X100 Y0 I50 J9238.47\nM30", source="flat.ngc")
+    assert all(isinstance(m, Line) for m in program.moves) and len(program.moves) == 3
+    assert program.moves[-1].end == (100_000, 0)
+    centre = (50_000, 9_238_470)
+    assert max(_chord_errors(program, centre, math.dist((0, 0), centre))) <= 28
+    assert program.notes == ("flat.ngc:2: an arc run as 3 lines within the arc tolerance "
+                             "(28 LSB): its radius 9238.605 mm is beyond the K3701's 24-bit "
+                             "registers",)
+
+
+def test_a_helix_steeper_than_the_chips_runs_as_chords_ending_exactly():
+    # a ramp: R 0.5 mm, 5 mm down in one turn (the K3701's helix moves Z at most once per step)
+    program = parse("G21 G90 F500\nG03 X0 Y0 I0.5 J0 Z-5\nM30", source="ramp.ngc", axes=3)
+    lines = program.moves
+    assert all(isinstance(m, Line) for m in lines) and lines[-1].end == (0, 0, -5000)
+    assert max(_chord_errors(program, (500, 0), 500)) <= 28
+    zs = [m.end[2] for m in lines]
+    assert zs == sorted(zs, reverse=True) and max(a - b for a, b in pairwise(zs)) <= 501
+    assert "more than one LSB per arc step" in program.notes[0]
+
+
+def test_a_helix_the_chip_runs_stays_one_helical_block():
+    program = parse("G21 G90 F500\nG03 X0 Y0 I2 J0 Z-3\nM30", source="h.ngc", axes=3)
+    assert [type(m) for m in program.moves] == [Arc] and program.notes == ()

@@ -58,11 +58,14 @@ from hdl.common.params import Limit
 from hdl.k3701.block import COORD_MAX
 
 __all__ = ["ARC_TOLERANCE_LIMIT", "ARC_TOLERANCE_MM", "AXES_LIMIT", "INCH_MM", "LSB_MM_LIMIT",
-           "MAX_ERRORS", "Arc", "Dwell", "Event", "GcodeError", "Item", "Line", "Move",
+           "MAX_ERRORS", "MAX_PECKS", "Arc", "Dwell", "Event", "GcodeError", "Item", "Line", "Move",
            "Parabola", "Program", "names_third_axis", "parse"]
 
 #: Millimetres per inch (G20).
 INCH_MM = Decimal("25.4")
+#: The most pecks a G83 hole may take (each is three moves): a deeper hole or a smaller Q is
+#: refused before it is expanded.
+MAX_PECKS = 10_000
 #: First characters of a line that is a controller's own command, not G-code (grbl's ``$``
 #: settings and ``?`` status requests, as sender programs leave them in files).
 _CONTROLLER_LINES = ("$", "?")
@@ -470,9 +473,7 @@ class _Interpreter:
                     c = self.offset(axis) + self.lsb(w.value) if w else self.offset(axis)
                 else:
                     c = start[axis] + (self.lsb(w.value) if w else 0)
-                if w is not None:
-                    self.check_range(w, c - start[axis], "the centre offset")
-                centre.append(c)
+                centre.append(c)  # beyond the K3701's registers: the planner runs chords
         tolerance = self.tolerance
         if tolerance is None:
             tolerance = ARC_TOLERANCE_MM[self.inch] / float(self.lsb_size)
@@ -575,6 +576,13 @@ class _Interpreter:
             self.plan(anchor.col, self.planner.line, (*self.pos[:2], r), None)
         if self.motion == 830:
             delta = self.lsb(self.cycle["Q"])
+            if delta < 1:
+                raise _BlockError(anchor.col, f"G83: the peck Q{self.cycle['Q']} is under half "
+                                              f"an LSB ({self.planner.mm(1)})")
+            pecks = -(-(r - bottom) // delta)
+            if pecks > MAX_PECKS:
+                raise _BlockError(anchor.col, f"G83: {pecks} pecks of Q{self.cycle['Q']} from R "
+                                              f"to Z; at most {MAX_PECKS} a hole")
             rapid_delta = self.lsb(G83_CLEARANCE_MM, inch=False)
             depth = r - delta
             while depth > bottom:
@@ -589,7 +597,6 @@ class _Interpreter:
         if self.motion == 820:
             self.planner.dwell(self.line_no, float(self.cycle["P"]))
         self.plan(anchor.col, self.planner.line, (xy[0], xy[1], clear), None)
-
 
 
 def names_third_axis(text: str) -> bool:
@@ -681,6 +688,7 @@ def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: b
     name, first = origin or (source, 1)
     if errors:
         raise GcodeError(name, [(line + first - 1, col, msg) for line, col, msg in errors])
+    notes = sorted([*planner.notes, *notes], key=lambda note: note[0])
     return Program(tuple(planner.items), interp.end, source, lsb_mm, bool(sqrt2),
                    arc_tolerance, axes, origin,
                    notes=tuple(f"{name}:{line + first - 1}: {text}" for line, text in notes))

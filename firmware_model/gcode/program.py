@@ -45,6 +45,8 @@ __all__ = ["CORRECTION_MAX", "PLANE_AXES", "REPAIR_REACH", "Arc", "Dwell", "Even
 
 #: Machine-axis indices of a plane's first, second and normal axes (as LinuxCNC's canon).
 PLANE_AXES = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
+#: The most lines an arc the K3701 cannot run as one block becomes (:meth:`Planner._chords`).
+MAX_CHORDS = 100_000
 #: How far (LSB, each axis) from the programmed end a repaired arc's block end may be moved.
 REPAIR_REACH = 3
 #: How far (LSB, each axis) an arc's chip end may stay from its programmed end without a
@@ -143,6 +145,13 @@ class Arc(_Move):
         the direction of travel (radians, in the plane; the sweep is in (0, 2 pi]: an end at
         the start is a full circle)."""
         return _sweep(self.block.i, self.block.j, self.plan.end, self.cw)
+
+
+def _arc_steps_bound(i: int, j: int, end: tuple[int, int], cw: bool) -> float:
+    """At least how many steps the K3701 takes along an arc: its length over the diagonal
+    step's sqrt(2) LSB (less 2 for the ends). A helix moving its normal axis further than
+    this runs as chords (:meth:`Planner._chords`)."""
+    return math.hypot(i, j) * _sweep(i, j, end, cw)[1] / math.sqrt(2) - 2
 
 
 def _sweep(i: int, j: int, end: tuple[int, int], cw: bool) -> tuple[float, float]:
@@ -343,6 +352,8 @@ class Planner:
         self.items: list[Item] = []
         self.position = (0, 0, 0)
         self.programmed = (0, 0, 0)
+        #: What the planner ran otherwise than programmed, and why: (line, text).
+        self.notes: list[tuple[int, str]] = []
 
     def mm(self, lsb: float) -> str:
         """A length in LSB as mm, to the LSB's resolution."""
@@ -443,16 +454,30 @@ class Planner:
             raise PlanError(f"the arc's end is not on its circle: radius {self.mm(r0)} at the "
                             f"start, {self.mm(r1)} at the end (they differ by "
                             f"{abs(r1 - r0):.1f} LSB; tolerance {tolerance:g} LSB)")
+        rel = tuple(t - p for t, p in zip(target, start, strict=True))
+        if max(abs(i), abs(j)) > COORD_MAX or i * i + j * j > MAX_RADIUS_SQUARED:
+            self._check_sweep(start, (first, second), (i, j), end, cw)
+            self._chords(line_no, target, (i, j), plane, cw, feed, tolerance=tolerance,
+                         feed_source=feed_source,
+                         why=f"its radius {self.mm(r0)} is beyond the K3701's 24-bit registers")
+            return
+        if rel[normal] and abs(rel[normal]) > _arc_steps_bound(i, j, end, cw):
+            self._chords(line_no, target, (i, j), plane, cw, feed, tolerance=tolerance,
+                         feed_source=feed_source,
+                         why=f"it moves its axis {_AXIS_NAMES[normal]} {abs(rel[normal])} LSB, "
+                             f"more than one LSB per arc step (the K3701's helix)")
+            return
         block, result = self._arc_block(end, i, j, cw)
         self._check_sweep(start, (first, second), (i, j), result.end, cw)
         offsets = [0, 0, 0]
         offsets[first], offsets[second] = i, j
-        rel = tuple(t - p for t, p in zip(target, start, strict=True))
         if rel[normal] or plane != 17:  # the three-axis chip's helix and plane routing
             try:
                 result = plan_block(replace(block, ze=rel[normal], plane=plane - 17))
             except BlockError as e:
-                raise PlanError(f"the K3701 refuses this helix: {e}") from None
+                self._chords(line_no, target, (i, j), plane, cw, feed, tolerance=tolerance,
+                             feed_source=feed_source, why=f"the K3701 refuses this helix: {e}")
+                return
             block = replace(block, ze=rel[normal], plane=plane - 17,
                             helix_steps=result.steps if rel[normal] else 0)
         self.items.append(Arc(len(self.items), line_no, rel[0], rel[1], offsets[0], offsets[1],
@@ -463,6 +488,45 @@ class Planner:
         self.programmed = target
         if max(abs(p - t) for p, t in zip(self.position, target, strict=True)) > CORRECTION_MAX:
             self.line(line_no, target, feed, feed_source=feed_source, correction=True)
+
+    def _chords(self, line_no: int, target: tuple[int, int, int], ij: tuple[int, int],
+                plane: int, cw: bool, feed: float, *, tolerance: float,
+                feed_source: tuple[int, int, str] | None, why: str) -> None:
+        """An arc the K3701 cannot run as one block, as lines (chords) from the position to
+        ``target``: each within ``tolerance`` (LSB) of the circle (its sagitta, plus the
+        half LSB of rounding its ends to the grid), the normal axis moving in proportion,
+        the last ending exactly on ``target``; one note says why."""
+        first, second, normal = PLANE_AXES[plane]
+        start = self.position
+        i, j = ij
+        end = (target[first] - start[first], target[second] - start[second])
+        if (target[first], target[second]) == (self.programmed[first],
+                                               self.programmed[second]):
+            end = (0, 0)
+        a0, sweep = _sweep(i, j, end, cw)
+        r0, r1 = math.hypot(i, j), math.hypot(end[0] - i, end[1] - j)
+        sagitta = max(tolerance - 0.5, 0.25)
+        step = 2 * math.acos(max(-1.0, 1 - sagitta / max(r0, r1)))
+        count = max(1, math.ceil(sweep / step - 1e-12))
+        if count > MAX_CHORDS:
+            raise PlanError(f"this arc would take {count} chords within the arc tolerance "
+                            f"({tolerance:g} LSB); at most {MAX_CHORDS} an arc: {why}")
+        sign = -1 if cw else 1
+        cx, cy = start[first] + i, start[second] + j
+        for k in range(1, count + 1):
+            if k == count:
+                point = target
+            else:
+                angle = a0 + sign * sweep * k / count
+                radius = r0 + (r1 - r0) * k / count
+                p = [0, 0, 0]
+                p[first] = round(cx + radius * math.cos(angle))
+                p[second] = round(cy + radius * math.sin(angle))
+                p[normal] = round(start[normal] + (target[normal] - start[normal]) * k / count)
+                point = (p[0], p[1], p[2])
+            self.line(line_no, point, feed, feed_source=feed_source)
+        self.notes.append((line_no, f"an arc run as {count} lines within the arc tolerance "
+                                    f"({tolerance:g} LSB): {why}"))
 
     def _arc_block(self, end: tuple[int, int], i: int, j: int, cw: bool) -> tuple[Block, Plan]:
         """The block to load for an arc to ``end`` and its plan: the programmed end, or the
