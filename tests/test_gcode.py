@@ -426,3 +426,14 @@ def test_a_helix_steeper_than_the_chips_runs_as_chords_ending_exactly():
 def test_a_helix_the_chip_runs_stays_one_helical_block():
     program = parse("G21 G90 F500\nG03 X0 Y0 I2 J0 Z-3\nM30", source="h.ngc", axes=3)
     assert [type(m) for m in program.moves] == [Arc] and program.notes == ()
+
+
+def test_an_arc_ends_within_one_lsb_of_its_exact_programmed_end_not_of_its_rounding():
+    # the chip stops at (2461, -4756): 1 LSB from the rounded end (2461, -4757) but 1.42 LSB
+    # from the exact one (0.0969 in, -0.1873 in = 2461.26, -4757.42 LSB): a correction follows
+    program = parse("G20 G90 F10\nG02 X0.0969 Y-0.1873 I0.2019 J-0.0142\nM30")
+    arc, correction = program.moves
+    assert isinstance(arc, Arc) and arc.end == (2461, -4756)
+    assert isinstance(correction, Line) and correction.correction
+    assert correction.end == (2461, -4757)
+    assert max(abs(a - b) for a, b in zip(correction.end, (2461.26, -4757.42), strict=True)) <= 1

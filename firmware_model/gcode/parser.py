@@ -209,14 +209,27 @@ class _Interpreter:
             w = b.word(letter)
             if w is None:
                 continue
-            base = self.pos[axis] if incremental else (0 if machine else self.offset(axis))
-            target[axis] = base + self.lsb(w.value)
+            target[axis] = self.base(axis, incremental, machine) + self.lsb(w.value)
             self.check_range(w, target[axis], "the position")
             self.check_range(w, target[axis] - self.pos[axis], "the move")
             if axis == 2 and self.planner.axes == 2 and target[2] != self.pos[2]:
                 raise _BlockError(w.col, f"{w.text} moves Z: this machine has two axes "
                                    f"(machine.axes = 3 runs it)")
         return target[0], target[1], target[2]
+
+    def exact_target(self, b: _Block) -> tuple[float, float, float]:
+        """:meth:`target` before its words are rounded to the LSB grid (LSB)."""
+        target = [float(v) for v in self.pos]
+        for axis, letter in enumerate(_AXIS_LETTERS):
+            w = b.word(letter)
+            if w is not None:
+                mm = w.value * INCH_MM if self.inch else w.value
+                target[axis] = self.base(axis, self.incremental, False) + float(mm / self.lsb_size)
+        return target[0], target[1], target[2]
+
+    def base(self, axis: int, incremental: bool, machine: bool) -> int:
+        """What an axis word adds to: the position (G91), the origin (G53), else the offsets."""
+        return self.pos[axis] if incremental else (0 if machine else self.offset(axis))
 
     def plan(self, col: int, call, *args, **kwargs) -> None:
         try:
@@ -478,7 +491,8 @@ class _Interpreter:
         if tolerance is None:
             tolerance = ARC_TOLERANCE_MM[self.inch] / float(self.lsb_size)
         self.plan(anchor.col, self.planner.arc, target, (centre[0], centre[1]), self.plane,
-                  cw, self.feed, tolerance=tolerance, feed_source=self.feed_source)
+                  cw, self.feed, tolerance=tolerance, feed_source=self.feed_source,
+                  exact=self.exact_target(b))
 
     def parabola(self, b: _Block, anchor: Word) -> None:
         """G06: the tangent point relative to the start, as an arc's centre (absolute under

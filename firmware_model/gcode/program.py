@@ -11,8 +11,9 @@ the program starts at the origin.
 previous one really ended and runs to its programmed target, an absolute position in integer
 LSB, so nothing accumulates. A line ends exactly on its target. An arc's chip end can differ
 from its programmed end (the K3701 stops where its digital path reaches the end's long-axis
-coordinate, SPEC section 3): within :data:`CORRECTION_MAX` LSB on every axis (SPEC's
-promise) it is left, and the next block starts there; farther, the planner adds a
+coordinate, SPEC section 3): within :data:`CORRECTION_MAX` LSB on every axis of the exact
+programmed end (before its rounding to the LSB grid) it is left, and the next block starts
+there; farther, the planner adds a
 *correction line*, a short linear block at the arc's feed from the chip's end to the
 programmed end (``Line.correction``). If the chip would stop far from the programmed end (a
 tiny arc whose digital path runs a full extra turn, or leaves the end quadrant with ERROR),
@@ -433,10 +434,13 @@ class Planner:
 
     def arc(self, line_no: int, target: tuple[int, int, int], centre: tuple[int, int],
             plane: int, cw: bool, feed: float, *, tolerance: float,
-            feed_source: tuple[int, int, str] | None = None) -> None:
+            feed_source: tuple[int, int, str] | None = None,
+            exact: tuple[float, float, float] | None = None) -> None:
         """An arc (a helix if the normal axis moves) from the position to ``target`` around
         ``centre`` (absolute, in the plane's (first, second) coordinates). An end equal to
-        the start in the plane is a full circle."""
+        the start in the plane is a full circle. ``exact``: the programmed end before its
+        rounding to ``target`` (None: ``target``); a correction line follows where the chip
+        ends more than :data:`CORRECTION_MAX` from it on any axis."""
         target = self._check_target(target)
         first, second, normal = PLANE_AXES[plane]
         if self.axes == 2 and (plane != 17 or target[normal] != self.position[normal]):
@@ -486,7 +490,8 @@ class Planner:
                               feed_source=feed_source))
         self.position = tuple(self.items[-1].end) + (0,) * (3 - self.axes)
         self.programmed = target
-        if max(abs(p - t) for p, t in zip(self.position, target, strict=True)) > CORRECTION_MAX:
+        if max(abs(p - t) for p, t in zip(self.position, exact or target,
+                                          strict=True)) > CORRECTION_MAX:
             self.line(line_no, target, feed, feed_source=feed_source, correction=True)
 
     def _chords(self, line_no: int, target: tuple[int, int, int], ij: tuple[int, int],
