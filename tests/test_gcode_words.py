@@ -196,25 +196,25 @@ def test_characters_the_lexer_cannot_read_are_clear_errors(text, message):
 
 def test_every_error_of_a_program_is_reported_with_its_place():
     with pytest.raises(GcodeError) as info:
-        parse("G01 X1\nG00 Y1 Q3\nG01 X2 F1\nG05\nG17 G18", source="p.nc")
+        parse("G01 X1\nG00 Y1 Q3\nG01 X2 F1\nG07\nG17 G18", source="p.nc")
     assert str(info.value).splitlines() == [
         "p.nc:1:1: G01 without a feed rate: program F first",
         "p.nc:2:8: Q3: Q is only for G83 (peck depth) and G64",
-        "p.nc:4:1: G05 is unsupported",
+        "p.nc:4:1: G07 is unsupported",
         "p.nc:5:5: G17 and G18 are in the same modal group (plane)"]
     assert (info.value.line, info.value.col) == (1, 1) and len(info.value.errors) == 4
 
 
 def test_rs274_ngc_constructs_are_one_error_saying_how_to_run_them():
     with pytest.raises(GcodeError) as info:
-        parse("#1 = 2\nG01 X#1 F1\no100 sub\nG05")
+        parse("#1 = 2\nG01 X#1 F1\no100 sub\nG07")
     assert [(line, col) for line, col, _ in info.value.errors] == [(1, 1), (4, 1)]
     assert "--frontend linuxcnc" in info.value.errors[0][2]
 
 
 def test_blocks_after_the_program_end_are_ignored_with_one_note():
     # as LinuxCNC: the first M02/M30 ends the program, even a file of several jobs
-    program = parse("G01 X1 F100\nM30\n(next job)\nG00 X1\nG00 X2\nG05", source="jobs.nc")
+    program = parse("G01 X1 F100\nM30\n(next job)\nG00 X1\nG00 X2\nG07", source="jobs.nc")
     assert program.end and len(program.moves) == 1
     assert program.notes == ("jobs.nc:4: the program ended (M02/M30) before this line: the "
                              "rest of the file is ignored",)
@@ -233,7 +233,7 @@ def test_a_program_with_nothing_after_its_end_has_no_note():
 
 def test_errors_stop_at_the_limit():
     with pytest.raises(GcodeError) as info:
-        parse("G05\n" * 100)
+        parse("G07\n" * 100)
     assert len(info.value.errors) == MAX_ERRORS + 1
     assert info.value.errors[-1][2] == f"stopped after {MAX_ERRORS} errors"
 

@@ -57,11 +57,11 @@ def test_plan_json_has_the_program_and_its_items(tmp_path, capsys):
 
 def test_plan_reports_every_error_and_exits_2(tmp_path, capsys):
     path = tmp_path / "p.ngc"
-    path.write_text("G01 X1\nG05\n")
+    path.write_text("G01 X1\nG07\n")
     assert main(["plan", str(path)]) == 2
     assert capsys.readouterr().err.splitlines() == [
         f"k37: error: {path}:1:1: G01 without a feed rate: program F first",
-        f"k37: error: {path}:2:1: G05 is unsupported"]
+        f"k37: error: {path}:2:1: G07 is unsupported"]
 
 
 def test_plan_of_a_thousand_lines_lists_every_block(tmp_path, capsys):

@@ -53,6 +53,7 @@ from firmware_model.gcode.program import (
     Planner,
     Program,
 )
+from firmware_model.gcode.splines import Nurbs, bezier
 from firmware_model.gcode.words import G_CODES, LETTERS, M_CODES, REFUSED_G, Code, code_key
 from hdl.common.params import Limit
 from hdl.k3701.block import COORD_MAX
@@ -180,6 +181,11 @@ class _Interpreter:
         self.cycle: dict[str, Decimal] = {}
         self.cycle_planes: tuple[int, int, int] | None = None
         self.line_no = 0
+        #: The G05.2 NURBS being read: control points (LSB), weights, order, its G05.2 word
+        #: and line.
+        self.nurbs: tuple[list[tuple[float, float]], list[float], int, Word, int] | None = None
+        #: The last G05's second control point from its end (LSB), for the next G05.
+        self.g05_pq: tuple[float, float] | None = None
 
     # -- helpers ----------------------------------------------------------------------------
 
@@ -289,7 +295,125 @@ class _Interpreter:
 
     def takes_p(self, b: _Block) -> bool:
         motion = b.code("motion") if "motion" in b.g else self.motion
-        return b.code("path") == 640 or motion in (20, 30, 820)
+        return (b.code("path") == 640 or motion in (20, 30, 50, 52, 820)
+                or self.nurbs is not None)
+
+    # -- splines ----------------------------------------------------------------------------
+
+    def offset_lsb(self, w: Word | None) -> float:
+        """A control point offset word in LSB, unrounded (0 if absent)."""
+        if w is None:
+            return 0.0
+        return float((w.value * INCH_MM if self.inch else w.value) / self.lsb_size)
+
+    def spline_start(self, anchor: Word, b: _Block) -> tuple[float, float]:
+        """Where a spline starts (LSB), after checking its plane and that Z stays."""
+        if self.plane != 17:
+            raise _BlockError(anchor.col, f"{anchor.text} is for the XY plane (G17)")
+        z = b.word("Z")
+        if z is not None and self.target(b)[2] != self.pos[2]:
+            raise _BlockError(z.col, f"{z.text}: a spline stays in the XY plane")
+        return float(self.pos[0]), float(self.pos[1])
+
+    def spline(self, b: _Block, anchor: Word) -> None:
+        """G05 (cubic) and G05.1 (quadratic) from the position to the block's X/Y."""
+        start = self.spline_start(anchor, b)
+        target = self.target(b)
+        end = self.exact_target(b)[:2]
+        i, j = b.word("I"), b.word("J")
+        if self.motion == 50:
+            p, q = b.word("P"), b.word("Q")
+            if p is None or q is None:
+                raise _BlockError(anchor.col, "G05 needs P and Q (the second control point, "
+                                              "from the end)")
+            if i is None and j is None:
+                if self.g05_pq is None:
+                    raise _BlockError(anchor.col, "G05 needs I and J (the first control point, "
+                                                  "from the start) unless it follows a G05")
+                first = (start[0] - self.g05_pq[0], start[1] - self.g05_pq[1])
+            else:
+                first = (start[0] + self.offset_lsb(i), start[1] + self.offset_lsb(j))
+            pq = (self.offset_lsb(p), self.offset_lsb(q))
+            curve = bezier(start, first, (end[0] + pq[0], end[1] + pq[1]), end)
+        else:
+            if i is None and j is None:
+                raise _BlockError(anchor.col, "G05.1 needs I and/or J (the control point, from "
+                                              "the start)")
+            control = (start[0] + self.offset_lsb(i), start[1] + self.offset_lsb(j))
+            curve = Nurbs((start, control, end), (1.0, 1.0, 1.0), 3)
+            pq = None
+        self.plan(anchor.col, self.planner.spline, curve, target, self.feed,
+                  tolerance=self.arc_tolerance(), feed_source=self.feed_source)
+        self.g05_pq = pq
+
+    def nurbs_block(self, b: _Block, g: tuple[int, Word] | None) -> None:
+        """A line of a G05.2 ... G05.3 NURBS block: its opening, a control point, its end."""
+        code = None if g is None else g[0]
+        if self.nurbs is None:
+            if code == 53:
+                raise _BlockError(g[1].col, "G05.3 without a G05.2 NURBS before it")
+            anchor = g[1]
+            start = self.spline_start(anchor, b)
+            if self.feed is None:
+                raise _BlockError(anchor.col, "G05.2 without a feed rate: program F first")
+            order_word = b.word("L")
+            order = 3 if order_word is None else int(order_word.value)
+            if order_word is not None and (order != order_word.value or order < 2):
+                raise _BlockError(order_word.col, f"{order_word.text}: the order must be an "
+                                                  f"integer of at least 2")
+            weight = self.weight(b)
+            has_point = b.word("X") is not None or b.word("Y") is not None
+            self.nurbs = ([start], [1.0 if has_point else weight], order, anchor, self.line_no)
+            if has_point:
+                self.nurbs_point(b, weight)
+            self.motion = None
+            return
+        if code == 53:
+            self.nurbs_end(g[1])
+        elif code is not None:
+            raise _BlockError(g[1].col, f"{g[1].text} inside a G05.2 NURBS block: it ends with "
+                                        f"G05.3")
+        else:
+            self.nurbs_point(b, self.weight(b))
+
+    def weight(self, b: _Block) -> float:
+        p = b.word("P")
+        if p is not None and p.value <= 0:
+            raise _BlockError(p.col, f"{p.text}: a weight must be positive")
+        return 1.0 if p is None else float(p.value)
+
+    def nurbs_point(self, b: _Block, weight: float) -> None:
+        assert self.nurbs is not None
+        self.spline_start(self.nurbs[3], b)
+        target = self.target(b)
+        self.nurbs[0].append(self.exact_target(b)[:2])
+        self.nurbs[1].append(weight)
+        self.planner.programmed = (target[0], target[1], self.pos[2])
+
+    def nurbs_end(self, anchor: Word) -> None:
+        assert self.nurbs is not None
+        points, weights, order, _, opening_line = self.nurbs
+        self.nurbs = None
+        self.planner.programmed = self.planner.position
+        if len(points) < order:
+            raise _BlockError(anchor.col, f"the G05.2 NURBS of order {order} needs at least "
+                                          f"{order} control points, the start included, not "
+                                          f"{len(points)}")
+        end = points[-1]
+        target = (round(end[0]), round(end[1]), self.pos[2])
+        self.line_no, line = opening_line, self.line_no
+        try:
+            self.plan(anchor.col, self.planner.spline, Nurbs(tuple(points), tuple(weights), order),
+                      target, self.feed, tolerance=self.arc_tolerance(),
+                      feed_source=self.feed_source)
+        finally:
+            self.line_no = line
+
+    def arc_tolerance(self) -> float:
+        """The arc tolerance in LSB (the program's, or LinuxCNC's in the units in force)."""
+        if self.tolerance is not None:
+            return self.tolerance
+        return ARC_TOLERANCE_MM[self.inch] / float(self.lsb_size)
 
     def feed_word(self, b: _Block) -> None:
         f = b.word("F")
@@ -400,6 +524,16 @@ class _Interpreter:
 
     def motion_of(self, b: _Block) -> None:
         g = b.g.get("motion")
+        order = b.word("L")
+        if order is not None and (g is None or g[0] != 52 or self.nurbs is not None):
+            raise _BlockError(order.col, f"{order.text}: L is only for G05.2 (a NURBS's order)")
+        if self.nurbs is not None or (g is not None and g[0] in (52, 53)):
+            for letter in "IJKRQ":
+                w = b.word(letter)
+                if w is not None:
+                    raise _BlockError(w.col, f"{w.text}: a G05.2 NURBS takes X, Y, P and L")
+            self.nurbs_block(b, g)
+            return
         if g is not None:
             if g[0] != self.motion:
                 self.cycle, self.cycle_planes = {}, None
@@ -439,16 +573,18 @@ class _Interpreter:
             self.parabola(b, anchor)
         elif self.motion in (61, 62):
             self.exponential(b, anchor)
+        elif self.motion in (50, 51):
+            self.spline(b, anchor)
         else:
             self.canned_cycle(b, anchor)
 
     def uses(self, letter: str, b: _Block) -> bool:
         if letter in "IJK":
-            return (self.motion in (20, 30) or (self.motion == 60 and letter != "K")
+            return (self.motion in (20, 30) or (self.motion in (50, 51, 60) and letter != "K")
                     or (self.motion in (61, 62) and letter == "K"))
         if letter == "R":
             return self.motion in (20, 30, 810, 820, 830)
-        return self.motion == 830 or b.code("path") == 640  # Q
+        return self.motion in (50, 830) or b.code("path") == 640  # Q
 
     def has_offsets(self, b: _Block) -> bool:
         return any(b.word(letter) is not None for letter in _OFFSET_LETTERS)
@@ -487,11 +623,8 @@ class _Interpreter:
                 else:
                     c = start[axis] + (self.lsb(w.value) if w else 0)
                 centre.append(c)  # beyond the K3701's registers: the planner runs chords
-        tolerance = self.tolerance
-        if tolerance is None:
-            tolerance = ARC_TOLERANCE_MM[self.inch] / float(self.lsb_size)
         self.plan(anchor.col, self.planner.arc, target, (centre[0], centre[1]), self.plane,
-                  cw, self.feed, tolerance=tolerance, feed_source=self.feed_source,
+                  cw, self.feed, tolerance=self.arc_tolerance(), feed_source=self.feed_source,
                   exact=self.exact_target(b))
 
     def parabola(self, b: _Block, anchor: Word) -> None:

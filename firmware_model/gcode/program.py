@@ -37,6 +37,7 @@ from firmware_model.gcode.curves import (
     exponential_frame,
     parabola_block,
 )
+from firmware_model.gcode.splines import Nurbs, SplineSpan, chords
 from hdl.k3701.block import COORD_MAX, MAX_RADIUS_SQUARED, Block, BlockError
 from hdl.k3701.datapaths.parabolic_model import ExponentialPath, ParabolicPath
 from hdl.k3701.model import Plan, make_path
@@ -94,12 +95,15 @@ class Line(_Move):
     absolute machine position before the move (LSB). ``block`` is what the K3701 is loaded
     with and ``plan`` its exact step and FP counts (for the ``sqrt2`` setting);
     ``end`` the absolute position after the move. ``correction``: the host's short line from
-    an arc's chip end to its programmed end (its line is the arc's).
+    an arc's chip end to its programmed end (its line is the arc's). ``curve``: the exact
+    curve a chord of a spline stands for (None: the line itself), what the contour error is
+    measured against.
     """
 
     feed_mm_min: float | None
     rapid: bool
     correction: bool = field(default=False, kw_only=True)
+    curve: SplineSpan | None = field(default=None, kw_only=True, compare=False)
 
 
 @dataclass(frozen=True)
@@ -376,16 +380,34 @@ class Planner:
                             "runs it)")
         return target
 
+    def spline(self, line_no: int, curve: Nurbs, target: tuple[int, int, int], feed: float, *,
+               tolerance: float, feed_source: tuple[int, int, str] | None = None) -> None:
+        """A spline in the XY plane from the position to ``target`` (its last control point,
+        rounded), run as lines within ``tolerance`` (LSB) of ``curve`` (see
+        :mod:`firmware_model.gcode.splines`), the last ending exactly on ``target``."""
+        try:
+            spans = chords(curve, max(tolerance - 0.5, 0.25))
+        except ValueError as e:
+            raise PlanError(str(e)) from None
+        z = self.position[2]
+        for k, (t0, t1) in enumerate(spans):
+            x, y = curve.at(np.array([t1]))[0]
+            point = target if k == len(spans) - 1 else (round(x), round(y), z)
+            self.line(line_no, point, feed, feed_source=feed_source,
+                      curve=SplineSpan(curve, t0, t1, z))
+
     def line(self, line_no: int, target: tuple[int, int, int], feed: float | None, *,
-             feed_source: tuple[int, int, str] | None = None, correction: bool = False) -> None:
-        """A straight move to ``target``; ``feed`` None: rapid (G00)."""
+             feed_source: tuple[int, int, str] | None = None, correction: bool = False,
+             curve: SplineSpan | None = None) -> None:
+        """A straight move to ``target``; ``feed`` None: rapid (G00); ``curve``: the exact
+        curve it stands for (a spline's chord)."""
         target = self._check_target(target)
         xe, ye, ze = (t - p for t, p in zip(target, self.position, strict=True))
         block = Block.line(xe, ye, ze, sqrt2=self.sqrt2)
         result = plan_block(block)
         self.items.append(Line(len(self.items), line_no, xe, ye, feed, feed is None, ze=ze,
                                start=self._start(), block=block, plan=result,
-                               feed_source=feed_source, correction=correction))
+                               feed_source=feed_source, correction=correction, curve=curve))
         self.position = self.programmed = target
 
     def parabola(self, line_no: int, target: tuple[int, int, int], tangent: tuple[int, int],

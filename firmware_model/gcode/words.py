@@ -50,6 +50,17 @@ G_CODES: dict[int, Code] = {
     _g(6.2): Code("motion", "logarithm (K37; two-axis machine, XY plane): the exponential of "
                             "Y, as G06.1 with X and Y exchanged (K a length along Y): "
                             "y - y0 = K ln(1 + (x - x0) (e^((ye - y0) / K) - 1) / (xe - x0))"),
+    _g(5): Code("motion", "cubic spline (XY plane): X/Y the end, I/J the first control point "
+                          "from the start (after a G05 they may be left out: the previous "
+                          "P/Q mirrored), P/Q the second from the end; run as lines within "
+                          "the arc tolerance"),
+    _g(5.1): Code("motion", "quadratic B-spline (XY plane): X/Y the end, I/J the control point "
+                            "from the start; run as lines within the arc tolerance"),
+    _g(5.2): Code("motion", "NURBS (XY plane): the start and the control points X/Y of this "
+                            "line and the following ones, each with its weight P (default 1), "
+                            "order L (default 3); G05.2 P alone weighs the start; run as lines "
+                            "within the arc tolerance"),
+    _g(5.3): Code("motion", "end of a G05.2 NURBS block (a motion code must follow)"),
     _g(17): Code("plane", "XY plane (arcs take I, J)"),
     _g(18): Code("plane", "ZX plane (arcs take K, I; three-axis machines)"),
     _g(19): Code("plane", "YZ plane (arcs take J, K; three-axis machines)"),
@@ -107,15 +118,18 @@ LETTERS: dict[str, str] = {
     "N": "sequence number (ignored)",
     "X": "X coordinate", "Y": "Y coordinate", "Z": "Z coordinate (moving Z needs "
                                                    "machine.axes = 3)",
-    "I": "arc centre offset along X", "J": "arc centre offset along Y",
+    "I": "arc centre offset along X; G05/G05.1: first control point along X",
+    "J": "arc centre offset along Y; G05/G05.1: first control point along Y",
     "K": "arc centre offset along Z; G06.1/G06.2: the curve's constant",
     "R": "arc radius; canned cycles' retract plane",
     "F": "feed, units per minute (modal)",
     "S": "spindle speed (recorded)",
     "T": "tool select (recorded; M06 loads it)",
     "H": "tool length offset number (G43)",
-    "P": "dwell seconds (G04, G82); G64's tolerance (ignored)",
-    "Q": "peck depth (G83); G64's tolerance (ignored)",
+    "P": "dwell seconds (G04, G82); G64's tolerance (ignored); G05: second control point "
+         "along X; G05.2: a control point's weight",
+    "Q": "peck depth (G83); G64's tolerance (ignored); G05: second control point along Y",
+    "L": "order of a G05.2 NURBS (default 3)",
 }
 
 #: G codes refused with a reason (by table key).

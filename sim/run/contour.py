@@ -51,6 +51,8 @@ def _arc_distance(p: np.ndarray, item: Arc) -> np.ndarray:
 def _distance(item: Line | Arc, p: np.ndarray) -> np.ndarray:
     """Distance of each point of ``p`` to the move ``item`` (a line, an arc or a curve)."""
     if isinstance(item, Line):
+        if item.curve is not None:  # a spline's chord: the exact curve
+            return item.curve.distances(p)
         return _segment_distance(p, item.start, item.end)
     if isinstance(item, Arc):
         return _arc_distance(p, item)
