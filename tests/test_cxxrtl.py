@@ -30,7 +30,7 @@ from hdl.common import observation
 from hdl.common.observation import FreeRunning
 from sim.backends.contract import Backend
 from sim.backends.cxxrtl import build, codegen
-from sim.backends.cxxrtl.backend import CxxrtlBackend
+from sim.backends.cxxrtl.backend import CxxrtlBackend, WaitEnd, _WaitPolling
 from sim.backends.cxxrtl.codegen import edge_wires, fall_eval, rise_eval, skip_eval
 from sim.backends.factory import BACKENDS, make_backend
 from sim.backends.introspect import component_ports
@@ -705,8 +705,11 @@ def test_the_design_key_follows_the_parameters_and_every_source(monkeypatch, mak
     assert runner.design_key(pre) == before
 
 
+#: The files of the harness (build.HARNESS): its translation unit and the parts it includes.
+HARNESS = ("harness.cc", "model.h", "model.cc", "skip.h", "skip.cc", "plant.h", "plant.cc",
+           "wait.h", "wait.cc")
 #: The files that make a compiled model (build._makers).
-MAKERS = ("build.py", "codegen.py", "words.h", "harness.cc")
+MAKERS = ("build.py", "codegen.py", "words.h", *HARNESS)
 
 
 def _edit_maker(monkeypatch: pytest.MonkeyPatch, maker: str) -> None:
@@ -735,6 +738,32 @@ def test_a_models_cache_key_changes_with_what_makes_it(monkeypatch, maker):
     before = build._model_key("rtlil", "runtime", ["free"], ["reads"])
     _edit_maker(monkeypatch, maker)
     assert build._model_key("rtlil", "runtime", ["free"], ["reads"]) != before
+
+
+@pytest.mark.parametrize("source", HARNESS)
+def test_the_harness_objects_cache_key_changes_with_each_of_its_files(monkeypatch, source):
+    """The harness's object is not reused after an edit of any file it is compiled from."""
+    before = build._runtime_key(build._harness(), "versions")
+    _edit_maker(monkeypatch, source)
+    assert build._runtime_key(build._harness(), "versions") != before
+
+
+def test_every_cxx_file_of_the_backend_is_a_maker():
+    """A C++ file that no key covers would let a model built before an edit of it stand."""
+    package = Path(build.__file__).parent
+    sources = {path.name for path in package.iterdir() if path.suffix in (".cc", ".h")}
+    assert sources == set(MAKERS) - {"build.py", "codegen.py"}
+    assert build.HARNESS == HARNESS
+
+
+def test_the_polling_waits_interface_is_the_same_on_both_sides():
+    """backend.py mirrors wait.h: the fields of its arguments in order, and why it returns."""
+    header = (Path(build.__file__).with_name("wait.h")).read_text()
+    fields = re.search(r"struct WaitPolling \{(.*?)\};", header, re.DOTALL).group(1)
+    names = re.findall(r"\b(\w+);", fields)
+    assert names == [name for name, _ in _WaitPolling._fields_]
+    body = re.search(r"enum class WaitEnd : int \{(.*?)\};", header, re.DOTALL).group(1)
+    assert dict(re.findall(r"(\w+) = (\d+),", body)) == {e.name: str(e.value) for e in WaitEnd}
 
 
 def _busy_then_idle(backend: Backend, seed: int) -> None:

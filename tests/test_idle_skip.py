@@ -134,7 +134,7 @@ def test_skipping_through_random_moves_changes_no_signal(make_job, accel, feed, 
 
 class LonePlant(wiring.Component):
     """One servo plant with its inputs as ports, declared free-running: the skip then steps
-    it natively up to each change of its count (sim/backends/cxxrtl/harness.cc, advance_plants),
+    it natively up to each change of its count (sim/backends/cxxrtl/plant.cc, advance_plants),
     which ``seen`` registers a cycle later (as an encoder interface would) and feeds back: on odd
     counts the D/A code is one step further from 0 V, so a skip that ran past a count change moves
     the plant differently."""

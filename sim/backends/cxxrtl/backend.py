@@ -10,6 +10,7 @@ from __future__ import annotations
 import base64
 import ctypes
 import dataclasses
+import enum
 import os
 import pickle
 import re
@@ -40,6 +41,43 @@ if TYPE_CHECKING:
 __all__ = ["CxxrtlBackend"]
 
 
+class WaitEnd(enum.IntEnum):
+    """Why the harness's polling wait returned (``enum class WaitEnd``, wait.h)."""
+
+    #: An interrupt is pending after a wait, or ``max_cycles`` ran out.
+    OVER = 0
+    #: A routine read a byte with a bit of its port's stop mask set (its bytes are returned).
+    STOPPED = 1
+    #: ``pause`` cycles passed, or the routines ran out: the same wait goes on.
+    PAUSED = 2
+    #: The same, at a tick whose routine is due (the wait goes on with ``due``).
+    PAUSED_DUE = 3
+
+
+#: What :meth:`sim.backends.contract.Backend.wait_polling` says of a wait that ended so: 1 it
+#: goes on, 2 it goes on with the routine of the tick reached due; 0 (any other end) it is over.
+_GOES_ON = {WaitEnd.PAUSED: 1, WaitEnd.PAUSED_DUE: 2}
+
+
+class _WaitPolling(ctypes.Structure):
+    """The polling wait's arguments (``struct WaitPolling``, wait.h, field for field)."""
+
+    _fields_ = (
+        ("irq", ctypes.c_size_t),
+        ("bus", ctypes.POINTER(ctypes.c_size_t)),
+        ("limit", ctypes.c_uint64),
+        ("pause", ctypes.c_uint64),
+        ("period", ctypes.c_uint64),
+        ("ports", ctypes.POINTER(ctypes.c_uint64)),
+        ("stops", ctypes.POINTER(ctypes.c_uint64)),
+        ("n", ctypes.c_size_t),
+        ("idles", ctypes.POINTER(ctypes.c_uint64)),
+        ("routines", ctypes.c_uint64),
+        ("due", ctypes.c_int),
+        ("skip_idle", ctypes.c_int),
+    )
+
+
 def _load(path: Path) -> ctypes.CDLL:
     lib = ctypes.CDLL(str(path))
     handle, size, u64 = ctypes.c_void_p, ctypes.c_size_t, ctypes.c_uint64
@@ -61,10 +99,8 @@ def _load(path: Path) -> ctypes.CDLL:
         "k37_run_until": (u64, [handle, size, u64, ctypes.c_int]),
         "k37_bus_write": (None, [handle, size, size, size, u64, u64]),
         "k37_bus_read": (u64, [handle, size, size, size, u64]),
-        "k37_wait_polling": (u64, [handle, size, ctypes.POINTER(size), u64, u64, u64,
-                                   ctypes.POINTER(u64), ctypes.POINTER(u64), size,
-                                   ctypes.POINTER(u64), u64, ctypes.c_int, ctypes.c_int,
-                                   ctypes.POINTER(u64)]),
+        "k37_wait_polling": (ctypes.c_int, [handle, ctypes.POINTER(_WaitPolling),
+                                            ctypes.POINTER(u64), ctypes.POINTER(u64)]),
         "k37_cycle": (u64, [handle]),
         "k37_skipped": (u64, [handle]),
         "k37_trace": (ctypes.c_int, [handle, ctypes.c_char_p, ctypes.c_char_p, ctypes.c_char_p,
@@ -324,13 +360,16 @@ class CxxrtlBackend(Backend):
             raise ValueError("wait_polling: one stop mask per port, n + 1 idles per routine")
         addr_port, _, i_addr, _, _, i_stb, i_data = self._bus(bus)
         u64 = ctypes.c_uint64
-        out = (u64 * (n + 1))()
-        done = self._lib.k37_wait_polling(
-            self._handle, self._index[self.port(port_name).name],
-            _sizes([i_addr, i_stb, i_data]), max_cycles, pause, period,
-            (u64 * n)(*(addr_port.encode(a) for a in ports)), (u64 * n)(*stops), n,
-            (u64 * len(idles))(*idles), len(idles) // (n + 1), due, skip_idle, out)
-        return done, list(out[1:]) if out[0] == 1 else None, {2: 1, 3: 2}.get(out[0], 0)
+        wait = _WaitPolling(
+            irq=self._index[self.port(port_name).name], bus=_sizes([i_addr, i_stb, i_data]),
+            limit=max_cycles, pause=pause, period=period,
+            ports=(u64 * n)(*(addr_port.encode(a) for a in ports)), stops=(u64 * n)(*stops),
+            n=n, idles=(u64 * len(idles))(*idles), routines=len(idles) // (n + 1), due=due,
+            skip_idle=skip_idle)
+        done, read = u64(), (u64 * n)()
+        end = WaitEnd(self._lib.k37_wait_polling(self._handle, ctypes.byref(wait),
+                                                 ctypes.byref(done), read))
+        return done.value, list(read) if end is WaitEnd.STOPPED else None, _GOES_ON.get(end, 0)
 
     def _set_raw(self, port: Port, raw: int) -> None:
         index = self._items[port.name]

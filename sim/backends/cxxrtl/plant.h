@@ -1,0 +1,42 @@
+// The servo plants that a skip steps natively (plant.cc), as the backend declares them
+// (sim/backends/cxxrtl/backend.py, from hdl.observation.FreeRunning). Part of the harness's one
+// translation unit (harness.cc).
+
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace {
+
+struct Model;
+
+// A servo plant (sim/machine/plant.py; its model: sim/machine/plant_model.py, ServoPlantModel),
+// stepped natively while it moves within one encoder count:
+// v += round((vc - v) alpha / 2^alpha_bits), or v = vc if that rounds to 0 (0 if stalled);
+// before += v; the count is (before + v) >> frac_bits. A skip ends with the cycle that changes
+// a count.
+struct Plant {
+	size_t velocity, before, dac, dac_zero, gain, alpha, vmax, stall;  // item indices
+	unsigned vc_bits, alpha_bits, frac_bits;
+};
+
+// One plant's state during a skip (plant.cc).
+struct PlantState;
+
+// Step the plants natively for up to `limit` cycles, up to and including the first cycle
+// that changes a count (then `crossed`), and return the cycles stepped (their state written).
+// That cycle is the skip's last: what reads a plant (its encoder lines, its count) reads the
+// position before the cycle's update, still in the old count, and the new count is first
+// read by the next cycle, which is evaluated. Exact, and in pieces: while every velocity is
+// steady, in closed form; while each ramps (v += s every cycle for a constant rounded step
+// s), piece by piece, the position a quadratic in the cycles; a cycle that lands a velocity,
+// one at a time. `resume`: the plants' states are those the last call left (a skip going on
+// past a sample), not read again from the model.
+uint64_t advance_plants(Model &m, uint64_t limit, bool resume, bool &crossed);
+
+// Whether a plant's count changed in the last cycle: its position before that cycle's update
+// is its `before` register now (before += v), its position now is before + v.
+bool plants_moved(Model &m);
+
+}  // namespace
