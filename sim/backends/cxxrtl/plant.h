@@ -1,6 +1,6 @@
 // The servo plants that a skip steps natively (plant.cc), as the backend declares them
-// (sim/backends/cxxrtl/backend.py, from hdl.observation.FreeRunning). Part of the harness's one
-// translation unit (harness.cc).
+// (sim/backends/cxxrtl/backend.py, from hdl.common.observation.FreeRunning). Part of the
+// harness's one translation unit (harness.cc).
 
 #pragma once
 

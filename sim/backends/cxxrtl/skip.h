@@ -1,5 +1,6 @@
 // Idle skipping: the free-running state that a skip advances in closed form (skip.cc), as the
-// backend declares it (sim/backends/cxxrtl/backend.py, from hdl.observation.FreeRunning), and
+// backend declares it (sim/backends/cxxrtl/backend.py, from
+// hdl.common.observation.FreeRunning), and
 // the rate multiplier's decoding that tells when its next pulse comes. Part of the harness's
 // one translation unit (harness.cc).
 
@@ -10,10 +11,10 @@
 
 extern "C" {
 
-// The rate multiplier's decoding (hdl/rate_multiplier.py), as its reference model defines it
-// (hdl/rate_multiplier_model.py; tests/test_rate_multiplier.py pins these to it): counter state
-// `state` of a `width`-bit cascade passes the input clock for word bit width - 1 - t, t its
-// trailing ones, and for none (width) when it is all ones. The states with t trailing ones are
+// The rate multiplier's decoding (hdl/feed/rate_multiplier.py), as its reference model defines it
+// (hdl/feed/rate_multiplier_model.py; tests/test_rate_multiplier.py pins these to it):
+// counter state `state` of a `width`-bit cascade passes the input clock for word bit
+// width - 1 - t, t its trailing ones, and for none (width) when it is all ones. The states with t trailing ones are
 // those equal to 2^t - 1 modulo 2^(t + 1).
 unsigned k37_rm_selected_bit(uint64_t state, unsigned width);
 
@@ -29,14 +30,14 @@ namespace {
 struct Item;
 struct Model;
 
-// A phase accumulator that runs on by itself (hdl/divider.py): phase += increment at every
+// A phase accumulator that runs on by itself (hdl/feed/divider.py): phase += increment at every
 // rising edge, stb holds the carry out of the last addition.
 struct Accumulator {
 	size_t phase, increment, stb;  // item indices
 	unsigned width;
 };
 
-// A counter (the rate multiplier's, hdl/rate_multiplier.py) that counts the cycles in which
+// A counter (the rate multiplier's, hdl/feed/rate_multiplier.py) that counts the cycles in which
 // accumulator `clock`'s stb is high; `select` is the word bit that state count + 1 selects
 // (k37_rm_selected_bit).
 struct StrobeCounter {
@@ -48,7 +49,7 @@ struct StrobeCounter {
 	size_t word, gate;
 };
 
-// An accel/decel accumulator (hdl/accel_decel.py): at each strobe of accumulator `clock`,
+// An accel/decel accumulator (hdl/accel/exponential.py): at each strobe of accumulator `clock`,
 // y += x, and a carry out of its n bits moves a count from x to its output. Skips stop before
 // its next carry; x (and everything the carry feeds) is ordinary state.
 struct CarryAccumulator {
