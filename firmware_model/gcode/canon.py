@@ -4,7 +4,7 @@
 subroutines and loops, offsets and canned cycles, and writes the canonical machine commands
 one per line (``   12 N..... STRAIGHT_FEED(1.0000, 2.0000, 0.0000, ...)``). :func:`parse_canon`
 turns that text into the same :class:`~firmware_model.gcode.program.Program` the built-in front end
-builds, through the same :class:`~firmware_model.gcode.program.Planner` (exact ends, correction
+builds, through the same :class:`~firmware_model.gcode.planner.Planner` (exact ends, correction
 lines, events); :func:`parse_linuxcnc` runs ``rs274`` on a program first.
 
 Canonical positions are in the program's coordinate system and length units: the machine
@@ -35,7 +35,8 @@ from firmware_model.gcode.parser import (
     GcodeError,
     parse,
 )
-from firmware_model.gcode.program import Planner, Program
+from firmware_model.gcode.planner import Planner
+from firmware_model.gcode.program import Program
 
 __all__ = ["FRONTENDS", "RS274", "parse_canon", "parse_linuxcnc", "rs274_canon"]
 

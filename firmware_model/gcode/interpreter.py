@@ -1,0 +1,445 @@
+"""The built-in front end's interpreter: modal state, and each block's words in RS-274's
+order (:mod:`firmware_model.gcode.parser` reads a program through it). Splines and canned
+cycles are in :mod:`firmware_model.gcode.spline_motions` and
+:mod:`firmware_model.gcode.cycles`."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from decimal import ROUND_HALF_UP, Decimal
+
+from firmware_model.gcode.block_words import BlockError, BlockWords, g_name
+from firmware_model.gcode.cycles import CannedCycles
+from firmware_model.gcode.lex import Word
+from firmware_model.gcode.planner import PlanError, Planner
+from firmware_model.gcode.program import PLANE_AXES
+from firmware_model.gcode.spline_motions import SplineMotions
+from firmware_model.gcode.units import (
+    ARC_TOLERANCE_MM,
+    AXIS_LETTERS,
+    INCH_MM,
+    OFFSET_LETTERS,
+    USES,
+)
+from firmware_model.gcode.words import M_CODES
+from hdl.k3701.block import COORD_MAX
+
+__all__ = ["Interpreter"]
+
+
+class Interpreter(SplineMotions, CannedCycles):
+    """The modal state of a program being read, and what each block does with it."""
+
+    def __init__(self, planner: Planner, *, lsb_mm: float, tolerance: float | None,
+                 tools: Mapping[int, float] | None):
+        self.planner = planner
+        self.lsb_size = Decimal(repr(lsb_mm))
+        self.tolerance = tolerance
+        self.tools = tools
+        self.end = False
+        self.motion: int | None = None
+        self.inch = False
+        self.incremental = False
+        self.arc_absolute = False
+        self.plane = 17
+        self.retract_r = True  # G99, rs274's initial retract mode
+        self.feed: float | None = None
+        self.feed_source: tuple[int, int, str] | None = None
+        self.g92 = [0, 0, 0]
+        self.tool_offset = 0
+        self.selected: int | None = None
+        self.tool: int | None = None
+        self.cycle: dict[str, Decimal] = {}
+        self.cycle_planes: tuple[int, int, int] | None = None
+        self.line_no = 0
+        #: The G05.2 NURBS being read: control points (LSB), weights, order, its G05.2 word
+        #: and line.
+        self.nurbs: tuple[list[tuple[float, float]], list[float], int, Word, int] | None = None
+        #: The last G05's second control point from its end (LSB), for the next G05.
+        self.g05_pq: tuple[float, float] | None = None
+
+    # -- helpers ----------------------------------------------------------------------------
+
+    @property
+    def pos(self) -> tuple[int, int, int]:
+        """The programmed position (the machine's may be up to 1 LSB off after an arc)."""
+        return self.planner.programmed
+
+    def lsb(self, value: Decimal, inch: bool | None = None) -> int:
+        mm = value * INCH_MM if (self.inch if inch is None else inch) else value
+        return int((mm / self.lsb_size).to_integral_value(rounding=ROUND_HALF_UP))
+
+    def offset(self, axis: int) -> int:
+        return self.g92[axis] + (self.tool_offset if axis == 2 else 0)
+
+    def check_range(self, word: Word, value: int, what: str) -> None:
+        if abs(value) > COORD_MAX:
+            raise BlockError(word.col, f"{word.text}: {what} {value} LSB is outside "
+                                  f"-(2^23-1)..2^23-1 LSB (+-{self.planner.mm(COORD_MAX)})")
+
+    def target(self, b: BlockWords, *, machine: bool = False,
+               incremental: bool | None = None) -> tuple[int, int, int]:
+        """The absolute machine target of a block's X/Y/Z words (unnamed axes stay)."""
+        incremental = self.incremental if incremental is None else incremental
+        target = list(self.pos)
+        for axis, letter in enumerate(AXIS_LETTERS):
+            w = b.word(letter)
+            if w is None:
+                continue
+            target[axis] = self.base(axis, incremental, machine) + self.lsb(w.value)
+            self.check_range(w, target[axis], "the position")
+            self.check_range(w, target[axis] - self.pos[axis], "the move")
+            if axis == 2 and self.planner.axes == 2 and target[2] != self.pos[2]:
+                raise BlockError(w.col, f"{w.text} moves Z: this machine has two axes "
+                                   f"(machine.axes = 3 runs it)")
+        return target[0], target[1], target[2]
+
+    def exact_target(self, b: BlockWords) -> tuple[float, float, float]:
+        """:meth:`target` before its words are rounded to the LSB grid (LSB)."""
+        target = [float(v) for v in self.pos]
+        for axis, letter in enumerate(AXIS_LETTERS):
+            w = b.word(letter)
+            if w is not None:
+                mm = w.value * INCH_MM if self.inch else w.value
+                target[axis] = self.base(axis, self.incremental, False) + float(mm / self.lsb_size)
+        return target[0], target[1], target[2]
+
+    def base(self, axis: int, incremental: bool, machine: bool) -> int:
+        """What an axis word adds to: the position (G91), the origin (G53), else the offsets."""
+        return self.pos[axis] if incremental else (0 if machine else self.offset(axis))
+
+    def plan(self, col: int, call, *args, **kwargs) -> None:
+        try:
+            call(self.line_no, *args, **kwargs)
+        except PlanError as e:
+            raise BlockError(col, str(e)) from None
+
+    def event(self, w: Word, kind: str, value: float | None = None) -> None:
+        self.planner.event(self.line_no, w.text, kind, value)
+
+    # -- one block --------------------------------------------------------------------------
+
+    def block(self, words: list[Word]) -> None:
+        b = BlockWords(words)
+        n = b.word("N")
+        if n is not None and (n.value < 0 or n.value != n.value.to_integral_value()):
+            raise BlockError(n.col, f"{n.text}: N must be a non-negative integer")
+        units = b.code("units")
+        if units is not None:
+            self.inch = units == 200
+        self.feed_word(b)
+        self.spindle_tool_coolant(b)
+        if "non-modal" in b.g and b.g["non-modal"][0] == 40:
+            self.dwell(b)
+        elif b.word("P") is not None and not self.takes_p(b):
+            p = b.word("P")
+            raise BlockError(p.col, f"{p.text}: P is only for G04 (dwell), G82, G64 and arcs")
+        self.modal_settings(b)
+        self.non_modal(b)
+        self.motion_of(b)
+        if "stop" in b.m:
+            key, w = b.m["stop"]
+            if key in (2, 30):
+                self.end = True
+            else:
+                self.event(w, M_CODES[key].event)
+
+    def recover(self, words: list[Word]) -> None:
+        """After a refused block: its programmed end becomes the next block's start, as if it
+        had run, so that the blocks after it are checked from where the program meant to be
+        and one fault is reported once. A block that sets rather than moves (G04, G10, G28,
+        G92, ...) or whose end cannot be known moves nothing."""
+        try:
+            b = BlockWords(words)
+        except BlockError:
+            return
+        if "non-modal" in b.g or not any(b.word(a) for a in AXIS_LETTERS):
+            return
+        target = list(self.pos)
+        for axis, letter in enumerate(AXIS_LETTERS):
+            w = b.word(letter)
+            if w is not None and (axis < 2 or self.planner.axes == 3):
+                base = self.pos[axis] if self.incremental else self.offset(axis)
+                target[axis] = base + self.lsb(w.value)
+        if all(abs(v) <= COORD_MAX for v in target):
+            self.planner.position = self.planner.programmed = (target[0], target[1], target[2])
+
+    def takes_p(self, b: BlockWords) -> bool:
+        motion = b.code("motion") if "motion" in b.g else self.motion
+        return (b.code("path") == 640 or motion in (20, 30, 50, 52, 820)
+                or self.nurbs is not None)
+
+    def arc_tolerance(self) -> float:
+        """The arc tolerance in LSB (the program's, or LinuxCNC's in the units in force)."""
+        if self.tolerance is not None:
+            return self.tolerance
+        return ARC_TOLERANCE_MM[self.inch] / float(self.lsb_size)
+
+    def feed_word(self, b: BlockWords) -> None:
+        f = b.word("F")
+        if f is None:
+            return
+        if f.value <= 0:
+            raise BlockError(f.col, f"{f.text}: the feed must be positive")
+        self.feed = float(f.value * INCH_MM if self.inch else f.value)
+        self.feed_source = (self.line_no, f.col, f.text)
+
+    def spindle_tool_coolant(self, b: BlockWords) -> None:
+        s, t = b.word("S"), b.word("T")
+        if s is not None:
+            if s.value < 0:
+                raise BlockError(s.col, f"{s.text}: the spindle speed must not be negative")
+            self.event(s, "spindle_speed", float(s.value))
+        if t is not None:
+            if t.value < 0 or t.value != t.value.to_integral_value():
+                raise BlockError(t.col, f"{t.text}: T must be a non-negative integer")
+            self.selected = int(t.value)
+            self.event(t, "tool_select", float(t.value))
+        for group in ("tool change", "spindle", "coolant"):
+            if group in b.m:
+                key, w = b.m[group]
+                value = None
+                if key == 6:
+                    self.tool = self.selected
+                    value = None if self.tool is None else float(self.tool)
+                self.event(w, M_CODES[key].event, value)
+
+    def dwell(self, b: BlockWords) -> None:
+        g4 = b.g["non-modal"][1]
+        for letter in AXIS_LETTERS if "motion" not in b.g else "":  # else: the motion's
+            if b.word(letter) is not None:
+                w = b.word(letter)
+                raise BlockError(w.col, f"{w.text}: G04 takes only P (seconds)")
+        p = b.word("P")
+        if p is None:
+            raise BlockError(g4.col, "G04 needs P (the dwell in seconds)")
+        if p.value < 0:
+            raise BlockError(p.col, f"{p.text}: the dwell must not be negative")
+        self.planner.dwell(self.line_no, float(p.value))
+
+    def modal_settings(self, b: BlockWords) -> None:
+        plane = b.code("plane")
+        if plane is not None:
+            self.plane = plane // 10
+        distance = b.code("distance")
+        if distance is not None:
+            self.incremental = distance == 910
+        arc = b.code("arc distance")
+        if arc is not None:
+            self.arc_absolute = arc == 901
+        retract = b.code("retract")
+        if retract is not None:
+            self.retract_r = retract == 990
+        h = b.word("H")
+        length = b.code("tool length")
+        if h is not None and length != 430:
+            raise BlockError(h.col, f"{h.text}: H is only for G43 (tool length offset)")
+        if length == 490:
+            self.tool_offset = 0
+        elif length == 430:
+            self.tool_offset = self.tool_length(b.g["tool length"][1], h)
+
+    def tool_length(self, g43: Word, h: Word | None) -> int:
+        if h is not None and (h.value < 0 or h.value != h.value.to_integral_value()):
+            raise BlockError(h.col, f"{h.text}: H must be a non-negative integer")
+        number = int(h.value) if h is not None else self.tool
+        if not self.tools or number in (None, 0):
+            return 0
+        if number not in self.tools:
+            raise BlockError((h or g43).col, f"{(h or g43).text}: tool {number} is not in the "
+                                        f"job's tool table ({sorted(self.tools)})")
+        return self.lsb(Decimal(repr(self.tools[number])), inch=False)
+
+    def non_modal(self, b: BlockWords) -> None:
+        if "non-modal" not in b.g:
+            return
+        key, w = b.g["non-modal"]
+        if key in (280, 300):
+            if b.code("motion") is not None:
+                raise BlockError(w.col, f"{w.text} and a motion code in one block")
+            via = self.target(b)
+            self.plan(w.col, self.planner.line, via, None)
+            named = [b.word(letter) is not None for letter in AXIS_LETTERS]
+            home = tuple(0 if (named[a] or not any(named)) else via[a] for a in range(3))
+            self.check_z(w, home)
+            self.plan(w.col, self.planner.line, home, None)
+        elif key == 920:
+            for axis, letter in enumerate(AXIS_LETTERS):
+                v = b.word(letter)
+                if v is not None:
+                    self.g92[axis] = self.pos[axis] - self.lsb(v.value) - (
+                        self.tool_offset if axis == 2 else 0)
+        elif key == 921:
+            self.g92 = [0, 0, 0]
+
+    def check_z(self, w: Word, target: tuple[int, ...]) -> None:
+        if self.planner.axes == 2 and target[2] != self.pos[2]:
+            raise BlockError(w.col, f"{w.text} moves Z: this machine has two axes "
+                               f"(machine.axes = 3 runs it)")
+
+    def axis_words(self, b: BlockWords) -> list[Word]:
+        return [w for letter in AXIS_LETTERS if (w := b.word(letter)) is not None]
+
+    # -- motion -----------------------------------------------------------------------------
+
+    def motion_of(self, b: BlockWords) -> None:
+        g = b.g.get("motion")
+        order = b.word("L")
+        if order is not None and (g is None or g[0] != 52 or self.nurbs is not None):
+            raise BlockError(order.col, f"{order.text}: L is only for G05.2 (a NURBS's order)")
+        if self.nurbs is not None or (g is not None and g[0] in (52, 53)):
+            for letter in "IJKRQ":
+                w = b.word(letter)
+                if w is not None:
+                    raise BlockError(w.col, f"{w.text}: a G05.2 NURBS takes X, Y, P and L")
+            self.nurbs_block(b, g)
+            return
+        if g is not None:
+            if g[0] != self.motion:
+                self.cycle, self.cycle_planes = {}, None
+            self.motion = None if g[0] == 800 else g[0]
+        if "non-modal" in b.g and b.g["non-modal"][0] in (280, 300, 920):
+            return  # their axis words are theirs
+        axes = self.axis_words(b)
+        for letter in "IJKRQ":
+            w = b.word(letter)
+            if w is not None and not self.uses(letter, b):
+                raise BlockError(w.col, f"{w.text}: {letter} is only for "
+                                   f"{'arcs (G02/G03)' if letter in 'IJK' else USES[letter]}")
+        if not axes and not (g is not None and g[0] in (20, 30, 60) and self.has_offsets(b)):
+            return
+        if self.motion is None:
+            if g is not None and g[0] == 800:
+                raise BlockError(axes[0].col, f"{axes[0].text}: G80 cancels the motion mode")
+            raise BlockError(axes[0].col, f"{axes[0].text} without a motion mode "
+                                           f"(G00/G01/G02/G03)")
+        anchor = g[1] if g is not None else axes[0]
+        if self.motion != 0 and self.feed is None:
+            raise BlockError(anchor.col, f"{g_name(self.motion)} without a feed rate: program "
+                                    f"F first")
+        machine = "non-modal" in b.g and b.g["non-modal"][0] == 530
+        if machine and self.motion not in (0, 10):
+            raise BlockError(b.g["non-modal"][1].col, "G53 is only for G00/G01 moves")
+        if machine and self.incremental:
+            raise BlockError(b.g["non-modal"][1].col, "G53 takes absolute machine "
+                                                      "coordinates: not in G91")
+        if self.motion in (0, 10):
+            target = self.target(b, machine=machine, incremental=False if machine else None)
+            self.plan(anchor.col, self.planner.line, target,
+                      None if self.motion == 0 else self.feed, feed_source=self.feed_source)
+        elif self.motion in (20, 30):
+            self.arc(b, anchor)
+        elif self.motion == 60:
+            self.parabola(b, anchor)
+        elif self.motion in (61, 62):
+            self.exponential(b, anchor)
+        elif self.motion in (50, 51):
+            self.spline(b, anchor)
+        else:
+            self.canned_cycle(b, anchor)
+
+    def uses(self, letter: str, b: BlockWords) -> bool:
+        if letter in "IJK":
+            return (self.motion in (20, 30) or (self.motion in (50, 51, 60) and letter != "K")
+                    or (self.motion in (61, 62) and letter == "K"))
+        if letter == "R":
+            return self.motion in (20, 30, 810, 820, 830)
+        return self.motion in (50, 830) or b.code("path") == 640  # Q
+
+    def has_offsets(self, b: BlockWords) -> bool:
+        return any(b.word(letter) is not None for letter in OFFSET_LETTERS)
+
+    def arc(self, b: BlockWords, anchor: Word) -> None:
+        first, second, normal = PLANE_AXES[self.plane]
+        cw = self.motion == 20
+        name = f"G0{self.motion // 10}"
+        wrong = OFFSET_LETTERS[normal]
+        if b.word(wrong) is not None:
+            w = b.word(wrong)
+            raise BlockError(w.col, f"{w.text}: a G{self.plane} arc takes "
+                               f"{OFFSET_LETTERS[first]} and {OFFSET_LETTERS[second]}")
+        if self.planner.axes == 2 and self.plane != 17:
+            raise BlockError(anchor.col, f"{name} in G{self.plane} moves Z: this machine has two "
+                                    f"axes (machine.axes = 3 runs it)")
+        p = b.word("P")
+        if p is not None and p.value != 1:
+            raise BlockError(p.col, f"{p.text}: arcs of more than one turn are unsupported")
+        target = self.target(b)
+        start = self.pos
+        r = b.word("R")
+        if r is not None:
+            if self.has_offsets(b):
+                raise BlockError(r.col, f"{r.text}: an arc takes R or centre offsets, not both")
+            centre = self.centre_from_radius(r, start, target, first, second, cw)
+        elif not self.has_offsets(b):
+            raise BlockError(anchor.col, f"{name} needs {OFFSET_LETTERS[first]} and/or "
+                                    f"{OFFSET_LETTERS[second]} (the centre offsets) or R")
+        else:
+            centre = []
+            for axis in (first, second):
+                w = b.word(OFFSET_LETTERS[axis])
+                if self.arc_absolute:
+                    c = self.offset(axis) + self.lsb(w.value) if w else self.offset(axis)
+                else:
+                    c = start[axis] + (self.lsb(w.value) if w else 0)
+                centre.append(c)  # beyond the K3701's registers: the planner runs chords
+        self.plan(anchor.col, self.planner.arc, target, (centre[0], centre[1]), self.plane,
+                  cw, self.feed, tolerance=self.arc_tolerance(), feed_source=self.feed_source,
+                  exact=self.exact_target(b))
+
+    def parabola(self, b: BlockWords, anchor: Word) -> None:
+        """G06: the tangent point relative to the start, as an arc's centre (absolute under
+        G90.1)."""
+        if self.plane != 17:
+            raise BlockError(anchor.col, f"G06 in G{self.plane}: parabolas are in the XY "
+                                          f"plane (G17)")
+        if b.word("I") is None and b.word("J") is None:
+            raise BlockError(anchor.col, "G06 needs I and/or J (the tangent point)")
+        target = self.target(b)
+        start = self.pos
+        tangent = []
+        for axis in (0, 1):  # the point as an arc's centre is, from the machine's position
+            w = b.word("IJ"[axis])
+            if self.arc_absolute:
+                point = self.offset(axis) + (self.lsb(w.value) if w else 0)
+            else:
+                point = start[axis] + (self.lsb(w.value) if w else 0)
+            if w is not None:
+                self.check_range(w, point - start[axis], "the tangent point")
+            tangent.append(point - self.planner.position[axis])
+        self.plan(anchor.col, self.planner.parabola, target, (tangent[0], tangent[1]),
+                  self.feed, feed_source=self.feed_source)
+
+    def exponential(self, b: BlockWords, anchor: Word) -> None:
+        """G06.1 (exponential of X) and G06.2 (logarithm: exponential of Y): K the curve's
+        constant, a length along the abscissa (negative: the curve flattens)."""
+        name = g_name(self.motion)
+        if self.plane != 17:
+            raise BlockError(anchor.col, f"{name} in G{self.plane}: exponentials are in the "
+                                          f"XY plane (G17)")
+        k = b.word("K")
+        if k is None:
+            raise BlockError(anchor.col, f"{name} needs K (the curve's constant)")
+        constant = self.lsb(k.value)
+        self.check_range(k, constant, "the curve's constant")
+        self.plan(anchor.col, self.planner.exponential, self.target(b), constant,
+                  self.motion == 62, self.feed, feed_source=self.feed_source)
+
+    def centre_from_radius(self, r: Word, start, target, first: int, second: int,
+                           cw: bool) -> list[int]:
+        """RS-274's R form: the centre on the chord's bisector, left of the chord for CCW,
+        right for CW (R < 0: the other side, the arc over 180 degrees)."""
+        sx, sy = start[first], start[second]
+        ex, ey = target[first], target[second]
+        radius = self.lsb(r.value)
+        chord = math.hypot(ex - sx, ey - sy)
+        if chord == 0:
+            raise BlockError(r.col, f"{r.text}: an R-form arc cannot be a full circle (use I/J/K)")
+        if radius == 0 or abs(radius) < chord / 2 - 0.5:
+            raise BlockError(r.col, f"{r.text}: the radius is shorter than half the distance to "
+                               f"the end point ({self.planner.mm(chord / 2)})")
+        h = math.sqrt(max(0.0, radius * radius - chord * chord / 4))
+        side = (1 if cw else -1) * (1 if radius > 0 else -1)
+        ux, uy = (ex - sx) / chord, (ey - sy) / chord
+        return [round((sx + ex) / 2 + side * h * uy), round((sy + ey) / 2 - side * h * ux)]
