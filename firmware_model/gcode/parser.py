@@ -503,6 +503,7 @@ class _Interpreter:
         sx, sy = start[first], start[second]
         ex, ey = target[first], target[second]
         radius = self.lsb(r.value)
+        self.check_range(r, radius, "the radius")
         chord = math.hypot(ex - sx, ey - sy)
         if chord == 0:
             raise _BlockError(r.col, f"{r.text}: an R-form arc cannot be a full circle (use I/J/K)")
