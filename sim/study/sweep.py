@@ -89,22 +89,32 @@ def check_study(study: Study) -> None:
     Raises
     ------
     JobError
-        One line per bad run (at most five, and how many more).
+        One line per distinct error (at most five) with the runs that have it.
     """
     clash = sorted(set(study.factors) & {"run", *METRICS})
     if clash:
         raise JobError(f"{study.source}: factor {clash[0]} has the name of a column of the "
                        f"results table; rename it")
-    errors = []
+    errors: dict[str, list[StudyRun]] = {}  # each error once, with the runs that have it
     for run in study.runs:
         try:
             study.job(run)
         except (JobError, ValueError) as e:
-            levels = ", ".join(f"{f} = {v!r}" for f, v in run.levels)
-            errors.append(f"{study.source}: run {run.number} ({levels}): {e}")
-    if errors:
-        more = f"\n... and {len(errors) - 5} more runs" if len(errors) > 5 else ""
-        raise JobError("\n".join(errors[:5]) + more)
+            errors.setdefault(str(e), []).append(run)
+    lines = []
+    for message, runs in list(errors.items())[:5]:
+        if len(runs) == len(study.runs) > 1:
+            which = "every run"
+        else:
+            which = "run " + ", ".join(str(r.number) for r in runs[:10]) + (
+                ", ..." if len(runs) > 10 else "")
+            if len(runs) == 1:
+                which += " (" + ", ".join(f"{f} = {v!r}" for f, v in runs[0].levels) + ")"
+        lines.append(f"{study.source}: {which}: {message}")
+    if len(errors) > 5:
+        lines.append(f"{study.source}: ... and {len(errors) - 5} more errors")
+    if lines:
+        raise JobError("\n".join(lines))
 
 
 def _header(study: Study) -> list[str]:
