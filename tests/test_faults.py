@@ -5,6 +5,7 @@ every output is whole or absent; no worker outlives its command."""
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import os
@@ -164,9 +165,13 @@ def test_the_check_names_a_device_written_in_place_as_writable(tmp_path):
 def test_an_interrupted_atomic_write_leaves_the_old_file_and_no_partial_one(tmp_path):
     target = tmp_path / "r.json"
     target.write_text("old")
-    with pytest.raises(RuntimeError), atomic_open(target) as f:
-        f.write("new, half")
-        raise RuntimeError
+    def write_half() -> None:
+        with atomic_open(target) as f:
+            f.write("new, half")
+            raise RuntimeError("the writer failed")
+
+    with pytest.raises(RuntimeError, match="the writer failed"):
+        write_half()
     assert target.read_text() == "old" and list(tmp_path.iterdir()) == [target]
 
 
@@ -220,7 +225,7 @@ def test_sigterm_stops_a_run_as_ctrl_c_does_and_exits_143(tmp_path):
     process = _start_run(tmp_path)
     time.sleep(0.2)
     process.send_signal(signal.SIGTERM)
-    out, err = process.communicate(timeout=120)
+    _, err = process.communicate(timeout=120)
     assert process.returncode == 143, err
     assert err.startswith("k37: stopped by SIGTERM at cycle ") and "Traceback" not in err
     report = json.loads((tmp_path / "r.json").read_text())
@@ -372,11 +377,22 @@ def test_a_torn_last_row_is_dropped_on_resume_and_its_run_runs_once_again(
     assert sum(1 for n in notes if n.startswith("run ")) == 2  # runs 2 and 3, each once
 
 
-def test_a_row_that_cannot_be_written_is_not_left_half_in_the_table(tmp_path):
+def test_a_row_that_cannot_be_written_is_not_left_half_in_the_table(small_fs):
     header = ["run", "a", *sweep_module.METRICS]
-    with open("/dev/full", "wb") as full:
-        with pytest.raises(OSError):
-            sweep_module._append(full.fileno(), header, {"run": 0, "a": 1, "status": "ok"})
+    table = small_fs / "results.csv"
+    table.write_text(",".join(header) + "\n")
+    with open(small_fs / "filler", "wb", buffering=0) as filler:  # fill the disk
+        with contextlib.suppress(OSError):
+            while True:
+                filler.write(b"x" * 512)
+    before = table.read_bytes()
+    fd = os.open(table, os.O_WRONLY | os.O_APPEND)
+    try:
+        with pytest.raises(OSError, match="No space left"):
+            sweep_module._append(fd, header, {"run": 0, "a": "x" * 8192, "status": "ok"})
+    finally:
+        os.close(fd)
+    assert table.read_bytes() == before
 
 
 def test_a_misspelt_factor_key_is_refused_before_any_run(tmp_path, capsys):
