@@ -39,7 +39,8 @@ from sim.run.jobfile import JobError
 from sim.run.runner import OptionError, RunOptions, reused_backend, run_job
 from sim.study.studyfile import Study, StudyRun
 
-__all__ = ["METRICS", "WORKER_STOP_SECONDS", "SweepError", "check_study", "run_one", "sweep"]
+__all__ = ["METRICS", "WORKER_STOP_SECONDS", "SweepError", "check_study", "end_with_parent",
+           "run_one", "stop_workers", "sweep"]
 
 #: The columns each run fills after its factors.
 METRICS = ("status", "reason", "cycles", "machine_seconds", "wall_seconds",
@@ -158,7 +159,7 @@ def _done(study: Study, path: Path, report: Callable[[str], None] | None) -> set
     return done
 
 
-def _set_parent_death_signal() -> None:
+def end_with_parent() -> None:
     """Have the kernel send this process SIGTERM when its parent dies (Linux), so a worker
     never outlives a sweep that was killed outright."""
     with contextlib.suppress(OSError, AttributeError):
@@ -170,7 +171,7 @@ def _worker(study: Study, tasks: Connection, parent: int) -> None:
     """A worker process: runs of ``study`` received on ``tasks``, their rows sent back."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the sweep stops its workers itself
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    _set_parent_death_signal()
+    end_with_parent()
     if os.getppid() != parent:  # the parent died before the signal was set
         return
     while True:
@@ -269,6 +270,20 @@ class _Pool:
         for conn in self.workers:
             conn.close()
         self.workers.clear()
+
+
+def stop_workers(processes: list[multiprocessing.process.BaseProcess]) -> None:
+    """End worker ``processes``: SIGTERM, then SIGKILL those still alive after
+    :data:`WORKER_STOP_SECONDS`."""
+    for process in processes:
+        if process.is_alive():
+            process.terminate()
+    deadline = time.monotonic() + WORKER_STOP_SECONDS
+    for process in processes:
+        process.join(max(0.0, deadline - time.monotonic()))
+        if process.is_alive():
+            process.kill()
+            process.join()
 
 
 def _death(exitcode: int | None) -> str:
