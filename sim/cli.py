@@ -3,17 +3,98 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
+import signal
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 __all__ = ["main"]
 
 
+#: Exit code of a command stopped by Ctrl-C (128 + SIGINT, as a shell reports it); a
+#: command stopped by SIGTERM exits 128 + SIGTERM = 143.
+EXIT_INTERRUPTED = 130
+
+
+class _Stop:
+    """The signal that last stopped a command (SIGINT or SIGTERM)."""
+
+    signal = signal.SIGINT
+
+
+@contextmanager
+def _signals_interrupt() -> Iterator[None]:
+    """While it lasts, SIGTERM stops a command as Ctrl-C does (KeyboardInterrupt), so outputs
+    are finished or removed and worker processes ended; :func:`_interrupted` gives the exit
+    code. (Only in the main thread: elsewhere signals cannot be handled.)"""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum: int, _: object) -> None:
+        _Stop.signal = signal.Signals(signum)
+        raise KeyboardInterrupt
+
+    _Stop.signal = signal.SIGINT
+    previous = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, before in previous.items():
+            signal.signal(s, signal.SIG_DFL if before is None else before)
+
+
+def _interrupted(signum: signal.Signals | None = None) -> int:
+    """The exit code of a command stopped by ``signum`` (default: the last signal)."""
+    return 128 + (signum or _Stop.signal)
+
+
+def _stopped(signum: signal.Signals | None = None) -> str:
+    """How a command was stopped, in words."""
+    signum = signum or _Stop.signal
+    return "interrupted" if signum == signal.SIGINT else f"stopped by {signum.name}"
+
+
+def _check(files: Sequence[tuple[str, str | Path | None]] = (), *,
+           folders: dict[str, str | Path | None] | None = None,
+           inputs: Sequence[str | Path | None] = (), stdout: bool = True) -> bool:
+    """:func:`sim.files.check_outputs`, its error printed: whether the outputs can be
+    written."""
+    from sim.files import OutputError, check_outputs
+
+    try:
+        check_outputs(files, folders=folders, inputs=inputs, stdout=stdout)
+    except OutputError as e:
+        _print_error(e)
+        return False
+    return True
+
+
+def _stdout(write: Callable[[], object]) -> int:
+    """Print to stdout with ``write``: 0, or 1 with one error line if stdout fails (full,
+    closed)."""
+    from sim.files import why
+
+    try:
+        write()
+        sys.stdout.flush()
+    except OSError as e:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        print(f"k37: error: stdout: not written: {why(e)}", file=sys.stderr)
+        return 1
+    return 0
+
+
 def _cmd_docs(args: argparse.Namespace) -> int:
     from sim.docs import documents
 
+    if not _check(folders={"-o": args.output}):
+        return 2
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     for name, text in documents().items():
@@ -27,19 +108,20 @@ def _load_step(text: str) -> tuple[str, float, float]:
     try:
         axis, rest = text.split(":", 1)
         torque, at_s = rest.split("@", 1)
-        return axis, float(torque), float(at_s)
+        numbers = float(torque), float(at_s)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not AXIS:NM@SECONDS (e.g. x:0.05@1.5)") \
             from None
-
-
-#: Exit code of a run stopped by Ctrl-C (128 + SIGINT, as a shell reports it).
-EXIT_INTERRUPTED = 130
+    if not all(map(math.isfinite, numbers)):
+        raise argparse.ArgumentTypeError(f"{text!r}: the torque and the time must be finite "
+                                         f"numbers")
+    return axis, *numbers
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
     from firmware_model.firmware import FirmwareError
     from firmware_model.gcode.parser import GcodeError
+    from sim.files import STDIO
     from sim.run.jobfile import JobError, load_job, load_step_fault
     from sim.run.output import OutputError, add_ballbar, check_outputs, write_outputs
     from sim.run.progress import ProgressPrinter
@@ -47,9 +129,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     progress = None if args.quiet else ProgressPrinter(sys.stderr)
     try:
-        check_outputs(json_path=args.json, trace=args.trace, plot=args.plot, vcd=args.vcd,
-                      gtkw=args.gtkw, ballbar=args.ballbar)
         job = load_job(args.job, frontend=args.frontend, arc_tolerance=args.arc_tolerance)
+        check_outputs(json_path=args.json, trace=args.trace, plot=args.plot, vcd=args.vcd,
+                      gtkw=args.gtkw, ballbar=args.ballbar,
+                      inputs=[args.job, job.program.source],
+                      stdout=args.json == STDIO or not args.quiet)
         faults = {axis: {"stall": 1} for axis in args.stall}
         for axis in args.break_line:
             faults.setdefault(axis, {})["break_a"] = 1
@@ -69,25 +153,30 @@ def _cmd_run(args: argparse.Namespace) -> int:
         _print_error(e)
         return 2
     except KeyboardInterrupt:  # outside the run itself (building the machine, the report)
-        print("k37: interrupted; nothing written", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        print(f"k37: {_stopped()}; nothing written", file=sys.stderr)
+        return _interrupted()
     finally:
         if progress is not None:
             progress.finish()
+    if args.plot and not args.quiet:
+        print(f"k37: writing {args.plot} ...", file=sys.stderr, flush=True)
     try:
-        if args.ballbar:
-            add_ballbar(result, args.ballbar, args.ballbar_settle)
-        write_outputs(result, json_path=args.json, trace=args.trace, plot=args.plot,
-                      gtkw=args.gtkw, vcd=args.vcd, vcd_start=args.vcd_start,
-                      quiet=args.quiet)
+        failures = add_ballbar(result, args.ballbar, args.ballbar_settle) if args.ballbar else []
+        failures += write_outputs(result, json_path=args.json, trace=args.trace, plot=args.plot,
+                                  gtkw=args.gtkw, vcd=args.vcd, vcd_start=args.vcd_start,
+                                  quiet=args.quiet)
     except KeyboardInterrupt:
-        print("k37: interrupted while writing the outputs", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        print(f"k37: {_stopped()} while writing the outputs; those not yet written are not "
+              f"written (no partial files)", file=sys.stderr)
+        return _interrupted()
+    for failure in failures:
+        print(f"k37: error: {failure}", file=sys.stderr)
     if result.report["status"] == "interrupted":
-        print(f"k37: interrupted at cycle {result.report['cycles']:,}; outputs written",
-              file=sys.stderr)
-        return EXIT_INTERRUPTED
-    return 0 if result.ok else 1
+        written = "outputs written" if not failures else "the other outputs written"
+        print(f"k37: {_stopped(result.stopped_by)} at cycle {result.report['cycles']:,}; "
+              f"{written}", file=sys.stderr)
+        return _interrupted(result.stopped_by)
+    return 0 if result.ok and not failures else 1
 
 
 def _print_error(e: Exception) -> None:
@@ -104,6 +193,8 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     from sim.run.jobfile import JobError, load_job
     from sim.run.plan import plan_rows, plan_table
 
+    if not _check():
+        return 2
     try:
         job = load_job(args.job, frontend=args.frontend, arc_tolerance=args.arc_tolerance)
         check_program(job)
@@ -111,13 +202,13 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         _print_error(e)
         return 2
     if args.json:
-        print(json.dumps({"program": job.program.to_dict(), "items": plan_rows(job)}))
+        text = json.dumps({"program": job.program.to_dict(), "items": plan_rows(job)}) + "\n"
     else:
-        print(plan_table(job), end="")
-    sys.stdout.flush()
+        text = plan_table(job)
+    code = _stdout(lambda: sys.stdout.write(text))
     for warning in (*job.program.notes, *clamped_feeds(job)):
         print(f"k37: warning: {warning}", file=sys.stderr)
-    return 0
+    return code
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
@@ -128,14 +219,28 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
             print(f"k37 reproduce: {message}", file=sys.stderr, flush=True)
 
     out = Path(args.out)
-    result = reproduce(out, quick=args.quick, progress=progress)
+    if not _check(folders={"--out": out}):
+        return 2
+    try:
+        result = reproduce(out, quick=args.quick, progress=progress)
+    except KeyboardInterrupt:
+        print(f"k37 reproduce: {_stopped()}; the workers are stopped", file=sys.stderr)
+        return _interrupted()
+    except OSError as e:
+        from sim.files import why
+
+        print(f"k37: error: {e.filename or out}: not written: {why(e)}", file=sys.stderr)
+        return 1
     failed = [row for row in result.rows if not row.passed]
-    print(f"k37 reproduce: {len(result.rows) - len(failed)} of {len(result.rows)} rows pass "
-          f"({result.seconds:.0f} s); wrote {out / 'report.md'} and "
-          f"{sum(1 for s in result.sections if s.figure)} figures")
-    for row in failed:
-        print(f"  FAIL: {row.what}: {row.emulator} (tolerance: {row.tolerance})")
-    return 0 if not failed else 1
+
+    def lines() -> None:
+        print(f"k37 reproduce: {len(result.rows) - len(failed)} of {len(result.rows)} rows "
+              f"pass ({result.seconds:.0f} s); wrote {out / 'report.md'} and "
+              f"{sum(1 for s in result.sections if s.figure)} figures")
+        for row in failed:
+            print(f"  FAIL: {row.what}: {row.emulator} (tolerance: {row.tolerance})")
+
+    return _stdout(lines) or (0 if not failed else 1)
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
@@ -147,69 +252,129 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"k37 sweep: {message}", file=sys.stderr, flush=True)
 
+    out = Path(args.out)
     try:
         study = load_study(args.study)
-        path = sweep(study, Path(args.out), jobs=args.jobs, scheduler=args.scheduler,
-                     report=progress)
-    except (JobError, SweepError, OSError) as e:
-        print(f"k37: error: {e}", file=sys.stderr)
+    except JobError as e:
+        _print_error(e)
         return 2
+    outputs = [("", out / "results.csv"), ("", out / "results.parquet")] if out.is_dir() else []
+    if not _check(outputs, folders={"--out": out},
+                  inputs=[args.study, study.base_path, *study.inputs]):
+        return 2
+    try:
+        path = sweep(study, out, jobs=args.jobs, scheduler=args.scheduler, report=progress)
+    except (JobError, SweepError) as e:
+        _print_error(e)
+        return 2
+    except OSError as e:
+        from sim.files import why
+
+        print(f"k37: error: {e.filename or out}: {why(e)}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
-        print(f"k37 sweep: interrupted; the finished runs are in {Path(args.out)}/results.csv "
-              f"(run the same command to go on)", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    print(f"k37 sweep: {len(study.runs)} runs of {study.name} ({study.design}) in {path} and "
-          f"{path.with_suffix('.parquet')}")
-    return 0
+        print(f"k37 sweep: {_stopped()}; the workers are stopped and the finished runs are in "
+              f"{out / 'results.csv'} (run the same command to go on)", file=sys.stderr)
+        return _interrupted()
+    return _stdout(lambda: print(f"k37 sweep: {len(study.runs)} runs of {study.name} "
+                                 f"({study.design}) in {path} and "
+                                 f"{path.with_suffix('.parquet')}"))
 
 
 def _cmd_effects(args: argparse.Namespace) -> int:
     import csv
 
-    from sim.study.analysis import AnalysisError, effects_figure, main_effects, response_surface
+    from sim.files import atomic_path, why
+    from sim.study.analysis import (
+        AnalysisError,
+        effects_figure,
+        main_effects,
+        response_surface,
+        surface_needs,
+    )
 
     table = Path(args.dir) / "results.csv"
+    figure = Path(args.dir) / f"effects_{args.metric}.png"
+    if not _check([("", figure)], inputs=[table]):
+        return 2
     try:
         with open(table, newline="") as f:
             reader = csv.DictReader(f)
             header = list(reader.fieldnames or [])
-            rows = [r for r in reader if r["status"] == "ok"]
-        factors = args.factors.split(",") if args.factors else header[1:header.index("status")]
+            rows = [r for r in reader if r.get("status") == "ok"]
+        if "status" not in header or header[:1] != ["run"]:
+            raise ValueError("no run and status columns")
+    except (OSError, ValueError, csv.Error) as e:
+        print(f"k37: error: {table}: not a results table ({why(e)})", file=sys.stderr)
+        return 2
+    study_factors = header[1:header.index("status")]
+    metrics = [c for c in header[header.index("status") + 1:] if c != "reason"]
+    if args.metric not in metrics:
+        print(f"k37: error: --metric {args.metric}: not a metric of {table}; its metrics are "
+              f"{', '.join(metrics)}", file=sys.stderr)
+        return 2
+    factors = args.factors.split(",") if args.factors else study_factors
+    unknown = [f for f in factors if f not in study_factors]
+    if unknown:
+        print(f"k37: error: --factors {unknown[0]}: not a factor of {table}; its factors are "
+              f"{', '.join(study_factors)}", file=sys.stderr)
+        return 2
+    try:
         effects = main_effects(rows, factors, args.metric)
+        needs = surface_needs(rows, factors)
+        surface = response_surface(rows, factors, args.metric) if needs is None else None
+    except AnalysisError as e:
+        print(f"k37: error: {table}: {e}", file=sys.stderr)
+        return 2
+
+    def lines() -> None:
         print(f"main effects on {args.metric} ({len(rows)} runs with status ok):")
         for factor, points in effects.items():
             print(f"  {factor}: " + ", ".join(f"{lv:g} -> {m:.4g}" for lv, m in points))
-        figure = Path(args.dir) / f"effects_{args.metric}.png"
-        effects_figure(effects, args.metric, f"{table}: main effects").savefig(figure, dpi=110)
-        print(f"k37 effects: wrote {figure}")
-        surface = response_surface(rows, factors, args.metric)
-    except (OSError, KeyError, ValueError) as e:
-        print(f"k37: error: {table}: not a results table ({e})", file=sys.stderr)
-        return 2
-    except AnalysisError as e:
-        print(f"k37 effects: no response surface: {e}", file=sys.stderr)
-        return 0
-    print(f"second-order response surface (seed 001 eq (19), coded factors), "
-          f"R^2 = {surface.r_squared:.4f}:")
-    for term, beta in zip(surface.terms, surface.coefficients, strict=True):
-        print(f"  {term:>30s}  {beta:+.5g}")
-    if surface.stationary is not None:
-        print("  stationary point (eq (20)): " + ", ".join(
-            f"{f} = {v:.4g}" for f, v in zip(surface.factors, surface.stationary, strict=True)))
-    return 0
+        if surface is None:
+            print(f"no response surface: {needs}")
+            return
+        print(f"second-order response surface (seed 001 eq (19), coded factors), "
+              f"R^2 = {surface.r_squared:.4f}:")
+        for term, beta in zip(surface.terms, surface.coefficients, strict=True):
+            print(f"  {term:>30s}  {beta:+.5g}")
+        if surface.stationary is not None:
+            print("  stationary point (eq (20)): " + ", ".join(
+                f"{f} = {v:.4g}" for f, v in zip(surface.factors, surface.stationary,
+                                                  strict=True)))
+
+    if _stdout(lines):
+        return 1
+    try:
+        with atomic_path(figure) as tmp:
+            effects_figure(effects, args.metric, f"{table}: main effects").savefig(tmp,
+                                                                                   dpi=110)
+    except OSError as e:
+        print(f"k37: error: {figure}: not written: {why(e)}", file=sys.stderr)
+        return 1
+    return _stdout(lambda: print(f"k37 effects: wrote {figure}"))
 
 
 def _cmd_export_verilog(args: argparse.Namespace) -> int:
+    from sim.files import why
     from sim.fpga.export import export_verilog
 
-    for path in export_verilog(args.block or None, Path(args.output)):
-        print(f"k37 export-verilog: wrote {path}")
-    return 0
+    if not _check(folders={"-o": args.output}):
+        return 2
+    try:
+        paths = export_verilog(args.block or None, Path(args.output))
+    except OSError as e:
+        print(f"k37: error: {e.filename or args.output}: not written: {why(e)}",
+              file=sys.stderr)
+        return 1
+    return _stdout(lambda: print("\n".join(f"k37 export-verilog: wrote {p}" for p in paths)))
 
 
 def _cmd_synth(args: argparse.Namespace) -> int:
     from sim.fpga.synth import synthesize
 
+    if not _check(folders={"--work-dir": args.work_dir}):
+        return 2
     try:
         report = synthesize(args.device, args.block or None,
                             work_dir=Path(args.work_dir) if args.work_dir else None)
@@ -217,7 +382,11 @@ def _cmd_synth(args: argparse.Namespace) -> int:
         print(f"k37: error: synthesis needs the fpga extra (pip install -e '.[fpga]'): {e}",
               file=sys.stderr)
         return 2
-    print(report.format_table())
+    except KeyboardInterrupt:
+        print(f"k37 synth: {_stopped()}", file=sys.stderr)
+        return _interrupted()
+    if _stdout(lambda: print(report.format_table())):
+        return 1
     for failure in report.failures:
         print(f"k37 synth: {failure}", file=sys.stderr)
     return 0 if report.ok else 1
@@ -370,7 +539,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     args = build_parser().parse_args(argv)
     try:
-        return args.func(args)
+        with _signals_interrupt():
+            return args.func(args)
+    except KeyboardInterrupt:  # a command without its own words for it
+        print(f"k37: {_stopped()}", file=sys.stderr)
+        return _interrupted()
     except BrokenPipeError:  # the reader of stdout went away (`k37 run | head`): no traceback
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 1

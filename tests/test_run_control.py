@@ -92,14 +92,15 @@ def test_a_waveform_window_the_run_never_reached_leaves_no_file_and_warns(
 
 
 def test_ctrl_c_stops_the_run_writes_every_output_as_interrupted_and_exits_130(tmp_path):
-    # --no-skip-idle: the demo then takes seconds; the VCD file appears when the run begins.
+    # --no-skip-idle: the demo then takes seconds; the VCD's temporary file (beside it, renamed
+    # when whole) appears when the run begins.
     process = subprocess.Popen(
         [sys.executable, "-m", "sim.cli", "run", "--no-skip-idle", "--json", "r.json",
          "--trace", "t.csv", "--vcd", "w.vcd", "--vcd-stop", "10"],
         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         env={**os.environ, "PYTHONPATH": str(ROOT)})
     deadline = time.monotonic() + 120
-    while not (tmp_path / "w.vcd").exists() and process.poll() is None:
+    while not list(tmp_path.glob(".w.vcd.*")) and process.poll() is None:
         assert time.monotonic() < deadline, "the run never began"
         time.sleep(0.01)
     time.sleep(0.3)

@@ -433,6 +433,7 @@ class Interpreter(SplineMotions, CannedCycles):
         sx, sy = start[first], start[second]
         ex, ey = target[first], target[second]
         radius = self.lsb(r.value)
+        self.check_range(r, radius, "the radius")
         chord = math.hypot(ex - sx, ey - sy)
         if chord == 0:
             raise BlockError(r.col, f"{r.text}: an R-form arc cannot be a full circle (use I/J/K)")

@@ -36,6 +36,7 @@ from amaranth.lib import wiring
 
 from hdl.bus.hostbus import HostBus
 from hdl.chipset.map import SUB_WINDOWS
+from sim.files import atomic_open
 from sim.fpga.blocks import BLOCKS, Exportable, block
 
 __all__ = ["CORE_WAIVERS", "Pin", "export_verilog", "pins", "verilog_text"]
@@ -352,7 +353,8 @@ def export_verilog(blocks: list[str] | None, out_dir: Path) -> list[Path]:
     """Write ``<block>.v`` for each named block (None or ``["all"]``: every block) to ``out_dir``.
 
     Returns the paths written, in registry order for ``all`` and in the given order otherwise.
-    Unknown names raise ``ValueError`` before anything is written.
+    Unknown names raise ``ValueError`` before anything is written; each file is written whole
+    or not at all (``OSError``).
     """
     names = [b.name for b in BLOCKS] if not blocks or blocks == ["all"] else list(blocks)
     for name in names:
@@ -362,6 +364,8 @@ def export_verilog(blocks: list[str] | None, out_dir: Path) -> list[Path]:
     paths = []
     for name in dict.fromkeys(names):
         path = out_dir / f"{name}.v"
-        path.write_text(verilog_text(name))
+        text = verilog_text(name)
+        with atomic_open(path, "w") as f:
+            f.write(text)
         paths.append(path)
     return paths

@@ -8,6 +8,7 @@ compiled model, built once per process and reset between runs.
 from __future__ import annotations
 
 import multiprocessing
+import signal
 import time
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -22,6 +23,7 @@ from hdl.k3701.map import block_registers
 from sim.reproduce.runs import RateSpec, RunData, RunSpec, Specs, minus_spec
 from sim.run.runner import RunOptions, design_key, reused_backend, run_job
 from sim.run.simulated_link import SimulatedLink
+from sim.study.sweep import end_with_parent, stop_workers
 
 __all__ = ["run_all"]
 
@@ -95,6 +97,12 @@ def _execute(task: RunSpec | RateSpec | tuple[str, RunSpec | RateSpec]) -> RunDa
     return _run(task)
 
 
+def _worker_init() -> None:
+    """A worker leaves Ctrl-C to the main process (which ends it) and ends with it."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    end_with_parent()
+
+
 def run_all(specs: Specs, jobs: int = 2,
             progress: Callable[[str], None] | None = None) -> dict[str, RunData]:
     """Run ``specs`` in ``jobs`` worker processes; results by key.
@@ -109,22 +117,37 @@ def run_all(specs: Specs, jobs: int = 2,
         by_design.setdefault(design_key(spec.job()), []).append(spec)
     results: dict[str, RunData] = {}
     context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max(1, jobs), mp_context=context) as pool:
-        pending: dict[Future, str] = {pool.submit(_execute, ("build", group[0])): key
-                                      for key, group in by_design.items()}
-        while pending:
-            done, _ = wait(pending, return_when=FIRST_COMPLETED)
-            for future in done:
-                key = pending.pop(future)
-                data = future.result()
-                results[data.key] = data
-                cycles = data.report.get("cycles")
-                what = f", {cycles / 1e6:.1f} M cycles" if cycles else ""
-                say(f"{data.key}: {data.seconds:.1f} s{what}")
-                if key in by_design:
-                    pending.update({pool.submit(_execute, spec): spec.key
-                                    for spec in by_design[key]})
-                elif key == "hazard_exact":
-                    minus = minus_spec(data, specs["hazard_exact"])  # type: ignore[arg-type]
-                    pending[pool.submit(_execute, minus)] = minus.key
+    pool = ProcessPoolExecutor(max(1, jobs), mp_context=context, initializer=_worker_init)
+    try:
+        _run_pool(pool, specs, by_design, results, say)
+    except BaseException:  # Ctrl-C, SIGTERM: no worker may go on with its run
+        # the pool's processes (a private attribute: the executor has no public way to end
+        # running tasks before Python 3.14's terminate_workers)
+        stop_workers(list((getattr(pool, "_processes", None) or {}).values()))
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
     return results
+
+
+def _run_pool(pool: ProcessPoolExecutor, specs: Specs,
+              by_design: dict[str, list[RunSpec | RateSpec]], results: dict[str, RunData],
+              say: Callable[[str], None]) -> None:
+    """:func:`run_all`'s runs on ``pool``, into ``results``."""
+    pending: dict[Future, str] = {pool.submit(_execute, ("build", group[0])): key
+                                  for key, group in by_design.items()}
+    while pending:
+        done, _ = wait(pending, return_when=FIRST_COMPLETED)
+        for future in done:
+            key = pending.pop(future)
+            data = future.result()
+            results[data.key] = data
+            cycles = data.report.get("cycles")
+            what = f", {cycles / 1e6:.1f} M cycles" if cycles else ""
+            say(f"{data.key}: {data.seconds:.1f} s{what}")
+            if key in by_design:
+                pending.update({pool.submit(_execute, spec): spec.key
+                                for spec in by_design[key]})
+            elif key == "hazard_exact":
+                minus = minus_spec(data, specs["hazard_exact"])  # type: ignore[arg-type]
+                pending[pool.submit(_execute, minus)] = minus.key

@@ -9,12 +9,15 @@ hierarchy, every alias (one FST handle per VCD identifier), every value change a
 
 from __future__ import annotations
 
+import multiprocessing
 import re
+import signal
+from multiprocessing.connection import Connection
 from pathlib import Path
 
 from pylibfst import ffi, get_scopes_signals2, lib
 
-__all__ = ["fst_signals", "fst_span", "vcd_to_fst"]
+__all__ = ["convert_in_child", "fst_signals", "fst_span", "vcd_to_fst"]
 
 #: VCD time units and FST's power-of-ten exponents.
 _UNITS = {"s": 0, "ms": -3, "us": -6, "ns": -9, "ps": -12, "fs": -15}
@@ -103,6 +106,43 @@ def vcd_to_fst(vcd: Path, fst: Path) -> None:
                     writer.change(line)
     finally:
         writer.close()
+
+
+def _convert(vcd: str, fst: str, answer: Connection) -> None:
+    try:
+        vcd_to_fst(Path(vcd), Path(fst))
+    except Exception as e:
+        answer.send(f"{e.strerror}" if isinstance(e, OSError) and e.strerror else str(e))
+    else:
+        answer.send(None)
+
+
+def convert_in_child(vcd: Path, fst: Path) -> None:
+    """:func:`vcd_to_fst` in a child process: the FST library writes through memory maps, and
+    a disk that fills under one kills the writer with SIGBUS, which must not end this process.
+
+    Raises
+    ------
+    OSError
+        The conversion failed or its process was killed, saying why.
+    """
+    receive, send = multiprocessing.Pipe(duplex=False)
+    child = multiprocessing.get_context("spawn").Process(target=_convert,
+                                                         args=(str(vcd), str(fst), send))
+    child.start()
+    send.close()
+    try:
+        message = receive.recv() if receive.poll(None) else None
+    except EOFError:
+        message = None
+    child.join()
+    receive.close()
+    if child.exitcode and child.exitcode < 0:
+        name = signal.Signals(-child.exitcode).name
+        hint = " (a full disk?)" if name == "SIGBUS" else ""
+        raise OSError(f"the FST writer was killed by {name}{hint}")
+    if message is not None or child.exitcode:
+        raise OSError(message or f"the FST writer exited with status {child.exitcode}")
 
 
 def _open(path: Path):

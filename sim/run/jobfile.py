@@ -59,6 +59,7 @@ from firmware_model.job import (
 )
 from hdl.chipset.map import ALL_AXES
 from hdl.common.params import Limit
+from sim.files import STDIO, InputError, read_input_text
 from sim.machine.plant_model import PlantParams
 from sim.machine.torque_drive_model import TorqueParams
 
@@ -119,9 +120,13 @@ def load_step_fault(job: Job, axis: str, torque: float, at_s: float) -> dict[str
         raise ValueError(f"a load step needs servo.{axis}.drive = \"torque\", not "
                          f"{servo.drive!r}")
     Limit(unit="N m").check("load step torque", torque)
-    Limit(0, unit="s").check("load step time", at_s)
+    # the time must be a cycle the simulated clock can count (2^64 cycles)
+    Limit(0, ((1 << 64) - 1) / job.machine.clock_hz, unit="s").check("load step time", at_s)
     params = torque_params(job.machine, servo)
-    word = params.torque_word(torque)
+    try:
+        word = params.torque_word(torque)
+    except OverflowError:  # beyond any float: beyond the range below too
+        word = 1 << 39
     if word == 0 or abs(word) + abs(params.torque_word(params.load)) >= 1 << 39:
         raise ValueError(f"load step {torque!r} N m is 0 or beyond the drive's torque range")
     return {"load_step": word, "load_after": round(at_s * job.machine.clock_hz)}
@@ -129,7 +134,8 @@ def load_step_fault(job: Job, axis: str, torque: float, at_s: float) -> dict[str
 
 def load_job(path: str | PathLike[str] | None, *, frontend: str = "builtin",
              arc_tolerance: float | None = None) -> Job:
-    """Load a TOML job, or a G-code file run on the default machine; None: the demo.
+    """Load a TOML job, or a G-code file (``-``: stdin) run on the default machine; None: the
+    demo. A file must be a regular file of at most :data:`sim.files.MAX_INPUT_BYTES`.
     ``frontend`` reads the program (:data:`firmware_model.gcode.canon.FRONTENDS`);
     ``arc_tolerance`` (LSB), if given, replaces the job's.
 
@@ -144,15 +150,21 @@ def load_job(path: str | PathLike[str] | None, *, frontend: str = "builtin",
         return demo_job()
     path = Path(path)
     text = _read(path, str(path))
-    if path.suffix.lower() != ".toml":
-        return gcode_job(path.stem, text, str(path), frontend=frontend,
+    if path.suffix.lower() != ".toml":  # G-code, from a file or from stdin ("-")
+        name = "stdin" if str(path) == STDIO else path.stem
+        return gcode_job(name, text, str(path), frontend=frontend,
                          arc_tolerance=arc_tolerance)
     return _TomlJob(path, read_toml(text, str(path)), text, frontend, arc_tolerance).job()
 
 
 def _read(path: Path, name: str) -> str:
+    """The text of a job or program file (a regular file, or stdin for ``-``, of at most
+    :data:`sim.files.MAX_INPUT_BYTES`); a :class:`JobError` naming ``name`` otherwise."""
     try:
-        return path.read_text(encoding="utf-8-sig")  # a UTF-8 byte-order mark is skipped
+        # a UTF-8 byte-order mark is skipped
+        return read_input_text(path, encoding="utf-8-sig")
+    except InputError as e:
+        raise JobError(f"{name}: {e}") from None
     except UnicodeDecodeError as e:
         raise JobError(f"{name}: not UTF-8 text (byte {e.start})") from None
     except OSError as e:

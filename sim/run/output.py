@@ -6,10 +6,21 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import sys
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from sim.backends.contract import CLOCK_PERIOD
+from sim.files import (
+    STDIO,
+    OutputError,
+    OutputFailure,
+    atomic_open,
+    atomic_path,
+    why,
+)
+from sim.files import check_outputs as check_files
 from sim.machine.plant_model import DAC_VOLTS
 from sim.run.ballbar import BallbarError, ballbar, ballbar_figure
 from sim.run.plot import write_plot
@@ -17,11 +28,8 @@ from sim.run.report import validate
 from sim.run.runner import RunResult
 from sim.run.waveform import WAVE_FORMATS, wave_span, write_gtkw
 
-__all__ = ["OutputError", "check_outputs", "summary", "write_outputs", "write_trace"]
-
-
-class OutputError(ValueError):
-    """An output the run could not write; one line naming the option."""
+__all__ = ["OutputError", "add_ballbar", "check_outputs", "print_stdout", "summary",
+           "write_outputs", "write_trace"]
 
 
 def plot_formats() -> list[str]:
@@ -32,21 +40,12 @@ def plot_formats() -> list[str]:
 
 
 def check_outputs(*, json_path: str | None, trace: Path | None, plot: Path | None,
-                  vcd: Path | None, gtkw: Path | None, ballbar: Path | None = None) -> None:
-    """Refuse, before a run, outputs it could not write: a missing folder, a folder where the
-    file should be, a plot format matplotlib does not write, a waveform that is neither VCD nor FST,
-    ``--gtkw`` without ``--vcd``."""
-    paths = {"--json": None if json_path in (None, "-") else Path(json_path),
-             "--trace": trace, "--plot": plot, "--vcd": vcd, "--gtkw": gtkw,
-             "--ballbar": ballbar}
-    for option, path in paths.items():
-        if path is None:
-            continue
-        if path.is_dir():
-            raise OutputError(f"{option} {path}: is a folder, not a file")
-        folder = path.parent
-        if not folder.is_dir():
-            raise OutputError(f"{option} {path}: the folder {folder} does not exist")
+                  vcd: Path | None, gtkw: Path | None, ballbar: Path | None = None,
+                  inputs: Sequence[str | Path | None] = (), stdout: bool = False) -> None:
+    """Refuse, before a run, outputs it could not write (:func:`sim.files.check_outputs`: a
+    missing or unwritable folder, a folder where the file should be, an input or another
+    output at the same path, a closed stdout), a plot format matplotlib does not write, a
+    waveform that is neither VCD nor FST, ``--gtkw`` without ``--vcd``."""
     if vcd is not None and vcd.suffix.lower() not in WAVE_FORMATS:
         what = f"the suffix {vcd.suffix}" if vcd.suffix else "a file without a suffix"
         raise OutputError(f"--vcd {vcd}: {what} names no waveform format; use "
@@ -61,6 +60,8 @@ def check_outputs(*, json_path: str | None, trace: Path | None, plot: Path | Non
             what = f"the suffix {figure.suffix}" if figure.suffix else "a file without a suffix"
             raise OutputError(f"{option} {figure}: matplotlib cannot write {what}; it writes "
                               f"{', '.join('.' + f for f in formats)}")
+    check_files({"--json": json_path, "--trace": trace, "--plot": plot, "--vcd": vcd,
+                 "--gtkw": gtkw, "--ballbar": ballbar}, inputs=inputs, stdout=stdout)
 
 
 def _mm(lsb: float, lsb_mm: float) -> str:
@@ -110,9 +111,10 @@ def summary(result: RunResult) -> str:
 
 def write_trace(result: RunResult, path: Path) -> None:
     """The samples as CSV, one row per sample, columns :func:`sim.run.sampler.trace_columns`
-    of the machine's axes (read from the store a chunk at a time)."""
+    of the machine's axes (read from the store a chunk at a time); written whole or not at
+    all (:func:`sim.files.atomic_open`)."""
     columns = result.store.columns
-    with open(path, "w", newline="") as f:
+    with atomic_open(path, "w", newline="") as f:
         out = csv.writer(f)
         out.writerow(columns)
         volts = ["volts" in name for name in columns]
@@ -122,35 +124,79 @@ def write_trace(result: RunResult, path: Path) -> None:
                           for row in chunk.tolist())
 
 
-def add_ballbar(result: RunResult, path: Path, settle_deg: float = 0.0) -> None:
+def _attempt(label: str, path: Path | str, write: Callable[[], object]) -> list[OutputFailure]:
+    """Run ``write``; an error in it is the output's failure (its partial file is gone), never
+    the other outputs' loss."""
+    try:
+        write()
+    except Exception as e:  # any writer's failure: reported by name, the others still written
+        return [OutputFailure(label, str(path), why(e))]
+    return []
+
+
+def add_ballbar(result: RunResult, path: Path, settle_deg: float = 0.0) -> list[OutputFailure]:
     """Write the ballbar plot of ``result`` to ``path`` and its figures into the report (or,
-    for a run that is no circle, a warning)."""
+    for a run that is no circle, a warning); the plot's failure to be written, if it was
+    not."""
     try:
         b = ballbar(result, settle_deg)
     except BallbarError as e:
         result.report["warnings"].append(f"--ballbar {path}: {e}; no ballbar plot written")
-        return
+        return []
     result.report["ballbar"] = b.figures()
     validate(result.report)
-    ballbar_figure(b, f"k37 run {result.job.name}").savefig(path, dpi=110)
+
+    def write() -> None:
+        with atomic_path(path) as tmp:
+            ballbar_figure(b, f"k37 run {result.job.name}").savefig(tmp, dpi=110)
+
+    return _attempt("--ballbar", path, write)
+
+
+def print_stdout(text: str) -> None:
+    """Print ``text`` and flush it, so a full or closed stdout is found here (OSError), and
+    leave stdout on ``/dev/null`` if so, so nothing fails again at exit."""
+    try:
+        print(text, flush=True)
+    except OSError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        raise
 
 
 def write_outputs(result: RunResult, *, json_path: str | None, trace: Path | None,
                   plot: Path | None, gtkw: Path | None, vcd: Path | None,
-                  vcd_start: int = 0, quiet: bool = False) -> None:
-    """Write every output the command line asked for (checked by :func:`check_outputs`); no
-    GTKWave save file for a waveform the run did not write (its report warns)."""
-    if json_path == "-":
-        json.dump(result.report, sys.stdout, indent=2)
-        print()
-    elif json_path:
-        Path(json_path).write_text(json.dumps(result.report, indent=2) + "\n")
+                  vcd_start: int = 0, quiet: bool = False) -> list[OutputFailure]:
+    """Write every output the command line asked for (checked by :func:`check_outputs`), each
+    whole or not at all; return those that could not be written (each also a warning in the
+    report, which is written last to carry them). No GTKWave save file for a waveform the run
+    did not write (its report warns)."""
+    failures = list(result.failures)
     if trace:
-        write_trace(result, trace)
+        failures += _attempt("--trace", trace, lambda: write_trace(result, trace))
     if plot:
-        write_plot(result, plot)
+        def write_figure() -> None:
+            with atomic_path(plot) as tmp:
+                write_plot(result, tmp)
+
+        failures += _attempt("--plot", plot, write_figure)
     if gtkw and vcd is not None and vcd.exists():
-        window = round(vcd_start * CLOCK_PERIOD * 1e15), wave_span(vcd)[1]
-        write_gtkw(vcd, gtkw, window=window)
-    if not quiet and json_path != "-":
-        print(summary(result))
+        def write_save_file() -> None:
+            window = round(vcd_start * CLOCK_PERIOD * 1e15), wave_span(vcd)[1]
+            with atomic_path(gtkw) as tmp:
+                write_gtkw(vcd, tmp, window=window)
+
+        failures += _attempt("--gtkw", gtkw, write_save_file)
+    known = set(result.report["warnings"])
+    result.report["warnings"] += [str(f) for f in failures if str(f) not in known]
+    text = json.dumps(result.report, indent=2)
+    if json_path == STDIO:
+        failures += _attempt("--json", "stdout", lambda: print_stdout(text))
+    elif json_path:
+        def write_json() -> None:
+            with atomic_open(json_path, "w") as f:
+                f.write(text + "\n")
+
+        failures += _attempt("--json", json_path, write_json)
+    if not quiet and json_path != STDIO:
+        failures += _attempt("", "stdout", lambda: print_stdout(summary(result)))
+    return failures

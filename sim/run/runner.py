@@ -8,14 +8,15 @@ every ``sample_every`` cycles into a :class:`sim.run.sampler.SampleStore`, and r
 A run ends at the program's end, an alarm or fault, or the first limit it reaches: the cycle
 limit ``max_cycles`` or the job's ``run.max_time_s`` of simulated time, whichever is fewer
 cycles (the firmware stops there, even inside a dwell), or a stop request (``stop``, which
-Ctrl-C sets with ``sigint``), looked at on the sampler's ticks (every 10^6 cycles at most), so
-a run ends within a tick of it, and still reports.
+Ctrl-C or SIGTERM sets with ``sigint``), looked at on the sampler's ticks (every 10^6 cycles
+at most), so a run ends within a tick of it, and still reports.
 """
 
 from __future__ import annotations
 
 import hashlib
 import math
+import os
 import signal
 import threading
 import time
@@ -44,12 +45,13 @@ from firmware_model.job import Job
 from hdl.chipset.map import chip_register, port
 from sim.backends.contract import Backend
 from sim.backends.factory import BACKEND_NAMES, make_backend
+from sim.files import OutputFailure, discard_temporary, keep_temporary, temporary_beside, why
 
 if TYPE_CHECKING:
     from sim.machine.system import System
 from sim.machine.plant_model import dac_zero
 from sim.run.contour import contour_summary
-from sim.run.fst import vcd_to_fst
+from sim.run.fst import convert_in_child
 from sim.run.jobfile import plant_params, torque_params
 from sim.run.progress import ProgramPlan, Progress
 from sim.run.report import SCHEMA_VERSION, validate
@@ -57,7 +59,7 @@ from sim.run.sampler import Sampler, SampleStore
 from sim.run.simulated_link import BlockMeasure, BlockMeter, SimulatedLink
 from sim.run.waveform import is_fst
 
-__all__ = ["OptionError", "RunOptions", "RunResult", "RunStopped", "build_backend",
+__all__ = ["STOP_SIGNALS", "OptionError", "RunOptions", "RunResult", "RunStopped", "build_backend",
            "check_options", "configure_plants", "reused_backend", "run_job", "system_params"]
 
 
@@ -85,8 +87,9 @@ class RunOptions:
     #: Set (from another thread, or by Ctrl-C with ``sigint``) to stop the run at the next
     #: tick, status interrupted.
     stop: threading.Event | None = None
-    #: While the run goes, Ctrl-C (SIGINT) sets ``stop`` instead of raising KeyboardInterrupt
-    #: (in the main thread; the command line sets it).
+    #: While the run goes, Ctrl-C (SIGINT) and SIGTERM set ``stop`` instead of ending the
+    #: process (in the main thread; the command line sets it). The signal is the result's
+    #: ``stopped_by``.
     sigint: bool = False
 
 
@@ -97,6 +100,10 @@ class RunResult:
     report: dict
     store: SampleStore
     job: Job
+    #: Outputs the run itself writes (the waveform) that could not be written whole.
+    failures: list[OutputFailure] = field(default_factory=list)
+    #: The signal that stopped the run (with ``RunOptions.sigint``), or None.
+    stopped_by: signal.Signals | None = None
 
     @cached_property
     def samples(self) -> np.ndarray:
@@ -232,11 +239,15 @@ class _Watch:
         self.meter = meter
         self.plan = ProgramPlan(firmware.job) if options.progress else None
         self.start = time.perf_counter()
+        #: The signal that set ``stop``, if one did.
+        self.signal: signal.Signals | None = None
 
     def __call__(self) -> None:
         cycle = self.sampler.cycle
         if self.stop.is_set():
-            raise RunStopped("interrupted", f"stopped on request (Ctrl-C) at cycle {cycle:,}")
+            by = ("on request (Ctrl-C)" if self.signal in (None, signal.SIGINT)
+                  else f"by {self.signal.name}")
+            raise RunStopped("interrupted", f"stopped {by} at cycle {cycle:,}")
         if self.options.progress is not None:
             self.options.progress(self.progress(cycle, time.perf_counter() - self.start))
 
@@ -254,17 +265,28 @@ class _Watch:
         return self.plan.progress(item, done, cycle, wall)
 
 
+#: The signals that stop a run with ``RunOptions.sigint``, as Ctrl-C does.
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
 @contextmanager
-def _sigint_sets(stop: threading.Event, enabled: bool) -> Iterator[None]:
-    """While it lasts, SIGINT sets ``stop`` (if ``enabled``, in the main thread)."""
+def _signals_set(stop: threading.Event, watch: _Watch, enabled: bool) -> Iterator[None]:
+    """While it lasts, SIGINT and SIGTERM set ``stop`` and name themselves in ``watch`` (if
+    ``enabled``, in the main thread)."""
     if not enabled or threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.signal(signal.SIGINT, lambda *_: stop.set())
+
+    def handler(signum: int, _: object) -> None:
+        watch.signal = signal.Signals(signum)
+        stop.set()
+
+    previous = {s: signal.signal(s, handler) for s in STOP_SIGNALS}
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, signal.SIG_DFL if previous is None else previous)
+        for s, handler_before in previous.items():
+            signal.signal(s, signal.SIG_DFL if handler_before is None else handler_before)
 
 
 def run_job(job: Job, options: RunOptions | None = None,
@@ -285,14 +307,35 @@ def run_job(job: Job, options: RunOptions | None = None,
     owned = backend is None
     backend = backend or build_backend(job, options.backend)
     configure_plants(backend, job, options.faults)
+    traced = None
     if options.vcd is not None:
         try:
-            backend.trace(str(_traced(Path(options.vcd))), options.vcd_start, options.vcd_stop,
-                          options.signals)
-        except ValueError as e:
+            traced = temporary_beside(Path(options.vcd), ".vcd")
+            backend.trace(str(traced), options.vcd_start, options.vcd_stop, options.signals)
+        except (ValueError, OSError) as e:
+            if traced is not None:
+                discard_temporary(traced)
             if owned:
                 backend.close()
+            if isinstance(e, OSError):
+                raise OptionError(f"--vcd {options.vcd}: cannot write: {why(e)}") from None
             raise OptionError(str(e)) from None
+    try:
+        result = _run(job, options, backend, traced)
+    except BaseException:
+        if traced is not None:
+            backend.stop_trace()
+            discard_temporary(traced)
+        if owned:
+            backend.close()
+        raise
+    if owned:
+        backend.close()
+    return result
+
+
+def _run(job: Job, options: RunOptions, backend: Backend, traced: Path | None) -> RunResult:
+    """:func:`run_job` once its backend is built and traces (into ``traced``, if given)."""
     store = SampleStore(job.machine.dac_bits, job.machine.axis_names)
     sampler = Sampler(backend, options.sample_every, store, skip_idle=options.skip_idle)
     host = Host8085(SimulatedLink(sampler), clock_hz=job.machine.clock_hz)
@@ -302,7 +345,7 @@ def run_job(job: Job, options: RunOptions | None = None,
     sampler.tick = watch = _Watch(options, stop, sampler, firmware, meter)
     stopped = None
     limit, limit_name = cycle_limit(job, options)
-    with _sigint_sets(stop, options.sigint):
+    with _signals_set(stop, watch, options.sigint):
         try:
             firmware.run(limit)
         except RunStopped as e:
@@ -311,40 +354,52 @@ def run_job(job: Job, options: RunOptions | None = None,
     sampler.flush()
     status, reason = _status(firmware, stopped, limit_name, backend.cycle)
     report = _report(job, backend, firmware, meter, store, wall, status, reason)
-    if options.vcd is not None:
+    failures = []
+    if options.vcd is not None and traced is not None:
         backend.stop_trace()
-        report["warnings"] += _waveform_warnings(options, report["cycles"])
-        _finish_waveform(Path(options.vcd))
-    if owned:
-        backend.close()
+        failure = _finish_waveform(options, traced, report)
+        if failure is not None:
+            failures.append(failure)
+            report["warnings"].append(str(failure))
     validate(report)
-    return RunResult(report, store, job)
+    return RunResult(report, store, job, failures,
+                     watch.signal if stopped is not None else None)
 
 
-def _traced(wave: Path) -> Path:
-    """The VCD a backend writes for the waveform ``wave``: itself, or for an FST a partial VCD
-    beside it, converted when the run ends."""
-    return wave.with_name(wave.name + ".partial.vcd") if is_fst(wave) else wave
-
-
-def _finish_waveform(wave: Path) -> None:
-    """Convert the partial VCD of an FST waveform (if the run wrote one) and remove it."""
-    traced = _traced(wave)
-    if traced != wave and traced.exists():
-        vcd_to_fst(traced, wave)
-        traced.unlink()
-
-
-def _waveform_warnings(options: RunOptions, cycles: int) -> list[str]:
-    """A warning if the run ended before the waveform window: then no file is left (a backend
-    may have written a header, or nothing at all)."""
+def _finish_waveform(options: RunOptions, traced: Path, report: dict) -> OutputFailure | None:
+    """Put the waveform the backend traced into ``traced`` at ``--vcd``: checked whole,
+    converted if it is an FST, renamed over the target. Nothing is left at the target if the
+    run ended before the window (a warning) or the file could not be written whole (the
+    failure, returned)."""
     assert options.vcd is not None
-    if cycles > options.vcd_start:
-        return []
-    _traced(Path(options.vcd)).unlink(missing_ok=True)
-    Path(options.vcd).unlink(missing_ok=True)
-    return [f"--vcd {options.vcd}: the run ended at cycle {cycles:,}, before --vcd-start "
-            f"{options.vcd_start:,}: no waveform written (nor a GTKWave save file)"]
+    wave = Path(options.vcd)
+    if report["cycles"] <= options.vcd_start:
+        discard_temporary(traced)
+        report["warnings"].append(
+            f"--vcd {wave}: the run ended at cycle {report['cycles']:,}, before --vcd-start "
+            f"{options.vcd_start:,}: no waveform written (nor a GTKWave save file)")
+        return None
+    try:
+        # The backend's writer may not say that a write failed: one more byte and a sync
+        # find a full disk or an I/O error (a VCD ignores the blank line).
+        with open(traced, "ab") as f:
+            f.write(b"\n")
+            f.flush()
+            os.fsync(f.fileno())
+        if is_fst(wave):
+            fst = temporary_beside(wave, ".fst")
+            try:
+                convert_in_child(traced, fst)
+            except BaseException:
+                discard_temporary(fst)
+                raise
+            discard_temporary(traced)
+            traced = fst
+        keep_temporary(traced, wave)
+    except OSError as e:
+        discard_temporary(traced)
+        return OutputFailure("--vcd", str(wave), why(e))
+    return None
 
 
 #: The default cycle limit follows the program: this many times its planned machine time
@@ -370,7 +425,10 @@ def cycle_limit(job: Job, options: RunOptions) -> tuple[int, str]:
     seconds = job.run.max_time_s
     if seconds is None:
         return by_option
-    cycles = max(1, round(seconds * job.machine.clock_hz))
+    exact = seconds * job.machine.clock_hz
+    if not exact < by_option[0]:  # (an infinite product too: the other limit wins)
+        return by_option
+    cycles = max(1, round(exact))
     if cycles >= by_option[0]:
         return by_option
     return cycles, f"the job's limit, run.max_time_s = {seconds:g} s ({cycles:,} cycles),"

@@ -24,7 +24,8 @@ import numpy as np
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["AnalysisError", "Surface", "effects_figure", "main_effects", "response_surface"]
+__all__ = ["AnalysisError", "Surface", "effects_figure", "main_effects", "response_surface",
+           "surface_needs", "surface_terms"]
 
 
 class AnalysisError(ValueError):
@@ -93,21 +94,39 @@ def _design_matrix(x: np.ndarray) -> np.ndarray:
     return np.column_stack(columns)
 
 
+def surface_terms(factors: Sequence[str]) -> tuple[str, ...]:
+    """The terms of eq (19) over ``factors``: 1 + 2k + k(k-1)/2 of them."""
+    return ("1", *factors, *(f"{f}^2" for f in factors),
+            *(f"{a}*{b}" for a, b in itertools.combinations(factors, 2)))
+
+
+def surface_needs(rows: Sequence[dict[str, str]], factors: Sequence[str]) -> str | None:
+    """What the runs lack for eq (19) over ``factors`` (as many runs as terms, three levels
+    of each factor), in words; None if the surface can be fitted."""
+    terms = surface_terms(factors)
+    k = len(factors)
+    if len(rows) < len(terms):
+        return (f"a second-order surface over {k} factors has {len(terms)} terms: "
+                f"{len(rows)} runs are too few; it needs at least {len(terms)} runs and three "
+                f"levels of each factor (an L16 or L27 design), or fewer factors (--factors)")
+    two = [f for f in factors if len(np.unique(_column(rows, f))) < 3]
+    if two:
+        return (f"factor {two[0]} has fewer than three levels: its squared term cannot be "
+                f"estimated (a design with three levels or more per factor, or --factors "
+                f"without it)")
+    return None
+
+
 def response_surface(rows: Sequence[dict[str, str]], factors: Sequence[str],
                      metric: str) -> Surface:
     """Fit eq (19) of ``metric`` over ``factors`` (each with at least three levels for its
-    squared term to be estimable)."""
+    squared term to be estimable; :func:`surface_needs` says what is missing)."""
     k = len(factors)
-    terms = ("1", *factors, *(f"{f}^2" for f in factors),
-             *(f"{a}*{b}" for a, b in itertools.combinations(factors, 2)))
-    if len(rows) < len(terms):
-        raise AnalysisError(f"a second-order surface over {k} factors has {len(terms)} terms: "
-                            f"{len(rows)} runs are too few (choose fewer factors)")
+    terms = surface_terms(factors)
+    needs = surface_needs(rows, factors)
+    if needs is not None:
+        raise AnalysisError(needs)
     raw = np.column_stack([_column(rows, f) for f in factors])
-    for f, column in zip(factors, raw.T, strict=True):
-        if len(np.unique(column)) < 3:
-            raise AnalysisError(f"factor {f} has fewer than three levels: its squared term "
-                                f"cannot be estimated")
     lo, hi = raw.min(axis=0), raw.max(axis=0)
     centre, half = (lo + hi) / 2, (hi - lo) / 2
     x = (raw - centre) / half

@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from firmware_model.job import Job
+from sim.files import read_input_text, why
 from sim.run.jobfile import JobError, job_from_data, read_toml
 from sim.study.design import DESIGNS, DesignError, design
 
@@ -61,6 +62,8 @@ class Study:
     max_cycles: int
     sample_every: int
     settle_deg: float
+    #: Other files the study reads (the base job's program file).
+    inputs: tuple[Path, ...] = ()
 
     def job(self, run: StudyRun) -> Job:
         """The job of ``run``: the base job with its levels applied."""
@@ -97,9 +100,9 @@ def load_study(path: str | Path) -> Study:
     path = Path(path)
     source = str(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_input_text(path)
     except (OSError, UnicodeDecodeError, ValueError) as e:
-        raise _fail(source, f"cannot read: {e}") from None
+        raise _fail(source, f"cannot read: {why(e)}") from None
     data = read_toml(text, source)
     unknown = set(data) - set(_KEYS)
     if unknown:
@@ -108,11 +111,11 @@ def load_study(path: str | Path) -> Study:
         raise _fail(source, "base must name the base job file (a string)")
     base_path = path.parent / data["base"]
     try:
-        base = read_toml(base_path.read_text(encoding="utf-8"), str(base_path))
+        base = read_toml(read_input_text(base_path), str(base_path))
     except (OSError, UnicodeDecodeError, ValueError) as e:
         if isinstance(e, JobError):
             raise
-        raise _fail(source, f"base {base_path}: cannot read: {e}") from None
+        raise _fail(source, f"base {base_path}: cannot read: {why(e)}") from None
     factors = data.get("factors")
     if not isinstance(factors, dict) or not factors:
         raise _fail(source, "[factors] must list at least one factor with its levels")
@@ -120,9 +123,20 @@ def load_study(path: str | Path) -> Study:
         if not isinstance(levels, list) or not levels:
             raise _fail(source, f"factors.{name} must be a non-empty list of levels")
     program = base.get("program", {})
-    if "file" in program:  # parameters are replaced in the text: read it inline
-        program["gcode"] = (base_path.parent / program.pop("file")).read_text(encoding="utf-8")
+    inputs = []
+    if isinstance(program, dict) and isinstance(program.get("file"), str):
+        # parameters are replaced in the text: read it inline
+        file = base_path.parent / program.pop("file")
+        try:
+            program["gcode"] = read_input_text(file)
+        except (OSError, UnicodeDecodeError, ValueError) as e:
+            raise _fail(source, f"base {base_path}: program.file {file}: cannot read: "
+                                f"{why(e)}") from None
+        inputs.append(file)
+    if not isinstance(program, dict):
+        raise _fail(source, f"base {base_path}: program must be a table")
     text = program.get("gcode", "")
+    text = text if isinstance(text, str) else ""  # the job's own check names a bad one
     used = set(_PARAMETER.findall(text))
     parameters = {f for f in factors if "." not in f}
     if parameters - used:
@@ -153,4 +167,4 @@ def load_study(path: str | Path) -> Study:
         raise _fail(source, f"ballbar_settle_deg must be a number of degrees >= 0, not "
                             f"{settle!r}")
     return Study(data.get("name", path.stem), source, base_path, base, factors, name, runs,
-                 settle_deg=float(settle), **limits)
+                 settle_deg=float(settle), inputs=tuple(inputs), **limits)
