@@ -151,8 +151,8 @@ def setup(app):
             def run(self):
                 node = nodes.container()
                 text = make(*self.arguments)
-                self.state.nested_parse(StringList(text.splitlines(), source=self.get_source_info()[0]),
-                                        self.content_offset, node)
+                lines = StringList(text.splitlines(), source=self.get_source_info()[0])
+                self.state.nested_parse(lines, self.content_offset, node)
                 return node.children
 
         return Generated
