@@ -186,7 +186,7 @@ def _cmd_effects(args: argparse.Namespace) -> int:
     except AnalysisError as e:
         print(f"k37 effects: no response surface: {e}", file=sys.stderr)
         return 0
-    print(f"second-order response surface (seed 001 eq (19), coded factors), "
+    print(f"second-order response surface (the motion-errors paper's eq (19), coded factors), "
           f"R^2 = {surface.r_squared:.4f}:")
     for term, beta in zip(surface.terms, surface.coefficients, strict=True):
         print(f"  {term:>30s}  {beta:+.5g}")

@@ -11,8 +11,8 @@ the program starts at the origin.
 previous one really ended and runs to its programmed target, an absolute position in integer
 LSB, so nothing accumulates. A line ends exactly on its target. An arc's chip end can differ
 from its programmed end (the K3701 stops where its digital path reaches the end's long-axis
-coordinate, SPEC section 3): within :data:`CORRECTION_MAX` LSB on every axis (SPEC's
-promise) it is left, and the next block starts there; farther, the planner adds a
+coordinate, ``docs/chips/k3701.md``): within :data:`CORRECTION_MAX` LSB on every axis (the
+datasheet's promise) it is left, and the next block starts there; farther, the planner adds a
 *correction line*, a short linear block at the arc's feed from the chip's end to the
 programmed end (``Line.correction``). If the chip would stop far from the programmed end (a
 tiny arc whose digital path runs a full extra turn, or leaves the end quadrant with ERROR),
@@ -48,7 +48,7 @@ PLANE_AXES = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
 #: How far (LSB, each axis) from the programmed end a repaired arc's block end may be moved.
 REPAIR_REACH = 3
 #: How far (LSB, each axis) an arc's chip end may stay from its programmed end without a
-#: correction line: SPEC section 3's 1 LSB.
+#: correction line: the K3701 datasheet's 1 LSB.
 CORRECTION_MAX = 1
 _AXIS_NAMES = "XYZ"
 
