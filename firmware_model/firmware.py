@@ -17,8 +17,8 @@ rate multiplier's word at the input clock the firmware sets (:func:`feed_word`);
 back its feed with :func:`word_feed`.
 
 While the 8085 waits for a block's end, its timer interrupt (every :data:`TIMER_TICK_SECONDS`)
-polls both encoders' status: the encoder interface has no interrupt line (SPEC section 8: a
-line fault is a flag), so this is how a broken line is seen while the axes move rather than
+polls both encoders' status: the encoder interface has no interrupt line (``docs/chips/encoder.md``:
+a line fault is a flag), so this is how a broken line is seen while the axes move rather than
 only at the next block end. Any encoder fault stops the feed and the program, as an alarm
 does.
 """
@@ -107,7 +107,7 @@ def rm_clock_hz(machine: MachineConfig) -> float:
 
 
 def max_feed_mm_min(machine: MachineConfig, kind: Kind) -> float:
-    """The highest feed the K3701 follows: one FP per step latency (SPEC section 3)."""
+    """The highest feed the K3701 follows: one FP per step latency (``docs/chips/k3701.md``)."""
     latency = LATENCY_LINEAR if kind is Kind.LINEAR else LATENCY_CIRCULAR
     return machine.mm_per_min(machine.clock_hz / latency)
 
@@ -291,7 +291,7 @@ class Firmware:
         self.host = host
         self.job = job
         self.observer = observer
-        #: Added to every block's exact FP budget: the paper's hazard (SPEC section 7) made
+        #: Added to every block's exact FP budget: the paper's hazard (``docs/chips/decel.md``) made
         #: reproducible. 0 for normal operation.
         self.budget_offset = budget_offset
         self.blocks: list[BlockRecord] = []

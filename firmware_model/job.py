@@ -206,7 +206,8 @@ class ServoConfig(_Checked):
     max_speed: float | None = _key(None, OrAbsent(Limit()),
                                    "motor speed limit (mm/min); absent: no limit")
     kf: float = _key(0.0, Limit(), "velocity feedforward Kf: the drive adds Kf times the "
-                                   "command pulse rate to its velocity command (seed 003)")
+                                   "command pulse rate to its velocity command (the "
+                                   "profile-error paper)")
     drive: str = _key("first_order", OneOf(("first_order", "torque")),
                       "servo drive model: a first-order velocity lag Tm, or the torque drive "
                       "(velocity loop Vg/Ti, Kt, Ja, friction; tm then unused)")

@@ -334,7 +334,8 @@ def _cmd_effects(args: argparse.Namespace) -> int:
         if surface is None:
             print(f"no response surface: {needs}")
             return
-        print(f"second-order response surface (seed 001 eq (19), coded factors), "
+        print(f"second-order response surface (the motion-errors paper's eq (19), "
+              f"coded factors), "
               f"R^2 = {surface.r_squared:.4f}:")
         for term, beta in zip(surface.terms, surface.coefficients, strict=True):
             print(f"  {term:>30s}  {beta:+.5g}")

@@ -234,7 +234,7 @@ def test_every_block_starts_where_the_previous_one_really_ended():
 def test_an_arc_the_k3701_would_not_finish_gets_a_block_end_it_reaches():
     # Radius 1 LSB: (0, 1) is within the tolerance but not on the digital path, and the chip
     # would leave the end quadrant without reaching it: the block's end moves to a grid point
-    # the chip stops on; 1 LSB from the programmed end (SPEC section 3), it needs no
+    # the chip stops on; 1 LSB from the programmed end (``docs/chips/k3701.md``), it needs no
     # correction line, and the next block runs to its programmed point.
     arc, line = parse("G02 X0 Y0.001 I-0.001 J0 F100\nG01 X0.002").items
     assert plan(Block.arc(0, 1, -1, 0, cw=True, sqrt2=True)).error

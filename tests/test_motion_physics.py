@@ -1,8 +1,8 @@
 """The companion papers' physics on the whole machine (compiled backend): the radius loss of
-a circle under post-interpolation accel/decel (seed 001), the ellipse of a gain or
-time-constant mismatch between the axes (seeds 001, 003), and seed 003's eq. (9) following
-error with velocity feedforward and viscous friction. Each measured figure is compared with
-the formula of :mod:`sim.reproduce.theory`."""
+a circle under post-interpolation accel/decel (the motion-errors paper), the ellipse of a gain or
+time-constant mismatch between the axes (the motion-errors and profile-error papers), and the
+profile-error paper's eq. (9) following error with velocity feedforward and viscous friction. Each
+measured figure is compared with the formula of :mod:`sim.reproduce.theory`."""
 
 import math
 from pathlib import Path
@@ -60,9 +60,9 @@ def test_radius_loss_under_post_accel_decel_is_r_times_the_gains_product_minus_1
     print(f"{shape}: radius loss {measured:.1f} LSB, formula {expected:.1f} LSB (w {w:.3f})")
     assert measured == pytest.approx(expected, rel=0.02)
     if shape == "linear":
-        # Seed 001 eq. (10)'s accel/decel term T^2 V^2 / (24 R) (its "2A" read as 24) is the
-        # moving average's loss to second order; seed 000's eq. (39) read as a first-order
-        # recursion would lose tau^2 V^2 / (2 R), 12 times as much.
+        # The motion-errors paper's eq. (10)'s accel/decel term T^2 V^2 / (24 R) (its "2A" read as
+        # 24) is the moving average's loss to second order; the filters paper's eq. (39) read as a
+        # first-order recursion would lose tau^2 V^2 / (2 R), 12 times as much.
         speed = w * 5000
         accel_part = measured - 5000 * (1 - servo_gain(w, kp, tm))
         print(f"linear: accel/decel part {accel_part:.1f} LSB, T^2 V^2 / (24 R) "

@@ -1,8 +1,9 @@
 """The companion papers' sections of ``k37 reproduce``: the formulas their rows check.
 
-Seed 000's recursion eq (35) against the accel/decel circuit's reference model, seed 001's
-radius-loss formulas and mismatch ellipse, the L16 array, and the filter and servo models
-the corner test is compared with. The closed-loop rows run in ``tests/test_reproduce.py``.
+The filters paper's recursion eq (35) against the accel/decel circuit's reference model, the
+motion-errors paper's radius-loss formulas and mismatch ellipse, the L16 array, and the filter and
+servo models the corner test is compared with. The closed-loop rows run in
+``tests/test_reproduce.py``.
 """
 
 from __future__ import annotations

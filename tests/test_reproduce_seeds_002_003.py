@@ -1,5 +1,5 @@
-"""Seeds 002 and 003 in ``k37 reproduce`` (sections 10 and 11): the pure parts. The closed-loop
-runs are checked by the quick reproduction (tests/test_reproduce.py)."""
+"""The contour-error and profile-error papers in ``k37 reproduce`` (sections 10 and 11): the pure
+parts. The closed-loop runs are checked by the quick reproduction (tests/test_reproduce.py)."""
 
 from __future__ import annotations
 

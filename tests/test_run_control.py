@@ -238,7 +238,7 @@ def test_the_readme_stall_example_raises_the_alarm():
 
 
 def test_the_demo_with_a_stalled_x_peaks_exactly_at_the_alarm_zone_and_does_not_alarm():
-    # |error| > A alarms (SPEC section 4): the circle's diameter is A itself.
+    # |error| > A alarms (``docs/chips/k3702.md``): the circle's diameter is A itself.
     report = run_job(demo_job(), RunOptions(backend="cxxrtl", faults={"x": {"stall": 1}})).report
     assert report["axes"]["x"]["max_abs_error"] == demo_job().machine.alarm_limit
     assert report["status"] == "ok"

@@ -1,6 +1,6 @@
 """Studies: the designs are orthogonal arrays, a study file names its problems, a sweep
 writes one row per run and resumes, and the ballbar figures follow the physics of a gain
-mismatch (the ellipse of seed 001 Fig. 8)."""
+mismatch (the ellipse of the motion-errors paper's Fig. 8)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""The torque drive (seed 003's velocity loop, inertia and friction): gateware equals its
-fixed-point model; the model obeys the physics (the P loop's lag, D's droop, stiction, the
+"""The torque drive (the profile-error paper's velocity loop, inertia and friction): gateware equals
+its fixed-point model; the model obeys the physics (the P loop's lag, D's droop, stiction, the
 integral removing the droop, a load step)."""
 
 import math

@@ -4,7 +4,7 @@
 previous one really ended and runs to its programmed target, an absolute position in integer
 LSB, so nothing accumulates. A line ends exactly on its target. An arc's chip end can differ
 from its programmed end (the K3701 stops where its digital path reaches the end's long-axis
-coordinate, SPEC section 3): within :data:`CORRECTION_MAX` LSB on every axis of the exact
+coordinate, ``docs/chips/k3701.md``): within :data:`CORRECTION_MAX` LSB on every axis of the exact
 programmed end (before its rounding to the LSB grid) it is left, and the next block starts
 there; farther, the planner adds a *correction line*, a short linear block at the arc's feed
 from the chip's end to the programmed end (``Line.correction``). If the chip would stop far
@@ -48,7 +48,7 @@ MAX_CHORDS = 100_000
 #: How far (LSB, each axis) from the programmed end a repaired arc's block end may be moved.
 REPAIR_REACH = 3
 #: How far (LSB, each axis) an arc's chip end may stay from its programmed end without a
-#: correction line: SPEC section 3's 1 LSB.
+#: correction line: the K3701 datasheet's 1 LSB.
 CORRECTION_MAX = 1
 
 

@@ -18,8 +18,9 @@ __all__ = ["AccelBell"]
 
 
 class AccelBell(Observed, wiring.Component):
-    """Bell accel/decel (seed 000 eq. (40)): :class:`hdl.accel.linear.AccelLinear` (moving
-    average over T = 2**n / fa) feeding :class:`hdl.accel.exponential.AccelDecel` (tau = 2**n / fa).
+    """Bell accel/decel (the filters paper's eq. (40)): :class:`hdl.accel.linear.AccelLinear`
+    (moving average over T = 2**n / fa) feeding :class:`hdl.accel.exponential.AccelDecel`
+    (tau = 2**n / fa).
 
     Cycle timing: an output pulse of the linear stage in cycle *t* is an input pulse of the
     exponential stage in cycle *t* (combinational), so each stage's timing holds as it is

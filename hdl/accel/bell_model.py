@@ -1,5 +1,6 @@
 """Reference model of :class:`hdl.accel.bell.AccelBell`: bell-shaped accel/decel, the linear
-circuit followed by the exponential one (seed 000 eq. (40)), both on the same addition clock.
+circuit followed by the exponential one (the filters paper's eq. (40)), both on the same addition
+clock.
 
 A step of the input rate comes out as an S-shaped rise: the moving average's ramp over T,
 smoothed by the exponential's lag tau (both ``2**n / fa``), so the acceleration itself rises

@@ -1,4 +1,4 @@
-"""Exponential accel/decel circuit: up/down counter plus accumulator (SPEC section 5).
+"""Exponential accel/decel circuit: up/down counter plus accumulator (``docs/chips/accel.md``).
 
 The reference model is :class:`hdl.accel.exponential_model.AccelDecelModel`.
 """

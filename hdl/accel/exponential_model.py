@@ -1,11 +1,12 @@
-"""Reference model of :class:`hdl.accel.exponential.AccelDecel` (SPEC section 5).
+"""Reference model of :class:`hdl.accel.exponential.AccelDecel` (``docs/chips/accel.md``).
 
-The circuit of the paper's Fig. 2 (seed 000): input pulses count the up/down counter x up; on
-each addition pulse the accumulator becomes ``y <- (y + x) mod 2**n`` and its carry
-``c = (y + x) >> n`` is subtracted from x and owed as c output pulses, which leave one per
-cycle from a pending-output counter. With additions at rate fa the output rate follows
-``fi (1 - exp(-t / tau))``, ``tau = 2**n / fa``, and decays with the same tau when the input
-stops; no pulse is lost: inputs = outputs + x + pending at every cycle.
+The circuit of the filters paper's Fig. 2 (the system paper's circuit): input pulses count
+the up/down counter x up; on each addition pulse the accumulator becomes ``y <- (y + x) mod
+2**n`` and its carry ``c = (y + x) >> n`` is subtracted from x and owed as c output pulses,
+which leave one per cycle from a pending-output counter. With additions at rate fa the
+output rate follows ``fi (1 - exp(-t / tau))``, ``tau = 2**n / fa``, and decays with the
+same tau when the input stops; no pulse is lost: inputs = outputs + x + pending at every
+cycle.
 
 Bidirectional (post-interpolation) use: x and pending are signed; the carry is the floor of
 ``(y + x) / 2**n`` (a borrow when x is negative) and an output pulse carries pending's sign.

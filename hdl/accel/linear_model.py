@@ -2,8 +2,9 @@
 average over the time constant T = 2**n / fa.
 
 The output rate is the input rate averaged over the last T: a step of the input rate comes
-out as a ramp of length T (trapezoidal velocity, seed 000's "linear type"), and a sinusoidal
-rate is scaled by ``sin(w T / 2) / (w T / 2)`` (seed 001's radius loss ``T^2 V^2 / (24 R)``).
+out as a ramp of length T (trapezoidal velocity, the filters paper's "linear type"), and a
+sinusoidal rate is scaled by ``sin(w T / 2) / (w T / 2)`` (the motion-errors paper's radius loss
+``T^2 V^2 / (24 R)``).
 
 The circuit: input pulses are counted in the open *bin*; every ``2**(n - bins_bits)``
 additions the bin closes into a shift register of ``2**bins_bits`` bins, whose sum is the

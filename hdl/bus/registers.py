@@ -218,7 +218,7 @@ class RegisterMap:
                 doc += f" Reset value {reg.init:#x}."
             if reg.valid is not None:
                 doc += f" Valid {reg.valid[0]}..{reg.valid[1]}; other values are ignored."
-            lines.append(f"| {addrs} | {reg.name} | {kind} | {reg.access.value} | {doc} |")
+            lines.append(f"| {addrs} | {reg.name} | {kind} | {reg.access.value} | {_cell(doc)} |")
         for reg in self.registers:
             if reg.fields:
                 lines += ["", f"### {self.chip} {reg.name} fields", "",
@@ -226,8 +226,13 @@ class RegisterMap:
                 for f in reg.fields:
                     bits = (str(f.offset) if f.width == 1
                             else f"{f.offset + f.width - 1}:{f.offset}")
-                    lines.append(f"| {bits} | {f.name} | {f.doc} |")
+                    lines.append(f"| {bits} | {f.name} | {_cell(f.doc)} |")
         return "\n".join(lines) + "\n"
+
+
+def _cell(text: str) -> str:
+    """``text`` as a Markdown table cell: its bars (``|ERROR|``) escaped."""
+    return text.replace("|", "\\|")
 
 
 def registers_markdown(maps: Iterable[RegisterMap]) -> str:

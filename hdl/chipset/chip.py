@@ -1,5 +1,5 @@
-"""The chipset (SPEC section 1): every chip on one 8-bit host bus; two axes (the paper's) or
-three.
+"""The chipset (``docs/chips/chipset.md``): every chip on one 8-bit host bus; two axes (the paper's)
+or three.
 
 Signal flow, with the accel/decel circuit in one of three places::
 

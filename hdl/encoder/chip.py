@@ -1,4 +1,5 @@
-"""Encoder interface gateware (SPEC section 8): receiver, glitch filter, quadrature decoder.
+"""Encoder interface gateware (``docs/chips/encoder.md``): receiver, glitch filter, quadrature
+decoder.
 
 The reference model is :mod:`hdl.encoder.model`; this module is tested against it cycle by
 cycle.

@@ -1,4 +1,4 @@
-"""Reference model of the encoder interface (SPEC section 8), in plain Python.
+"""Reference model of the encoder interface (``docs/chips/encoder.md``), in plain Python.
 
 One :meth:`EncoderModel.step` is one sample: the inputs of a clock cycle and the rising edge
 that ends it. The gateware :class:`hdl.encoder.chip.EncoderInterface` matches it cycle by cycle.

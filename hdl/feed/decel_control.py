@@ -1,4 +1,5 @@
-"""Decel control: the host-loaded FP budget gate before the accel/decel circuit (SPEC 7).
+"""Decel control: the host-loaded FP budget gate before the accel/decel circuit
+(``docs/chips/decel.md``).
 
 The reference model is :class:`hdl.feed.decel_control_model.DecelControlModel`.
 """

@@ -1,4 +1,5 @@
-"""Reference model of :class:`hdl.feed.decel_control.DecelControl`, the FP budget gate (SPEC 7).
+"""Reference model of :class:`hdl.feed.decel_control.DecelControl`, the FP budget gate
+(``docs/chips/decel.md``).
 
 The host loads the number of feed pulses a block needs; input pulses pass and count the
 remaining budget down until it is 0, then the gate is closed (spent) and the accel/decel

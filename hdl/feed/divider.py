@@ -1,4 +1,4 @@
-"""Phase-accumulator clock-enable divider (SPEC section 2).
+"""Phase-accumulator clock-enable divider (``docs/chips/feed.md``).
 
 The reference model is :class:`hdl.feed.divider_model.PhaseDividerModel`.
 """

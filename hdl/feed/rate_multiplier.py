@@ -1,4 +1,4 @@
-"""Cascaded SN7497-style binary rate multiplier: the feedrate generator (SPEC section 6).
+"""Cascaded SN7497-style binary rate multiplier: the feedrate generator (``docs/chips/feed.md``).
 
 The reference model (and the 7497's decoding table) is :mod:`hdl.feed.rate_multiplier_model`.
 """

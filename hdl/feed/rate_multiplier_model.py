@@ -1,4 +1,4 @@
-"""Reference model of :class:`hdl.feed.rate_multiplier.RateMultiplier` (SPEC section 6).
+"""Reference model of :class:`hdl.feed.rate_multiplier.RateMultiplier` (``docs/chips/feed.md``).
 
 One SN7497 holds a 6-bit counter that advances on each input clock; its six decoding gates
 pass the clock for disjoint counter states (the datasheet's logic, QA = counter bit 0):

@@ -1,4 +1,4 @@
-"""The K3701's step latency count and the strobes it times (SPEC section 3).
+"""The K3701's step latency count and the strobes it times (``docs/chips/k3701.md``).
 
 The reference model is :class:`hdl.k3701.latency_model.StepLatencyModel`.
 """

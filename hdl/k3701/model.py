@@ -1,4 +1,4 @@
-"""Reference model of the KM3701 interpolator (SPEC section 3), in plain Python.
+"""Reference model of the KM3701 interpolator (``docs/chips/k3701.md``), in plain Python.
 
 Two layers:
 

@@ -1,4 +1,4 @@
-"""KM3702 position controller gateware (SPEC section 4), one per axis.
+"""KM3702 position controller gateware (``docs/chips/k3702.md``), one per axis.
 
 The reference model is :mod:`hdl.k3702.model`; this module is tested against it cycle by cycle.
 """
@@ -94,8 +94,8 @@ class K3702(Observed, wiring.Component):
 
     def elaborate(self, platform) -> Module:
         m = Module()
-        # The paper's counters change on the falling edge (SPEC section 2). The domain must be
-        # defined and driven here, or Amaranth would create a rising-edge one silently.
+        # The paper's counters change on the falling edge (``docs/chips/k3702.md``). The domain must
+        # be defined and driven here, or Amaranth would create a rising-edge one silently.
         m.domains.neg = ClockDomain("neg", clk_edge="neg", local=True)
         m.d.comb += [ClockSignal("neg").eq(ClockSignal("sync")),
                      ResetSignal("neg").eq(ResetSignal("sync"))]

@@ -1,4 +1,4 @@
-"""Reference model of the KM3702 position controller (SPEC section 4), in plain Python.
+"""Reference model of the KM3702 position controller (``docs/chips/k3702.md``), in plain Python.
 
 One :meth:`K3702Model.step` is one clock cycle: the falling edge inside it (where the chip's
 counters and flags change) and the rising edge that ends it (where the host bus acts). The

@@ -13,7 +13,7 @@ Each exported file holds two layers:
   in its ``probes`` (simulation observability, not chip pins) stay inside.
 
 The header names the block's parameters, its register map(s) and version, and the clocking
-and bus protocol; the port list gives each pin its SPEC name and meaning. Waivers for
+and bus protocol; the port list gives each pin its datasheet name and meaning. Waivers for
 Verilator's ``-Wall`` lint are written inline, each with its reason (:data:`CORE_WAIVERS`).
 :data:`sim.fpga.blocks.BLOCKS` is the registry of exportable blocks; adding one (the chipset
 top) is one line.
@@ -44,7 +44,7 @@ __all__ = ["CORE_WAIVERS", "Pin", "export_verilog", "pins", "verilog_text"]
 
 # --- pins ----------------------------------------------------------------------------------
 
-#: The SPEC's pin labels of the Verilog names that have one.
+#: The datasheets' pin labels of the Verilog names that have one.
 SPEC_LABELS = {
     "clk": "CP", "rst": "RESET", "d": "D7-D0", "cs_n": "/CS", "rd_n": "/RD", "wr_n": "/WR",
     "fp": "FP", "x_pos": "+X", "x_neg": "-X", "y_pos": "+Y", "y_neg": "-Y", "busy": "BUSY",
@@ -62,7 +62,7 @@ _KEYWORDS = frozenset((
     "wor", "xor",
 ))
 
-_BUS_PINS = {  # suffix: (direction, SPEC label, meaning)
+_BUS_PINS = {  # suffix: (direction, datasheet label, meaning)
     "d": ("inout", "D7-D0", "Data bus, driven in the cycle after a read cycle"),
     "addr": ("input", "address", "Register byte address"),
     "cs_n": ("input", "/CS", "Chip select, active low"),
@@ -266,7 +266,7 @@ def _header(entry: Exportable, buses: list[_Bus], probes: list[str]) -> list[str
                  f"{reg.access.value:<2}{'  signed' if reg.signed else ''}" for reg in rm]
     text += [
         "",
-        f"Module {entry.name} gives the chip's pins (SPEC names in the port comments; active "
+        f"Module {entry.name} gives the chip's pins (datasheet names in the port comments; active "
         f"low where the chips are) to {entry.name}_core, Amaranth's unchanged Verilog of the "
         f"block, so every cycle matches the project's simulation and reference models. All "
         f"inputs are sampled at the rising edge of clk (the paper's CP, 1 MHz).",

@@ -1,4 +1,4 @@
-"""Servo amplifier, motor and encoder of one axis (SPEC section 9), as a simulation model.
+"""Servo amplifier, motor and encoder of one axis, as a simulation model.
 
 The plant is written in Amaranth so that it runs inside the simulated design, identically on
 every backend (Amaranth's simulator, CXXRTL, Verilator), with integer fixed-point arithmetic

@@ -52,8 +52,8 @@ class PlantParams:
     """One axis's servo drive, in physical units, and its fixed-point encoding.
 
     ``kp``: position-loop gain (1/s); the amplifier's Kv = kp * 2^(N-1) / 10 V follows
-    from it (SPEC section 9). ``tm``: velocity-loop time constant (s, 0 for none).
-    ``max_speed``: speed limit (counts/s, None for none). ``kf``: velocity feedforward, the
+    from it (``docs/decisions.md``, servo plant). ``tm``: velocity-loop time constant (s, 0 for
+    none). ``max_speed``: speed limit (counts/s, None for none). ``kf``: velocity feedforward, the
     fraction of the command pulse rate the drive adds to its velocity command.
     ``clock_hz``: system clock. Each must be in its :meth:`limits`.
     """

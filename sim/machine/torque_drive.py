@@ -1,7 +1,8 @@
-"""A servo drive with a velocity loop, motor torque, load inertia and friction (seed 003).
+"""A servo drive with a velocity loop, motor torque, load inertia and friction (the profile-error
+paper).
 
-The drive of seed 003 (its eqs. (9)-(16)): the position loop's velocity command vc (with the
-feedforward of :class:`sim.machine.plant.ServoPlant`) drives a PI velocity loop of gain Vg
+The drive of the profile-error paper (its eqs. (9)-(16)): the position loop's velocity command vc
+(with the feedforward of :class:`sim.machine.plant.ServoPlant`) drives a PI velocity loop of gain Vg
 (A s/rad) and integral time Ti; the motor's torque Kt i (N m) turns the load inertia Ja
 (kg m^2) against viscous friction D (N m s/rad), Coulomb friction Fc (N m) and a disturbance
 torque (N m, the load). Per cycle, in the plant's fixed point (velocity in counts/cycle):
@@ -14,7 +15,7 @@ torque (N m, the load). Per cycle, in the plant's fixed point (velocity in count
 
 Coulomb friction takes up to ``fc`` from the speed each cycle and never reverses it, so an
 axis whose drive torque is below it stays at rest (stiction). With Ti = 0 the steady velocity
-at a command vc is vc / (1 + D / (Vg Kt)): seed 003's eq. (9) following error
+at a command vc is vc / (1 + D / (Vg Kt)): the profile-error paper's eq. (9) following error
 ``(D / (Vg Kt) + 1 - Kf) F / Kp``; an integral term removes the D part.
 
 A load step (a fault) adds ``load_step`` to the disturbance from cycle ``load_after`` on; the

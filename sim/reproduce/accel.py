@@ -39,7 +39,7 @@ def section(runs: dict[str, RunData], specs: Specs, out: Path) -> Section:
     run = Trace(runs["line"], machine.clock_hz)
     item = specs["line"].move(Line)
     fi, tau = fp_rate(machine, FEED_HIGH), hardware_tau(machine)
-    # Theory: the circuit is a first-order lag of the FP count (SPEC section 5); the gate
+    # Theory: the circuit is a first-order lag of the FP count (``docs/chips/accel.md``); the gate
     # passes the block's budget at the rate fi; the long axis takes Xe / FP steps per FP.
     fed = fi * np.clip(run.t, 0, item.plan.fp / fi)
     delivered = lag(run.t, fed, tau)

@@ -1,4 +1,5 @@
-"""Experiment 6: the FP-budget hazard, a budget one too high and one too low (SPEC section 7).
+"""Experiment 6: the FP-budget hazard, a budget one too high and one too low
+(``docs/chips/decel.md``).
 
 The same X line under FP control with the firmware's exact budget and with the budget off by
 +1 and -1 (``RunOptions(budget_offset=+-1)``): exact counts of where the FP go.
@@ -64,7 +65,8 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
             and minus.probes["fp_total"] == need - 1)
     sec.text += [
         "The paper warns that under FP control the host's count of the FP a block needs must "
-        "equal the interpolator's; the SPEC (section 7) spells out the two ways it goes wrong. "
+        "equal the interpolator's; the decel control's datasheet spells out the two ways it "
+        "goes wrong. "
         f"The emulator runs an X line of {end} LSB at "
         f"F{machine.mm_per_min(scale.hazard_fp_s):g} ({fi:.0f} FP/s) three times, with "
         f"the firmware's exact budget and with the budget one too high and one too low "
@@ -75,7 +77,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
         f"is the stray FP: it arrives later, when the K3701 is idle (ignored) or, in a "
         f"program, already running the next block, which then starts one FP early. With a "
         f"budget k too high the circuit holds k FP at the end and the rate is k / tau: the "
-        f"'stops while the feed is still high' of the SPEC needs k comparable to fi tau "
+        f"hazard 'stops while the feed is still high' needs k comparable to fi tau "
         f"({fi * tau:.0f} FP here).",
         "One FP too few: the circuit drains completely and the K3701 waits for its last FP "
         "forever, BUSY, one step short of the end point; the firmware's interrupt never "

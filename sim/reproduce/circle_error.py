@@ -1,8 +1,10 @@
-"""Seed 001's radius error of a circle: its L16 conditions, the formulas, the measured arcs.
+"""The motion-errors paper's radius error of a circle: its L16 conditions, the formulas, the
+measured arcs.
 
 The steady radius loss of a circle of radius R at speed V through a post-interpolation
 accel/decel circuit and the servo is R (1 - |G_acc(jw)| |G(jw)|), w = V / R
-(:func:`exact_loss`); seed 001's eqs (9)/(10) are its second-order terms (:func:`paper_loss`);
+(:func:`exact_loss`); the motion-errors paper's eqs (9)/(10) are its second-order terms
+(:func:`paper_loss`);
 two axes of different gains turn the circle into an ellipse (:func:`mismatch_ellipse`).
 :func:`arc_losses` measures the L16 runs of :mod:`~sim.reproduce.seed001`.
 """
@@ -30,7 +32,7 @@ LEVELS = {"feed": (1000.0, 1500.0, 2000.0, 2500.0), "radius": (50.0, 100.0, 150.
           "inertia": (0.3, 0.5, 0.7, 0.9), "tau": (0.015, 0.025, 0.035, 0.045),
           "kp": (30.0, 33.0, 36.0, 39.0)}
 #: The inertia ratio sets the drive's velocity lag Tm = TM_MOTOR (1 + ratio) (the lag grows
-#: with the inertia it drives): 4 ms at seed 000's usual 60%.
+#: with the inertia it drives): 4 ms at the filters paper's usual 60%.
 TM_MOTOR = 0.0025
 #: Eq (10)'s A: the moving average's radius loss T^2 V^2 / (24 R) (eq (9)'s is T^2 V^2 / 2R).
 LINEAR_A = 12

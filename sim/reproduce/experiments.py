@@ -12,7 +12,7 @@ them into the seven sections, one module each: :mod:`~sim.reproduce.accel`,
 :mod:`~sim.reproduce.rates`, :mod:`~sim.reproduce.fp_counts`,
 :mod:`~sim.reproduce.path_error`, :mod:`~sim.reproduce.fp_control`,
 :mod:`~sim.reproduce.budget` and :mod:`~sim.reproduce.parabola` (the K3701's parabolic mode on
-seed 002's parabola), then one section per companion paper (:data:`COMPANIONS`):
+the contour-error paper's parabola), then one section per companion paper (:data:`COMPANIONS`):
 :mod:`~sim.reproduce.seed000` (the accel/decel filters) and :mod:`~sim.reproduce.seed001`
 (radius error by accel/decel type).
 :data:`~sim.reproduce.runs.FULL` is the scale of the committed

@@ -1,7 +1,7 @@
 """Experiment 3: the FP counts of arcs from 0 to 90 degrees (Table 1).
 
-The SPEC's corrected Table 1 against the exact count of the K3701 reference model at every
-step of quarter circles, and the gateware ending its closed-loop blocks on exactly the
+The corrected Table 1 (``docs/chips/k3701.md``) against the exact count of the K3701 reference model
+at every step of quarter circles, and the gateware ending its closed-loop blocks on exactly the
 counted FP.
 """
 
@@ -68,7 +68,8 @@ def section(runs: dict[str, RunData], out: Path) -> Section:
             "exact (0 FP)", exact)
     sec.text += [
         "Table 1 of the paper gives the FP a circular block needs from the x axis through "
-        "theta; its printed formulas are garbled, and the SPEC's corrected Table 1 is checked "
+        "theta; its printed formulas are garbled, and the corrected Table 1 of the K3701's "
+        "datasheet is checked "
         "here against the exact count of the K3701 reference model (N_long, plus "
         "ceil(N_diag / 2) with sqrt(2) control) at every step of a quarter circle. The "
         "reference model is proven equal to the gateware cycle by cycle in "

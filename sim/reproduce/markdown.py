@@ -146,7 +146,7 @@ def report_markdown(result: Reproduction) -> str:
              f"Written by `k37 reproduce{' --quick' if scale is QUICK else ''}`: "
              f"{sum(r.passed for r in result.rows)} of {len(result.rows)} rows pass. Each row "
              f"compares an observation of the paper (its photos, section 2 and Table 1; "
-             f"sections 1-7) or of a companion paper (seeds 000-003; sections 8-11) with "
+             f"sections 1-7) or of one of the four companion papers (sections 8-11) with "
              f"what the emulator does, within the tolerance given; the experiments ran on the "
              f"compiled (CXXRTL) backend of the whole machine: chipset gateware, 8085 firmware "
              f"model and servo plants.", "", table_markdown(result)]

@@ -1,7 +1,8 @@
-"""Experiment 7: seed 002's parabola as one hardware parabola block against G01 chords.
+"""Experiment 7: the contour-error paper's parabola as one hardware parabola block against G01
+chords.
 
-Seed 002 (the contour error controller paper) tracks the parabola y = (x - 15)^2 / 15 - 15
-(mm). The KM3701 has a parabolic mode (seed 004, section 2 (1)): here the whole curve is one
+The contour-error paper tracks the parabola y = (x - 15)^2 / 15 - 15
+(mm). The KM3701 has a parabolic mode (the system paper, section 2 (1)): here the whole curve is one
 G06 block, and the same curve cut into G01 chords runs at the same feed on the same machine
 (FP control). Both are measured against the true parabola: the interpolated (command) path,
 the actual path, the FP the host loads and the run time.
@@ -51,16 +52,16 @@ def _measure(run: RunData, curve: Parabola, clock_hz: float) -> _Result:
 
 def section(runs: dict[str, RunData], specs: Specs, out: Path) -> Section:
     """Experiment 7's rows, text and figure ``parabola.png``."""
-    sec = Section(7, "Parabolic interpolation: seed 002's parabola, one G06 block against G01 "
-                     "chords", ("parabola", "parabola_chords"))
+    sec = Section(7, "Parabolic interpolation: the contour-error paper's parabola, one G06 "
+                     "block against G01 chords", ("parabola", "parabola_chords"))
     clock = MACHINE["pre"].clock_hz
     curve = specs["parabola"].move(Parabola)
     chords = [item for item in specs["parabola_chords"].job().program.items
               if isinstance(item, Line)]
     hw = _measure(runs["parabola"], curve, clock)
     cut = _measure(runs["parabola_chords"], curve, clock)
-    sec.row("the K3701's parabolic interpolation (seed 004 section 2 (1)) on seed 002's "
-            "parabola",
+    sec.row("the K3701's parabolic interpolation (the system paper's section 2 (1)) on the "
+            "contour-error paper's parabola",
             "parabolic interpolation is possible (no figure)",
             f"one G06 block: command path within {hw.command:.2f} LSB of the true parabola, "
             f"ends at {hw.end}",
@@ -68,7 +69,7 @@ def section(runs: dict[str, RunData], specs: Specs, out: Path) -> Section:
             hw.command <= 1.5 and hw.end == curve.end)
     sec.row("parabola block against G01 chords at the same feed "
             f"(F{PARABOLA_FEED:g})",
-            "no figure (seed 002 tracks this parabola with its own controller)",
+            "no figure (the contour-error paper tracks this parabola with its own controller)",
             f"contour error max {hw.actual:.1f} LSB (RMS {hw.rms:.1f}), {hw.fp} FP, "
             f"{hw.seconds:.2f} s vs {len(chords)} chords: max {cut.actual:.1f} LSB (RMS "
             f"{cut.rms:.1f}), command path {cut.command:.1f} LSB off, {cut.fp} FP, "
@@ -76,7 +77,8 @@ def section(runs: dict[str, RunData], specs: Specs, out: Path) -> Section:
             "the parabola block's contour error and run time below the chords'",
             hw.actual < cut.actual and hw.seconds < cut.seconds)
     sec.text += [
-        "The parabola of seed 002, y = (x - 15)^2 / 15 - 15 mm from (0, 0) to (30, 0), runs "
+        "The parabola of the contour-error paper, y = (x - 15)^2 / 15 - 15 mm from (0, 0) to "
+        "(30, 0), runs "
         "as one G06 block (I15 J-15: the vertex, where the tangent is parallel to the chord) "
         f"and as {len(chords)} G01 chords of equal X, both at F{PARABOLA_FEED:g} under "
         "FP control. The chords' command path is off the curve by their sagitta, and each "
@@ -95,7 +97,7 @@ def section(runs: dict[str, RunData], specs: Specs, out: Path) -> Section:
                lw=0.8, label=label)
     line = curve.polyline()
     a.plot(line[:, 0] / 1000, line[:, 1] / 1000, "k--", lw=0.6, label="true parabola")
-    a.set(title="seed 002's parabola", xlabel="x (mm)", ylabel="y (mm)")
+    a.set(title="the contour-error paper's parabola", xlabel="x (mm)", ylabel="y (mm)")
     a.legend(fontsize=8)
     b.set(title="distance of the actual path to the parabola", xlabel="time (s)",
           ylabel="LSB")

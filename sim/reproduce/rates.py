@@ -39,7 +39,7 @@ def section(runs: dict[str, RunData], specs: Specs) -> Section:
         "is offered in all but one of 2^18 cycles, and the steps are counted on the K3701's "
         "step outputs over a window inside a long X line and inside the first octant of a "
         "circle of radius 100000 LSB, sqrt(2) control off.",
-        "The SPEC reads the paper's figures as one step per 11 cycles (linear, 90.9 k/s; the "
+        "K37 reads the paper's figures as one step per 11 cycles (linear, 90.9 k/s; the "
         "paper prints 90.0) and per 21 cycles (circular, 47.6 k/s); the surplus FP are lost "
         "and flagged by the OVERRUN status bit, never silently.",
     ]

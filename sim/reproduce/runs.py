@@ -47,7 +47,8 @@ class Scale:
     hazard_fp_s: float
     #: Experiment 2: steps counted at the maximum rate, per interpolation type.
     rate_steps: int
-    #: Experiment 7: the G01 chords the parabola of seed 002 is cut into (equal steps in X).
+    #: Experiment 7: the G01 chords the parabola of the contour-error paper is cut into (equal steps
+    #: in X).
     parabola_chords: int = 30
     #: Sampling period of the closed-loop runs (cycles).
     sample_every: int = 1000
@@ -58,14 +59,14 @@ FULL = Scale("full", line=(20_000, 10_000), radius=3000, low_radius=150, low_swe
 QUICK = Scale("quick", line=(10_000, 5000), radius=3000, low_radius=100, low_sweep=45,
               hazard_steps=100, hazard_fp_s=1000.0, rate_steps=5000, parabola_chords=10)
 
-#: Experiment 7: seed 002's parabola y = (x - 15)^2 / 15 - 15 (mm) from x = 0 to 30, and the
-#: feed both of its programs run at (mm/min).
+#: Experiment 7: the contour-error paper's parabola y = (x - 15)^2 / 15 - 15 (mm) from x = 0 to 30,
+#: and the feed both of its programs run at (mm/min).
 PARABOLA_MM = (30.0, 15.0)
 PARABOLA_FEED = 1000.0
 
 
 def parabola_y(x_mm: float) -> float:
-    """Seed 002's parabola (mm)."""
+    """The contour-error paper's parabola (mm)."""
     return (x_mm - 15.0) ** 2 / 15.0 - 15.0
 
 #: The machine by accel/decel placement, and every axis's servo: the defaults.

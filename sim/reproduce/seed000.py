@@ -1,8 +1,8 @@
-"""Section 8: seed 000, the accel/decel circuit as a digital filter, and its corner test.
+"""Section 8: the filters paper, the accel/decel circuit as a digital filter, and its corner test.
 
-Seed 000 (Shin and Chung, linear, exponential and bell type discrete filters) derives from
-the circuit of its Fig. 2 (the KM3701's up/down counter and accumulator, SPEC section 5) the
-recursion eq (35), ``f_o(k) = f_o(k-1) + [f_i(k) - f_o(k-1)] / 2^n`` per addition pulse, and
+The filters paper (Shin and Chung, linear, exponential and bell type discrete filters) derives from
+the circuit of its Fig. 2 (the KM3701's up/down counter and accumulator, ``docs/chips/accel.md``)
+the recursion eq (35), ``f_o(k) = f_o(k-1) + [f_i(k) - f_o(k-1)] / 2^n`` per addition pulse, and
 shows in a corner test (Fig. 12, 1 m/min) the corner following error falling when the time
 constant goes from 15 ms to 30 ms. Here the reference model of the circuit runs against eq
 (35), and the corner runs on the post-interpolation machine with both filter shapes.
@@ -31,15 +31,16 @@ __all__ = ["ACCEL_BITS", "SHAPES", "circuit_outputs", "filter_machine", "recursi
 #: tau = 2^n / fa reaches their 15 to 45 ms with fa below the 1 MHz clock. tau is set by fa
 #: (a register), so every time constant runs on the same compiled model.
 ACCEL_BITS = 10
-#: The filter shapes the papers compare (seed 000 also has the bell: not in its corner test).
+#: The filter shapes the papers compare (the filters paper also has the bell: not in its corner
+#: test).
 SHAPES = ("exponential", "linear")
 #: Fig. 12: feed (mm/min), the conventional and the proposed time constants (s), and the
 #: corner errors (um) the paper reads off it: (15 ms, 30 ms) per shape.
 CORNER_FEED = 1000.0
 CORNER_TAUS = (0.015, 0.030)
 PAPER_CORNER_UM = {"linear": (70, 9), "exponential": (60, 8)}
-#: The corner's legs (LSB) and the servo: the default drive (Tm = 10 ms, seed 001's inertia
-#: ratio of 60%) with velocity feedforward, which a following error of tens of um at 1 m/min
+#: The corner's legs (LSB) and the servo: the default drive (Tm = 10 ms, the motion-errors paper's
+#: inertia ratio of 60%) with velocity feedforward, which a following error of tens of um at 1 m/min
 #: needs (without it, V / Kp = 556 um).
 CORNER_LEG = 5000
 CORNER_SERVO = ServoConfig(kf=1.0)
@@ -165,7 +166,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
     del scale
     corners = {key: _corner(runs[key], spec) for key, spec in specs.items()
                if key.startswith("s000_corner")}
-    sec = Section(8, "Seed 000: the accel/decel circuit as the recursion eq (35), and the "
+    sec = Section(8, "The filters paper: the accel/decel circuit as the recursion eq (35), and the "
                      "corner test (Fig. 12)", tuple(corners))
     checks = [_recursion(filter_machine("exponential", CORNER_TAUS[0]),
                          MACHINE["post"].lsb_per_s(CORNER_FEED)),

@@ -1,7 +1,7 @@
-"""Section 9: seed 001, the radius error of a circle by accel/decel type.
+"""Section 9: the motion-errors paper, the radius error of a circle by accel/decel type.
 
-Seed 001 (Shin, Kwak and Chung, motion errors by accel/decel type) runs circles over an
-L16(4^5) orthogonal array of feed, radius, inertia ratio, time constant and position gain
+The motion-errors paper (Shin, Kwak and Chung, motion errors by accel/decel type) runs circles over
+an L16(4^5) orthogonal array of feed, radius, inertia ratio, time constant and position gain
 (its Tables 1 and 2), with the exponential and the linear filter after the interpolator, and
 compares each run's radius error with its eqs (9) and (10); a gain mismatch between the axes
 makes the error an ellipse with its extremes at 45 and 225 degrees (Fig. 8); a second-order
@@ -133,8 +133,8 @@ def _l16_rows(sec: Section, shape: str, arcs: list[ArcLoss]) -> None:
 def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> Section:
     """Section 9's rows, text and figure ``seed001.png``."""
     keys = tuple(key for key in specs if key.startswith("s001_"))
-    sec = Section(9, "Seed 001: radius error by accel/decel type over the L16 array, the "
-                     "mismatch ellipse (Fig. 8) and the response surface", keys)
+    sec = Section(9, "The motion-errors paper: radius error by accel/decel type over the L16 "
+                     "array, the mismatch ellipse (Fig. 8) and the response surface", keys)
     arcs = {shape: arc_losses(runs, shape) for shape in SHAPES}
     for shape in SHAPES:
         _l16_rows(sec, shape, arcs[shape])
@@ -195,7 +195,8 @@ def _text(sec: Section, scale: Scale, fits: dict[str, Surface], ellipse: Ballbar
     measure = MEASURE_S["quick" if scale is QUICK else "full"]
     stationary = "; ".join(f"{shape}: {_stationary(fit)}" for shape, fit in fits.items())
     sec.text += [
-        "Seed 001 runs circles over the L16(4^5) array of its Tables 1 and 2 (feed 1000 to "
+        "The motion-errors paper runs circles over the L16(4^5) array of its Tables 1 and 2 "
+        "(feed 1000 to "
         "2500 mm/min, radius 50 to 200 mm, inertia ratio 30 to 90%, time constant 15 to 45 "
         "ms, position gain) with the linear and the exponential filter, and finds the "
         "measured radius error within +-2.3% (linear) and +-3.9% (exponential) of its eqs "

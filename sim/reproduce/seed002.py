@@ -1,5 +1,5 @@
-"""Seed 002 (a multi-axis contour error controller): its uncompensated contouring and its
-contour error vector, section 10 of ``k37 reproduce``.
+"""The contour-error paper (a multi-axis contour error controller): its uncompensated contouring and
+its contour error vector, section 10 of ``k37 reproduce``.
 
 The paper tracks a parabola and a cubic Bezier curve at 60 mm/s with a two-axis plant (its
 Table 1: open loop gains 10.3 and 10.0 1/s, time constants 35 and 30 ms), and measures the
@@ -67,7 +67,8 @@ class Curve:
 
     @classmethod
     def parabola(cls) -> Curve:
-        """Seed 002's parabola y = (x - 15)^2 / 15 - 15 from x = 0 to 30 (x = 30 u)."""
+        """The contour-error paper's parabola y = (x - 15)^2 / 15 - 15 from x = 0 to 30
+        (x = 30 u)."""
         x = Polynomial([0.0, 30.0])
         return cls(x, (x - 15) ** 2 / 15 - 15)
 
@@ -192,8 +193,9 @@ def ideal_mean_error(curve: Curve, dt: float = 1e-3) -> float:
 
 def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> Section:
     """Section 10's rows, text and figure ``seed002.png``."""
-    sec = Section(10, "Seed 002: uncompensated contouring of a parabola and a Bezier curve, "
-                      "and the contour error vector", ("s002_bezier", "s002_parabola"))
+    sec = Section(10, "The contour-error paper: uncompensated contouring of a parabola and a "
+                      "Bezier curve, and the contour error vector",
+                  ("s002_bezier", "s002_parabola"))
     curves = _curves()
     chords = {name: sum(isinstance(item, Line)
                         for item in specs[f"s002_{name}"].job().program.items)
@@ -248,7 +250,8 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
             "the estimate off the contour error by more than half of it",
             abs(mine - parabola.error[k]) > parabola.error[k] / 2)
     sec.text += [
-        "Seed 002 simulates a two-axis plant (its Table 1: open loop gains 10.3 and "
+        "The contour-error paper simulates a two-axis plant (its Table 1: open loop gains "
+        "10.3 and "
         "10.0 1/s and time constants 35 and 30 ms, position loop gain 1, sampled every 1 ms) "
         "following a parabola y = (x - 15)^2 / 15 - 15 and a cubic Bezier curve of control "
         "points (0, 0), (50, -200), (150, 200), (0, 0) mm at 60 mm/s, first with the P "
@@ -307,8 +310,8 @@ def _figure(got: dict[str, _Contour], curves: dict[str, Curve], machine_tool: np
         a.plot(run.actual[:, 0], run.actual[:, 1], lw=0.8, label=f"{name}: tool")
         b.plot(run.t, run.error, lw=0.8, label=f"{name}: machine")
         b.plot(run.t, run.model, lw=0.6, ls=":", label=f"{name}: linear model")
-    a.set(title="seed 002's curves (dashed) and the tool", xlabel="x (mm)", ylabel="y (mm)",
-          aspect="equal")
+    a.set(title="the contour-error paper's curves (dashed) and the tool", xlabel="x (mm)",
+          ylabel="y (mm)", aspect="equal")
     a.legend(fontsize=8)
     b.set(title="contour error (P controller)", xlabel="time (s)", ylabel="mm")
     b.legend(fontsize=8)

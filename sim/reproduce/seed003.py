@@ -1,4 +1,4 @@
-"""Seed 003 (reducing the profile error of multi-axis control by tuning): the steady
+"""The profile-error paper (reducing the profile error of multi-axis control by tuning): the steady
 following error of its eq. (9) and the ballbar error of unequal axes, section 11 of
 ``k37 reproduce``.
 
@@ -119,8 +119,8 @@ def _lag(axis: str, kp: float, ts: float) -> float:
 
 def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> Section:
     """Section 11's rows, text and figure ``seed003.png``."""
-    sec = Section(11, "Seed 003: the steady following error of eq. (9), and equal Kp and Ts "
-                      "across the axes shrinking the ballbar error",
+    sec = Section(11, "The profile-error paper: the steady following error of eq. (9), and "
+                      "equal Kp and Ts across the axes shrinking the ballbar error",
                   tuple(key for key in specs if key.startswith("s003_")))
     ts = hardware_tau(MACHINE)
     speed = MACHINE.lsb_per_s(LINE_FEED)
@@ -172,7 +172,8 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
                 abs(unequal.two_theta_amplitude / model[name] - 1) <= 0.10
                 and equal.two_theta_amplitude < unequal.two_theta_amplitude / 3)
     sec.text += [
-        "Seed 003 gives the steady following error of an axis as eq. (9), e_t = (Ka + Ts) F "
+        "The profile-error paper gives the steady following error of an axis as eq. (9), "
+        "e_t = (Ka + Ts) F "
         "with Ka = (D / (Vg Kt) + 1 - Kf) / Kp: the position loop's lag, less the velocity "
         "feedforward Kf, plus the viscous friction D's droop in a P velocity loop of gain Vg "
         "and torque constant Kt, plus the lag Ts F of an exponential accel/decel. "

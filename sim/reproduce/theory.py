@@ -1,8 +1,8 @@
 """What the observations are compared with: the hardware's exact rates and the linear physics.
 
-The accel/decel circuit is a first-order lag of the FP count (:func:`lag`, SPEC section 5);
+The accel/decel circuit is a first-order lag of the FP count (:func:`lag`, ``docs/chips/accel.md``);
 each axis's closed position loop is ``G(s) = Kp / (s (1 + s Tm) + Kp)`` (:func:`servo`,
-:func:`servo_radius_loss`, SPEC section 9); the K3701's commanded path and FP counts come from
+:func:`servo_radius_loss`); the K3701's commanded path and FP counts come from
 its reference model (:func:`ideal_command`, :func:`quarter_counts`). Everything here is
 computed independently of the emulator's runs.
 """
@@ -80,7 +80,7 @@ def servo(t: np.ndarray, command: np.ndarray, kp: float, tm: float,
           substeps: int = 10, kf: float = 0.0) -> np.ndarray:
     """The actual position of one axis following ``command``: G(s) = Kp / (s (1 + s Tm) + Kp).
 
-    The plant of SPEC section 9 (velocity command Kp x error + Kf x the command's rate,
+    The servo plant (velocity command Kp x error + Kf x the command's rate,
     first-order velocity lag Tm), from rest at ``command[0]``; the command is taken as linear
     between the samples.
     """
@@ -155,13 +155,14 @@ def accel_gain(shape: str, w: float, tau: float) -> float:
 def mismatch_amplitude(speed: float, lag_x: float, lag_y: float) -> float:
     """The 2-theta amplitude of the radial deviation of a circle at ``speed`` whose axes lag
     their commands by ``lag_x`` and ``lag_y`` seconds (1/Kp of a position loop, T of an
-    exponential accel/decel; seed 001): (V / 2) |lag_x - lag_y|, for small w * lag."""
+    exponential accel/decel; the motion-errors paper): (V / 2) |lag_x - lag_y|, for small
+    w * lag."""
     return speed / 2 * abs(lag_x - lag_y)
 
 
 def following_error(feed: float, kp: float, *, kf: float = 0.0, d_ratio: float = 0.0,
                     ts: float = 0.0) -> float:
-    """Seed 003 eq. (9): the steady following error (LSB) at ``feed`` (LSB/s),
+    """The profile-error paper's eq. (9): the steady following error (LSB) at ``feed`` (LSB/s),
     ``(D / (Vg Kt) + 1 - Kf) F / Kp + Ts F`` (``d_ratio`` = D / (Vg Kt); Ts the exponential
     accel/decel's time constant, post-interpolation)."""
     return (d_ratio + 1 - kf) * feed / kp + ts * feed

@@ -59,7 +59,7 @@ def _run(spec: RunSpec) -> RunData:
 
 
 def _max_rates(spec: RateSpec) -> RunData:
-    """Step rates of the K3701 gateware with FP offered every cycle (SPEC section 3)."""
+    """Step rates of the K3701 gateware with FP offered every cycle (``docs/chips/k3701.md``)."""
     start = time.perf_counter()
     probes: dict[str, int] = {}
     cycles = 0

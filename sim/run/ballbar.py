@@ -5,13 +5,14 @@ are the samples taken while an arc block ran, from the first arc's start to the 
 end. For each sample, the radial deviation dr = |p - c| - R (LSB) at the angle theta of p
 around the centre. Figures:
 
-* ``mean_radius_deviation``: the mean of dr (the radius loss of seed 001's eqs (9)/(10));
+* ``mean_radius_deviation``: the mean of dr (the radius loss of the motion-errors paper's eqs
+  (9)/(10));
 * ``circularity``: max dr - min dr (ISO 230-4's circular deviation G, peak to valley);
 * a least-squares fit dr = a0 + a1 cos t + b1 sin t + a2 cos 2t + b2 sin 2t:
   ``centre_offset`` (the first harmonic's amplitude) and the **2-theta component**,
   ``two_theta_amplitude`` = hypot(a2, b2) and ``two_theta_angle`` = atan2(b2, a2)/2 (deg, in
   [0, 180)): where the ellipse's long axis points. A gain or time-constant mismatch between
-  X and Y makes that ellipse (seed 001 Fig. 8), its long axis at 45 or 135 degrees;
+  X and Y makes that ellipse (the motion-errors paper's Fig. 8), its long axis at 45 or 135 degrees;
 * ``reversal_spikes``: at each axis reversal (theta = 0, 90, 180, 270 deg) the largest
   |dr - fit| within ``SPIKE_WINDOW_DEG`` of it (a quadrant glitch);
 * ``sweep``: the degrees the data cover; ``path_speed``: the tool's median speed round the

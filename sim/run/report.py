@@ -60,7 +60,7 @@ _AXIS = _obj("one axis at the end of the run", {
     "command": _int("K3702 command counter (LSB)"),
     "error": _int("K3702 error counter (LSB)"),
     "actual": _int("plant encoder count, the true position (LSB)"),
-    "max_abs_error": _int("largest |error| at any cycle of the run (LSB)"),
+    "max_abs_error": _int("largest absolute error at any cycle of the run (LSB)"),
     "flags": _obj("K3702 STATUS fields", {
         k: _int(k) for k in ("in_position", "negative", "sat_pos", "sat_neg", "alarm", "irq",
                              "bad_config")}, required=[]),

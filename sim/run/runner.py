@@ -80,7 +80,7 @@ class RunOptions:
     #: Called with the run's :class:`sim.run.progress.Progress` at the sampler's ticks.
     progress: Callable[[Progress], None] | None = None
     faults: dict[str, dict[str, int]] = field(default_factory=dict)
-    #: Added to every block's FP budget (the SPEC section 7 hazard); 0 normally.
+    #: Added to every block's FP budget (the FP-budget hazard); 0 normally.
     budget_offset: int = 0
     #: Let the backend skip provably idle cycles (bit-identical; see Backend.step).
     skip_idle: bool = True

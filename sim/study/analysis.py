@@ -2,14 +2,14 @@
 
 * Main effects: the metric's mean at each level of each factor (over the runs at that level;
   balanced over the other factors in an orthogonal array).
-* Response surface, seed 001 eqs (14)-(20): the second-order polynomial regression
+* Response surface, the motion-errors paper's eqs (14)-(20): the second-order polynomial regression
   y = b0 + sum_i b_i x_i + sum_i b_ii x_i^2 + sum_{i<j} b_ij x_i x_j, fitted by least squares
   (eq (18): b = (X'X)^-1 X'y) on coded factors x_i = (level - centre) / half-range, each in
   [-1, 1]; the stationary point where every derivative is zero (eq (20)), in the factors'
   own units. Eq (15) as extracted has lost its squared terms and its cross terms' bounds;
   eqs (16) and (19), which write the model out for four factors, have them, and are used.
   The fit needs at least as many runs as terms (1 + 2k + k(k-1)/2: 15 for four factors,
-  which an L16 run allows, as in seed 001).
+  which an L16 run allows, as in the motion-errors paper).
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ from hdl.k3701.datapaths.helix_model import HelixPath
 __all__ = ["CircularPath", "HelicalPath"]
 
 class CircularPath:
-    """The incremental circle of SPEC section 3, with D = x^2 + y^2 - R0^2 kept exactly.
+    """The incremental circle of ``docs/chips/k3701.md``, with D = x^2 + y^2 - R0^2 kept exactly.
 
     Each step moves the long axis (X where |y| >= |x|, Y where |x| > |y|) one LSB in the
     direction of motion and also the short axis when that makes |D| strictly smaller. The arc

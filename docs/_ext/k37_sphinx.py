@@ -1,0 +1,164 @@
+"""Pages of the K37 manual generated from the code when the site is built.
+
+Four MyST directives, each of which renders Markdown made from one source of truth:
+
+* ``k37-registers MAP``: a chip's register map (:mod:`hdl.bus.registers` tables);
+* ``k37-pins BLOCK``: the pins of an exported chip (:func:`sim.fpga.export.pins`);
+* ``k37-cli``: every ``k37`` command and option (:func:`sim.cli.build_parser`);
+* ``k37-architecture``: the packages and modules, with their docstrings' first sentences.
+
+The functions that make the Markdown are plain Python, so the tests call them too.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+#: The three packages of the product, in the order of the layers (top first).
+PACKAGES = ("sim", "firmware_model", "hdl")
+
+
+def _rst_to_md(text: str) -> str:
+    """Docstring RST (roles, double back-quotes) as Markdown inline code."""
+    text = re.sub(r":(?:mod|class|func|data|meth|attr|exc):`~?([^`]+)`", r"`\1`", text)
+    text = text.replace("``", "`")
+    return " ".join(text.split()).replace("|", "\\|")
+
+
+# --- register maps -------------------------------------------------------------------------
+
+def _maps() -> dict:
+    from hdl.encoder.map import ENCODER_MAP
+    from hdl.feed.decel_control_map import DECEL_MAP
+    from hdl.feed.feed_rate_map import FEED_MAP
+    from hdl.k3701.map import K3701_MAP, K3701_MAP_3
+    from hdl.k3702.map import K3702_MAP
+
+    return {"K3701": K3701_MAP, "K3701_3": K3701_MAP_3, "K3702": K3702_MAP,
+            "ENCODER": ENCODER_MAP, "FEED": FEED_MAP, "DECEL": DECEL_MAP}
+
+
+def register_tables(name: str) -> str:
+    """The register map ``name`` (a key of :func:`_maps`) as Markdown without headings."""
+    regmap = _maps()[name]
+    text = regmap.markdown()
+    text = re.sub(r"^## (.*)$", r"**\1**", text, flags=re.M)
+    return re.sub(r"^### (.*)$", r"**\1**", text, flags=re.M)
+
+
+# --- pins ----------------------------------------------------------------------------------
+
+def pin_table(block: str) -> str:
+    """The pins of exported block ``block`` as a Markdown table."""
+    from sim.fpga.export import pins
+
+    rows = ["| pin | label | direction | bits | meaning |", "|---|---|---|---:|---|"]
+    for p in pins(block):
+        rows.append(f"| `{p.name}` | {p.label or ''} | {p.direction} | {p.width} "
+                    f"| {_rst_to_md(p.doc)} |")
+    return "\n".join(rows) + "\n"
+
+
+# --- the command line ----------------------------------------------------------------------
+
+def _option_row(action: argparse.Action) -> str:
+    names = ", ".join(f"`{s}`" for s in action.option_strings) or f"`{action.dest}`"
+    if action.metavar and action.option_strings:
+        names += f" {action.metavar}"
+    elif action.choices and action.option_strings:
+        names += " {" + ",".join(str(c) for c in action.choices) + "}"
+    default = action.default
+    shown = "" if default in (None, False, [], "", argparse.SUPPRESS) else f"`{default}`"
+    return f"| {names} | {shown} | {_rst_to_md(action.help or '')} |"
+
+
+def cli_reference() -> str:
+    """Every ``k37`` command with its usage and options, from the argument parser."""
+    from sim.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    helps = {a.dest: a.help for a in sub._choices_actions}
+    out = [f"`{parser.prog}`: {parser.description}", ""]
+    for name, p in sub.choices.items():
+        out += [f"**`k37 {name}`**: {helps.get(name, '')}", "", "```text",
+                p.format_usage().strip(), "```", "",
+                "| argument | default | meaning |", "|---|---|---|"]
+        out += [_option_row(a) for a in p._actions if not isinstance(a, argparse._HelpAction)]
+        out.append("")
+    return "\n".join(out)
+
+
+# --- architecture --------------------------------------------------------------------------
+
+def _first_sentence(path: Path) -> str:
+    doc = ast.get_docstring(ast.parse(path.read_text())) or ""
+    paragraph = doc.split("\n\n")[0]
+    return _rst_to_md(paragraph)
+
+
+def source_packages() -> list[Path]:
+    """Every package folder of the product, top layer first."""
+    found = []
+    for top in PACKAGES:
+        found += sorted(p.parent for p in (ROOT / top).rglob("__init__.py"))
+    return found
+
+
+def architecture() -> str:
+    """One table per package: its docstring, then each module with its first paragraph."""
+    out = []
+    for pkg in source_packages():
+        dotted = ".".join(pkg.relative_to(ROOT).parts)
+        out += [f"**`{dotted}`**: {_first_sentence(pkg / '__init__.py')}", "",
+                "| module | what it holds |", "|---|---|"]
+        files = sorted(p for p in pkg.iterdir()
+                       if (p.suffix in (".py", ".cc", ".h") and p.name != "__init__.py"))
+        for f in files:
+            what = _first_sentence(f) if f.suffix == ".py" else _cc_comment(f)
+            out.append(f"| `{f.relative_to(ROOT)}` | {what} |")
+        out.append("")
+    return "\n".join(out)
+
+
+def _cc_comment(path: Path) -> str:
+    """The leading comment block of a C++ file, as one paragraph."""
+    lines = []
+    for line in path.read_text().splitlines():
+        s = line.strip()
+        if not s.startswith("//"):
+            break
+        lines.append(s.lstrip("/ "))
+    return _rst_to_md(" ".join(lines).split(". ")[0].rstrip(".") + ".") if lines else ""
+
+
+# --- Sphinx --------------------------------------------------------------------------------
+
+def setup(app):
+    from docutils import nodes
+    from docutils.statemachine import StringList
+    from sphinx.util.docutils import SphinxDirective
+
+    def directive(make, nargs):
+        class Generated(SphinxDirective):
+            required_arguments = nargs
+            has_content = False
+
+            def run(self):
+                node = nodes.container()
+                text = make(*self.arguments)
+                lines = StringList(text.splitlines(), source=self.get_source_info()[0])
+                self.state.nested_parse(lines, self.content_offset, node)
+                return node.children
+
+        return Generated
+
+    app.add_directive("k37-registers", directive(register_tables, 1))
+    app.add_directive("k37-pins", directive(pin_table, 1))
+    app.add_directive("k37-cli", directive(cli_reference, 0))
+    app.add_directive("k37-architecture", directive(architecture, 0))
+    return {"parallel_read_safe": True, "parallel_write_safe": True}
