@@ -27,10 +27,13 @@ Semantics (RS-274/NGC's, as LinuxCNC's ``rs274``; the decisions are in the READM
 * On a two-axis machine a block that moves Z (a Z word away from the current Z, a G18/G19
   or helical arc, a canned cycle) is an error naming ``machine.axes = 3``.
 
-Every error of a program is reported (up to :data:`MAX_ERRORS`), each ``file:line:col:
-message``; a line with an error does nothing else. RS-274/NGC's constructs (O-words,
-parameters, expressions) are one error, at the first, saying how to run them. Errors are
-:class:`GcodeError`.
+The RS-274/NGC language (parameters, expressions, O-word subroutines and loops, polar
+coordinates, messages) is evaluated by :mod:`firmware_model.gcode.ngc`, which hands this
+interpreter each line's words with their values, line and column.
+
+Every error of a program is reported once (up to :data:`MAX_ERRORS`), each ``file:line:col:
+message``; a line with an error does nothing else. An error in an O-word structure or its
+control flow stops the program there. Errors are :class:`GcodeError`.
 """
 
 from __future__ import annotations
@@ -39,7 +42,9 @@ import math
 from collections.abc import Mapping
 from decimal import ROUND_HALF_UP, Decimal
 
-from firmware_model.gcode.lex import NGC_HINT, LexError, Word, words_of
+from firmware_model.gcode import ngc
+from firmware_model.gcode.lex import LexError, Word, read_line
+from firmware_model.gcode.ngc_state import InterpreterHost, TooManyErrors
 from firmware_model.gcode.program import (
     PLANE_AXES,
     Arc,
@@ -54,7 +59,15 @@ from firmware_model.gcode.program import (
     Program,
 )
 from firmware_model.gcode.splines import Nurbs, bezier
-from firmware_model.gcode.words import G_CODES, LETTERS, M_CODES, REFUSED_G, Code, code_key
+from firmware_model.gcode.words import (
+    G_CODES,
+    LETTERS,
+    M_CODES,
+    REFUSED_G,
+    REFUSED_M,
+    Code,
+    code_key,
+)
 from hdl.common.params import Limit
 from hdl.k3701.block import COORD_MAX
 
@@ -67,9 +80,6 @@ INCH_MM = Decimal("25.4")
 #: The most pecks a G83 hole may take (each is three moves): a deeper hole or a smaller Q is
 #: refused before it is expanded.
 MAX_PECKS = 10_000
-#: First characters of a line that is a controller's own command, not G-code (grbl's ``$``
-#: settings and ``?`` status requests, as sender programs leave them in files).
-_CONTROLLER_LINES = ("$", "?")
 #: Default arc tolerance (mm) in G21 and G20: LinuxCNC's (0.028 mm, 0.0028 in): how far the
 #: end's distance from the centre may differ from the start's.
 ARC_TOLERANCE_MM = {False: 0.028, True: 0.0028 * 25.4}
@@ -143,6 +153,9 @@ class _Block:
             key = int(w.value)
         if w.letter == "G" and key in REFUSED_G:
             raise _BlockError(w.col, f"{w.text}: {REFUSED_G[key]}")
+        for (first, last), why in REFUSED_M.items() if w.letter == "M" else ():
+            if key is not None and first <= key <= last:
+                raise _BlockError(w.col, f"{w.text}: {why}")
         if key is None or key not in table or w.value * 10 != int(w.value * 10):
             raise _BlockError(w.col, f"{w.text} is unsupported")
         group = table[key].group
@@ -171,6 +184,7 @@ class _Interpreter:
         self.incremental = False
         self.arc_absolute = False
         self.plane = 17
+        self.coordinate_system = 540
         self.retract_r = True  # G99, rs274's initial retract mode
         self.feed: float | None = None
         self.feed_source: tuple[int, int, str] | None = None
@@ -464,6 +478,9 @@ class _Interpreter:
         distance = b.code("distance")
         if distance is not None:
             self.incremental = distance == 910
+        system = b.code("coordinate system")
+        if system is not None:
+            self.coordinate_system = system
         arc = b.code("arc distance")
         if arc is not None:
             self.arc_absolute = arc == 901
@@ -751,10 +768,11 @@ def names_third_axis(text: str) -> bool:
     Z). Lines the lexer cannot read are passed over."""
     for line in text.split("\n"):
         try:
-            words = words_of(line)
+            words = read_line(line).words
         except LexError:
             continue
-        if any(w.letter == "Z" or (w.letter == "G" and w.value in (18, 19)) for w in words):
+        if any(w.letter == "Z" or (w.letter == "G" and w.literal is not None
+                                   and Decimal(w.literal[1:]) in (18, 19)) for w in words):
             return True
     return False
 
@@ -800,38 +818,16 @@ def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: b
     axes = AXES_LIMIT.check("axes", axes)
     planner = Planner(axes=axes, sqrt2=bool(sqrt2), lsb_mm=lsb_mm)
     interp = _Interpreter(planner, lsb_mm=lsb_mm, tolerance=arc_tolerance, tools=tools)
-    errors: list[tuple[int, int, str]] = []
-    notes: list[tuple[int, str]] = []
-    text = text.removeprefix("\ufeff")
-    for number, line in enumerate(text.split("\n"), start=1):
-        interp.line_no = number
-        stripped = line.strip(" \t\r")
-        if stripped == "%":
-            continue
-        if interp.end:
-            if stripped and not stripped.startswith(("(", ";", "%")):
-                # LinuxCNC stops at the program end; a file of several jobs runs the first
-                notes.append((number, "the program ended (M02/M30) before this line: the "
-                                      "rest of the file is ignored"))
-                break
-            continue
-        if stripped.startswith(_CONTROLLER_LINES):
-            notes.append((number, f"{stripped[:1]!r} line (a controller's own command, as "
-                                  f"grbl's settings and status): ignored"))
-            continue
-        try:
-            words = words_of(line)
-            if words:
-                interp.block(words)
-        except (LexError, _BlockError) as e:
-            if isinstance(e, _BlockError):
-                interp.recover(words)
-            if NGC_HINT in e.message and any(NGC_HINT in m for _, _, m in errors):
-                continue  # how to run RS-274/NGC is said once
-            errors.append((number, e.col, e.message))
-            if len(errors) == MAX_ERRORS:
-                errors.append((number, 1, f"stopped after {MAX_ERRORS} errors"))
-                break
+    host = InterpreterHost(interp, _BlockError, MAX_ERRORS)
+    try:
+        ngc.run(text.removeprefix("\ufeff").split("\n"), host)
+    except ngc.NgcError as e:
+        host.errors.append((e.line, e.col, e.message))
+    except TooManyErrors:
+        pass
+    except RecursionError:
+        host.errors.append((interp.line_no or 1, 1, "the program nests too deep to run"))
+    errors, notes = host.errors, host.notes
     name, first = origin or (source, 1)
     if errors:
         raise GcodeError(name, [(line + first - 1, col, msg) for line, col, msg in errors])
