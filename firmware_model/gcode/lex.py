@@ -273,7 +273,7 @@ class _Reader:
         if c == "*" and self.peek(1) == "*":
             self.i += 2
             return "**"
-        if c in "*/+-]":
+        if c and c in "*/+-]":
             self.i += 1
             return c
         col = self.col()
@@ -366,8 +366,7 @@ class _Reader:
             c, col = self.peek(), self.col()
             if c == "#":
                 target = self.parameter()
-                self.expect("=", f"'=' after the parameter (#{getattr(target, 'name', '')}"
-                                 f"...= value)")
+                self.expect("=", "'=' after the parameter (a setting: #1 = value)")
                 assignments.append(Assignment(target, self.value(), col))
             elif c == "o":
                 raise LexError(col, "an O-word must begin its line")

@@ -106,8 +106,9 @@ def _name(label: str) -> str:
 
 
 class _Builder:
-    def __init__(self, lines: list[NgcLine | LexError]):
+    def __init__(self, lines: list[NgcLine | LexError], texts: list[str]):
         self.lines = lines
+        self.texts = texts
         self.subs: dict[str, _Sub] = {}
         self.i = 0
 
@@ -119,7 +120,7 @@ class _Builder:
         return NgcError(i + 1, col, message)
 
     def body(self, opener: OStatement | None, depth: int, loops: tuple[str, ...],
-             in_sub: bool) -> list[_Node]:
+             in_sub: bool, opened: int = 0) -> list[_Node]:
         """Nodes up to the statement closing ``opener`` (left at self.i) or the end."""
         if depth > MAX_STRUCTURE_DEPTH:
             raise self.fail(self.i, f"O-word structures nested more than "
@@ -127,6 +128,9 @@ class _Builder:
         nodes: list[_Node] = []
         while self.i < len(self.lines):
             o = self.o(self.i)
+            line = self.lines[self.i]
+            if isinstance(line, LexError) and _O_LINE.match(self.texts[self.i]):
+                raise self.fail(self.i, line.message, line.col)
             if o is None:
                 nodes.append(_Node(self.i, "line"))
                 self.i += 1
@@ -141,7 +145,7 @@ class _Builder:
                 return nodes
             nodes.append(self.statement(o, depth, loops, in_sub))
         if opener is not None:
-            raise self.fail(self.i - 1, f"{_name(opener.label)} {opener.keyword} is not "
+            raise self.fail(opened, f"{_name(opener.label)} {opener.keyword} is not "
                                         f"closed: {_name(opener.label)} {_OPENERS[opener.keyword]}"
                                         f" missing")
         return nodes
@@ -168,7 +172,7 @@ class _Builder:
             if depth > 0 or in_sub:
                 raise self.fail(start, f"{_name(o.label)} sub inside another structure: "
                                        f"subroutines are defined at the top level", o.col)
-            body = self.body(o, depth + 1, (), True)
+            body = self.body(o, depth + 1, (), True, start)
             if o.label in self.subs:
                 raise self.fail(start, f"{_name(o.label)} sub is defined twice (first at "
                                        f"line {self.subs[o.label].line + 1})", o.col)
@@ -180,7 +184,7 @@ class _Builder:
         if k == "if":
             cond = start
             while True:
-                branch = self.body(o, depth + 1, inner, in_sub)
+                branch = self.body(o, depth + 1, inner, in_sub, start)
                 closing = self.o(self.i)
                 assert closing is not None
                 node.branches.append((cond, branch))
@@ -190,7 +194,7 @@ class _Builder:
                     break
                 if closing.keyword == "else":
                     node.body = self.body(OStatement(o.label, "else", (), o.col), depth + 1,
-                                          inner, in_sub)
+                                          inner, in_sub, start)
                     closing = self.o(self.i)
                     if closing is None or closing.keyword != "endif":
                         raise self.fail(self.i, f"{_name(o.label)} if: only endif may follow "
@@ -199,7 +203,7 @@ class _Builder:
                     break
             node.end = self.i - 1
             return node
-        node.body = self.body(o, depth + 1, inner, in_sub)
+        node.body = self.body(o, depth + 1, inner, in_sub, start)
         node.end = self.i
         self.i += 1
         return node
@@ -294,6 +298,7 @@ class _End(Exception):  # noqa: N818 - the program's end (M02/M30)
     pass
 
 
+_O_LINE = re.compile(r"[ \t]*(/[ \t]*)?[oO]")
 _DEBUG_PARAMETER = re.compile(r"#<([^>]*)>|#([0-9]+)")
 
 
@@ -318,7 +323,7 @@ class _Runner:
         return stripped != "%" and not stripped.startswith(CONTROLLER_LINES)
 
     def run(self) -> None:
-        builder = _Builder(self.lines)
+        builder = _Builder(self.lines, self.texts)
         body = builder.body(None, 0, (), False)
         self.subs = builder.subs
         with contextlib.suppress(_End):

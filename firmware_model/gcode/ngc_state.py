@@ -299,7 +299,8 @@ class InterpreterHost:
         self.notes.append((line, text))
 
     def message(self, line: int, kind: str, text: str) -> None:
-        self.modal.planner.event(line, f"({kind.upper()},{text})", kind)
+        name = "MSG" if kind == "message" else kind.upper()
+        self.modal.planner.event(line, f"({name},{text})", kind)
 
     def predefined(self, key: int | str, col: int) -> float | None:
         return self.state.predefined(key, col)
