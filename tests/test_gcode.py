@@ -305,8 +305,7 @@ def test_motion_errors_name_line_and_column(text, message):
     ("G02 X1 K1 F1", "1:8: K1: a G17 arc takes I and J"),
     ("G01 X1E3", "1:7: unsupported word E3"),
     ("G01 X1 A3", "1:8: unsupported word A3 (K37's axes are X, Y and Z)"),
-    ("#1 = 2", "1:1: parameters (#): an RS-274/NGC construct: run it with `k37 run --frontend "
-               "linuxcnc` (LinuxCNC's interpreter rs274: apt-get install linuxcnc-uspace)"),
+    ("#1 = [2", "1:8: expression not closed: ']' missing"),
     ("G93", "1:1: G93: inverse time feed is unsupported: K37 takes feeds in units per minute "
             "(G94)"),
     ("G41 D1", "1:1: G41: cutter radius compensation is unsupported: K37 runs the programmed "

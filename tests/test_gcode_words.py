@@ -183,10 +183,7 @@ def test_spaces_and_tabs_may_stand_inside_a_word_and_its_number():
     ("G01\u00a0X1 F1", "1:4: unexpected white space '\\xa0' (U+00A0 NO-BREAK SPACE): only "
                        "spaces and tabs separate words"),
     ("G01 X1 (a (b) c)", "1:11: nested comment '('"),
-    ("O100 sub", "1:1: O-words (subroutines, loops): an RS-274/NGC construct: run it with "
-                 "`k37 run --frontend linuxcnc` (LinuxCNC's interpreter rs274: apt-get "
-                 "install linuxcnc-uspace)"),
-    ("G01 X[1+2] F1", "1:6: expressions ([...]): an RS-274/NGC construct"),
+    ("G01 X1 ! F1", "1:8: unexpected character '!' (U+0021 EXCLAMATION MARK)"),
 ])
 def test_characters_the_lexer_cannot_read_are_clear_errors(text, message):
     assert error_of(text).startswith(f"t.ngc:{message}")
@@ -205,11 +202,10 @@ def test_every_error_of_a_program_is_reported_with_its_place():
     assert (info.value.line, info.value.col) == (1, 1) and len(info.value.errors) == 4
 
 
-def test_rs274_ngc_constructs_are_one_error_saying_how_to_run_them():
+def test_rs274_ngc_constructs_run_and_their_errors_are_reported_with_the_others():
     with pytest.raises(GcodeError) as info:
-        parse("#1 = 2\nG01 X#1 F1\no100 sub\nG07")
-    assert [(line, col) for line, col, _ in info.value.errors] == [(1, 1), (4, 1)]
-    assert "--frontend linuxcnc" in info.value.errors[0][2]
+        parse("#1 = 2\nG01 X#1 F1\nG01 X[#1 / 0]\nG07")
+    assert info.value.errors == [(3, 10, "division by zero"), (4, 1, "G07 is unsupported")]
 
 
 def test_blocks_after_the_program_end_are_ignored_with_one_note():

@@ -5,7 +5,15 @@ from __future__ import annotations
 
 from firmware_model.gcode.lex import Word
 from firmware_model.gcode.units import HINTS
-from firmware_model.gcode.words import G_CODES, LETTERS, M_CODES, REFUSED_G, Code, code_key
+from firmware_model.gcode.words import (
+    G_CODES,
+    LETTERS,
+    M_CODES,
+    REFUSED_G,
+    REFUSED_M,
+    Code,
+    code_key,
+)
 
 __all__ = ["BlockError", "BlockWords", "g_name"]
 
@@ -47,6 +55,9 @@ class BlockWords:
             key = int(w.value)
         if w.letter == "G" and key in REFUSED_G:
             raise BlockError(w.col, f"{w.text}: {REFUSED_G[key]}")
+        for (first, last), why in REFUSED_M.items() if w.letter == "M" else ():
+            if key is not None and first <= key <= last:
+                raise BlockError(w.col, f"{w.text}: {why}")
         if key is None or key not in table or w.value * 10 != int(w.value * 10):
             raise BlockError(w.col, f"{w.text} is unsupported")
         group = table[key].group

@@ -43,6 +43,7 @@ class Interpreter(SplineMotions, CannedCycles):
         self.incremental = False
         self.arc_absolute = False
         self.plane = 17
+        self.coordinate_system = 540
         self.retract_r = True  # G99, rs274's initial retract mode
         self.feed: float | None = None
         self.feed_source: tuple[int, int, str] | None = None
@@ -225,6 +226,9 @@ class Interpreter(SplineMotions, CannedCycles):
         distance = b.code("distance")
         if distance is not None:
             self.incremental = distance == 910
+        system = b.code("coordinate system")
+        if system is not None:
+            self.coordinate_system = system
         arc = b.code("arc distance")
         if arc is not None:
             self.arc_absolute = arc == 901

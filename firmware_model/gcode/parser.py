@@ -27,25 +27,31 @@ Semantics (RS-274/NGC's, as LinuxCNC's ``rs274``; the decisions are in the READM
 * On a two-axis machine a block that moves Z (a Z word away from the current Z, a G18/G19
   or helical arc, a canned cycle) is an error naming ``machine.axes = 3``.
 
-Every error of a program is reported (up to :data:`MAX_ERRORS`), each ``file:line:col:
-message``; a line with an error does nothing else. RS-274/NGC's constructs (O-words,
-parameters, expressions) are one error, at the first, saying how to run them. Errors are
-:class:`GcodeError`.
+The RS-274/NGC language (parameters, expressions, O-word subroutines and loops, polar
+coordinates, messages) is evaluated by :mod:`firmware_model.gcode.ngc`, which hands the
+interpreter (:mod:`firmware_model.gcode.interpreter`) each line's words with their values,
+line and column.
+
+Every error of a program is reported once (up to :data:`MAX_ERRORS`), each ``file:line:col:
+message``; a line with an error does nothing else. An error in an O-word structure or its
+control flow stops the program there. Errors are :class:`GcodeError`.
 """
 from __future__ import annotations
 
 from collections.abc import Mapping
+from decimal import Decimal
 
+from firmware_model.gcode import ngc
 from firmware_model.gcode.block_words import BlockError
 from firmware_model.gcode.interpreter import Interpreter
-from firmware_model.gcode.lex import NGC_HINT, LexError, words_of
+from firmware_model.gcode.lex import LexError, read_line
+from firmware_model.gcode.ngc_state import InterpreterHost, TooManyErrors
 from firmware_model.gcode.planner import Planner
 from firmware_model.gcode.program import Arc, Dwell, Event, Item, Line, Move, Parabola, Program
 from firmware_model.gcode.units import (
     ARC_TOLERANCE_LIMIT,
     ARC_TOLERANCE_MM,
     AXES_LIMIT,
-    CONTROLLER_LINES,
     INCH_MM,
     LSB_MM_LIMIT,
     MAX_ERRORS,
@@ -74,10 +80,11 @@ def names_third_axis(text: str) -> bool:
     Z). Lines the lexer cannot read are passed over."""
     for line in text.split("\n"):
         try:
-            words = words_of(line)
+            words = read_line(line).words
         except LexError:
             continue
-        if any(w.letter == "Z" or (w.letter == "G" and w.value in (18, 19)) for w in words):
+        if any(w.letter == "Z" or (w.letter == "G" and w.literal is not None
+                                   and Decimal(w.literal[1:]) in (18, 19)) for w in words):
             return True
     return False
 
@@ -123,38 +130,16 @@ def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: b
     axes = AXES_LIMIT.check("axes", axes)
     planner = Planner(axes=axes, sqrt2=bool(sqrt2), lsb_mm=lsb_mm)
     interp = Interpreter(planner, lsb_mm=lsb_mm, tolerance=arc_tolerance, tools=tools)
-    errors: list[tuple[int, int, str]] = []
-    notes: list[tuple[int, str]] = []
-    text = text.removeprefix("\ufeff")
-    for number, line in enumerate(text.split("\n"), start=1):
-        interp.line_no = number
-        stripped = line.strip(" \t\r")
-        if stripped == "%":
-            continue
-        if interp.end:
-            if stripped and not stripped.startswith(("(", ";", "%")):
-                # LinuxCNC stops at the program end; a file of several jobs runs the first
-                notes.append((number, "the program ended (M02/M30) before this line: the "
-                                      "rest of the file is ignored"))
-                break
-            continue
-        if stripped.startswith(CONTROLLER_LINES):
-            notes.append((number, f"{stripped[:1]!r} line (a controller's own command, as "
-                                  f"grbl's settings and status): ignored"))
-            continue
-        try:
-            words = words_of(line)
-            if words:
-                interp.block(words)
-        except (LexError, BlockError) as e:
-            if isinstance(e, BlockError):
-                interp.recover(words)
-            if NGC_HINT in e.message and any(NGC_HINT in m for _, _, m in errors):
-                continue  # how to run RS-274/NGC is said once
-            errors.append((number, e.col, e.message))
-            if len(errors) == MAX_ERRORS:
-                errors.append((number, 1, f"stopped after {MAX_ERRORS} errors"))
-                break
+    host = InterpreterHost(interp, BlockError, MAX_ERRORS)
+    try:
+        ngc.run(text.removeprefix("\ufeff").split("\n"), host)
+    except ngc.NgcError as e:
+        host.errors.append((e.line, e.col, e.message))
+    except TooManyErrors:
+        pass
+    except RecursionError:
+        host.errors.append((interp.line_no or 1, 1, "the program nests too deep to run"))
+    errors, notes = host.errors, host.notes
     name, first = origin or (source, 1)
     if errors:
         raise GcodeError(name, [(line + first - 1, col, msg) for line, col, msg in errors])

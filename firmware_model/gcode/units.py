@@ -7,7 +7,7 @@ from decimal import Decimal
 from hdl.common.params import Limit
 
 __all__ = ["ARC_TOLERANCE_LIMIT", "ARC_TOLERANCE_MM", "AXES_LIMIT", "AXIS_LETTERS",
-           "CONTROLLER_LINES", "G83_CLEARANCE_MM", "HINTS", "INCH_MM", "LSB_MM_LIMIT",
+           "G83_CLEARANCE_MM", "HINTS", "INCH_MM", "LSB_MM_LIMIT",
            "MAX_ERRORS", "MAX_PECKS", "OFFSET_LETTERS", "USES"]
 
 #: Millimetres per inch (G20).
@@ -15,9 +15,6 @@ INCH_MM = Decimal("25.4")
 #: The most pecks a G83 hole may take (each is three moves): a deeper hole or a smaller Q is
 #: refused before it is expanded.
 MAX_PECKS = 10_000
-#: First characters of a line that is a controller's own command, not G-code (grbl's ``$``
-#: settings and ``?`` status requests, as sender programs leave them in files).
-CONTROLLER_LINES = ("$", "?")
 #: Default arc tolerance (mm) in G21 and G20: LinuxCNC's (0.028 mm, 0.0028 in): how far the
 #: end's distance from the centre may differ from the start's.
 ARC_TOLERANCE_MM = {False: 0.028, True: 0.0028 * 25.4}

@@ -11,7 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from decimal import Decimal
 
-__all__ = ["G_CODES", "LETTERS", "M_CODES", "NGC_ONLY", "REFUSED_G", "Code", "code_key", "markdown"]
+__all__ = ["G_CODES", "LETTERS", "M_CODES", "NGC_LANGUAGE", "REFUSED_G", "REFUSED_M", "Code",
+           "code_key", "markdown"]
 
 
 @dataclass(frozen=True)
@@ -138,30 +139,55 @@ REFUSED_G: dict[int, str] = {
                                           "runs the programmed path (compensate in the CAM)"),
     930: "inverse time feed is unsupported: K37 takes feeds in units per minute (G94)",
     **dict.fromkeys((382, 383, 384, 385), "probing is unsupported: K37 has no probe input"),
+    **dict.fromkeys((431, 432), "dynamic tool length offsets (tool-length sensing) are "
+                                "unsupported: lengths come from the job's program.tools"),
     100: "G10 (setting offsets and tools) is unsupported: G54-G59 offsets are zero, tool "
          "lengths come from the job's program.tools",
 }
 
-#: What only a full RS-274/NGC interpreter runs, and why it is refused here.
-NGC_ONLY = {
-    "O": "O-words (subroutines, loops)",
-    "#": "parameters (#)",
-    "[": "expressions ([...])",
-    "@": "polar coordinates (@, ^)",
-    "^": "polar coordinates (@, ^)",
+#: M codes refused with a reason: (first, last) to why.
+REFUSED_M: dict[tuple[int, int], str] = {
+    (100, 199): "user M-codes (M100-M199) are unsupported: K37 runs no external programs",
+    (61, 61): "M61 (setting the loaded tool) is unsupported: M06 loads the selected T",
+    (62, 68): "digital and analog I/O (M62-M68) is unsupported: the K3701 has no such ports",
+    (70, 73): "saving and restoring modal state (M70-M73) is unsupported",
+}
+
+#: The RS-274/NGC language the front end evaluates before the words above act
+#: (:mod:`firmware_model.gcode.ngc`): construct, what is taken.
+NGC_LANGUAGE: dict[str, str] = {
+    "`#1`-`#5000`": "numbered parameters, zero until set; `#1`-`#30` are a call's arguments",
+    "`#<name>`, `#<_name>`": "named parameters: local to the call (or main program), global "
+                             "with `_`; reading one never set is an error",
+    "`#5161`-`#5428`, `#<_x>`...": "the interpreter's: homes, G92 and G54-G59 offsets (zero), "
+                                   "coordinate system, tool, current position, modes "
+                                   "(`ngc_state`); others are errors naming them",
+    "`#1 = value`": "takes effect after the whole line is read",
+    "`[...]`": "expressions: `**`; `* / MOD`; `+ -`; `EQ NE GT GE LT LE`; `AND OR XOR` "
+               "(each level left to right)",
+    "`ABS ACOS ASIN ATAN[y]/[x] COS EXP FIX FUP ROUND LN SIN SQRT TAN EXISTS`":
+        "functions, angles in degrees",
+    "`o.. sub`/`endsub`/`call`/`return`": "subroutines anywhere in the file, arguments "
+                                          "`[..]` to `#1`-`#30`, a value to `#<_value>`",
+    "`o.. while`/`do`/`repeat`/`if`/`elseif`/`else`/`break`/`continue`": "control flow, "
+                                                                         "numbered or named",
+    "`@`, `^`": "polar radius and angle (degrees) for G00/G01, as LinuxCNC",
+    "`(MSG,..)`, `(DEBUG,..)`, `(PRINT,..)`": "program events (DEBUG and PRINT with "
+                                              "parameter values)",
 }
 
 
 def markdown() -> str:
     """``docs/gcode.md``: the dialect's words, generated from the tables above."""
+    from firmware_model.gcode.ngc import MAX_BLOCKS, MAX_CALL_DEPTH
     def code(prefix: str, key: int) -> str:
         number = f"{key // 10:02d}" if key % 10 == 0 else f"{key / 10:04.1f}"
         return prefix + number
 
     rows = ["# G-code words of the built-in front end", "",
             "Generated from `firmware_model/gcode/words.py` (`k37 docs`). Anything else is "
-            "an error naming its line and column; `--frontend linuxcnc` runs full RS-274/NGC "
-            "through LinuxCNC's `rs274`.", "",
+            "an error naming its line and column; `--frontend linuxcnc` runs a program "
+            "through LinuxCNC's own interpreter, `rs274`, where it is installed.", "",
             "| code | group | meaning |", "|---|---|---|"]
     rows += [f"| {code('G', k)} | {c.group} | {c.doc} |" for k, c in G_CODES.items()]
     rows += [f"| M{k:02d} | {c.group} | {c.doc} |" for k, c in M_CODES.items()]
@@ -169,6 +195,11 @@ def markdown() -> str:
     rows += [f"| {letter} | {doc} |" for letter, doc in LETTERS.items()]
     rows += ["", "| refused | why |", "|---|---|"]
     rows += [f"| {code('G', k)} | {why} |" for k, why in REFUSED_G.items()]
-    rows += ["", "Refused with a hint to `--frontend linuxcnc`: "
-             + ", ".join(dict.fromkeys(NGC_ONLY.values())) + ".", ""]
+    rows += [f"| M{a}{'' if a == b else f'-M{b}'} | {why} |" for (a, b), why in REFUSED_M.items()]
+    rows += ["", "## The RS-274/NGC language", "",
+             f"At most {MAX_BLOCKS:,} lines executed (loops and calls counted each time) and "
+             f"{MAX_CALL_DEPTH} nested calls; beyond, an error at the line.", "",
+             "| construct | meaning |", "|---|---|"]
+    rows += [f"| {what} | {doc} |" for what, doc in NGC_LANGUAGE.items()]
+    rows += [""]
     return "\n".join(rows)
