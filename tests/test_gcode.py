@@ -69,8 +69,9 @@ def test_lsb_mm_sets_the_resolution():
 
 
 def test_coordinates_round_to_the_nearest_lsb_halves_away_from_zero():
+    # the exact positions are (1.5, -1.5), (2.9, -2.9), (5.4, -2.4) LSB: each rounds alone
     assert moves("G91 G01 X0.0015 Y-0.0015 F1\nX0.0014 Y-0.0014\nX0.0025 Y.0005") == [
-        (2, -2), (1, -1), (3, 1)]
+        (2, -2), (1, -1), (2, 1)]
 
 
 def test_absolute_coordinates_are_rounded_each_so_errors_never_accumulate():
@@ -436,3 +437,14 @@ def test_an_arc_ends_within_one_lsb_of_its_exact_programmed_end_not_of_its_round
     assert isinstance(correction, Line) and correction.correction
     assert correction.end == (2461, -4757)
     assert max(abs(a - b) for a, b in zip(correction.end, (2461.26, -4757.42), strict=True)) <= 1
+
+
+def test_incremental_moves_add_to_the_exact_position_so_their_roundings_do_not_add_up():
+    # 100 x 0.00123 in = 3.124 mm: each step rounds to 31 LSB, the sum must not (3,100)
+    inch = parse("G20 G91 F10\n" + "G01 X0.00123\n" * 100 + "M30")
+    assert inch.moves[-1].end == (3124, 0)
+    # each step under half an LSB moves nothing alone, together 0.4 mm
+    fine = parse("G21 G91 F100\n" + "G01 X0.0004 Y-0.0006\n" * 1000 + "M30")
+    assert fine.moves[-1].end == (400, -600)
+    steps = [m.end[0] - m.start[0] for m in fine.moves]
+    assert set(steps) <= {0, 1} and sum(steps) == 400

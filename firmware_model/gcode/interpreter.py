@@ -59,6 +59,12 @@ class Interpreter(SplineMotions, CannedCycles):
         self.nurbs: tuple[list[tuple[float, float]], list[float], int, Word, int] | None = None
         #: The last G05's second control point from its end (LSB), for the next G05.
         self.g05_pq: tuple[float, float] | None = None
+        #: The programmed position before its rounding to the LSB grid (LSB), per axis, as the
+        #: last move's words gave it (None: unknown); incremental words add to it, so their
+        #: roundings do not add up. Valid while it rounds to the position (:meth:`exact_pos`).
+        self.exact: list[Decimal | None] = [None, None, None]
+        #: What the last :meth:`target` computed, kept by :meth:`keep_exact` once it is run.
+        self.pending_exact: list[Decimal | None] = [None, None, None]
 
     # -- helpers ----------------------------------------------------------------------------
 
@@ -70,6 +76,25 @@ class Interpreter(SplineMotions, CannedCycles):
     def lsb(self, value: Decimal, inch: bool | None = None) -> int:
         mm = value * INCH_MM if (self.inch if inch is None else inch) else value
         return int((mm / self.lsb_size).to_integral_value(rounding=ROUND_HALF_UP))
+
+    def lsb_exact(self, value: Decimal) -> Decimal:
+        """A length word in LSB, unrounded."""
+        return (value * INCH_MM if self.inch else value) / self.lsb_size
+
+    def exact_pos(self, axis: int) -> Decimal:
+        """The programmed position on ``axis`` before its rounding: :attr:`exact` while it
+        rounds to the position, else the position."""
+        e = self.exact[axis]
+        if e is not None and int(e.to_integral_value(rounding=ROUND_HALF_UP)) == self.pos[axis]:
+            return e
+        return Decimal(self.pos[axis])
+
+    def keep_exact(self) -> None:
+        """The last :meth:`target`'s exact coordinates become the position's (after its move
+        was planned)."""
+        for axis, value in enumerate(self.pending_exact):
+            if value is not None:
+                self.exact[axis] = value
 
     def offset(self, axis: int) -> int:
         return self.g92[axis] + (self.tool_offset if axis == 2 else 0)
@@ -84,11 +109,19 @@ class Interpreter(SplineMotions, CannedCycles):
         """The absolute machine target of a block's X/Y/Z words (unnamed axes stay)."""
         incremental = self.incremental if incremental is None else incremental
         target = list(self.pos)
+        self.pending_exact = [None, None, None]
         for axis, letter in enumerate(AXIS_LETTERS):
             w = b.word(letter)
             if w is None:
                 continue
-            target[axis] = self.base(axis, incremental, machine) + self.lsb(w.value)
+            if incremental:  # from the exact position: the roundings do not add up
+                exact = self.exact_pos(axis) + self.lsb_exact(w.value)
+                target[axis] = int(exact.to_integral_value(rounding=ROUND_HALF_UP))
+            else:
+                base = self.base(axis, incremental, machine)
+                target[axis] = base + self.lsb(w.value)
+                exact = base + self.lsb_exact(w.value)
+            self.pending_exact[axis] = exact
             self.check_range(w, target[axis], "the position")
             self.check_range(w, target[axis] - self.pos[axis], "the move")
             if axis == 2 and self.planner.axes == 2 and target[2] != self.pos[2]:
@@ -102,8 +135,9 @@ class Interpreter(SplineMotions, CannedCycles):
         for axis, letter in enumerate(AXIS_LETTERS):
             w = b.word(letter)
             if w is not None:
-                mm = w.value * INCH_MM if self.inch else w.value
-                target[axis] = self.base(axis, self.incremental, False) + float(mm / self.lsb_size)
+                base = (self.exact_pos(axis) if self.incremental
+                        else Decimal(self.base(axis, False, False)))
+                target[axis] = float(base + self.lsb_exact(w.value))
         return target[0], target[1], target[2]
 
     def base(self, axis: int, incremental: bool, machine: bool) -> int:
@@ -332,6 +366,7 @@ class Interpreter(SplineMotions, CannedCycles):
             target = self.target(b, machine=machine, incremental=False if machine else None)
             self.plan(anchor.col, self.planner.line, target,
                       None if self.motion == 0 else self.feed, feed_source=self.feed_source)
+            self.keep_exact()
         elif self.motion in (20, 30):
             self.arc(b, anchor)
         elif self.motion == 60:
@@ -391,6 +426,7 @@ class Interpreter(SplineMotions, CannedCycles):
         self.plan(anchor.col, self.planner.arc, target, (centre[0], centre[1]), self.plane,
                   cw, self.feed, tolerance=self.arc_tolerance(), feed_source=self.feed_source,
                   exact=self.exact_target(b))
+        self.keep_exact()
 
     def parabola(self, b: BlockWords, anchor: Word) -> None:
         """G06: the tangent point relative to the start, as an arc's centre (absolute under
