@@ -36,7 +36,7 @@ from firmware_model.job import Job, MachineConfig
 from hdl.chipset.map import chip_register, port
 from hdl.feed.decel_control_model import BUDGET_WIDTH
 from hdl.feed.divider_model import increment_for
-from hdl.feed.feed_rate_map import DIVIDER_WIDTH, FEED_BITS
+from hdl.feed.feed_rate_map import DIVIDER_WIDTH, FEED_BITS, fa_register
 from hdl.k3701.block import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
 from hdl.k3701.map import block_registers
 
@@ -315,6 +315,9 @@ class Firmware:
                                                    f_clk=machine.clock_hz))
         host.write("FEED", "FA_INC", increment_for(machine.accel_fa_hz, width=DIVIDER_WIDTH,
                                                    f_clk=machine.clock_hz))
+        for axis in self.job.fa_axes():  # the per-axis fa build's own clocks
+            host.write("FEED", fa_register(axis), increment_for(
+                self.job.fa_hz(axis), width=DIVIDER_WIDTH, f_clk=machine.clock_hz))
         for axis in machine.axis_names:
             ctrl, enc = f"K3702_{axis.upper()}", f"ENCODER_{axis.upper()}"
             host.write(enc, "FILTER", machine.encoder_filter)

@@ -179,18 +179,33 @@ class MachineConfig(_Checked):
 @dataclass(frozen=True)
 class AxisAccelConfig(_Checked):
     """One axis's own accel/decel circuit (``[machine.x]``, ...; ``accel = "post"`` only):
-    what is absent is the machine's. The addition clock fa is the machine's, shared."""
+    what is absent is the machine's. An ``accel_fa_hz`` gives the axis an addition clock of
+    its own (the FEED chip's per-axis fa build), so its tau = 2^n / fa takes any value the
+    machine's does; its range is the machine's (checked by :class:`Job`, which knows the
+    clock)."""
 
     accel_shape: str | None = _key(None, OrAbsent(OneOf(tuple(a.value for a in AccelShape))),
                                    "this axis's accel/decel circuit; absent: machine.accel_shape")
     accel_bits: int | None = _key(None, OrAbsent(ACCEL_BITS),
                                   "this axis's accumulator width n (tau = 2^n/fa); absent: "
                                   "machine.accel_bits")
+    accel_fa_hz: float | None = _key(None, OrAbsent(Limit(0, low_open=True, unit="Hz")),
+                                     "this axis's own addition clock fa (Hz, in the range of "
+                                     "machine.accel_fa_hz), so its tau = 2^n/fa is free; "
+                                     "absent: machine.accel_fa_hz, shared")
 
     def circuit(self, machine: MachineConfig) -> tuple[str, int]:
         """(shape, bits) of the axis's circuit on ``machine``."""
         return (machine.accel_shape if self.accel_shape is None else self.accel_shape,
                 machine.accel_bits if self.accel_bits is None else self.accel_bits)
+
+    def fa_hz(self, machine: MachineConfig) -> float:
+        """The addition clock (Hz) of the axis's circuit on ``machine``."""
+        return machine.accel_fa_hz if self.accel_fa_hz is None else self.accel_fa_hz
+
+    def tau_s(self, machine: MachineConfig) -> float:
+        """The axis's accel/decel time constant 2^n / fa (s) on ``machine``."""
+        return 2**self.circuit(machine)[1] / self.fa_hz(machine)
 
 
 @dataclass(frozen=True)
@@ -251,10 +266,23 @@ class Job:
         if self.axis_accel and self.machine.accel != Accel.POST.value:
             raise ValueError(f"per-axis accel/decel ([machine.{next(iter(self.axis_accel))}]) "
                              f"needs machine.accel = \"post\", not {self.machine.accel!r}")
+        fa = rate_limit(width=DIVIDER_WIDTH, f_clk=self.machine.clock_hz)
+        for axis in self.fa_axes():
+            fa.check(f"machine.{axis}.accel_fa_hz", self.axis_accel[axis].accel_fa_hz)
 
     def accel_circuits(self) -> dict[str, tuple[str, int]]:
         """Each axis's own accel/decel circuit as (shape, bits), for the chipset."""
         return {axis: config.circuit(self.machine) for axis, config in self.axis_accel.items()}
+
+    def fa_axes(self) -> tuple[str, ...]:
+        """The axes whose circuit has an addition clock of its own, in axis order."""
+        return tuple(axis for axis in self.machine.axis_names
+                     if axis in self.axis_accel and self.axis_accel[axis].accel_fa_hz is not None)
+
+    def fa_hz(self, axis: str) -> float:
+        """The addition clock (Hz) of axis ``axis``'s circuit: its own, else the machine's."""
+        config = self.axis_accel.get(axis)
+        return self.machine.accel_fa_hz if config is None else config.fa_hz(self.machine)
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON-able form of the job's configuration (the program as a summary)."""

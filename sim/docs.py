@@ -5,14 +5,15 @@ from __future__ import annotations
 from firmware_model.gcode.words import markdown as gcode_markdown
 from hdl.bus.registers import RegisterMap, registers_markdown
 from hdl.chipset.map import CHIP_SELECTS, REG_BITS, SUB_WINDOWS, chip_selects, port
+from hdl.feed.feed_rate_map import FEED_MAP, FEED_MAP_AXIS_FA
 
 __all__ = ["REGISTER_MAPS", "documents", "registers_document"]
 
 #: The three-axis chipset's chips (the two-axis chipset's are the first seven, with the
-#: two-axis K3701).
-_CHIPS = chip_selects(3)
+#: two-axis K3701), with the FEED chip's per-axis fa build.
+_CHIPS = {**chip_selects(3), "FEED": (CHIP_SELECTS["FEED"][0], FEED_MAP_AXIS_FA)}
 #: Every distinct register map, in chip-select order (the K3701's is the three-axis build's,
-#: a superset of the two-axis one).
+#: the FEED chip's the per-axis fa build's: each a superset of the plain one).
 REGISTER_MAPS: tuple[RegisterMap, ...] = tuple(
     {id(m): m for _, m in sorted(_CHIPS.values(), key=lambda v: v[0])}.values())
 
@@ -23,7 +24,11 @@ def _chip_selects() -> str:
              f"The three-axis chipset (`machine.axes = 3`) adds the Z axis's chips on chip "
              f"select 7, which also decodes A4 (a chip's register window starts at its offset "
              f"in the select), and has the three-axis K3701 (the two-axis chip answers at "
-             f"0x00-0x0e only).", "",
+             f"0x00-0x0e only). A chipset whose axes have addition clocks of their own "
+             f"(`[machine.x] accel_fa_hz`, ...) has the FEED chip's per-axis fa build, with "
+             f"FA_INC_X, FA_INC_Y or FA_INC_Z for each such axis (the plain chip answers at "
+             f"{port('FEED', 'FEED'):#04x}-{port('FEED', 'FEED') + FEED_MAP.size - 1:#04x} "
+             f"only).", "",
              "| chip | chip select | ports | register map | chipsets |", "|---|---|---|---|---|"]
     for chip, (cs, regmap) in _CHIPS.items():
         first = port(chip, regmap.registers[0].name)

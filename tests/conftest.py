@@ -34,13 +34,15 @@ def _make_job(gcode: str, machine: MachineConfig | None = None,
 
 def _random_moves(seed: int, accel: str, *, dwell: bool, axes: int = 2,
                   shape: str = "exponential", axis_shapes: dict[str, str] | None = None,
-                  servo: dict | None = None) -> tuple[Job, dict, float]:
+                  servo: dict | None = None, axis_fa: tuple[str, ...] = ()
+                  ) -> tuple[Job, dict, float]:
     """Three short random lines or full circles (each followed by a 50 to 150 ms dwell if
     ``dwell``) on a random small machine, and random faults: the job, its faults and the
     seconds of dwell. On three axes (``axes=3``) the lines move Z too and the circles are in
     a random plane, helical (their normal axis moving) half the time. ``shape``: the
     accel/decel circuit; ``axis_shapes``: per-axis circuits (post placement) with their own
-    random widths; ``servo``: servo keys beside Kp and Tm."""
+    random widths; ``servo``: servo keys beside Kp and Tm; ``axis_fa``: axes (post placement)
+    whose circuits add at random addition clocks of their own."""
     rng = random.Random(seed)
     lines = [f"G21 G91 F{rng.choice((300, 1200, 2400))}"]
     seconds = 0.0
@@ -77,6 +79,10 @@ def _random_moves(seed: int, accel: str, *, dwell: bool, axes: int = 2,
         job = replace(job, axis_accel={
             axis: AxisAccelConfig(accel_shape=s, accel_bits=rng.choice((4, 5, 7)))
             for axis, s in axis_shapes.items()})
+    if axis_fa:
+        job = replace(job, axis_accel={**job.axis_accel, **{
+            axis: replace(job.axis_accel.get(axis, AxisAccelConfig()),
+                          accel_fa_hz=float(rng.randint(50_000, 400_000))) for axis in axis_fa}})
     return job, faults, seconds
 
 

@@ -42,6 +42,13 @@ def test_backends_agree_with_linear_and_bell_circuits_feedforward_and_the_torque
     same_on_both_backends(job, faults)
 
 
+def test_backends_agree_with_each_axis_on_its_own_addition_clock(random_moves):
+    job, faults, _ = random_moves(7, "post", dwell=False, axis_shapes={"y": "linear"},
+                                  axis_fa=("x", "y"))
+    assert job.fa_axes() == ("x", "y")
+    same_on_both_backends(job, faults)
+
+
 def same_on_both_backends(job, faults) -> None:
     results = {}
     for backend in ("pysim", "cxxrtl"):

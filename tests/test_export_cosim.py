@@ -35,7 +35,8 @@ from hdl.encoder.model import EncoderModel
 from hdl.feed.decel_control_map import DECEL_MAP
 from hdl.feed.decel_control_model import DecelControlModel
 from hdl.feed.divider_model import PhaseDividerModel
-from hdl.feed.feed_rate_map import DIVIDER_WIDTH, FEED_MAP
+from hdl.feed.feed_rate_map import DIVIDER_WIDTH, FA_AXES, FEED_MAP, FEED_MAP_AXIS_FA
+from hdl.feed.feed_rate_model import FeedRateModel
 from hdl.feed.rate_multiplier_model import RateMultiplierModel
 from hdl.k3701.block import Block, Kind
 from hdl.k3701.map import K3701_MAP, K3701_MAP_3
@@ -434,10 +435,26 @@ class FeedRateChip(Chip):
         return {"out": int(out), "fa": int(fa)}, values
 
 
+class FeedRateAxisFaChip(FeedRateChip):
+    """The per-axis fa build, every axis's own clock: the chip's own reference model."""
+
+    name, regmap = "feed_rate_axis_fa", FEED_MAP_AXIS_FA
+
+    def reset(self) -> None:
+        self.model = FeedRateModel(FA_AXES)
+
+    def cycle(self, pins, write):
+        values = self.model.registers
+        if write:
+            self.model.write(*write)
+        return self.model.step(), values
+
+
 CHIPS = {chip.name: chip for chip in (K3701Chip, K3702Chip, EncoderChip, AccelDecelChip,
                                       AccelDecelAxisChip, AccelLinearChip, AccelLinearAxisChip,
                                       AccelBellChip, AccelBellAxisChip, RateMultiplierChip,
-                                      DividerChip, DecelControlChip, FeedRateChip, K3701Chip3)}
+                                      DividerChip, DecelControlChip, FeedRateChip,
+                                      FeedRateAxisFaChip, K3701Chip3)}
 
 
 # --- the co-simulation loop ---------------------------------------------------------------------

@@ -83,6 +83,15 @@ def test_skipping_with_new_circuits_feedforward_and_torque_drive_changes_no_sign
     assert skipped[3] > 0.5 * dwell * job.machine.clock_hz
 
 
+def test_skipping_with_each_axis_on_its_own_addition_clock_changes_no_signal(random_moves):
+    # Each exponential circuit's accumulator counts the strobes of its own divider, at a rate
+    # of its own: a skip stops before the first carry of any of them.
+    job, faults, dwell = random_moves(9, "post", dwell=True, axis_fa=("x", "y"))
+    assert len({job.fa_hz(axis) for axis in ("x", "y")} | {job.machine.accel_fa_hz}) == 3
+    _, skipped = skipped_equals_stepped(job, faults, 1009)
+    assert skipped[3] > 0.5 * dwell * job.machine.clock_hz
+
+
 @pytest.mark.slow
 def test_a_skipping_compiled_run_equals_amaranths_simulator(random_moves):
     job, faults, _ = random_moves(1, "pre", dwell=True)

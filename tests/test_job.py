@@ -30,6 +30,7 @@ from hdl.k3702.map import K3702_MAP
 from sim.cli import main
 from sim.machine.plant_model import ALPHA_BITS, GAIN_BITS, VMAX_BITS, PlantParams
 from sim.run.jobfile import JobError, job_keys_markdown, load_job, plant_params, servo_limits
+from sim.run.runner import system_params
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PROGRAM = '[program]\ngcode = "G01 X1 F100"\n'
@@ -517,6 +518,32 @@ def test_per_axis_accel_and_the_drive_reach_the_job(tmp_path):
                                    '[machine.y]\naccel_shape = "bell"\naccel_bits = 13\n'
                                    '[servo.x]\ndrive = "torque"\nkf = 0.5\n' + PROGRAM))
     assert job.accel_circuits() == {"y": ("bell", 13)}
-    assert job.to_dict()["machine"]["y"] == {"accel_shape": "bell", "accel_bits": 13}
+    assert job.to_dict()["machine"]["y"] == {"accel_shape": "bell", "accel_bits": 13,
+                                             "accel_fa_hz": None}
+    assert job.fa_axes() == ()
     assert (job.servo["x"].drive, job.servo["x"].kf, job.servo["y"].drive) == \
         ("torque", 0.5, "first_order")
+
+
+def test_an_axis_with_its_own_addition_clock_sets_its_time_constant_freely(tmp_path):
+    job = load_job(write(tmp_path, '[machine]\naccel = "post"\naccel_bits = 14\n'
+                                   'accel_fa_hz = 585142.8571428572\n'
+                                   '[machine.x]\naccel_fa_hz = 630153.8461538461\n' + PROGRAM))
+    assert job.fa_axes() == ("x",)
+    assert (job.fa_hz("x"), job.fa_hz("y")) == (630153.8461538461, 585142.8571428572)
+    assert job.axis_accel["x"].tau_s(job.machine) == pytest.approx(0.026)
+    assert job.to_dict()["machine"]["x"]["accel_fa_hz"] == 630153.8461538461
+    assert system_params(job)["axis_fa"] == ("x",)
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ('[machine]\naccel = "post"\n[machine.y]\naccel_fa_hz = 1e6\n',
+     "machine.y.accel_fa_hz must be >= 0.05960464478 and < 1000000 Hz (24-bit divider at "
+     "clock_hz), not 1000000.0"),
+    ('[machine]\naccel = "post"\n[machine.x]\naccel_fa_hz = -5\n',
+     "machine.x.accel_fa_hz must be > 0 Hz, not -5"),
+    ('[machine.x]\naccel_fa_hz = 5e5\n',
+     'per-axis accel/decel ([machine.x]) needs machine.accel = "post", not \'pre\''),
+])
+def test_a_bad_per_axis_addition_clock_is_one_error_line(tmp_path, text, message):
+    assert load_error(tmp_path, text + PROGRAM) == f": {message}"

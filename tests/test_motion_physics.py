@@ -5,12 +5,20 @@ profile-error paper's eq. (9) following error with velocity feedforward and visc
 measured figure is compared with the formula of :mod:`sim.reproduce.theory`."""
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from sim.reproduce.theory import accel_gain, following_error, mismatch_amplitude, servo_gain
+from sim.reproduce.theory import (
+    accel_gain,
+    following_error,
+    hardware_tau,
+    mismatch_amplitude,
+    servo_gain,
+)
+from sim.run.ballbar import ballbar
 from sim.run.jobfile import load_job
 from sim.run.runner import RunOptions, run_job
 
@@ -83,9 +91,15 @@ def two_theta(angle: np.ndarray, deviation: np.ndarray) -> tuple[float, float]:
     # Gain mismatch: Kpx 30/s, Kpy 40/s; X lags more: the circle bulges at 45/225 deg.
     ('accel = "none"', "tm = 0.001\n[servo.x]\nkp = 30.0\n[servo.y]\nkp = 40.0",
      (1 / 30, 1 / 40), 45),
-    # Time-constant mismatch: Tx 10 ms, Ty 20 ms (n 13 and 14 at fa 819.2 kHz): 135/315 deg.
+    # Time-constant mismatch: Tx 10 ms, Ty 20 ms (n 13 and 14 at one fa, 819.2 kHz): 135/315
+    # deg.
     ('accel = "post"\naccel_fa_hz = 819200.0\n[machine.x]\naccel_bits = 13\n'
      '[machine.y]\naccel_bits = 14', "kp = 100.0\ntm = 0.001", (2**13 / 819200, 2**14 / 819200),
+     135),
+    # The profile-error paper's Table 10: Tx 26 ms, Ty 28 ms, not a power of 2 apart: n 14 on
+    # both, each axis on an addition clock of its own.
+    ('accel = "post"\naccel_bits = 14\n[machine.x]\naccel_fa_hz = 630153.8461538461\n'
+     '[machine.y]\naccel_fa_hz = 585142.8571428572', "kp = 100.0\ntm = 0.001", (0.026, 0.028),
      135)])
 def test_axis_mismatch_makes_an_ellipse_of_amplitude_v_over_2_times_the_lag_difference(
         tmp_path, machine, servo, lags, peak):
@@ -96,6 +110,26 @@ def test_axis_mismatch_makes_an_ellipse_of_amplitude_v_over_2_times_the_lag_diff
           f"{expected:.2f} LSB at {peak} deg")
     assert amplitude == pytest.approx(expected, rel=0.05)
     assert abs(at - peak) < 5
+
+
+def test_time_constants_of_26_and_28_ms_give_the_ballbar_ellipse_of_their_difference(tmp_path):
+    # The ballbar analysis of a run (k37 run --ballbar, k37 reproduce) on two turns of R 10 mm
+    # at F1200: X's exponential circuit at 2^14 / 630.15 kHz = 26 ms, Y's at 2^14 / 585.14 kHz
+    # = 28 ms, the servos alike.
+    program = "G21 G91 F1200\n" + "G03 I-10 J0\n" * 2 + "M30"
+    result = run_toml(tmp_path, '[machine]\naccel = "post"\naccel_bits = 14\n'
+                                '[machine.x]\naccel_fa_hz = 630153.8461538461\n'
+                                '[machine.y]\naccel_fa_hz = 585142.8571428572\n'
+                                f'[servo]\nkp = 30.0\n[program]\ngcode = """\n{program}\n"""\n')
+    taus = [hardware_tau(replace(result.job.machine, accel_fa_hz=result.job.fa_hz(axis)))
+            for axis in ("x", "y")]
+    assert taus == pytest.approx([0.026, 0.028], abs=1e-8)
+    b = ballbar(result, settle_deg=90)
+    expected = mismatch_amplitude(b.path_speed, *taus)
+    print(f"2-theta amplitude {b.two_theta_amplitude:.3f} LSB at {b.two_theta_angle:.1f} deg, "
+          f"(V / 2) |Tx - Ty| {expected:.3f} LSB (V {b.path_speed:.0f} LSB/s)")
+    assert b.two_theta_amplitude == pytest.approx(expected, rel=0.05)
+    assert abs(b.two_theta_angle - 135) < 5
 
 
 @pytest.mark.parametrize(("accel", "servo", "kf", "d_ratio", "ts"), [

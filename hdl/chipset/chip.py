@@ -10,7 +10,8 @@ Signal flow, with the accel/decel circuit in one of three places::
                                                         (three-axis chipset only)
 
 where ACCEL is the accel/decel circuit of the chosen :class:`~hdl.chipset.map.AccelShape` (per
-axis in post).
+axis in post). Every circuit adds at the FEED chip's addition clock fa, or, in post, at an axis's
+own (``axis_fa``: the FEED chip's per-axis fa build, :func:`hdl.feed.feed_rate_map.feed_map`).
 
 Host bus: an 8085 I/O port address is ``chip select << 5 | register address``; the chip
 selects are :data:`hdl.chipset.map.CHIP_SELECTS`, the registers each chip's own map. The
@@ -25,6 +26,7 @@ chipset, without Amaranth.
 
 import enum
 import operator
+from collections.abc import Iterable
 from dataclasses import replace
 from functools import reduce
 
@@ -50,6 +52,7 @@ from hdl.common.observation import FreeRunning, Observed
 from hdl.encoder.chip import EncoderInterface
 from hdl.feed.decel_control import DecelControl
 from hdl.feed.feed_rate import FeedRate
+from hdl.feed.feed_rate_map import feed_map
 from hdl.k3701.chip import K3701
 from hdl.k3702.chip import K3702
 from hdl.k3702.map import COUNTER_WIDTH
@@ -112,6 +115,9 @@ class Chipset(Observed, wiring.Component):
     axis_accel : dict
         Post placement only: per axis, a ``(shape, bits)`` pair that replaces ``accel_shape``
         and ``accel_bits`` for that axis's circuit (axes not named keep them).
+    axis_fa : iterable of str
+        Post placement only: the axes whose circuit adds at an addition clock of its own (the
+        FEED chip's per-axis fa build, register ``FA_INC_X``, ...), not at the shared fa.
 
     Members
     -------
@@ -138,13 +144,14 @@ class Chipset(Observed, wiring.Component):
         carry or the K3701's latency count reaching 1; combinational.
     free_running : FreeRunning
         The feed-rate generator's dividers and rate multiplier (whose pulses matter while the
-        decel gate is open), each exponential accel/decel accumulator (adding x at each fa)
-        and the K3701's latency count.
+        decel gate is open), each exponential accel/decel accumulator (adding x at each
+        strobe of its fa: the shared one or its axis's own) and the K3701's latency count.
     """
 
     def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15, axes: int = 2,
                  accel_shape: AccelShape | str = AccelShape.EXPONENTIAL,
-                 axis_accel: dict[str, tuple[AccelShape | str, int]] | None = None):
+                 axis_accel: dict[str, tuple[AccelShape | str, int]] | None = None,
+                 axis_fa: Iterable[str] = ()):
         self.accel = _enum(Accel, "accel", accel)
         self.accel_bits = ACCEL_BITS.check("accel_bits", accel_bits)
         self.axes = axis_names(axes)
@@ -157,6 +164,16 @@ class Chipset(Observed, wiring.Component):
                                  f"{', '.join(self.axes)}")
         if axis_accel and self.accel is not Accel.POST:
             raise ValueError("axis_accel needs accel = post (one circuit per axis)")
+        axis_fa = set(axis_fa)
+        for axis in axis_fa:
+            if axis not in self.axes:
+                raise ValueError(f"axis_fa: no axis {axis!r}; axes are {', '.join(self.axes)}")
+        if axis_fa and self.accel is not Accel.POST:
+            raise ValueError("axis_fa needs accel = post (one circuit per axis)")
+        #: The axes whose circuit has an addition clock of its own, in axis order.
+        self.axis_fa = tuple(axis for axis in self.axes if axis in axis_fa)
+        if self.axis_fa:
+            self.chips = {**self.chips, "FEED": (self.chips["FEED"][0], feed_map(self.axis_fa))}
         #: Each axis's circuit (post placement), as (shape, bits).
         self.axis_accel = {
             axis: (_enum(AccelShape, f"{axis}.accel_shape", axis_accel[axis][0]),
@@ -189,15 +206,19 @@ class Chipset(Observed, wiring.Component):
     @property
     def free_running(self) -> FreeRunning:
         """See "Simulation only" above."""
-        feed = FeedRate.declare().under("feed")
+        feed = FeedRate.declare(self.axis_fa).under("feed")
         gated = tuple(replace(c, gate="decel.gate_open") for c in feed.counters)
-        fa = f"feed.{FeedRate.FA_CLOCK}"
-        accel = (cls.declare(bits, bidirectional).under(path)
-                 for path, (cls, bits, bidirectional) in self._accel.items())
-        carries = tuple(replace(c, clock=fa) for a in accel for c in a.carries)
+        carries = tuple(replace(c, clock=f"feed.{FeedRate.fa_clock(self._fa_axis(path))}")
+                        for path, (cls, bits, bidirectional) in self._accel.items()
+                        for c in cls.declare(bits, bidirectional).under(path).carries)
         return replace(feed, counters=gated).merge(
             FreeRunning(carries=carries), K3701.declare().under("k3701"),
             quiet="quiet")
+
+    def _fa_axis(self, path: str) -> str | None:
+        """The axis whose own fa the circuit at ``path`` adds at (None: the shared fa)."""
+        axis = path.removeprefix("accel_")
+        return axis if path != axis and axis in self.axis_fa else None
 
     def elaborate(self, platform) -> Module:
         m = Module()
@@ -205,7 +226,7 @@ class Chipset(Observed, wiring.Component):
             "K3701": K3701(axes=len(self.axes)),
             **{f"K3702_{a.upper()}": K3702() for a in self.axes},
             **{f"ENCODER_{a.upper()}": EncoderInterface() for a in self.axes},
-            "FEED": FeedRate(), "DECEL": DecelControl(),
+            "FEED": FeedRate(self.axis_fa), "DECEL": DecelControl(),
         }
         for name, chip in chips.items():
             m.submodules[name.lower()] = chip
@@ -217,7 +238,8 @@ class Chipset(Observed, wiring.Component):
         circuits = {}
         for path, (cls, bits, bidirectional) in self._accel.items():
             m.submodules[path] = circuits[path] = circuit = cls(bits, bidirectional=bidirectional)
-            m.d.comb += circuit.add.eq(feed.fa)
+            axis = self._fa_axis(path)
+            m.d.comb += circuit.add.eq(feed.fa if axis is None else getattr(feed, f"fa_{axis}"))
             quiet.append(circuit.quiet)
         if self.accel is Accel.PRE:
             accel = circuits["accel"]

@@ -10,7 +10,7 @@ from hdl.bus.registers import Register, RegisterMap
 from hdl.common.params import Limit
 from hdl.encoder.map import ENCODER_MAP
 from hdl.feed.decel_control_map import DECEL_MAP
-from hdl.feed.feed_rate_map import FEED_MAP
+from hdl.feed.feed_rate_map import FEED_MAP, FEED_MAP_AXIS_FA
 from hdl.k3701.map import K3701_MAP, K3701_MAP_3
 from hdl.k3702.map import K3702_MAP
 
@@ -88,8 +88,10 @@ def chip_selects(axes: int = 2) -> dict[str, tuple[int, RegisterMap]]:
 
 
 #: What the host addresses: every chip of the largest chipset (the two-axis K3701's registers
-#: are at the same ports in the three-axis map, but for its exponential's E, beside them).
-_HOST_CHIPS = {**chip_selects(3), "K3701": (0, replace(
+#: are at the same ports in the three-axis map, but for its exponential's E, beside them; the
+#: FEED chip's per-axis fa build, a superset of the plain chip's map).
+_HOST_CHIPS = {**chip_selects(3), "FEED": (CHIP_SELECTS["FEED"][0], FEED_MAP_AXIS_FA),
+               "K3701": (0, replace(
     K3701_MAP_3, registers=(*K3701_MAP_3.registers, K3701_MAP["E"])))}
 
 

@@ -70,8 +70,8 @@ class AxisProbe(wiring.Signature):
 
 class System(Observed, wiring.Component):
     """Chipset + plants. See :class:`hdl.chipset.chip.Chipset` for ``accel``, ``accel_bits``,
-    ``axes`` (one plant per axis), ``accel_shape`` and ``axis_accel``; ``drives``: per axis,
-    the servo drive's name in :data:`DRIVES` (default ``"first_order"``).
+    ``axes`` (one plant per axis), ``accel_shape``, ``axis_accel`` and ``axis_fa``; ``drives``:
+    per axis, the servo drive's name in :data:`DRIVES` (default ``"first_order"``).
 
     Members
     -------
@@ -98,9 +98,9 @@ class System(Observed, wiring.Component):
     def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15, axes: int = 2,
                  accel_shape: AccelShape | str = AccelShape.EXPONENTIAL,
                  axis_accel: dict[str, tuple[AccelShape | str, int]] | None = None,
-                 drives: dict[str, str] | None = None):
+                 axis_fa: tuple[str, ...] = (), drives: dict[str, str] | None = None):
         self.chipset = Chipset(accel=accel, accel_bits=accel_bits, axes=axes,
-                               accel_shape=accel_shape, axis_accel=axis_accel)
+                               accel_shape=accel_shape, axis_accel=axis_accel, axis_fa=axis_fa)
         self.axes = self.chipset.axes
         drives = drives or {}
         for axis, drive in drives.items():

@@ -178,7 +178,7 @@ def system_params(job: Job) -> dict[str, Any]:
     share one built backend (reset between runs)."""
     return {"accel": job.machine.accel, "accel_bits": job.machine.accel_bits,
             "axes": job.machine.axes, "accel_shape": job.machine.accel_shape,
-            "axis_accel": job.accel_circuits(),
+            "axis_accel": job.accel_circuits(), "axis_fa": job.fa_axes(),
             "drives": {axis: job.servo[axis].drive for axis in job.machine.axis_names}}
 
 
