@@ -178,7 +178,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     outputs = [str(path) for path in (args.ballbar, args.trace, args.plot, args.gtkw)
                if path is not None] + ([args.json] if args.json not in (None, STDIO) else [])
     stopped = result.report["status"] == "interrupted"
-    if outputs and not args.quiet and (args.plot or args.ballbar or args.trace or stopped):
+    announced = bool(outputs) and not args.quiet and bool(args.plot or args.ballbar
+                                                          or args.trace or stopped)
+    if announced:
         head = f"{_stopped(result.stopped_by)} at cycle {result.report['cycles']:,}; " \
             if stopped else ""
         print(f"k37: {head}writing {', '.join(outputs)} ...", file=sys.stderr, flush=True)
@@ -193,10 +195,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return _interrupted()
     for failure in failures:
         print(f"k37: error: {failure}", file=sys.stderr)
-    if result.report["status"] == "interrupted":
-        written = "outputs written" if not failures else "the other outputs written"
-        print(f"k37: {_stopped(result.stopped_by)} at cycle {result.report['cycles']:,}; "
-              f"{written}", file=sys.stderr)
+    if stopped:
+        if failures or not announced:  # else the line naming what it writes said it all
+            written = "outputs written" if not failures else "the other outputs written"
+            print(f"k37: {_stopped(result.stopped_by)} at cycle {result.report['cycles']:,}; "
+                  f"{written}", file=sys.stderr)
         return _interrupted(result.stopped_by)
     return 0 if result.ok and not failures else 1
 
