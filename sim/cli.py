@@ -118,10 +118,22 @@ def _load_step(text: str) -> tuple[str, float, float]:
     return axis, *numbers
 
 
+def _settle(text: str) -> float:
+    """A ``--ballbar-settle`` angle: a finite number of degrees >= 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of degrees") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"{text!r}: give a number of degrees >= 0")
+    return value
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from firmware_model.firmware import FirmwareError
     from firmware_model.gcode.parser import GcodeError
     from sim.files import STDIO
+    from sim.run.ballbar import BallbarError, check_settle
     from sim.run.jobfile import JobError, load_job, load_step_fault
     from sim.run.output import OutputError, add_ballbar, check_outputs, write_outputs
     from sim.run.progress import ProgressPrinter
@@ -134,6 +146,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
                       gtkw=args.gtkw, ballbar=args.ballbar,
                       inputs=[args.job, job.program.source],
                       stdout=args.json == STDIO or not args.quiet)
+        if args.ballbar:
+            try:
+                check_settle(job, args.ballbar_settle)
+            except BallbarError as e:
+                raise OptionError(f"--ballbar-settle {args.ballbar_settle:g}: {e}") from None
         faults = {axis: {"stall": 1} for axis in args.stall}
         for axis in args.break_line:
             faults.setdefault(axis, {})["break_a"] = 1
@@ -158,8 +175,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
     finally:
         if progress is not None:
             progress.finish()
-    if args.plot and not args.quiet:
-        print(f"k37: writing {args.plot} ...", file=sys.stderr, flush=True)
+    outputs = [str(path) for path in (args.ballbar, args.trace, args.plot, args.gtkw)
+               if path is not None] + ([args.json] if args.json not in (None, STDIO) else [])
+    stopped = result.report["status"] == "interrupted"
+    announced = bool(outputs) and not args.quiet and bool(args.plot or args.ballbar
+                                                          or args.trace or stopped)
+    if announced:
+        head = f"{_stopped(result.stopped_by)} at cycle {result.report['cycles']:,}; " \
+            if stopped else ""
+        print(f"k37: {head}writing {', '.join(outputs)} ...", file=sys.stderr, flush=True)
     try:
         failures = add_ballbar(result, args.ballbar, args.ballbar_settle) if args.ballbar else []
         failures += write_outputs(result, json_path=args.json, trace=args.trace, plot=args.plot,
@@ -171,10 +195,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
         return _interrupted()
     for failure in failures:
         print(f"k37: error: {failure}", file=sys.stderr)
-    if result.report["status"] == "interrupted":
-        written = "outputs written" if not failures else "the other outputs written"
-        print(f"k37: {_stopped(result.stopped_by)} at cycle {result.report['cycles']:,}; "
-              f"{written}", file=sys.stderr)
+    if stopped:
+        if failures or not announced:  # else the line naming what it writes said it all
+            written = "outputs written" if not failures else "the other outputs written"
+            print(f"k37: {_stopped(result.stopped_by)} at cycle {result.report['cycles']:,}; "
+                  f"{written}", file=sys.stderr)
         return _interrupted(result.stopped_by)
     return 0 if result.ok and not failures else 1
 
@@ -439,8 +464,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ballbar", metavar="PATH.png", type=Path,
                    help="a circular program: write the ballbar polar plot and put the ballbar "
                         "figures (circularity, 2-theta ellipse, ...) in the report")
-    p.add_argument("--ballbar-settle", type=float, default=0.0, metavar="DEG",
-                   help="leave out the first DEG degrees round the circle (the feed-in)")
+    p.add_argument("--ballbar-settle", type=_settle, default=None, metavar="DEG",
+                   help="leave out the first DEG degrees round the circle (less than the "
+                        "program's arcs sweep; 0 keeps every sample) instead of the default, "
+                        "ISO 230-4's: leave out the feed-in and the feed-out, where the tool "
+                        "is off its steady speed")
     p.add_argument("--stall", action="append", default=[], choices=list(ALL_AXES),
                    help="fault: block this axis's motor")
     p.add_argument("--break-line", action="append", default=[], choices=list(ALL_AXES),

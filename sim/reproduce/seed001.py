@@ -38,7 +38,7 @@ from sim.reproduce.markdown import Section, pct, pyplot, save_figure
 from sim.reproduce.runs import QUICK, RunData, RunSpec, Scale, Specs
 from sim.reproduce.seed000 import SHAPES, filter_machine
 from sim.reproduce.theory import mismatch_amplitude
-from sim.run.ballbar import Ballbar, circle_figures
+from sim.run.ballbar import Ballbar, break_at_gaps, circle_figures
 from sim.study.analysis import Surface, response_surface
 
 __all__ = ["section", "specs"]
@@ -259,8 +259,8 @@ def _figure(sec: Section, out: Path, arcs: dict[str, list[ArcLoss]], measured: B
     a.legend(fontsize=7)
     for data, style, label in ((measured, "-", "emulator"), (exact, "k--", "exact form")):
         order = np.argsort(np.degrees(data.theta) % 360)
-        b.plot((np.degrees(data.theta) % 360)[order], data.deviation[order], style, lw=0.9,
-               label=label)
+        b.plot(*break_at_gaps((np.degrees(data.theta) % 360)[order], data.deviation[order]),
+               style, lw=0.9, label=label)
     for angle in (45, 225):
         b.axvline(angle, color="C3", lw=0.6)
     b.set(title="Fig. 8: gain mismatch, radial deviation", xlabel="angle (deg, CCW)",

@@ -134,7 +134,8 @@ def _attempt(label: str, path: Path | str, write: Callable[[], object]) -> list[
     return []
 
 
-def add_ballbar(result: RunResult, path: Path, settle_deg: float = 0.0) -> list[OutputFailure]:
+def add_ballbar(result: RunResult, path: Path, settle_deg: float | None = None
+                ) -> list[OutputFailure]:
     """Write the ballbar plot of ``result`` to ``path`` and its figures into the report (or,
     for a run that is no circle, a warning); the plot's failure to be written, if it was
     not."""
@@ -148,7 +149,8 @@ def add_ballbar(result: RunResult, path: Path, settle_deg: float = 0.0) -> list[
 
     def write() -> None:
         with atomic_path(path) as tmp:
-            ballbar_figure(b, f"k37 run {result.job.name}").savefig(tmp, dpi=110)
+            ballbar_figure(b, f"k37 run {result.job.name}",
+                           result.job.machine.lsb_mm).savefig(tmp, dpi=110)
 
     return _attempt("--ballbar", path, write)
 

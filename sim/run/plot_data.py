@@ -74,6 +74,18 @@ class PlotData:
         k = self.columns.index(column)
         return self.low[:, k], self.high[:, k]
 
+    def coarse(self, column: str, most: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+        """:meth:`envelope` of ``column`` merged, whole buckets at a time, into at most ``most``
+        (a panel needs a few per pixel, not a hundred): the index in ``rows`` of each merged
+        bucket's first bucket, its least and its largest value, and the samples it holds."""
+        low, high = self.envelope(column)
+        merge = max(1, -(-len(low) // max(1, most)))
+        if merge == 1:
+            return np.arange(len(low)), low, high, self.bucket
+        firsts = np.arange(0, len(low), merge)
+        return (firsts, np.minimum.reduceat(low, firsts), np.maximum.reduceat(high, firsts),
+                self.bucket * merge)
+
 
 def plot_data(job: Job, blocks: Sequence[BlockStart], store: SampleStore,
               buckets: int | None = None) -> PlotData:

@@ -13,7 +13,7 @@ from sim.backends.factory import BACKENDS
 
 __all__ = ["BALLBAR_FIGURES", "RUN_SCHEMA", "SCHEMA_VERSION", "schema_markdown", "validate"]
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 #: Fields that depend on how the run was computed (backend, idle skipping, wall clock), not
 #: on what it computed: two runs of one job differ in these only.
 HOW_FIELDS = ("wall_seconds", "cycles_per_second", "backend", "skipped_cycles")
@@ -23,7 +23,8 @@ HOW_FIELDS = ("wall_seconds", "cycles_per_second", "backend", "skipped_cycles")
 BALLBAR_FIGURES = {
     "nominal_radius": "the programmed circle's radius (LSB)",
     "ballbar_samples": "samples analysed",
-    "ballbar_sweep": "degrees the analysed samples cover",
+    "ballbar_sweep": "degrees the analysed samples cover (without the feed-in and feed-out, "
+                     "or after the settle angle)",
     "path_speed": "the tool's median speed round the circle (over 20 ms windows, LSB/s)",
     "mean_radius_deviation": "mean radial deviation (LSB; negative: the circle shrank)",
     "circularity": "largest minus least radial deviation (LSB)",
@@ -31,7 +32,8 @@ BALLBAR_FIGURES = {
     "two_theta_amplitude": "second harmonic's amplitude: the mismatch ellipse (LSB)",
     "two_theta_angle": "direction of the ellipse's long axis (degrees, 0-180)",
     **{f"reversal_spike_{q}": f"largest deviation from the fit within 5 degrees of {q} "
-                              f"degrees (LSB)" for q in (0, 90, 180, 270)},
+                              f"degrees (LSB); null when the analysed arc does not sweep "
+                              f"across {q} degrees" for q in (0, 90, 180, 270)},
 }
 
 def _obj(description: str, props: dict[str, dict], required: list[str] | None = None) -> dict:
@@ -133,7 +135,9 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
                  "description": "what the run could not do as asked (e.g. a waveform window "
                                 "it never reached)"},
     "ballbar": _obj("ballbar figures of a circular program (only with --ballbar)",
-                    {name: _num(text) for name, text in BALLBAR_FIGURES.items()}),
+                    {name: {"type": ["number", "null"], "description": text}
+                     if name.startswith("reversal_spike") else _num(text)
+                     for name, text in BALLBAR_FIGURES.items()}),
     "events": {"type": "array", "description": "words with no hardware here (spindle, coolant, "
                                                "tool change, stops), in order; only when the "
                                                "program has some",

@@ -8,6 +8,7 @@
     max_cycles = 20_000_000           # per run (default 10^9)
     sample_every = 200                # cycles between samples (default 1000)
     ballbar_settle_deg = 90           # ballbar figures leave out the first 90 degrees
+                                      # (default: the feed-in and feed-out, as ISO 230-4)
 
     [factors]                         # each with its levels, in order
     "servo.kp" = [20.0, 30.0, 40.0, 50.0]     # a job key, dotted as in the job file
@@ -23,6 +24,7 @@ level's text. Errors are :class:`~sim.run.jobfile.JobError` naming the study fil
 from __future__ import annotations
 
 import copy
+import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -61,7 +63,7 @@ class Study:
     runs: tuple[StudyRun, ...]
     max_cycles: int
     sample_every: int
-    settle_deg: float
+    settle_deg: float | None
     #: Other files the study reads (the base job's program file).
     inputs: tuple[Path, ...] = ()
 
@@ -162,9 +164,11 @@ def load_study(path: str | Path) -> Study:
         if not isinstance(value, int) or isinstance(value, bool) or value < 1:
             raise _fail(source, f"{key} must be a positive integer, not {value!r}")
         limits[key] = value
-    settle = data.get("ballbar_settle_deg", 0.0)
-    if not isinstance(settle, int | float) or isinstance(settle, bool) or not settle >= 0:
+    settle = data.get("ballbar_settle_deg", None)
+    if settle is not None and (not isinstance(settle, int | float) or isinstance(settle, bool)
+                               or not 0 <= settle < math.inf):
         raise _fail(source, f"ballbar_settle_deg must be a number of degrees >= 0, not "
                             f"{settle!r}")
     return Study(data.get("name", path.stem), source, base_path, base, factors, name, runs,
-                 settle_deg=float(settle), inputs=tuple(inputs), **limits)
+                 settle_deg=None if settle is None else float(settle), inputs=tuple(inputs),
+                 **limits)
