@@ -18,6 +18,7 @@ lines). Commands with no effect here (``SET_XY_ROTATION(0)``, ``SET_MOTION_CONTR
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import subprocess
@@ -211,10 +212,13 @@ def rs274_canon(text: str, *, source: str = "<gcode>", origin: tuple[str, int] |
                                  for n, length in (tools or dict.fromkeys(_DEFAULT_TOOLS, 0.0))
                                  .items()))
         try:
+            # rs274 keeps its tool data in a file mapped from $HOME (.tool.mmap), which runs
+            # at the same time would share and clobber: each run gets its own HOME
             run = subprocess.run([exe, "-t", str(table), "-g", str(program), str(out)],
                                  stdin=subprocess.DEVNULL,
                                  capture_output=True, text=True, timeout=RS274_TIMEOUT_S,
-                                 cwd=_folder(name) or tmp, check=False)
+                                 cwd=_folder(name) or tmp, check=False,
+                                 env={**os.environ, "HOME": tmp})
         except subprocess.TimeoutExpired:
             raise GcodeError(name, [(first, 1, f"rs274 took more than {RS274_TIMEOUT_S} s")]) \
                 from None
