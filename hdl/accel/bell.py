@@ -6,18 +6,17 @@ The reference model is :class:`hdl.accel.bell_model.AccelBellModel`.
 from __future__ import annotations
 
 from amaranth.hdl import Module, Signal
-from amaranth.lib import wiring
 
-from hdl.accel.exponential import AccelDecel, accel_members
+from hdl.accel.exponential import AccelCircuit, AccelDecel, accel_members
 from hdl.accel.exponential_model import check_params
 from hdl.accel.linear import AccelLinear
 from hdl.accel.linear_model import check_bins
-from hdl.common.observation import FreeRunning, Observed
+from hdl.common.observation import FreeRunning
 
 __all__ = ["AccelBell"]
 
 
-class AccelBell(Observed, wiring.Component):
+class AccelBell(AccelCircuit):
     """Bell accel/decel (the filters paper's eq. (40)): :class:`hdl.accel.linear.AccelLinear`
     (moving average over T = 2**n / fa) feeding :class:`hdl.accel.exponential.AccelDecel`
     (tau = 2**n / fa).
@@ -56,7 +55,6 @@ class AccelBell(Observed, wiring.Component):
         The exponential stage's accumulator (submodule ``exponential``).
     """
 
-
     def __init__(self, n: int = 15, counter_width: int = 24, bidirectional: bool = False,
                  bins_bits: int = 4):
         check_params(n, counter_width, bidirectional)
@@ -67,16 +65,6 @@ class AccelBell(Observed, wiring.Component):
         self.bins_bits = bins_bits
         super().__init__(accel_members(n, counter_width, bidirectional))
         self.quiet = Signal()
-
-    @property
-    def probes(self) -> tuple[str, ...]:
-        """Observation outputs, not pins of the chip (the Verilog export keeps them inside)."""
-        return ("x", "y", "pending")
-
-    @property
-    def free_running(self) -> FreeRunning:
-        """See "Simulation only" above."""
-        return self.declare(self.n, self.bidirectional)
 
     @staticmethod
     def declare(n: int, bidirectional: bool) -> FreeRunning:

@@ -12,7 +12,7 @@ from amaranth.lib.wiring import In, Out
 from hdl.accel.exponential_model import check_params
 from hdl.common.observation import CarryAccumulator, FreeRunning, Observed
 
-__all__ = ["AccelDecel", "accel_members", "carry_and_pulses"]
+__all__ = ["AccelCircuit", "AccelDecel", "accel_members", "carry_and_pulses"]
 
 
 def accel_members(n: int, counter_width: int, bidirectional: bool) -> dict[str, wiring.Member]:
@@ -44,7 +44,32 @@ def carry_and_pulses(m: Module, circuit: wiring.Component):
     return total, carry, circuit.inp, circuit.out
 
 
-class AccelDecel(Observed, wiring.Component):
+class AccelCircuit(Observed, wiring.Component):
+    """What every accel/decel circuit tells a simulator: its probes ``x``, ``y`` and
+    ``pending``, and its free-running state, the :meth:`declare` of its class for its ``n``
+    and ``bidirectional``."""
+
+    n: int
+    bidirectional: bool
+
+    @property
+    def probes(self) -> tuple[str, ...]:
+        """Observation outputs, not pins of the chip (the Verilog export keeps them inside)."""
+        return ("x", "y", "pending")
+
+    @property
+    def free_running(self) -> FreeRunning:
+        """The class's :meth:`declare` for this circuit's parameters."""
+        return self.declare(self.n, self.bidirectional)
+
+    @staticmethod
+    def declare(n: int, bidirectional: bool) -> FreeRunning:
+        """The free-running declaration of a circuit with these parameters (no instance
+        needed: a parent declares it before it builds the circuit)."""
+        raise NotImplementedError
+
+
+class AccelDecel(AccelCircuit):
     """Exponential accel/decel: ``fo = fi (1 - exp(-t / tau))``, ``tau = 2**n / fa``.
 
     Input pulses count the up/down counter ``x`` up. In a cycle with ``add`` high the
@@ -109,7 +134,6 @@ class AccelDecel(Observed, wiring.Component):
         The accumulator, adding ``x`` at each ``add`` (its clock named by the parent).
     """
 
-
     def __init__(self, n: int = 15, counter_width: int = 24, bidirectional: bool = False):
         check_params(n, counter_width, bidirectional)
         self.n = n
@@ -117,16 +141,6 @@ class AccelDecel(Observed, wiring.Component):
         self.bidirectional = bidirectional
         super().__init__(accel_members(n, counter_width, bidirectional))
         self.quiet = Signal()
-
-    @property
-    def probes(self) -> tuple[str, ...]:
-        """Observation outputs, not pins of the chip (the Verilog export keeps them inside)."""
-        return ("x", "y", "pending")
-
-    @property
-    def free_running(self) -> FreeRunning:
-        """See "Simulation only" above."""
-        return self.declare(self.n, self.bidirectional)
 
     @staticmethod
     def declare(n: int, bidirectional: bool) -> FreeRunning:

@@ -7,17 +7,16 @@ circuit and why no pulse is lost).
 from __future__ import annotations
 
 from amaranth.hdl import Cat, Module, Mux, Signal
-from amaranth.lib import wiring
 
-from hdl.accel.exponential import accel_members, carry_and_pulses
+from hdl.accel.exponential import AccelCircuit, accel_members, carry_and_pulses
 from hdl.accel.exponential_model import check_params
 from hdl.accel.linear_model import check_bins
-from hdl.common.observation import FreeRunning, Observed
+from hdl.common.observation import FreeRunning
 
 __all__ = ["AccelLinear"]
 
 
-class AccelLinear(Observed, wiring.Component):
+class AccelLinear(AccelCircuit):
     """Linear accel/decel: ``fo(t) = (1/T) * (pulses in over the last T)``, ``T = 2**n / fa``.
 
     A window of ``2**bins_bits`` bins of ``2**(n - bins_bits)`` additions each holds the input
@@ -76,7 +75,6 @@ class AccelLinear(Observed, wiring.Component):
         None: the circuit runs on only while it holds pulses, and is not quiet then.
     """
 
-
     def __init__(self, n: int = 15, counter_width: int = 24, bidirectional: bool = False,
                  bins_bits: int = 4):
         check_params(n, counter_width, bidirectional)
@@ -87,16 +85,6 @@ class AccelLinear(Observed, wiring.Component):
         self.bins_bits = bins_bits
         super().__init__(accel_members(n, counter_width, bidirectional))
         self.quiet = Signal()
-
-    @property
-    def probes(self) -> tuple[str, ...]:
-        """Observation outputs, not pins of the chip (the Verilog export keeps them inside)."""
-        return ("x", "y", "pending")
-
-    @property
-    def free_running(self) -> FreeRunning:
-        """See "Simulation only" above."""
-        return self.declare(self.n, self.bidirectional)
 
     @staticmethod
     def declare(n: int, bidirectional: bool) -> FreeRunning:  # noqa: ARG004 (the family's call)
