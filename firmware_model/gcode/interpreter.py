@@ -114,14 +114,8 @@ class Interpreter(SplineMotions, CannedCycles):
             w = b.word(letter)
             if w is None:
                 continue
-            if incremental:  # from the exact position: the roundings do not add up
-                exact = self.exact_pos(axis) + self.lsb_exact(w.value)
-                target[axis] = int(exact.to_integral_value(rounding=ROUND_HALF_UP))
-            else:
-                base = self.base(axis, incremental, machine)
-                target[axis] = base + self.lsb(w.value)
-                exact = base + self.lsb_exact(w.value)
-            self.pending_exact[axis] = exact
+            target[axis], self.pending_exact[axis] = self.word_target(axis, w, incremental,
+                                                                       machine)
             self.check_range(w, target[axis], "the position")
             self.check_range(w, target[axis] - self.pos[axis], "the move")
             if axis == 2 and self.planner.axes == 2 and target[2] != self.pos[2]:
@@ -135,10 +129,19 @@ class Interpreter(SplineMotions, CannedCycles):
         for axis, letter in enumerate(AXIS_LETTERS):
             w = b.word(letter)
             if w is not None:
-                base = (self.exact_pos(axis) if self.incremental
-                        else Decimal(self.base(axis, False, False)))
-                target[axis] = float(base + self.lsb_exact(w.value))
+                target[axis] = float(self.word_target(axis, w, self.incremental, False)[1])
         return target[0], target[1], target[2]
+
+    def word_target(self, axis: int, w: Word, incremental: bool,
+                    machine: bool) -> tuple[int, Decimal]:
+        """Where an axis word goes, in LSB: rounded, and before its rounding. An incremental
+        word adds to the exact position (:meth:`exact_pos`), so roundings do not add up; an
+        absolute one is rounded on its own."""
+        if incremental:
+            exact = self.exact_pos(axis) + self.lsb_exact(w.value)
+            return int(exact.to_integral_value(rounding=ROUND_HALF_UP)), exact
+        base = self.base(axis, False, machine)
+        return base + self.lsb(w.value), base + self.lsb_exact(w.value)
 
     def base(self, axis: int, incremental: bool, machine: bool) -> int:
         """What an axis word adds to: the position (G91), the origin (G53), else the offsets."""
@@ -195,8 +198,7 @@ class Interpreter(SplineMotions, CannedCycles):
         for axis, letter in enumerate(AXIS_LETTERS):
             w = b.word(letter)
             if w is not None and (axis < 2 or self.planner.axes == 3):
-                base = self.pos[axis] if self.incremental else self.offset(axis)
-                target[axis] = base + self.lsb(w.value)
+                target[axis] = self.word_target(axis, w, self.incremental, False)[0]
         if all(abs(v) <= COORD_MAX for v in target):
             self.planner.position = self.planner.programmed = (target[0], target[1], target[2])
 
