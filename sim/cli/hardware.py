@@ -1,0 +1,67 @@
+"""``k37 export-verilog`` and ``k37 synth``: the gateware as Verilog and on an FPGA."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from sim.cli.shared import check, interrupted, stdout, stopped
+
+__all__ = ["add_commands"]
+
+
+def _cmd_export_verilog(args: argparse.Namespace) -> int:
+    from sim.files import why
+    from sim.fpga.export import export_verilog
+
+    if not check(folders={"-o": args.output}):
+        return 2
+    try:
+        paths = export_verilog(args.block or None, Path(args.output))
+    except OSError as e:
+        print(f"k37: error: {e.filename or args.output}: not written: {why(e)}",
+              file=sys.stderr)
+        return 1
+    return stdout(lambda: print("\n".join(f"k37 export-verilog: wrote {p}" for p in paths)))
+
+
+def _cmd_synth(args: argparse.Namespace) -> int:
+    from sim.fpga.synth import synthesize
+
+    if not check(folders={"--work-dir": args.work_dir}):
+        return 2
+    try:
+        report = synthesize(args.device, args.block or None,
+                            work_dir=Path(args.work_dir) if args.work_dir else None)
+    except (ImportError, FileNotFoundError) as e:
+        print(f"k37: error: synthesis needs the fpga extra (pip install -e '.[fpga]'): {e}",
+              file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"k37 synth: {stopped()}", file=sys.stderr)
+        return interrupted()
+    if stdout(lambda: print(report.format_table())):
+        return 1
+    for failure in report.failures:
+        print(f"k37 synth: {failure}", file=sys.stderr)
+    return 0 if report.ok else 1
+
+
+def add_commands(sub: argparse._SubParsersAction) -> None:
+    """Add ``export-verilog`` and ``synth`` to the command line."""
+    from sim.fpga.blocks import BLOCKS
+    from sim.fpga.synth import DEVICES
+
+    names = [b.name for b in BLOCKS]
+    p = sub.add_parser("export-verilog", help="write one Verilog file per chip and the top")
+    p.add_argument("--block", action="append", choices=[*names, "all"],
+                   help="block to export (repeatable; default: all)")
+    p.add_argument("-o", "--output", required=True, help="output folder")
+    p.set_defaults(func=_cmd_export_verilog)
+    p = sub.add_parser("synth", help="synthesise and place on an iCE40 (needs the fpga extra)")
+    p.add_argument("--device", choices=list(DEVICES), default="ice40-hx8k")
+    p.add_argument("--block", action="append", choices=names,
+                   help="block to synthesise (repeatable; default: every block and the top)")
+    p.add_argument("--work-dir", help="keep netlists, logs and reports here")
+    p.set_defaults(func=_cmd_synth)

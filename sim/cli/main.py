@@ -1,0 +1,58 @@
+"""The ``k37`` command line: one module per family of commands."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from sim.cli import hardware, running, studies
+from sim.cli.shared import check, interrupted, signals_interrupt, stopped
+
+__all__ = ["build_parser", "main"]
+
+
+def _cmd_docs(args: argparse.Namespace) -> int:
+    from sim.docs import documents
+
+    if not check(folders={"-o": args.output}):
+        return 2
+    out = Path(args.output)
+    out.mkdir(parents=True, exist_ok=True)
+    for name, text in documents().items():
+        (out / name).write_text(text)
+        print(f"k37 docs: wrote {out / name}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="k37", description="Cycle-accurate emulator of the TOKO KM3701/KM3702 NC chipset.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    running.add_commands(sub)
+    hardware.add_commands(sub)
+    p = sub.add_parser("docs", help="write the generated documentation (register maps, JSON "
+                                    "schema, job keys)")
+    p.add_argument("-o", "--output", default="docs", help="folder (default: docs)")
+    p.set_defaults(func=_cmd_docs)
+    studies.add_commands(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    # NumPy's OpenBLAS starts a thread per core that spins for about 0.1 s of CPU per process
+    # though K37 has no matrix work worth a thread: one thread leaves the cores to the runs.
+    # Set before NumPy's first import; study workers inherit it.
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    args = build_parser().parse_args(argv)
+    try:
+        with signals_interrupt():
+            return args.func(args)
+    except KeyboardInterrupt:  # a command without its own words for it
+        print(f"k37: {stopped()}", file=sys.stderr)
+        return interrupted()
+    except BrokenPipeError:  # the reader of stdout went away (`k37 run | head`): no traceback
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1

@@ -1,0 +1,188 @@
+"""``k37 sweep``, ``k37 effects`` and ``k37 reproduce``: many runs, their analysis, the
+papers' rows."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+from sim.cli.shared import check, interrupted, positive_int, print_error, stdout, stopped
+
+__all__ = ["add_commands"]
+
+
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from sim.reproduce.experiments import reproduce
+
+    def progress(message: str) -> None:
+        if not args.quiet:
+            print(f"k37 reproduce: {message}", file=sys.stderr, flush=True)
+
+    out = Path(args.out)
+    if not check(folders={"--out": out}):
+        return 2
+    try:
+        result = reproduce(out, quick=args.quick, progress=progress)
+    except KeyboardInterrupt:
+        print(f"k37 reproduce: {stopped()}; the workers are stopped", file=sys.stderr)
+        return interrupted()
+    except OSError as e:
+        from sim.files import why
+
+        print(f"k37: error: {e.filename or out}: not written: {why(e)}", file=sys.stderr)
+        return 1
+    failed = [row for row in result.rows if not row.passed]
+
+    def lines() -> None:
+        print(f"k37 reproduce: {len(result.rows) - len(failed)} of {len(result.rows)} rows "
+              f"pass ({result.seconds:.0f} s); wrote {out / 'report.md'} and "
+              f"{sum(1 for s in result.sections if s.figure)} figures")
+        for row in failed:
+            print(f"  FAIL: {row.what}: {row.emulator} (tolerance: {row.tolerance})")
+
+    return stdout(lines) or (0 if not failed else 1)
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from sim.run.jobfile import JobError
+    from sim.study.studyfile import load_study
+    from sim.study.sweep import SweepError, sweep
+
+    def progress(message: str) -> None:
+        if not args.quiet:
+            print(f"k37 sweep: {message}", file=sys.stderr, flush=True)
+
+    out = Path(args.out)
+    try:
+        study = load_study(args.study)
+    except JobError as e:
+        print_error(e)
+        return 2
+    outputs = [("", out / "results.csv"), ("", out / "results.parquet")] if out.is_dir() else []
+    if not check(outputs, folders={"--out": out},
+                  inputs=[args.study, study.base_path, *study.inputs]):
+        return 2
+    try:
+        path = sweep(study, out, jobs=args.jobs, scheduler=args.scheduler, report=progress)
+    except (JobError, SweepError) as e:
+        print_error(e)
+        return 2
+    except OSError as e:
+        from sim.files import why
+
+        print(f"k37: error: {e.filename or out}: {why(e)}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"k37 sweep: {stopped()}; the workers are stopped and the finished runs are in "
+              f"{out / 'results.csv'} (run the same command to go on)", file=sys.stderr)
+        return interrupted()
+    return stdout(lambda: print(f"k37 sweep: {len(study.runs)} runs of {study.name} "
+                                 f"({study.design}) in {path} and "
+                                 f"{path.with_suffix('.parquet')}"))
+
+
+def _cmd_effects(args: argparse.Namespace) -> int:
+    import csv
+
+    from sim.files import atomic_path, why
+    from sim.study.analysis import (
+        AnalysisError,
+        effects_figure,
+        main_effects,
+        response_surface,
+        surface_needs,
+    )
+
+    table = Path(args.dir) / "results.csv"
+    figure = Path(args.dir) / f"effects_{args.metric}.png"
+    if not check([("", figure)], inputs=[table]):
+        return 2
+    try:
+        with open(table, newline="") as f:
+            reader = csv.DictReader(f)
+            header = list(reader.fieldnames or [])
+            rows = [r for r in reader if r.get("status") == "ok"]
+        if "status" not in header or header[:1] != ["run"]:
+            raise ValueError("no run and status columns")
+    except (OSError, ValueError, csv.Error) as e:
+        print(f"k37: error: {table}: not a results table ({why(e)})", file=sys.stderr)
+        return 2
+    study_factors = header[1:header.index("status")]
+    metrics = [c for c in header[header.index("status") + 1:] if c != "reason"]
+    if args.metric not in metrics:
+        print(f"k37: error: --metric {args.metric}: not a metric of {table}; its metrics are "
+              f"{', '.join(metrics)}", file=sys.stderr)
+        return 2
+    factors = args.factors.split(",") if args.factors else study_factors
+    unknown = [f for f in factors if f not in study_factors]
+    if unknown:
+        print(f"k37: error: --factors {unknown[0]}: not a factor of {table}; its factors are "
+              f"{', '.join(study_factors)}", file=sys.stderr)
+        return 2
+    try:
+        effects = main_effects(rows, factors, args.metric)
+        needs = surface_needs(rows, factors)
+        surface = response_surface(rows, factors, args.metric) if needs is None else None
+    except AnalysisError as e:
+        print(f"k37: error: {table}: {e}", file=sys.stderr)
+        return 2
+
+    def lines() -> None:
+        print(f"main effects on {args.metric} ({len(rows)} runs with status ok):")
+        for factor, points in effects.items():
+            print(f"  {factor}: " + ", ".join(f"{lv:g} -> {m:.4g}" for lv, m in points))
+        if surface is None:
+            print(f"no response surface: {needs}")
+            return
+        print(f"second-order response surface (the motion-errors paper's eq (19), "
+              f"coded factors), "
+              f"R^2 = {surface.r_squared:.4f}:")
+        for term, beta in zip(surface.terms, surface.coefficients, strict=True):
+            print(f"  {term:>30s}  {beta:+.5g}")
+        if surface.stationary is not None:
+            print("  stationary point (eq (20)): " + ", ".join(
+                f"{f} = {v:.4g}" for f, v in zip(surface.factors, surface.stationary,
+                                                  strict=True)))
+
+    if stdout(lines):
+        return 1
+    try:
+        with atomic_path(figure) as tmp:
+            effects_figure(effects, args.metric, f"{table}: main effects").savefig(tmp,
+                                                                                   dpi=110)
+    except OSError as e:
+        print(f"k37: error: {figure}: not written: {why(e)}", file=sys.stderr)
+        return 1
+    return stdout(lambda: print(f"k37 effects: wrote {figure}"))
+
+
+def add_commands(sub: argparse._SubParsersAction) -> None:
+    """Add ``sweep``, ``effects`` and ``reproduce`` to the command line."""
+    p = sub.add_parser("sweep", help="run a study (a base job, factors, a design) into one "
+                                     "results table")
+    p.add_argument("study", help="study file (.toml)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="folder for results.csv and results.parquet (runs already there are "
+                        "skipped)")
+    p.add_argument("-j", "--jobs", type=positive_int, default=os.cpu_count() or 1,
+                   help="local worker processes (default: one per core)")
+    p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                   help="run on this Dask distributed scheduler instead of local processes")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    p.set_defaults(func=_cmd_sweep)
+    p = sub.add_parser("effects", help="main effects and a second-order response surface of "
+                                       "a metric over a sweep's factors")
+    p.add_argument("dir", help="a sweep's folder (its results.csv)")
+    p.add_argument("--metric", required=True, help="a column of results.csv")
+    p.add_argument("--factors", help="comma-separated factors (default: all of the study's)")
+    p.set_defaults(func=_cmd_effects)
+    p = sub.add_parser("reproduce", help="run the paper's experiments; write figures and "
+                                         "report.md (paper vs emulator, pass/fail per row)")
+    p.add_argument("--out", default="docs/reproduce", metavar="DIR",
+                   help="folder for report.md and the PNG figures (default: docs/reproduce)")
+    p.add_argument("--quick", action="store_true",
+                   help="smaller runs (the scale CI checks); the report says what shrank")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    p.set_defaults(func=_cmd_reproduce)
