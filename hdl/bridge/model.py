@@ -1,0 +1,98 @@
+"""The host bridge's reference model, frame by frame (no Amaranth).
+
+:class:`BridgeModel` takes the bytes a host sends and gives the bridge's replies, executing each
+command on a :class:`Target`: the chipset's bus, interrupt inputs and clock. Behind a socket on
+the simulated machine (``k37 serve``) the target's time passes only as the commands say; against
+the gateware (:class:`hdl.bridge.chip.UartBridge`) each byte comes with the cycle its command may
+start (:func:`hdl.bridge.protocol.command_start`), so the model gives the same replies, cycle
+counts included.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+from hdl.bridge.protocol import (
+    COMMANDS,
+    COUNTER_BITS,
+    ERROR,
+    IRQ_ALARM,
+    IRQ_INTERP,
+    OK,
+    Error,
+    Identity,
+    Op,
+)
+
+__all__ = ["FRAMING", "BridgeModel", "Target"]
+
+#: What :meth:`BridgeModel.receive` takes for a byte received with a framing error.
+FRAMING = -1
+
+
+class Target(Protocol):
+    """What the bridge drives: the shape of :class:`firmware_model.link.ChipsetLink`."""
+
+    @property
+    def cycle(self) -> int: ...
+
+    def idle(self, cycles: int) -> None: ...
+
+    def write(self, address: int, data: int) -> None: ...
+
+    def read(self, address: int) -> int: ...
+
+    def wait_interrupt(self, max_cycles: int) -> int: ...
+
+    def interrupts(self) -> tuple[bool, bool]: ...
+
+
+class BridgeModel:
+    """The bridge, byte by byte, on ``target``, telling ``identity`` to :attr:`Op.IDENT`."""
+
+    def __init__(self, target: Target, identity: Identity):
+        self.target = target
+        self.identity = identity
+        self._frame = bytearray()
+
+    def receive(self, byte: int, start: int | None = None) -> bytes:
+        """Take one received byte (or :data:`FRAMING`); the reply it completes, or b"".
+
+        ``start``: the cycle the command this byte completes starts in, if later than the
+        target's clock (the target idles until then); None: at once.
+        """
+        if byte == FRAMING:
+            self._frame.clear()
+            return bytes([ERROR, Error.FRAMING])
+        if not self._frame and byte not in COMMANDS:
+            return bytes([ERROR, Error.OPCODE])
+        self._frame.append(byte)
+        command = COMMANDS[Op(self._frame[0])]
+        if len(self._frame) < command.frame_bytes:
+            return b""
+        frame = bytes(self._frame)
+        self._frame.clear()
+        if start is not None and start > self.target.cycle:
+            self.target.idle(start - self.target.cycle)
+        return bytes([OK]) + self._execute(command.op, frame[1:])
+
+    def _execute(self, op: Op, args: bytes) -> bytes:
+        target = self.target
+        count = int.from_bytes(args, "little")
+        if op is Op.IDENT:
+            return self.identity.encode()
+        if op is Op.WRITE:
+            target.write(args[0], args[1])
+            return b""
+        if op is Op.READ:
+            return bytes([target.read(args[0])])
+        if op is Op.IDLE:
+            target.idle(count)
+            return b""
+        if op is Op.WAIT:
+            return target.wait_interrupt(count).to_bytes(len(args), "little")
+        if op is Op.STATUS:
+            interp, alarm = target.interrupts()
+            return bytes([IRQ_INTERP * interp | IRQ_ALARM * alarm])
+        assert op is Op.CYCLE
+        return (target.cycle % (1 << COUNTER_BITS)).to_bytes(COUNTER_BITS // 8, "little")

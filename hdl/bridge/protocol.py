@@ -1,0 +1,195 @@
+"""The host bridge's protocol: framed commands on a UART, one reply to each.
+
+A frame is an opcode byte followed by its arguments, multi-byte values little-endian; the
+bridge answers every frame with a reply that starts with a status byte: :data:`OK` followed by
+the command's results, or :data:`ERROR` followed by an :class:`Error` code (a byte that is no
+opcode, or a byte received with a framing error, which also drops the frame it was part of).
+The host sends a frame only once the previous frame's reply has arrived (stop-and-wait): the
+bridge buffers :data:`RX_FIFO_DEPTH` received bytes, more than the longest frame.
+
+Time is counted in chipset clock cycles. A command starts in the cycle the bridge has its last
+byte (its *start cycle* E); :data:`COMMANDS` gives each one's bus and timing in those terms.
+This module is the one definition of the protocol, for the gateware
+(:class:`hdl.bridge.chip.UartBridge`), its reference model (:mod:`hdl.bridge.model`), the host's
+link and the documentation.
+"""
+
+from __future__ import annotations
+
+import enum
+import zlib
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from hdl.bus.registers import RegisterMap
+
+__all__ = ["COMMANDS", "COUNTER_BITS", "COUNT_BITS", "ERROR", "IRQ_ALARM", "IRQ_INTERP",
+           "MAX_CYCLES_PER_BIT", "MIN_CYCLES_PER_BIT", "OK", "PROTOCOL_VERSION", "REPLY_MAX",
+           "RX_FIFO_DEPTH", "Command", "Error", "Identity", "Op", "check_cycles_per_bit",
+           "command_start", "encode", "map_fingerprint", "markdown"]
+
+#: The protocol's version, the first byte of :attr:`Op.IDENT`'s reply.
+PROTOCOL_VERSION = 1
+
+#: Width of :attr:`Op.IDLE`'s and :attr:`Op.WAIT`'s cycle counts.
+COUNT_BITS = 32
+#: Width of the bridge's cycle counter (:attr:`Op.CYCLE`): 12.7 days at 1 MHz before it wraps.
+COUNTER_BITS = 40
+#: Bytes the bridge's receiver buffers.
+RX_FIFO_DEPTH = 16
+#: The UART's bit time in clock cycles, least and most.
+MIN_CYCLES_PER_BIT = 4
+MAX_CYCLES_PER_BIT = 1 << 16
+
+#: Reply status bytes.
+OK = 0x2B  # '+'
+ERROR = 0x21  # '!'
+
+#: Bits of :attr:`Op.STATUS`'s reply: the interrupt inputs' levels.
+IRQ_INTERP = 0x01
+IRQ_ALARM = 0x02
+
+
+class Op(enum.IntEnum):
+    """The opcodes (ASCII letters, so that a terminal shows a frame's kind)."""
+
+    IDENT = 0x49  # 'I'
+    WRITE = 0x57  # 'W'
+    READ = 0x52  # 'R'
+    IDLE = 0x44  # 'D'
+    WAIT = 0x51  # 'Q'
+    STATUS = 0x53  # 'S'
+    CYCLE = 0x43  # 'C'
+
+
+class Error(enum.IntEnum):
+    """The code after :data:`ERROR`."""
+
+    #: The byte was no opcode; it is dropped and the next byte is taken as an opcode.
+    OPCODE = 0x01
+    #: A byte arrived with a framing error (its stop bit low); it and the frame it was part
+    #: of are dropped, and the next byte is taken as an opcode.
+    FRAMING = 0x02
+
+
+@dataclass(frozen=True)
+class Command:
+    """One command: its arguments and results, as (name, bytes) pairs, and what it does."""
+
+    op: Op
+    args: tuple[tuple[str, int], ...]
+    results: tuple[tuple[str, int], ...]
+    does: str
+
+    @property
+    def frame_bytes(self) -> int:
+        return 1 + sum(n for _, n in self.args)
+
+    @property
+    def reply_bytes(self) -> int:
+        return 1 + sum(n for _, n in self.results)
+
+
+_COUNT = COUNT_BITS // 8
+
+#: Every command, by opcode.
+COMMANDS: dict[Op, Command] = {c.op: c for c in (
+    Command(Op.IDENT, (), (("version", 1), ("axes", 1), ("fingerprint", 4)),
+            "What is behind the bridge: the protocol version, the chipset's axes and its "
+            "register maps' fingerprint (a CRC-32 of every register's name, address, width and "
+            "access). No bus cycle."),
+    Command(Op.WRITE, (("address", 1), ("data", 1)), (),
+            "One bus write cycle: `w_stb` high in cycle E."),
+    Command(Op.READ, (("address", 1),), (("data", 1),),
+            "One bus read cycle: `r_stb` high in cycle E, the byte taken in E + 1."),
+    Command(Op.IDLE, (("cycles", _COUNT),), (),
+            "No bus activity for `cycles` cycles, E to E + cycles - 1; the reply follows."),
+    Command(Op.WAIT, (("max_cycles", _COUNT),), (("cycles", _COUNT),),
+            "Wait for an interrupt: the least n in 1..max_cycles with an interrupt input high "
+            "in cycle E + n, else max_cycles (0 if max_cycles is 0). The reply follows at once: "
+            "the interrupt notification."),
+    Command(Op.STATUS, (), (("irq", 1),),
+            "The interrupt inputs' levels in cycle E: bit 0 `irq_interp` (RST 7.5), bit 1 "
+            "`irq_alarm` (RST 6.5)."),
+    Command(Op.CYCLE, (), (("cycle", COUNTER_BITS // 8),),
+            "The bridge's cycle counter in cycle E: the cycles since reset, modulo 2^40."),
+)}
+
+#: The longest reply.
+REPLY_MAX = max(c.reply_bytes for c in COMMANDS.values())
+
+
+def encode(op: Op, *args: int) -> bytes:
+    """The frame of command ``op`` with ``args`` (each in its width)."""
+    command = COMMANDS[op]
+    if len(args) != len(command.args):
+        raise ValueError(f"{op.name} takes {len(command.args)} arguments, not {len(args)}")
+    frame = bytes([op])
+    for (name, n), value in zip(command.args, args, strict=True):
+        if not 0 <= value < 1 << 8 * n:
+            raise ValueError(f"{op.name} {name} must be in 0..{(1 << 8 * n) - 1}, not {value}")
+        frame += value.to_bytes(n, "little")
+    return frame
+
+
+def check_cycles_per_bit(cycles_per_bit: object) -> int:
+    """``cycles_per_bit`` if it is a supported UART bit time, else a ValueError naming it."""
+    if (not isinstance(cycles_per_bit, int) or isinstance(cycles_per_bit, bool)
+            or not MIN_CYCLES_PER_BIT <= cycles_per_bit <= MAX_CYCLES_PER_BIT):
+        raise ValueError(f"cycles per UART bit must be an integer in {MIN_CYCLES_PER_BIT}.."
+                         f"{MAX_CYCLES_PER_BIT}, not {cycles_per_bit!r}")
+    return cycles_per_bit
+
+
+def command_start(last_byte: int, cycles_per_bit: int) -> int:
+    """The start cycle E of a command whose last byte's start bit began on ``rx`` in cycle
+    ``last_byte`` (the line sampled at each rising clock edge): its stop bit is sampled
+    ``cycles_per_bit // 2 + 9 * cycles_per_bit`` cycles after its start bit is seen, itself two
+    cycles late (a two-stage synchroniser), and the command starts three cycles later (the
+    receive FIFO and the frame decoder)."""
+    return last_byte + 2 + cycles_per_bit // 2 + 9 * cycles_per_bit + 3
+
+
+@dataclass(frozen=True)
+class Identity:
+    """What :attr:`Op.IDENT` tells of the chipset behind a bridge."""
+
+    axes: int
+    fingerprint: int
+    version: int = PROTOCOL_VERSION
+
+    def encode(self) -> bytes:
+        return bytes([self.version, self.axes]) + self.fingerprint.to_bytes(4, "little")
+
+    @classmethod
+    def decode(cls, data: bytes) -> Identity:
+        return cls(axes=data[1], fingerprint=int.from_bytes(data[2:6], "little"),
+                   version=data[0])
+
+
+def map_fingerprint(maps: Iterable[tuple[str, int, RegisterMap]]) -> int:
+    """A CRC-32 of a chipset's chips as (name, chip select, register map): every register's
+    name, address, width and access, so a host can tell whether it drives the chipset it
+    expects."""
+    text = []
+    for name, select, regmap in maps:
+        text.append(f"{name}@{select}:")
+        text += [f"{r.name},{r.addr},{r.width},{r.access.name};" for r in regmap]
+    return zlib.crc32("".join(text).encode())
+
+
+def markdown() -> str:
+    """The command table of the protocol's documentation."""
+    def fields(pairs: tuple[tuple[str, int], ...]) -> str:
+        return ", ".join(f"{name} ({n})" for name, n in pairs) or "-"
+
+    lines = ["| command | opcode | arguments (bytes) | reply after OK (bytes) | does |",
+             "|---|---|---|---|---|"]
+    for c in COMMANDS.values():
+        lines.append(f"| {c.op.name} | {c.op:#04x} `{chr(c.op)}` | {fields(c.args)} "
+                     f"| {fields(c.results)} | {c.does} |")
+    lines += ["", "| reply status | byte | then |", "|---|---|---|",
+              f"| OK | {OK:#04x} `{chr(OK)}` | the command's results |",
+              f"| ERROR | {ERROR:#04x} `{chr(ERROR)}` | one code byte: "
+              + ", ".join(f"{e:#04x} {e.name}" for e in Error) + " |"]
+    return "\n".join(lines) + "\n"
