@@ -10,6 +10,7 @@ counts included.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from typing import Protocol
 
 from hdl.bridge.protocol import (
@@ -19,6 +20,8 @@ from hdl.bridge.protocol import (
     IRQ_ALARM,
     IRQ_INTERP,
     OK,
+    PROBE_BYTES,
+    SIMULATED_COMMANDS,
     Error,
     Identity,
     Op,
@@ -48,11 +51,18 @@ class Target(Protocol):
 
 
 class BridgeModel:
-    """The bridge, byte by byte, on ``target``, telling ``identity`` to :attr:`Op.IDENT`."""
+    """The bridge, byte by byte, on ``target``, telling ``identity`` to :attr:`Op.IDENT`.
 
-    def __init__(self, target: Target, identity: Identity):
+    ``probe``: a simulated board's observation counters, in the order of
+    :attr:`Op.PROBE`'s reply; None (the gateware's case): PROBE is no opcode.
+    """
+
+    def __init__(self, target: Target, identity: Identity,
+                 probe: Callable[[], Sequence[int]] | None = None):
         self.target = target
         self.identity = identity
+        self.probe = probe
+        self.commands = {**COMMANDS, **(SIMULATED_COMMANDS if probe is not None else {})}
         self._frame = bytearray()
 
     def receive(self, byte: int, start: int | None = None) -> bytes:
@@ -64,10 +74,10 @@ class BridgeModel:
         if byte == FRAMING:
             self._frame.clear()
             return bytes([ERROR, Error.FRAMING])
-        if not self._frame and byte not in COMMANDS:
+        if not self._frame and byte not in self.commands:
             return bytes([ERROR, Error.OPCODE])
         self._frame.append(byte)
-        command = COMMANDS[Op(self._frame[0])]
+        command = self.commands[Op(self._frame[0])]
         if len(self._frame) < command.frame_bytes:
             return b""
         frame = bytes(self._frame)
@@ -94,5 +104,9 @@ class BridgeModel:
         if op is Op.STATUS:
             interp, alarm = target.interrupts()
             return bytes([IRQ_INTERP * interp | IRQ_ALARM * alarm])
+        if op is Op.PROBE:
+            assert self.probe is not None
+            return b"".join(value.to_bytes(PROBE_BYTES, "little", signed=True)
+                            for value in self.probe())
         assert op is Op.CYCLE
         return (target.cycle % (1 << COUNTER_BITS)).to_bytes(COUNTER_BITS // 8, "little")

@@ -24,8 +24,9 @@ from dataclasses import dataclass
 from hdl.bus.registers import RegisterMap
 
 __all__ = ["COMMANDS", "COUNTER_BITS", "COUNT_BITS", "ERROR", "IRQ_ALARM", "IRQ_INTERP",
-           "MAX_CYCLES_PER_BIT", "MIN_CYCLES_PER_BIT", "OK", "PROTOCOL_VERSION", "REPLY_MAX",
-           "RX_FIFO_DEPTH", "Command", "Error", "Identity", "Op", "check_cycles_per_bit",
+           "MAX_CYCLES_PER_BIT", "MIN_CYCLES_PER_BIT", "OK", "PROBE_AXES", "PROBE_BYTES",
+           "PROBE_FIELDS", "PROTOCOL_VERSION", "REPLY_MAX", "RX_FIFO_DEPTH",
+           "SIMULATED_COMMANDS", "Command", "Error", "Identity", "Op", "check_cycles_per_bit",
            "command_start", "encode", "map_fingerprint", "markdown"]
 
 #: The protocol's version, the first byte of :attr:`Op.IDENT`'s reply.
@@ -60,6 +61,8 @@ class Op(enum.IntEnum):
     WAIT = 0x51  # 'Q'
     STATUS = 0x53  # 'S'
     CYCLE = 0x43  # 'C'
+    #: A simulated board's only: :data:`SIMULATED_COMMANDS`.
+    PROBE = 0x50  # 'P'
 
 
 class Error(enum.IntEnum):
@@ -115,13 +118,32 @@ COMMANDS: dict[Op, Command] = {c.op: c for c in (
             "The bridge's cycle counter in cycle E: the cycles since reset, modulo 2^40."),
 )}
 
-#: The longest reply.
+#: The longest reply of the gateware.
 REPLY_MAX = max(c.reply_bytes for c in COMMANDS.values())
+
+#: What :attr:`Op.PROBE` reads of each axis, after the FP count: the observation counters of
+#: the simulated machine (its ports ``<axis>__<name>``), which no bus reaches.
+PROBE_FIELDS = ("pulses_pos", "pulses_neg", "command", "error", "count", "max_abs_error")
+#: Axes :attr:`Op.PROBE` always reports (zeros for an axis a machine lacks).
+PROBE_AXES = ("x", "y", "z")
+#: Bytes of each value :attr:`Op.PROBE` reads (signed, two's complement).
+PROBE_BYTES = 4
+
+#: Commands only a simulated board (``k37 serve``) answers: the logic analyser a real board
+#: lacks. The gateware answers them as a byte that is no opcode.
+SIMULATED_COMMANDS: dict[Op, Command] = {c.op: c for c in (
+    Command(Op.PROBE, (), (("fp_total", PROBE_BYTES),
+                           ("per axis x, y, z: " + ", ".join(PROBE_FIELDS),
+                            PROBE_BYTES * len(PROBE_FIELDS) * len(PROBE_AXES))),
+            "The simulated machine's observation counters in cycle E: FP pulses since reset "
+            "and, per axis, step pulses each way, K3702 command and error counters, the "
+            "plant's encoder count and the largest error yet. No bus cycle."),
+)}
 
 
 def encode(op: Op, *args: int) -> bytes:
     """The frame of command ``op`` with ``args`` (each in its width)."""
-    command = COMMANDS[op]
+    command = {**COMMANDS, **SIMULATED_COMMANDS}[op]
     if len(args) != len(command.args):
         raise ValueError(f"{op.name} takes {len(command.args)} arguments, not {len(args)}")
     frame = bytes([op])
@@ -185,7 +207,7 @@ def markdown() -> str:
 
     lines = ["| command | opcode | arguments (bytes) | reply after OK (bytes) | does |",
              "|---|---|---|---|---|"]
-    for c in COMMANDS.values():
+    for c in (*COMMANDS.values(), *SIMULATED_COMMANDS.values()):
         lines.append(f"| {c.op.name} | {c.op:#04x} `{chr(c.op)}` | {fields(c.args)} "
                      f"| {fields(c.results)} | {c.does} |")
     lines += ["", "| reply status | byte | then |", "|---|---|---|",

@@ -60,7 +60,8 @@ from sim.run.simulated_link import BlockMeasure, BlockMeter, SimulatedLink
 from sim.run.waveform import is_fst
 
 __all__ = ["STOP_SIGNALS", "OptionError", "RunOptions", "RunResult", "RunStopped", "build_backend",
-           "check_options", "configure_plants", "reused_backend", "run_job", "system_params"]
+           "check_options", "configure_plants", "cycle_limit", "reused_backend", "run_job",
+           "run_status", "system_params"]
 
 
 @dataclass
@@ -352,7 +353,7 @@ def _run(job: Job, options: RunOptions, backend: Backend, traced: Path | None) -
             stopped = e
     wall = time.perf_counter() - watch.start
     sampler.flush()
-    status, reason = _status(firmware, stopped, limit_name, backend.cycle)
+    status, reason = run_status(firmware, stopped, limit_name, backend.cycle)
     report = _report(job, backend, firmware, meter, store, wall, status, reason)
     failures = []
     if options.vcd is not None and traced is not None:
@@ -434,7 +435,7 @@ def cycle_limit(job: Job, options: RunOptions) -> tuple[int, str]:
     return cycles, f"the job's limit, run.max_time_s = {seconds:g} s ({cycles:,} cycles),"
 
 
-def _status(firmware: Firmware, stopped: RunStopped | None, limit_name: str,
+def run_status(firmware: Firmware, stopped: RunStopped | None, limit_name: str,
             cycles: int) -> tuple[str, str]:
     """The run's status and why, in words."""
     for alarm in firmware.alarms:

@@ -1,0 +1,75 @@
+"""``k37 serve``: a simulated board, the machine behind a TCP socket speaking the host bridge's
+protocol."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from sim.cli.shared import interrupted, print_error, stopped
+
+__all__ = ["add_commands"]
+
+
+def _port(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a port number") from None
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"{value} is not a port number (0 to 65535; 0: any "
+                                         f"free port)")
+    return value
+
+
+def _cmd_serve(args: argparse.Namespace) -> int:
+    from firmware_model.gcode.parser import GcodeError
+    from sim.run.jobfile import JobError, load_job
+    from sim.serve.server import Session, SimulatedBoard
+
+    try:
+        job = load_job(args.job)
+        board = SimulatedBoard(job, args.backend, args.host, args.port)
+    except (JobError, GcodeError) as e:
+        print_error(e)
+        return 2
+    except OSError as e:
+        print(f"k37: error: --port {args.port}: cannot listen on {args.host}: "
+              f"{e.strerror or e}", file=sys.stderr)
+        return 2
+
+    def report(session: Session) -> None:
+        print(f"k37 serve: {session.peer}: {session.received:,} bytes received, "
+              f"{session.cycles:,} cycles run", file=sys.stderr, flush=True)
+
+    print(f"k37 serve: the {job.machine.axes}-axis machine of {job.name} on "
+          f"tcp://{args.host}:{board.port} ({board.backend.name}); Ctrl-C ends",
+          file=sys.stderr, flush=True)
+    try:
+        board.serve(args.sessions, report)
+    except KeyboardInterrupt:
+        print(f"k37 serve: {stopped()}", file=sys.stderr)
+        return interrupted()
+    finally:
+        board.close()
+    return 0
+
+
+def add_commands(sub: argparse._SubParsersAction) -> None:
+    """Add ``serve`` to the command line."""
+    from sim.backends.factory import BACKEND_NAMES
+    from sim.cli.shared import positive_int
+
+    p = sub.add_parser("serve", help="serve a simulated board: the job's machine behind a TCP "
+                                     "socket, for `k37 run --link tcp://HOST:PORT`")
+    p.add_argument("job", nargs="?", help="job file whose machine to serve (.toml, or G-code "
+                                          "for the default machine; default: the demo's)")
+    p.add_argument("--port", type=_port, required=True,
+                   help="TCP port to listen on (0: any free port, printed)")
+    p.add_argument("--host", default="127.0.0.1",
+                   help="address to listen on (default 127.0.0.1: this computer only)")
+    p.add_argument("--backend", choices=BACKEND_NAMES, default=BACKEND_NAMES[0],
+                   help="simulation backend (auto: compiled when a C++ compiler exists)")
+    p.add_argument("--sessions", type=positive_int, default=None, metavar="N",
+                   help="end after serving N connections (default: serve until Ctrl-C)")
+    p.set_defaults(func=_cmd_serve)
