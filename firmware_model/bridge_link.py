@@ -61,6 +61,7 @@ def chipset_identity(axes: int) -> Identity:
 class Probe:
     """A simulated board's observation counters (:attr:`Op.PROBE`), per axis by field name."""
 
+    cycle: int
     fp_total: int
     axes: dict[str, dict[str, int]]
 
@@ -158,7 +159,7 @@ class BridgeLink:
         such command)."""
         if self.probes is False:
             return None
-        size = PROBE_BYTES * (1 + len(PROBE_FIELDS) * len(PROBE_AXES))
+        size = PROBE_BYTES * (2 + len(PROBE_FIELDS) * len(PROBE_AXES))
         try:
             data = self._command(Op.PROBE, reply=size)
         except _RefusedError as e:
@@ -170,10 +171,10 @@ class BridgeLink:
         values = [int.from_bytes(data[k:k + PROBE_BYTES], "little", signed=True)
                   for k in range(0, size, PROBE_BYTES)]
         per_axis = len(PROBE_FIELDS)
-        return Probe(values[0], {axis: dict(zip(PROBE_FIELDS,
-                                                values[1 + k * per_axis:1 + (k + 1) * per_axis],
-                                                strict=True))
-                                 for k, axis in enumerate(PROBE_AXES)})
+        return Probe(values[0], values[1], {
+            axis: dict(zip(PROBE_FIELDS, values[2 + k * per_axis:2 + (k + 1) * per_axis],
+                           strict=True))
+            for k, axis in enumerate(PROBE_AXES)})
 
     def close(self) -> None:
         self.port.close()

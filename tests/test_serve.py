@@ -168,3 +168,30 @@ def test_k37_serve_and_run_link_from_the_command_line(tmp_path):
     a, b = (json.loads((tmp_path / name).read_text()) for name in ("here.json", "linked.json"))
     for key in SAME:
         assert a[key] == b[key], key
+
+
+def test_line_time_lengthens_the_gaps_and_keeps_every_blocks_pulses(make_job):
+    job = make_job("G21 G91 F600\nG01 X0.3 Y0.1\nG01 X-0.1 Y0.2\nM30")
+    here = run_job(job, RunOptions(backend="cxxrtl")).report
+    board = SimulatedBoard(job, "cxxrtl", line=(8, 500))
+    thread = threading.Thread(target=board.serve, args=(1,), daemon=True)
+    thread.start()
+    try:
+        linked = run_linked(job, RunOptions(), f"tcp://127.0.0.1:{board.port}").report
+    finally:
+        thread.join(10)
+        board.close()
+    for a, b in zip(here["blocks"], linked["blocks"], strict=True):
+        assert (a["fp_pulses"], a["steps"], a["end_command"]) == \
+            (b["fp_pulses"], b["steps"], b["end_command"])
+    (_, end0), (start1, _) = linked["link"]["board_blocks"]
+    in_process_gap = here["blocks"][1]["start_cycle"] - here["blocks"][0]["end_cycle"]
+    # every command of the gap now also costs its bytes (80 cycles each) and the host's 500
+    assert start1 - end0 > in_process_gap + 500
+    assert linked["link"]["board_cycle"] > linked["cycles"]
+
+
+def test_a_bad_line_is_refused(make_job):
+    job = make_job("G21 G91 F600\nG01 X0.3 Y0.1\nM30")
+    with pytest.raises(ValueError, match="cycles per UART bit must be an integer"):
+        SimulatedBoard(job, "cxxrtl", line=(2, 0))

@@ -25,9 +25,11 @@ from hdl.bridge.protocol import (
     Error,
     Identity,
     Op,
+    check_cycles_per_bit,
+    command_start,
 )
 
-__all__ = ["FRAMING", "BridgeModel", "Target"]
+__all__ = ["FRAMING", "BridgeModel", "LineTimed", "Target"]
 
 #: What :meth:`BridgeModel.receive` takes for a byte received with a framing error.
 FRAMING = -1
@@ -64,6 +66,11 @@ class BridgeModel:
         self.probe = probe
         self.commands = {**COMMANDS, **(SIMULATED_COMMANDS if probe is not None else {})}
         self._frame = bytearray()
+
+    @property
+    def mid_frame(self) -> bool:
+        """Whether bytes of a frame were received and more are awaited."""
+        return bool(self._frame)
 
     def receive(self, byte: int, start: int | None = None) -> bytes:
         """Take one received byte (or :data:`FRAMING`); the reply it completes, or b"".
@@ -110,3 +117,36 @@ class BridgeModel:
                             for value in self.probe())
         assert op is Op.CYCLE
         return (target.cycle % (1 << COUNTER_BITS)).to_bytes(COUNTER_BITS // 8, "little")
+
+
+class LineTimed:
+    """A :class:`BridgeModel` whose commands start when they would over a UART.
+
+    Each byte takes ten bit times of ``cycles_per_bit`` cycles on the line; a frame's first byte
+    goes out ``turnaround`` cycles after the previous reply's last byte has arrived (a
+    stop-and-wait host), the others back to back; a command starts as the gateware's would
+    (:func:`hdl.bridge.protocol.command_start`), and its reply takes the line from the cycle
+    after it ends. The target's time then includes the line's, as a real board's does.
+    """
+
+    def __init__(self, model: BridgeModel, cycles_per_bit: int, turnaround: int = 0):
+        self.model = model
+        self.cycles_per_bit = check_cycles_per_bit(cycles_per_bit)
+        if turnaround < 0:
+            raise ValueError(f"turnaround must be >= 0 cycles, not {turnaround}")
+        self.turnaround = turnaround
+        self._line = 0  # the cycle the host's next byte can begin
+
+    def receive(self, byte: int) -> bytes:
+        if byte == Op.PROBE and not self.model.mid_frame:
+            # The logic analyser is not on the line: it looks at the machine as the host
+            # finds it, taking no line time.
+            return self.model.receive(byte, self._line)
+        byte_cycles = 10 * self.cycles_per_bit
+        begins = self._line
+        self._line += byte_cycles
+        reply = self.model.receive(byte, command_start(begins, self.cycles_per_bit))
+        if reply:
+            end = max(self.model.target.cycle, self._line) + 1 + len(reply) * byte_cycles
+            self._line = end + self.turnaround
+        return reply

@@ -127,15 +127,16 @@ PROBE_FIELDS = ("pulses_pos", "pulses_neg", "command", "error", "count", "max_ab
 #: Axes :attr:`Op.PROBE` always reports (zeros for an axis a machine lacks).
 PROBE_AXES = ("x", "y", "z")
 #: Bytes of each value :attr:`Op.PROBE` reads (signed, two's complement).
-PROBE_BYTES = 4
+PROBE_BYTES = 8
 
 #: Commands only a simulated board (``k37 serve``) answers: the logic analyser a real board
 #: lacks. The gateware answers them as a byte that is no opcode.
 SIMULATED_COMMANDS: dict[Op, Command] = {c.op: c for c in (
-    Command(Op.PROBE, (), (("fp_total", PROBE_BYTES),
+    Command(Op.PROBE, (), (("cycle", PROBE_BYTES), ("fp_total", PROBE_BYTES),
                            ("per axis x, y, z: " + ", ".join(PROBE_FIELDS),
                             PROBE_BYTES * len(PROBE_FIELDS) * len(PROBE_AXES))),
-            "The simulated machine's observation counters in cycle E: FP pulses since reset "
+            "The simulated machine's observation counters in cycle E: the cycle, FP pulses "
+            "since reset "
             "and, per axis, step pulses each way, K3702 command and error counters, the "
             "plant's encoder count and the largest error yet. No bus cycle."),
 )}

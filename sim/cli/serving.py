@@ -22,6 +22,25 @@ def _port(text: str) -> int:
     return value
 
 
+def _cycles_per_bit(text: str) -> int:
+    from hdl.bridge.protocol import check_cycles_per_bit
+
+    try:
+        return check_cycles_per_bit(int(text))
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def _cycles(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of cycles") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{value}: give a number of cycles >= 0")
+    return value
+
+
 def _cmd_serve(args: argparse.Namespace) -> int:
     from firmware_model.gcode.parser import GcodeError
     from sim.run.jobfile import JobError, load_job
@@ -29,7 +48,8 @@ def _cmd_serve(args: argparse.Namespace) -> int:
 
     try:
         job = load_job(args.job)
-        board = SimulatedBoard(job, args.backend, args.host, args.port)
+        line = None if args.uart is None else (args.uart, args.turnaround)
+        board = SimulatedBoard(job, args.backend, args.host, args.port, line=line)
     except (JobError, GcodeError) as e:
         print_error(e)
         return 2
@@ -72,4 +92,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                    help="simulation backend (auto: compiled when a C++ compiler exists)")
     p.add_argument("--sessions", type=positive_int, default=None, metavar="N",
                    help="end after serving N connections (default: serve until Ctrl-C)")
+    p.add_argument("--uart", type=_cycles_per_bit, default=None, metavar="CYCLES_PER_BIT",
+                   help="let the machine's time include a UART's at this bit time, as a real "
+                        "board's does (8: 125 kBd at 1 MHz; default: no line time)")
+    p.add_argument("--turnaround", type=_cycles, default=0, metavar="CYCLES",
+                   help="with --uart: the host's time from a reply to its next frame "
+                        "(default 0)")
     p.set_defaults(func=_cmd_serve)

@@ -54,10 +54,14 @@ class _ProbeMeter:
         self.link = link
         self.axes = axes
         self.measures: dict[int, BlockMeasure | None] = {}
+        #: Each block's start and end cycle on the board, where it answers PROBE.
+        self.board_cycles: dict[int, list[int | None]] = {}
         self._start: Probe | None = None
 
     def block_started(self, record: BlockRecord) -> None:
         self._start = self.link.probe()
+        if self._start is not None:
+            self.board_cycles[record.index] = [self._start.cycle, None]
 
     def block_ended(self, record: BlockRecord) -> None:
         end = self.link.probe()
@@ -65,6 +69,7 @@ class _ProbeMeter:
             self.measures[record.index] = None
             return
         start = self._start
+        self.board_cycles[record.index][1] = end.cycle
         steps = {f"{axis}{sign}": end.axes[axis][name] - start.axes[axis][name]
                  for axis in self.axes for sign, name in (("+", "pulses_pos"),
                                                           ("-", "pulses_neg"))}
@@ -156,7 +161,8 @@ def _run(job: Job, options: RunOptions, link: BridgeLink, url: str) -> RunResult
         "path": {"max_contour_error": 0.0, "rms_contour_error": 0.0, "samples": 0},
         "alarms": [{"axis": a.axis, "cycle": a.cycle, "kind": a.kind} for a in firmware.alarms],
         "warnings": [*job.program.notes, *clamped_feeds(job)],
-        "link": {"url": url, "probes": probe is not None, "board_cycle": board_cycle},
+        "link": {"url": url, "probes": probe is not None, "board_cycle": board_cycle,
+                 "board_blocks": [meter.board_cycles.get(b.index) for b in firmware.blocks]},
         **({"events": [{"line": r.event.line_no, "word": r.event.word, "kind": r.event.kind,
                         "value": r.event.value, "cycle": r.cycle} for r in firmware.events]}
            if job.program.events else {}),

@@ -161,6 +161,9 @@ RUN_SCHEMA["properties"]["link"] = _obj(
                                                      "board): the blocks' pulses are known"},
         "board_cycle": _int("the bridge's cycle counter at the end (modulo 2^40): ahead of "
                             "`cycles` by the time bytes spent on the line"),
+        "board_blocks": {"type": "array", "items": {"type": ["array", "null"]},
+                         "description": "each block's start and end cycle on the board "
+                                        "(null: not known, a board without PROBE)"},
     })
 #: Present only when asked for (ballbar), when there are some (events) or with ``--link``.
 OPTIONAL = ("ballbar", "events", "link")

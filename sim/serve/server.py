@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 from firmware_model.bridge_link import chipset_identity
 from firmware_model.job import Job
-from hdl.bridge.model import BridgeModel
-from hdl.bridge.protocol import PROBE_AXES, PROBE_FIELDS
+from hdl.bridge.model import BridgeModel, LineTimed
+from hdl.bridge.protocol import PROBE_AXES, PROBE_FIELDS, check_cycles_per_bit
 from sim.backends.contract import Backend
 from sim.run.runner import build_backend, configure_plants
 from sim.run.sampler import Sampler, SampleStore
@@ -39,11 +39,21 @@ class Session:
 
 class SimulatedBoard:
     """The machine of ``job`` on backend ``kind``, served on ``host``:``port`` (0: a free
-    port, :attr:`port` once bound)."""
+    port, :attr:`port` once bound).
+
+    ``line``: (cycles per bit, host turnaround in cycles) to let the machine's time include a
+    UART's as on a real board (:class:`hdl.bridge.model.LineTimed`); None: time passes only as
+    the commands say.
+    """
 
     def __init__(self, job: Job, kind: str = "auto", host: str = "127.0.0.1", port: int = 0,
-                 sample_every: int = 1000):
+                 sample_every: int = 1000, line: tuple[int, int] | None = None):
         self.job = job
+        self.line = line
+        if line is not None:
+            check_cycles_per_bit(line[0])
+            if line[1] < 0:
+                raise ValueError(f"the host's turnaround must be >= 0 cycles, not {line[1]}")
         self.backend: Backend = build_backend(job, kind)
         self.sample_every = sample_every
         self.identity = chipset_identity(job.machine.axes)
@@ -53,7 +63,7 @@ class SimulatedBoard:
 
     def _probe(self) -> list[int]:
         backend, axes = self.backend, self.job.machine.axis_names
-        return [backend.get("fp_total"),
+        return [backend.cycle, backend.get("fp_total"),
                 *(backend.get(f"{axis}__{name}") if axis in axes else 0
                   for axis in PROBE_AXES for name in PROBE_FIELDS)]
 
@@ -64,7 +74,10 @@ class SimulatedBoard:
         configure_plants(self.backend, self.job)
         store = SampleStore(self.job.machine.dac_bits, self.job.machine.axis_names)
         sampler = Sampler(self.backend, self.sample_every, store, skip_idle=True)
-        model = BridgeModel(SimulatedLink(sampler), self.identity, probe=self._probe)
+        model: BridgeModel | LineTimed = BridgeModel(SimulatedLink(sampler), self.identity,
+                                                     probe=self._probe)
+        if self.line is not None:
+            model = LineTimed(model, *self.line)
         with conn:
             while not self.stop.is_set():
                 try:
