@@ -72,6 +72,12 @@ def _point(xy: list[int], lsb_mm: float) -> str:
     return f"({xy[0] * lsb_mm:.3f}, {xy[1] * lsb_mm:.3f}) mm = ({xy[0]}, {xy[1]}) LSB"
 
 
+def _link_line(link: dict) -> str:
+    """What a run over a link says instead of the path's figures."""
+    return (f"over {link['url']}, board at cycle {link['board_cycle']:,}; no samples here (the "
+            f"trace and the path's error are the board's)")
+
+
 def summary(result: RunResult) -> str:
     """A few lines for the terminal, every figure with its unit."""
     r = result.report
@@ -92,17 +98,20 @@ def summary(result: RunResult) -> str:
              f"{r['backend']}{skipped})",
              f"  end point {_point(end['programmed'], lsb_mm)}: {reached}",
              f"  {len(r['blocks'])} block{'s' if len(r['blocks']) != 1 else ''} run; "
-             f"contour error max "
-             f"{path['max_contour_error']:.2f} LSB ({_mm(path['max_contour_error'], lsb_mm)}), "
-             f"rms {path['rms_contour_error']:.2f} LSB "
-             f"({_mm(path['rms_contour_error'], lsb_mm)}) over {path['samples']:,} samples"]
+             + (_link_line(r["link"]) if "link" in r else
+                f"contour error max "
+                f"{path['max_contour_error']:.2f} LSB ({_mm(path['max_contour_error'], lsb_mm)}), "
+                f"rms {path['rms_contour_error']:.2f} LSB "
+                f"({_mm(path['rms_contour_error'], lsb_mm)}) over {path['samples']:,} samples")]
     half = 1 << (machine.dac_bits - 1)
     for axis, a in r["axes"].items():
-        volts = DAC_VOLTS * min(a["max_abs_error"], half) / half
+        most = a["max_abs_error"]
+        largest = ("unknown" if most is None else
+                   f"{most} LSB ({_mm(most, lsb_mm)}, "
+                   f"{DAC_VOLTS * min(most, half) / half:.2f} V at the D/A)")
         lines.append(f"  {axis}: command {a['command']} LSB, actual {a['actual']} LSB "
                      f"({_mm(a['actual'], lsb_mm)}), error {a['error']} LSB, max |error| "
-                     f"{a['max_abs_error']} LSB ({_mm(a['max_abs_error'], lsb_mm)}, "
-                     f"{volts:.2f} V at the D/A)")
+                     f"{largest}")
     lines += [f"  {a['kind']}{' on axis ' + a['axis'] if a['axis'] else ''} at cycle "
               f"{a['cycle']:,} ({a['cycle'] / clock:.3f} s)" for a in r["alarms"]]
     lines += [f"  warning: {w}" for w in r["warnings"]]
