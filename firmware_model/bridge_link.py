@@ -19,6 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from urllib.parse import parse_qs, urlsplit
 
+from firmware_model.job import Job
 from firmware_model.link import Interrupts
 from hdl.bridge.protocol import (
     COUNT_BITS,
@@ -33,11 +34,10 @@ from hdl.bridge.protocol import (
     Identity,
     Op,
     encode,
-    map_fingerprint,
 )
-from hdl.chipset.map import chip_selects
+from hdl.chipset.identity import chipset_identity
 
-__all__ = ["DEFAULT_BAUD", "BridgeLink", "LinkError", "Probe", "chipset_identity", "open_link"]
+__all__ = ["DEFAULT_BAUD", "BridgeLink", "LinkError", "Probe", "job_identity", "open_link"]
 
 #: A serial link's baud rate unless its URL gives one: 8 cycles per bit at the 1 MHz clock.
 DEFAULT_BAUD = 125_000
@@ -51,10 +51,12 @@ class LinkError(Exception):
     the chipset behind it is not the one expected."""
 
 
-def chipset_identity(axes: int) -> Identity:
-    """What a bridge in front of the ``axes``-axis chipset tells (:attr:`Op.IDENT`)."""
-    return Identity(axes, map_fingerprint(
-        (name, select, regmap) for name, (select, regmap) in chip_selects(axes).items()))
+def job_identity(job: Job) -> Identity:
+    """What a bridge in front of ``job``'s chipset tells (:attr:`Op.IDENT`)."""
+    machine = job.machine
+    return chipset_identity(axes=machine.axes, accel=machine.accel,
+                            accel_bits=machine.accel_bits, accel_shape=machine.accel_shape,
+                            axis_accel=job.accel_circuits(), axis_fa=job.fa_axes())
 
 
 @dataclass(frozen=True)
@@ -115,9 +117,9 @@ class BridgeLink:
             raise LinkError(f"{self.name}: the chipset there has {found.axes} axes, the job's "
                             f"machine {expected.axes}")
         if found.fingerprint != expected.fingerprint:
-            raise LinkError(f"{self.name}: the chipset there has other register maps "
-                            f"(fingerprint {found.fingerprint:#010x}, expected "
-                            f"{expected.fingerprint:#010x}): another K37 version")
+            raise LinkError(f"{self.name}: the chipset there was built otherwise than the job's "
+                            f"machine (other accel/decel circuits or register maps: fingerprint "
+                            f"{found.fingerprint:#010x}, the job's {expected.fingerprint:#010x})")
 
     def idle(self, cycles: int) -> None:
         while cycles > 0:

@@ -14,11 +14,13 @@ from contextlib import contextmanager
 
 import pytest
 
-from firmware_model.bridge_link import DEFAULT_BAUD, LinkError, chipset_identity, open_link
+from firmware_model.bridge_link import DEFAULT_BAUD, LinkError, job_identity, open_link
 from firmware_model.job import Job, MachineConfig
 from hdl.bridge.protocol import Identity
+from hdl.chipset.identity import chipset_identity
+from hdl.chipset.map import Accel
 from sim.run.linked import run_linked
-from sim.run.runner import RunOptions, run_job
+from sim.run.runner import RunOptions, run_job, system_params
 from sim.serve.server import SimulatedBoard
 
 #: What a link run shares with the run in process: everything the firmware and the pulses
@@ -101,7 +103,7 @@ def test_a_board_that_does_not_answer_times_out():
 def test_a_far_end_that_is_no_bridge_is_named():
     link = open_link("loop://", timeout=0.2)  # echoes what is sent
     with pytest.raises(LinkError, match=r"IDENT answered b'I', not OK"):
-        link.check(chipset_identity(2))
+        link.check(chipset_identity())
     link.close()
 
 
@@ -126,11 +128,23 @@ def test_urls_choose_the_transport():
             open_link(url, opener=opener)
 
 
-def test_the_identity_tells_two_from_three_axes():
-    two, three = chipset_identity(2), chipset_identity(3)
-    assert (two.axes, three.axes) == (2, 3)
-    assert two.fingerprint != three.fingerprint
-    assert Identity.decode(two.encode()) == two
+def test_the_identity_tells_chipsets_built_otherwise_apart():
+    plain = chipset_identity()
+    assert chipset_identity(accel=Accel.PRE, accel_shape="exponential") == plain
+    others = [chipset_identity(**params) for params in (
+        {"axes": 3}, {"accel": "post"}, {"accel": "none"}, {"accel_bits": 16},
+        {"accel_shape": "linear"}, {"accel": "post", "axis_fa": ("x",)},
+        {"accel": "post", "axis_accel": {"y": ("bell", 12)}})]
+    assert len({plain.fingerprint, *(o.fingerprint for o in others)}) == 1 + len(others)
+    assert Identity.decode(plain.encode()) == plain
+
+
+def test_the_host_and_the_served_machine_agree_on_a_jobs_identity(make_job):
+    job = make_job("G21 G91 F900\nG01 X0.2 Y0.1\nM30", MachineConfig(accel="post",
+                                                                    accel_shape="linear"))
+    built = {k: v for k, v in system_params(job).items() if k != "drives"}
+    assert job_identity(job) == chipset_identity(**built)
+    assert job_identity(job) != chipset_identity()
 
 
 def test_run_link_errors_are_one_line_and_exit_2(k37):

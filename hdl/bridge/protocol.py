@@ -99,8 +99,8 @@ _COUNT = COUNT_BITS // 8
 COMMANDS: dict[Op, Command] = {c.op: c for c in (
     Command(Op.IDENT, (), (("version", 1), ("axes", 1), ("fingerprint", 4)),
             "What is behind the bridge: the protocol version, the chipset's axes and its "
-            "register maps' fingerprint (a CRC-32 of every register's name, address, width and "
-            "access). No bus cycle."),
+            "fingerprint (a CRC-32 of every register's name, address, width and access and of the "
+            "accel/decel circuits). No bus cycle."),
     Command(Op.WRITE, (("address", 1), ("data", 1)), (),
             "One bus write cycle: `w_stb` high in cycle E."),
     Command(Op.READ, (("address", 1),), (("data", 1),),
@@ -190,11 +190,11 @@ class Identity:
                    version=data[0])
 
 
-def map_fingerprint(maps: Iterable[tuple[str, int, RegisterMap]]) -> int:
-    """A CRC-32 of a chipset's chips as (name, chip select, register map): every register's
-    name, address, width and access, so a host can tell whether it drives the chipset it
-    expects."""
-    text = []
+def map_fingerprint(maps: Iterable[tuple[str, int, RegisterMap]], build: str = "") -> int:
+    """A CRC-32 of a chipset's chips as (name, chip select, register map), every register's
+    name, address, width and access, and of ``build``, the rest of what it was built with, so
+    a host can tell whether it drives the chipset it expects."""
+    text = [build]
     for name, select, regmap in maps:
         text.append(f"{name}@{select}:")
         text += [f"{r.name},{r.addr},{r.width},{r.access.name};" for r in regmap]

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import time
 
-from firmware_model.bridge_link import BridgeLink, LinkError, Probe, chipset_identity, open_link
+from firmware_model.bridge_link import BridgeLink, LinkError, Probe, job_identity, open_link
 from firmware_model.firmware import BlockRecord, Firmware, check_program, clamped_feeds
 from firmware_model.host import Host8085
 from firmware_model.job import Job
@@ -124,7 +124,7 @@ def run_linked(job: Job, options: RunOptions, url: str) -> RunResult:
     check_linked_options(options)
     link = open_link(url)
     try:
-        link.check(chipset_identity(job.machine.axes))
+        link.check(job_identity(job))
         return _run(job, options, link, url)
     finally:
         link.close()

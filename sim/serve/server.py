@@ -16,7 +16,7 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from firmware_model.bridge_link import chipset_identity
+from firmware_model.bridge_link import job_identity
 from firmware_model.job import Job
 from hdl.bridge.model import BridgeModel, LineTimed
 from hdl.bridge.protocol import PROBE_AXES, PROBE_FIELDS, check_cycles_per_bit
@@ -56,7 +56,7 @@ class SimulatedBoard:
                 raise ValueError(f"the host's turnaround must be >= 0 cycles, not {line[1]}")
         self.backend: Backend = build_backend(job, kind)
         self.sample_every = sample_every
-        self.identity = chipset_identity(job.machine.axes)
+        self.identity = job_identity(job)
         self.listener = socket.create_server((host, port))
         self.port: int = self.listener.getsockname()[1]
         self.stop = threading.Event()
