@@ -27,6 +27,7 @@ from hdl.bridge.protocol import (
     Op,
     check_cycles_per_bit,
     command_start,
+    reply_end,
 )
 
 __all__ = ["FRAMING", "BridgeModel", "LineTimed", "Target"]
@@ -120,13 +121,14 @@ class BridgeModel:
 
 
 class LineTimed:
-    """A :class:`BridgeModel` whose commands start when they would over a UART.
+    """A :class:`BridgeModel` whose commands start when they would over a UART, to the cycle.
 
-    Each byte takes ten bit times of ``cycles_per_bit`` cycles on the line; a frame's first byte
-    goes out ``turnaround`` cycles after the previous reply's last byte has arrived (a
-    stop-and-wait host), the others back to back; a command starts as the gateware's would
-    (:func:`hdl.bridge.protocol.command_start`), and its reply takes the line from the cycle
-    after it ends. The target's time then includes the line's, as a real board's does.
+    The host is stop-and-wait: its first frame's start bit begins in cycle 0, each later frame's
+    ``turnaround`` cycles after the cycle that ends the previous reply's last stop bit, and a
+    frame's bytes go back to back, ten bit times of ``cycles_per_bit`` cycles each. A command
+    starts as the gateware's does (:func:`hdl.bridge.protocol.command_start`) and its reply
+    takes the line as the gateware's does (:func:`hdl.bridge.protocol.reply_end`). The target's
+    time then includes the line's, as a real board's does.
     """
 
     def __init__(self, model: BridgeModel, cycles_per_bit: int, turnaround: int = 0):
@@ -136,17 +138,21 @@ class LineTimed:
             raise ValueError(f"turnaround must be >= 0 cycles, not {turnaround}")
         self.turnaround = turnaround
         self._line = 0  # the cycle the host's next byte can begin
+        self._op = 0  # the first byte of the frame being received
 
     def receive(self, byte: int) -> bytes:
         if byte == Op.PROBE and not self.model.mid_frame:
             # The logic analyser is not on the line: it looks at the machine as the host
             # finds it, taking no line time.
             return self.model.receive(byte, self._line)
-        byte_cycles = 10 * self.cycles_per_bit
+        if not self.model.mid_frame:
+            self._op = byte
         begins = self._line
-        self._line += byte_cycles
-        reply = self.model.receive(byte, command_start(begins, self.cycles_per_bit))
+        self._line += 10 * self.cycles_per_bit
+        start = command_start(begins, self.cycles_per_bit)
+        reply = self.model.receive(byte, start)
         if reply:
-            end = max(self.model.target.cycle, self._line) + 1 + len(reply) * byte_cycles
-            self._line = end + self.turnaround
+            ends = (start - 1 if reply[0] == ERROR else start if self._op == Op.WRITE
+                    else self.model.target.cycle)
+            self._line = reply_end(ends, len(reply), self.cycles_per_bit) + 1 + self.turnaround
         return reply

@@ -27,7 +27,7 @@ __all__ = ["COMMANDS", "COUNTER_BITS", "COUNT_BITS", "ERROR", "IRQ_ALARM", "IRQ_
            "MAX_CYCLES_PER_BIT", "MIN_CYCLES_PER_BIT", "OK", "PROBE_AXES", "PROBE_BYTES",
            "PROBE_FIELDS", "PROTOCOL_VERSION", "REPLY_MAX", "RX_FIFO_DEPTH",
            "SIMULATED_COMMANDS", "Command", "Error", "Identity", "Op", "check_cycles_per_bit",
-           "command_start", "encode", "map_fingerprint", "markdown"]
+           "command_start", "encode", "map_fingerprint", "markdown", "reply_end"]
 
 #: The protocol's version, the first byte of :attr:`Op.IDENT`'s reply.
 PROTOCOL_VERSION = 1
@@ -171,6 +171,14 @@ def command_start(last_byte: int, cycles_per_bit: int) -> int:
     cycles late (a two-stage synchroniser), and the command starts three cycles later (the
     receive FIFO and the frame decoder)."""
     return last_byte + 2 + cycles_per_bit // 2 + 9 * cycles_per_bit + 3
+
+
+def reply_end(command_end: int, reply_bytes: int, cycles_per_bit: int) -> int:
+    """The last cycle of the last reply byte's stop bit on ``tx``, for a command that ended in
+    cycle ``command_end`` (E for WRITE, IDENT, STATUS and CYCLE, E + 1 for READ, E + N for an
+    IDLE of N, E + n for a WAIT that returned n, E - 1 for an error): the first start bit two
+    cycles later, each next one a cycle after the stop bit before."""
+    return command_end + reply_bytes * (10 * cycles_per_bit + 1)
 
 
 @dataclass(frozen=True)
