@@ -41,9 +41,9 @@ __all__ = ["DEFAULT_BAUD", "BridgeLink", "LinkError", "Probe", "job_identity", "
 
 #: A serial link's baud rate unless its URL gives one: 8 cycles per bit at the 1 MHz clock.
 DEFAULT_BAUD = 125_000
-#: Longest IDLE or WAIT sent at once; longer ones are sent in parts (the same cycles on a
-#: simulated board; a reply per part on a real one).
-MAX_COUNT = (1 << COUNT_BITS) - 1
+#: Longest IDLE or WAIT sent at once, about 1 s at 1 MHz, so that every reply comes well within
+#: the link's timeout; longer ones are sent in parts (the same cycles on a simulated board).
+MAX_COUNT = 1 << 20
 
 
 class LinkError(Exception):
