@@ -19,16 +19,17 @@ from __future__ import annotations
 import time
 
 from firmware_model.bridge_link import BridgeLink, LinkError, Probe, job_identity, open_link
-from firmware_model.firmware import BlockRecord, Firmware, check_program, clamped_feeds
+from firmware_model.firmware import BlockRecord, Firmware, check_program
 from firmware_model.host import Host8085
 from firmware_model.job import Job
 from hdl.chipset.map import chip_register, port
-from sim.run.report import SCHEMA_VERSION, validate
+from sim.run.report import validate
 from sim.run.runner import (
     OptionError,
     RunOptions,
     RunResult,
     cycle_limit,
+    report_document,
     run_status,
 )
 from sim.run.sampler import SampleStore
@@ -141,32 +142,15 @@ def _run(job: Job, options: RunOptions, link: BridgeLink, url: str) -> RunResult
     cycles = link.cycle
     status, reason = run_status(firmware, None, limit_name, cycles)
     probe = link.probe()
-    board_cycle = link.board_cycle()
-    axes = _axes(link, job, probe)
-    programmed = list(job.program.final_position)
-    actual = [axes[axis]["actual"] for axis in job.machine.axis_names]
-    ran = (len(firmware.blocks) == len(job.program.moves)
-           and all(b.end_cycle is not None for b in firmware.blocks))
-    clock = job.machine.clock_hz
-    report = {
-        "schema_version": SCHEMA_VERSION, "job": job.to_dict(), "status": status,
-        "reason": reason, "backend": "link", "cycles": cycles, "clock_hz": clock,
-        "machine_seconds": cycles / clock, "wall_seconds": wall,
-        "cycles_per_second": cycles / wall if wall > 0 else 0.0, "skipped_cycles": 0,
-        "blocks": [meter.report(b) for b in firmware.blocks],
-        "axes": axes,
-        "end_point": {"programmed": programmed, "actual": actual, "program_ran": ran,
-                      "reached": ran and all(abs(a - p) <= job.machine.in_position
-                                             for a, p in zip(actual, programmed, strict=True))},
-        "path": {"max_contour_error": 0.0, "rms_contour_error": 0.0, "samples": 0},
-        "alarms": [{"axis": a.axis, "cycle": a.cycle, "kind": a.kind} for a in firmware.alarms],
-        "warnings": [*job.program.notes, *clamped_feeds(job)],
-        "link": {"url": url, "probes": probe is not None, "board_cycle": board_cycle,
-                 "board_blocks": [meter.board_cycles.get(b.index) for b in firmware.blocks]},
-        **({"events": [{"line": r.event.line_no, "word": r.event.word, "kind": r.event.kind,
-                        "value": r.event.value, "cycle": r.cycle} for r in firmware.events]}
-           if job.program.events else {}),
-    }
+    report = report_document(
+        job, firmware, status=status, reason=reason, backend="link", cycles=cycles, wall=wall,
+        skipped=0, blocks=[meter.report(b) for b in firmware.blocks],
+        axes=_axes(link, job, probe),
+        path={"max_contour_error": 0.0, "rms_contour_error": 0.0, "samples": 0})
+    report["link"] = {"url": url, "probes": probe is not None,
+                      "board_cycle": link.board_cycle(),
+                      "board_blocks": [meter.board_cycles.get(b.index)
+                                       for b in firmware.blocks]}
     validate(report)
     store = SampleStore(job.machine.dac_bits, job.machine.axis_names)
     return RunResult(report, store, job)
