@@ -158,6 +158,15 @@ def test_run_link_errors_are_one_line_and_exit_2(k37):
     assert "not with --link" in result.stderr
 
 
+def test_serve_refuses_a_port_in_use(k37):
+    with socket.create_server(("127.0.0.1", 0)) as busy:
+        port = busy.getsockname()[1]
+        result = k37("serve", "--port", str(port))
+    assert result.returncode == 2
+    assert result.stderr.startswith(f"k37: error: --port {port}: cannot listen on 127.0.0.1: ")
+    assert "Traceback" not in result.stderr
+
+
 @pytest.mark.slow
 def test_k37_serve_and_run_link_from_the_command_line(tmp_path):
     serve = subprocess.Popen([sys.executable, "-m", "sim.cli", "serve", "--port", "0",

@@ -54,11 +54,15 @@ class SimulatedBoard:
             check_cycles_per_bit(line[0])
             if line[1] < 0:
                 raise ValueError(f"the host's turnaround must be >= 0 cycles, not {line[1]}")
-        self.backend: Backend = build_backend(job, kind)
+        self.listener = socket.create_server((host, port))  # first: a port in use fails fast
+        self.port: int = self.listener.getsockname()[1]
+        try:
+            self.backend: Backend = build_backend(job, kind)
+        except BaseException:
+            self.listener.close()
+            raise
         self.sample_every = sample_every
         self.identity = job_identity(job)
-        self.listener = socket.create_server((host, port))
-        self.port: int = self.listener.getsockname()[1]
         self.stop = threading.Event()
 
     def _probe(self) -> list[int]:
