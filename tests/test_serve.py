@@ -20,6 +20,7 @@ from hdl.bridge.protocol import Identity
 from hdl.chipset.identity import chipset_identity
 from hdl.chipset.map import Accel
 from sim.run.linked import run_linked
+from sim.run.output import write_trace
 from sim.run.runner import RunOptions, run_job, system_params
 from sim.serve.server import SimulatedBoard
 
@@ -36,8 +37,8 @@ M30"""
 
 
 @contextmanager
-def served(job: Job, sessions: int = 1) -> Iterator[SimulatedBoard]:
-    board = SimulatedBoard(job, "cxxrtl")
+def served(job: Job, sessions: int = 1, **options) -> Iterator[SimulatedBoard]:
+    board = SimulatedBoard(job, "cxxrtl", **options)
     thread = threading.Thread(target=board.serve, args=(sessions,), daemon=True)
     thread.start()
     try:
@@ -61,6 +62,18 @@ def test_a_job_over_a_served_link_matches_the_run_in_process_block_for_block(mak
     assert linked.report["link"]["probes"] is True
     assert linked.report["backend"] == "link"
     assert linked.report["path"]["samples"] == 0
+
+
+def test_the_served_machine_s_trace_is_the_run_in_process_s(make_job, tmp_path):
+    job = make_job(PROGRAM)
+    here = run_job(job, RunOptions(backend="cxxrtl"))
+    write_trace(here, tmp_path / "here.csv")
+    with served(job, trace=tmp_path / "served.csv") as board:
+        run_linked(job, RunOptions(), f"tcp://127.0.0.1:{board.port}")
+    wanted = (tmp_path / "here.csv").read_text().splitlines()
+    assert len(wanted) > 1000
+    # the served machine also ran the few cycles of the final reads
+    assert (tmp_path / "served.csv").read_text().splitlines()[:len(wanted)] == wanted
 
 
 def test_a_served_board_is_reset_for_each_session(make_job):

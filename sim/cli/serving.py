@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
-from sim.cli.shared import interrupted, print_error, stopped
+from sim.cli.shared import check, interrupted, print_error, stopped
 
 __all__ = ["add_commands"]
 
@@ -43,13 +44,17 @@ def _cycles(text: str) -> int:
 
 def _cmd_serve(args: argparse.Namespace) -> int:
     from firmware_model.gcode.parser import GcodeError
+
+    if not check([("--trace", args.trace)]):
+        return 2
     from sim.run.jobfile import JobError, load_job
     from sim.serve.server import Session, SimulatedBoard
 
     try:
         job = load_job(args.job)
         line = None if args.uart is None else (args.uart, args.turnaround)
-        board = SimulatedBoard(job, args.backend, args.host, args.port, line=line)
+        board = SimulatedBoard(job, args.backend, args.host, args.port, args.sample_every,
+                               line=line, trace=args.trace)
     except (JobError, GcodeError) as e:
         print_error(e)
         return 2
@@ -98,4 +103,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--turnaround", type=_cycles, default=0, metavar="CYCLES",
                    help="with --uart: the host's time from a reply to its next frame "
                         "(default 0)")
+    p.add_argument("--trace", metavar="PATH.csv", type=Path,
+                   help="write each session's samples as CSV when it ends (the columns of "
+                        "`k37 run --trace`; a later session replaces them)")
+    p.add_argument("--sample-every", type=positive_int, default=1000,
+                   help="sample the machine every N cycles for --trace")
     p.set_defaults(func=_cmd_serve)

@@ -10,8 +10,9 @@ does, with what a host can know:
   the run is the one in process); a real board has no PROBE: the blocks' pulses are null, an
   axis's command and error are read from its K3702 over the bus after the run, its position is
   COMMAND - ERROR (the K3702's view of the encoder) and its largest error is null;
-* no samples: the trace, the plot, the path's contour error and the ballbar are the machine's,
-  which the served process keeps (the report's ``path`` has 0 samples and zero errors).
+* no samples: the trace, the plot, the path's contour error and the ballbar are the machine's
+  (``k37 serve --trace`` writes a simulated board's); the report's ``path`` has 0 samples and
+  zero errors.
 """
 
 from __future__ import annotations

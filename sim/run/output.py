@@ -26,6 +26,7 @@ from sim.run.ballbar import BallbarError, ballbar, ballbar_figure
 from sim.run.plot import write_plot
 from sim.run.report import validate
 from sim.run.runner import RunResult
+from sim.run.sampler import SampleStore
 from sim.run.waveform import WAVE_FORMATS, wave_span, write_gtkw
 
 __all__ = ["OutputError", "add_ballbar", "check_outputs", "print_stdout", "summary",
@@ -122,12 +123,17 @@ def write_trace(result: RunResult, path: Path) -> None:
     """The samples as CSV, one row per sample, columns :func:`sim.run.sampler.trace_columns`
     of the machine's axes (read from the store a chunk at a time); written whole or not at
     all (:func:`sim.files.atomic_open`)."""
-    columns = result.store.columns
+    write_samples(result.store, path)
+
+
+def write_samples(store: SampleStore, path: Path) -> None:
+    """The samples of ``store`` as :func:`write_trace` writes a run's."""
+    columns = store.columns
     with atomic_open(path, "w", newline="") as f:
         out = csv.writer(f)
         out.writerow(columns)
         volts = ["volts" in name for name in columns]
-        for chunk in result.store.chunks():
+        for chunk in store.chunks():
             out.writerows([f"{v:.4f}" if is_volts else int(v)
                            for is_volts, v in zip(volts, row, strict=True)]
                           for row in chunk.tolist())

@@ -15,12 +15,14 @@ import socket
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 from firmware_model.bridge_link import job_identity
 from firmware_model.job import Job
 from hdl.bridge.model import BridgeModel, LineTimed
 from hdl.bridge.protocol import PROBE_AXES, PROBE_FIELDS, check_cycles_per_bit
 from sim.backends.contract import Backend
+from sim.run.output import write_samples
 from sim.run.runner import build_backend, configure_plants
 from sim.run.sampler import Sampler, SampleStore
 from sim.run.simulated_link import SimulatedLink
@@ -43,13 +45,16 @@ class SimulatedBoard:
 
     ``line``: (cycles per bit, host turnaround in cycles) to let the machine's time include a
     UART's as on a real board (:class:`hdl.bridge.model.LineTimed`); None: time passes only as
-    the commands say.
+    the commands say. ``trace``: where each session's samples (one every ``sample_every``
+    cycles) are written as CSV when it ends, replacing the previous session's.
     """
 
     def __init__(self, job: Job, kind: str = "auto", host: str = "127.0.0.1", port: int = 0,
-                 sample_every: int = 1000, line: tuple[int, int] | None = None):
+                 sample_every: int = 1000, line: tuple[int, int] | None = None,
+                 trace: Path | None = None):
         self.job = job
         self.line = line
+        self.trace = trace
         if line is not None:
             check_cycles_per_bit(line[0])
             if line[1] < 0:
@@ -97,8 +102,11 @@ class SimulatedBoard:
                         conn.sendall(reply)
                     except OSError:
                         break
-        store.close()
+        sampler.flush()
         session.cycles = self.backend.cycle
+        if self.trace is not None:
+            write_samples(store, self.trace)
+        store.close()
         return session
 
     def serve(self, sessions: int | None = None,
