@@ -36,6 +36,10 @@ G01 X-0.2 Y-0.3
 M30"""
 
 
+def _program(axes: int) -> str:
+    return PROGRAM.replace("G01 X0.4 Y0.2", "G01 X0.4 Y0.2 Z0.1") if axes == 3 else PROGRAM
+
+
 @contextmanager
 def served(job: Job, sessions: int = 1, **options) -> Iterator[SimulatedBoard]:
     board = SimulatedBoard(job, "cxxrtl", **options)
@@ -51,8 +55,7 @@ def served(job: Job, sessions: int = 1, **options) -> Iterator[SimulatedBoard]:
 
 @pytest.mark.parametrize("axes", [2, 3])
 def test_a_job_over_a_served_link_matches_the_run_in_process_block_for_block(make_job, axes):
-    gcode = PROGRAM.replace("G01 X0.4 Y0.2", "G01 X0.4 Y0.2 Z0.1") if axes == 3 else PROGRAM
-    job = make_job(gcode, MachineConfig(axes=axes))
+    job = make_job(_program(axes), MachineConfig(axes=axes))
     here = run_job(job, RunOptions(backend="cxxrtl"))
     with served(job) as board:
         linked = run_linked(job, RunOptions(), f"tcp://127.0.0.1:{board.port}")
@@ -64,8 +67,9 @@ def test_a_job_over_a_served_link_matches_the_run_in_process_block_for_block(mak
     assert linked.report["path"]["samples"] == 0
 
 
-def test_the_served_machine_s_trace_is_the_run_in_process_s(make_job, tmp_path):
-    job = make_job(PROGRAM)
+@pytest.mark.parametrize("axes", [2, 3])
+def test_the_served_machine_s_trace_is_the_run_in_process_s(make_job, tmp_path, axes):
+    job = make_job(_program(axes), MachineConfig(axes=axes))
     here = run_job(job, RunOptions(backend="cxxrtl"))
     write_trace(here, tmp_path / "here.csv")
     with served(job, trace=tmp_path / "served.csv") as board:
