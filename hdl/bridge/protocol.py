@@ -7,8 +7,9 @@ opcode, or a byte received with a framing error, which also drops the frame it w
 The host sends a frame only once the previous frame's reply has arrived (stop-and-wait): the
 bridge buffers :data:`RX_FIFO_DEPTH` received bytes, more than the longest frame.
 
-Time is counted in chipset clock cycles. A command starts in the cycle the bridge has its last
-byte (its *start cycle* E); :data:`COMMANDS` gives each one's bus and timing in those terms.
+Time is counted in chipset clock cycles. A command starts in cycle E, three cycles after its
+last byte's stop bit is sampled (:func:`command_start`); :data:`COMMANDS` gives each one's bus
+and timing in those terms.
 This module is the one definition of the protocol, for the gateware
 (:class:`hdl.bridge.chip.UartBridge`), its reference model (:mod:`hdl.bridge.model`), the host's
 link and the documentation.

@@ -3,10 +3,10 @@
 Each connection is a session on a freshly reset machine: the bytes received go through the
 bridge's reference model (:class:`hdl.bridge.model.BridgeModel`) onto the machine's bus,
 interrupt inputs and clock (:class:`sim.run.simulated_link.SimulatedLink` over a
-:class:`sim.run.sampler.Sampler`), and simulated time passes only as the host's commands say, so
-a session is as deterministic as a run in process. The board answers :attr:`Op.PROBE` too: the
-observation counters a real board has no bus for. One session at a time; a host that connects
-while another is being served waits.
+:class:`sim.run.sampler.Sampler`), and simulated time passes only as the host's commands say
+(and the line's, with a UART's line time), so a session is as deterministic as a run in
+process. The board answers :attr:`Op.PROBE` too: the observation counters a real board has no
+bus for. One session at a time; a host that connects while another is being served waits.
 """
 
 from __future__ import annotations
