@@ -20,7 +20,7 @@ from hdl.bridge.protocol import Identity
 from hdl.chipset.identity import chipset_identity
 from hdl.chipset.map import Accel
 from sim.run.linked import run_linked
-from sim.run.output import write_trace
+from sim.run.output import summary, write_trace
 from sim.run.runner import RunOptions, run_job, system_params
 from sim.serve.server import SimulatedBoard
 
@@ -78,6 +78,28 @@ def test_the_served_machine_s_trace_is_the_run_in_process_s(make_job, tmp_path, 
     assert len(wanted) > 1000
     # the served machine also ran the few cycles of the final reads
     assert (tmp_path / "served.csv").read_text().splitlines()[:len(wanted)] == wanted
+
+
+def test_a_board_without_probe_reports_what_a_host_can_read(make_job):
+    job = make_job(PROGRAM)
+    here = run_job(job, RunOptions(backend="cxxrtl"))
+    with served(job, probes=False) as board:
+        linked = run_linked(job, RunOptions(), f"tcp://127.0.0.1:{board.port}")
+    report = linked.report
+    assert report["link"]["probes"] is False
+    assert report["link"]["board_blocks"] == [None] * len(report["blocks"])
+    for a, b in zip(here.report["blocks"], report["blocks"], strict=True):
+        assert (b["fp_pulses"], b["steps"], b["end_command"]) == (None, None, None)
+        assert (b["start_cycle"], b["end_cycle"]) == (a["start_cycle"], a["end_cycle"])
+    for axis, seen in report["axes"].items():
+        there = here.report["axes"][axis]
+        # command and error from the K3702's registers; the position is the K3702's count
+        assert (seen["command"], seen["error"]) == (there["command"], there["error"])
+        assert seen["actual"] == seen["command"] - seen["error"]
+        assert seen["max_abs_error"] is None
+        assert seen["flags"] == there["flags"]
+    assert report["end_point"]["reached"] == here.report["end_point"]["reached"]
+    assert "max |error| unknown" in summary(linked)
 
 
 def test_a_served_board_is_reset_for_each_session(make_job):

@@ -54,7 +54,7 @@ def _cmd_serve(args: argparse.Namespace) -> int:
         job = load_job(args.job)
         line = None if args.uart is None else (args.uart, args.turnaround)
         board = SimulatedBoard(job, args.backend, args.host, args.port, args.sample_every,
-                               line=line, trace=args.trace)
+                               line=line, trace=args.trace, probes=not args.no_probe)
     except (JobError, GcodeError) as e:
         print_error(e)
         return 2
@@ -108,4 +108,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                         "`k37 run --trace`; a later session replaces them)")
     p.add_argument("--sample-every", type=positive_int, default=1000,
                    help="sample the machine every N cycles for --trace")
+    p.add_argument("--no-probe", action="store_true",
+                   help="answer as a real board does: no PROBE, so a linked run reads what a "
+                        "host can (no block pulses)")
     p.set_defaults(func=_cmd_serve)

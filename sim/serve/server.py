@@ -46,13 +46,15 @@ class SimulatedBoard:
     ``line``: (cycles per bit, host turnaround in cycles) to let the machine's time include a
     UART's as on a real board (:class:`hdl.bridge.model.LineTimed`); None: time passes only as
     the commands say. ``trace``: where each session's samples (one every ``sample_every``
-    cycles) are written as CSV when it ends, replacing the previous session's.
+    cycles) are written as CSV when it ends, replacing the previous session's. ``probes``:
+    False to answer as a real board does, without :attr:`Op.PROBE`.
     """
 
     def __init__(self, job: Job, kind: str = "auto", host: str = "127.0.0.1", port: int = 0,
                  sample_every: int = 1000, line: tuple[int, int] | None = None,
-                 trace: Path | None = None):
+                 trace: Path | None = None, probes: bool = True):
         self.job = job
+        self.probes = probes
         self.line = line
         self.trace = trace
         if line is not None:
@@ -83,8 +85,8 @@ class SimulatedBoard:
         configure_plants(self.backend, self.job)
         store = SampleStore(self.job.machine.dac_bits, self.job.machine.axis_names)
         sampler = Sampler(self.backend, self.sample_every, store, skip_idle=True)
-        model: BridgeModel | LineTimed = BridgeModel(SimulatedLink(sampler), self.identity,
-                                                     probe=self._probe)
+        model: BridgeModel | LineTimed = BridgeModel(
+            SimulatedLink(sampler), self.identity, probe=self._probe if self.probes else None)
         if self.line is not None:
             model = LineTimed(model, *self.line)
         with conn:
