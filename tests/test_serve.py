@@ -14,7 +14,13 @@ from contextlib import contextmanager
 
 import pytest
 
-from firmware_model.bridge_link import DEFAULT_BAUD, LinkError, job_identity, open_link
+from firmware_model.bridge_link import (
+    DEFAULT_BAUD,
+    BridgeLink,
+    LinkError,
+    job_identity,
+    open_link,
+)
 from firmware_model.job import Job, MachineConfig
 from hdl.bridge.protocol import Identity
 from hdl.chipset.identity import chipset_identity
@@ -144,6 +150,34 @@ def test_a_far_end_that_is_no_bridge_is_named():
     with pytest.raises(LinkError, match=r"IDENT answered b'I', not OK"):
         link.check(chipset_identity())
     link.close()
+
+
+class Replies:
+    """A far end that answers whatever is sent with the bytes given."""
+
+    def __init__(self, data: bytes):
+        self.data = bytearray(data)
+
+    def write(self, frame: bytes) -> None:
+        pass
+
+    def read(self, n: int) -> bytes:
+        out = bytes(self.data[:n])
+        del self.data[:n]
+        return out
+
+    def close(self) -> None:
+        pass
+
+
+def test_an_error_reply_or_a_short_one_is_named():
+    with pytest.raises(LinkError, match="far: the bridge answered READ with error FRAMING"):
+        BridgeLink(Replies(b"!\x02"), "far").read(3)
+    with pytest.raises(LinkError, match="far: IDENT's reply stopped after 2 of 7 bytes"):
+        BridgeLink(Replies(b"+\x01"), "far").identify()
+    real = BridgeLink(Replies(b"!\x01"), "far")  # no PROBE: a real board
+    assert real.probe() is None
+    assert real.probes is False
 
 
 def test_urls_choose_the_transport():
