@@ -13,7 +13,7 @@ from sim.backends.factory import BACKENDS
 
 __all__ = ["BALLBAR_FIGURES", "RUN_SCHEMA", "SCHEMA_VERSION", "schema_markdown", "validate"]
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 #: Fields that depend on how the run was computed (backend, idle skipping, wall clock), not
 #: on what it computed: two runs of one job differ in these only.
 HOW_FIELDS = ("wall_seconds", "cycles_per_second", "backend", "skipped_cycles")
