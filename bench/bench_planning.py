@@ -31,6 +31,21 @@ def test_a_large_circle_plans_far_faster_than_its_walk(benchmark):
     assert walk / fast > 100
 
 
+def test_a_large_helix_plans_far_faster_than_its_walk(benchmark):
+    # a full turn of radius 254,000 LSB (254 mm at 1 um) rising 100 mm: about 1.4 million
+    # steps for the walk
+    block = Block.arc(0, 0, -254_000, 0, sqrt2=True, ze=100_000)
+    start = time.perf_counter()
+    walked = plan(block)
+    walk = time.perf_counter() - start
+    planned = benchmark(plan_block, block)
+    fast = benchmark.stats.stats.min
+    assert planned == walked
+    print(f"\nR 254,000 LSB helix: planned in {1e3 * fast:.2f} ms, walked in {walk:.2f} s "
+          f"(x{walk / fast:,.0f})")
+    assert walk / fast > 20
+
+
 def test_plan_command_of_a_thousand_lines(benchmark, tmp_path: Path, capsys):
     lines = ["G21 G90 F1000"]
     for k in range(250):

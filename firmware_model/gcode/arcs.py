@@ -17,20 +17,33 @@ the diagonal and of the end point's coordinate); the few steps around those go t
 reference :class:`~hdl.k3701.datapaths.circular_model.CircularPath` itself. Same for Y long, with
 the axes swapped. Tested against :func:`hdl.k3701.model.plan` step for step
 (``tests/test_arc_plan.py``).
+
+A helix spreads its third axis over the arc's N steps with a DDA (its k-th move at the step
+where floor((N // 2 + s |Ze|) / N) grows), and its FP count needs B, the steps where that move
+falls on a diagonal step of the arc (a step moving three axes). The arc's plan is first made
+as above (N); B is then counted over the same stretches: the arc's diagonal steps inside a
+jump are where the argmin curve's short coordinate changes, found for the whole jump at once
+with array arithmetic (:func:`_nearest_array`), so no step is walked in Python.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from math import isqrt
+
+import numpy as np
 
 from hdl.k3701.block import QUADRANT_SIGNS, Block, Kind
 from hdl.k3701.datapaths.circular_model import CircularPath
-from hdl.k3701.model import Plan, make_path, plan
+from hdl.k3701.datapaths.helix_model import HelixPath
+from hdl.k3701.model import Plan, fp_of_steps, make_path, plan
 
 __all__ = ["plan_block"]
 
 #: Stretches shorter than this are walked step by step.
 _MIN_JUMP = 8
+#: Steps of a jump whose diagonal steps are found in one array (memory stays bounded).
+_CHUNK = 1 << 18
 
 
 def _nearest(r2: int, long: int) -> int:
@@ -78,26 +91,48 @@ def _jump(path: CircularPath, r2: int) -> tuple[int, int, int] | None:
     return None
 
 
-def plan_block(block: Block) -> Plan:
-    """:func:`hdl.k3701.model.plan` of ``block``, exactly, without walking every step of an
-    arc. Raises :class:`~hdl.k3701.block.BlockError` for data the chip refuses."""
-    if block.kind is Kind.LINEAR or block.ze:
-        return plan(block)  # a line is in closed form there; a helix's FP needs its steps
+def _nearest_array(r2: int, long: np.ndarray) -> np.ndarray:
+    """:func:`_nearest` of every element of ``long`` (int64; r2 < 2^53, so the float square
+    root is off by at most one, which the two corrections mend)."""
+    t = r2 - long * long
+    s = np.floor(np.sqrt(np.maximum(t, 0).astype(np.float64))).astype(np.int64)
+    for _ in range(2):
+        s += s * (s + 1) < t
+        s -= (s > 0) & ((s - 1) * s >= t)
+    return np.where(t <= 0, 0, s)
+
+
+#: A jump of the walk: (its first step's index from 0, its steps, the long coordinate and
+#: the short one's magnitude before it, the long axis's direction).
+_Jump = tuple[int, int, int, int, int]
+
+
+def _walk(block: Block) -> tuple[Plan, list[int], list[_Jump]]:
+    """The arc's plan (:func:`plan_block` without a third axis), the indices (from 0) of
+    its diagonal steps walked one by one, and its jumps."""
     path = make_path(block)
     assert isinstance(path, CircularPath)
     r2 = block.i * block.i + block.j * block.j
     x0, y0 = path.x, path.y
     n = diag = 0
     pulses = {"x+": 0, "x-": 0, "y+": 0, "y-": 0, "z+": 0, "z-": 0}
+    singles: list[int] = []
+    jumps: list[_Jump] = []
     final = error = False
     while not final:
         jump = _jump(path, r2)
         if jump is None:
             step, final, error = path.advance()
             dx, dy, steps = step.dx, step.dy, 1
-            diag += dx != 0 and dy != 0
+            if dx != 0 and dy != 0:
+                diag += 1
+                singles.append(n)
         else:
             steps, nx, ny = jump
+            x_long = abs(path.y) >= abs(path.x)
+            sx, sy = QUADRANT_SIGNS[path.cw][path.q]
+            lo, sh, sl = (path.x, path.y, sx) if x_long else (path.y, path.x, sy)
+            jumps.append((n, steps, lo, abs(sh), sl))
             dx, dy = nx - path.x, ny - path.y
             diag += min(abs(dx), abs(dy))
             path.x, path.y, path.d = nx, ny, nx * nx + ny * ny - r2
@@ -105,4 +140,43 @@ def plan_block(block: Block) -> Plan:
         pulses["x+" if dx > 0 else "x-"] += abs(dx)
         pulses["y+" if dy > 0 else "y-"] += abs(dy)
     fp = n + (diag + 1) // 2 if block.sqrt2 else n
-    return Plan(n, diag, fp, (path.x - x0, path.y - y0), error, pulses)
+    return Plan(n, diag, fp, (path.x - x0, path.y - y0), error, pulses), singles, jumps
+
+
+def _helix_coincidences(block: Block, total: int, singles: list[int],
+                        jumps: list[_Jump]) -> int:
+    """B: the arc's diagonal steps (``singles``, and those inside ``jumps``) on which the
+    helix's third axis moves too, its |Ze| moves spread over ``total`` steps by the DDA."""
+    zn, h = abs(block.ze), total // 2
+    r2 = block.i * block.i + block.j * block.j
+
+    def z_moves(index: np.ndarray) -> np.ndarray:  # steps counted from 0
+        return (h + (index + 1) * zn) // total - (h + index * zn) // total
+
+    both = int(z_moves(np.array(singles, dtype=np.int64)).sum())
+    for first, steps, lo, short, sl in jumps:
+        for k0 in range(0, steps, _CHUNK):
+            k = np.arange(k0, min(steps, k0 + _CHUNK) + 1, dtype=np.int64)
+            shorts = _nearest_array(r2, lo + k * sl)
+            if k0 == 0:
+                shorts[0] = short
+            moved = shorts[1:] != shorts[:-1]  # the step k + 1 of the jump is diagonal
+            both += int(z_moves(first + k[:-1][moved]).sum())
+    return both
+
+
+def plan_block(block: Block) -> Plan:
+    """:func:`hdl.k3701.model.plan` of ``block``, exactly, without walking every step of an
+    arc or a helix. Raises :class:`~hdl.k3701.block.BlockError` for data the chip refuses."""
+    if block.kind is Kind.LINEAR:
+        return plan(block)  # a line is in closed form there
+    arc, singles, jumps = _walk(replace(block, ze=0))
+    if not block.ze:
+        return arc
+    HelixPath(block.ze, arc.steps)  # the chip's checks: Ze's range, one move per step
+    zn = abs(block.ze)
+    three = _helix_coincidences(block, arc.steps, singles, jumps)
+    two = arc.diagonal + zn - 2 * three
+    pulses = {**arc.pulses, "z+": max(block.ze, 0), "z-": max(-block.ze, 0)}
+    return Plan(arc.steps, two + three, fp_of_steps(arc.steps, two, three, block.sqrt2),
+                arc.end, arc.error, pulses, block.ze)
