@@ -59,6 +59,34 @@ def _nearest(r2: int, long: int) -> int:
     return s
 
 
+def _last_with_margin(r2: int) -> int:
+    """The largest m >= 0 with m + 2 <= :func:`_nearest` (r2, m): the farthest the long
+    coordinate may run towards the diagonal keeping the jump's margin (the margin shrinks
+    as m grows; m^2 + (m + 2)^2 = r2 is its estimate, mended to the exact bound)."""
+    m = max(0, (isqrt(max(0, 2 * r2 - 4)) - 2) // 2)
+    while m + 3 <= _nearest(r2, m + 1):
+        m += 1
+    while m > 0 and m + 2 > _nearest(r2, m):
+        m -= 1
+    return m
+
+
+def _before_end(r2: int, lo: int, sl: int, sh: int, ss: int, end: int, n: int) -> int:
+    """The most steps, up to ``n``, after which the short coordinate (the argmin curve's,
+    monotone along the jump) has not reached ``end``: found by bisection."""
+    sign = 1 if sh > 0 else -1
+    if (end - sh) * ss <= 0:
+        return 0
+    good, bad = 0, n + 1
+    while bad - good > 1:
+        mid = (good + bad) // 2
+        if (end - _nearest(r2, lo + mid * sl) * sign) * ss > 0:
+            good = mid
+        else:
+            bad = mid
+    return good
+
+
 def _jump(path: CircularPath, r2: int) -> tuple[int, int, int] | None:
     """How far the walk can be jumped from here: (steps, new x, new y), or None."""
     x, y, d = path.x, path.y, path.d
@@ -66,29 +94,26 @@ def _jump(path: CircularPath, r2: int) -> tuple[int, int, int] | None:
     x_long = abs(y) >= abs(x)
     # (long, short) coordinates, their directions and the end check on the long/short axis
     lo, sh, sl, ss = (x, y, sx, sy) if x_long else (y, x, sy, sx)
-    if lo == 0 or sh == 0:
+    if lo == 0 or sh == 0 or abs(lo) + 2 > abs(sh):
         return None
     if abs(d) >= abs(d + 2 * sh + 1) or abs(d) >= abs(d - 2 * sh + 1):
         return None  # not the argmin of its column
-    # the long coordinate may run to 1 LSB short of its axis (no quadrant change) ...
-    n = abs(lo) - 1 if lo * sl < 0 else None
-    # ... and, moving towards the diagonal, while the margin |long| + 2 <= |short| holds
-    if lo * sl > 0:
-        n = max(0, isqrt(r2 // 2) - 3 - abs(lo))
+    # The long coordinate may run to 1 LSB short of its axis or, towards the diagonal, as
+    # far as the margin |long| + 2 <= |short| holds.
+    n = abs(lo) - 1 if lo * sl < 0 else _last_with_margin(r2) - abs(lo)
     if path.armed and path.q == path.end_q:
         end = path.ex if path.end_on_x else path.ey
         if path.end_on_x == x_long:  # the end check watches the long coordinate
             if (end - lo) * sl >= 0:
                 n = min(n, (end - lo) * sl - 1)
-        elif (end - sh) * ss >= 0:  # ... the short one: stop before it could reach it
-            n = min(n, max(0, abs(end - sh) - 1))
-    while n >= _MIN_JUMP:
-        lo2 = lo + n * sl
-        sh2 = _nearest(r2, lo2) * (1 if sh > 0 else -1)
-        if abs(lo2) + 2 <= abs(sh2) and abs(lo) + 2 <= abs(sh) and lo2 * lo > 0:
-            return (n, lo2, sh2) if x_long else (n, sh2, lo2)
-        n //= 2
-    return None
+        elif (end - sh) * ss >= 0:  # ... the short one: stop before it reaches it
+            n = _before_end(r2, lo, sl, sh, ss, end, n)
+    if n < _MIN_JUMP:
+        return None
+    lo2 = lo + n * sl
+    sh2 = _nearest(r2, lo2) * (1 if sh > 0 else -1)
+    assert abs(lo2) + 2 <= abs(sh2) and lo2 * lo > 0
+    return (n, lo2, sh2) if x_long else (n, sh2, lo2)
 
 
 def _nearest_array(r2: int, long: np.ndarray) -> np.ndarray:
@@ -118,9 +143,11 @@ def _walk(block: Block) -> tuple[Plan, list[int], list[_Jump]]:
     pulses = {"x+": 0, "x-": 0, "y+": 0, "y-": 0, "z+": 0, "z-": 0}
     singles: list[int] = []
     jumps: list[_Jump] = []
-    final = error = False
+    final = error = jumped = False
     while not final:
-        jump = _jump(path, r2)
+        # A jump runs as far as it may: the step after it is walked without asking again.
+        jump = None if jumped else _jump(path, r2)
+        jumped = jump is not None
         if jump is None:
             step, final, error = path.advance()
             dx, dy, steps = step.dx, step.dy, 1
