@@ -3,9 +3,8 @@ the current position, and polar coordinates.
 
 The interpreter keeps positions in whole LSB; a program that reads its position (``#5420``,
 ``#<_x>``) or moves in polar steps (``G91 @0.1 ^5``) would see each rounding and add them up.
-:class:`State` keeps the exact programmed coordinates beside them, as LinuxCNC's
-interpreter has them, and gives them while the machine's position is within half an LSB of
-them (else the machine's).
+:class:`State` gives the interpreter's exact programmed coordinates instead (as LinuxCNC's
+interpreter has them) while the machine's position rounds to them, else the machine's.
 
 Predefined parameters (in the program's units):
 
@@ -45,8 +44,6 @@ __all__ = ["InterpreterHost", "Modal", "PolarError", "State", "TooManyErrors"]
 _INCH_MM = Decimal("25.4")
 _AXES = "XYZ"
 _MOTION = {k for k, c in G_CODES.items() if c.group == "motion"}
-#: G codes after which the exact coordinates are no longer known (offsets, homes, cycles).
-_RESETS = {200, 210, 280, 300, 530, 920, 921, *range(810, 900)}
 #: The last numbered parameter LinuxCNC's interpreter has.
 _LAST_PREDEFINED = 5602
 
@@ -68,6 +65,7 @@ class Modal(Protocol):
     end: bool
     line_no: int
     planner: Planner
+    exact: list[Decimal | None]
 
     @property
     def pos(self) -> tuple[int, int, int]: ...
@@ -75,6 +73,10 @@ class Modal(Protocol):
     def offset(self, axis: int) -> int: ...
 
     def lsb(self, value: Decimal, inch: bool | None = None) -> int: ...
+
+    def lsb_exact(self, value: Decimal) -> Decimal: ...
+
+    def exact_pos(self, axis: int) -> Decimal: ...
 
     def block(self, words: list[Word]) -> None: ...
 
@@ -88,11 +90,12 @@ class PolarError(ValueError):
 
 
 class State:
-    """The predefined parameters and exact position of one program's run."""
+    """The predefined parameters and polar coordinates of one program's run, on the modal
+    interpreter's exact position."""
 
     def __init__(self, modal: Modal):
         self.modal = modal
-        self.exact: list[float | None] = [None, None, None]
+        #: A polar block's exact end (program units, by axis), kept once the block has run.
         self.pending: dict[int, float] = {}
 
     # -- lengths ------------------------------------------------------------------------------
@@ -107,41 +110,22 @@ class State:
         return lsb * self.unit_lsb()
 
     def position(self) -> tuple[float, float, float]:
-        """The current position in the program's coordinates and units: the exact one while
-        the machine is within half an LSB of it."""
-        out = []
-        for axis in range(3):
-            rounded = self.length(self.modal.pos[axis] - self.modal.offset(axis))
-            exact = self.exact[axis]
-            near = exact is not None and abs(exact - rounded) <= self.unit_lsb() * 0.5000001
-            out.append(exact if near and exact is not None else rounded)
-        return out[0], out[1], out[2]
+        """The current position in the program's coordinates and units: the interpreter's
+        exact one (its ``exact_pos``: the programmed position before its rounding, while the
+        machine's rounds to it)."""
+        m = self.modal
+        x, y, z = (float(m.exact_pos(axis) - m.offset(axis)) * self.unit_lsb()
+                   for axis in range(3))
+        return x, y, z
 
-    def before(self) -> tuple[float, float, float]:
-        return self.position()
-
-    def after(self, words: list[Word], before: tuple[float, float, float]) -> None:
-        """Keep the exact coordinates a block's words program (G00-G03 in the program's
-        coordinates); forget them after what moves otherwise."""
+    def after(self) -> None:
+        """A block has run: a polar end becomes the interpreter's exact position."""
         pending, self.pending = self.pending, {}
-        keys = {code_key(w.value) for w in words if w.letter == "G"}
-        if keys & _RESETS or self.modal.motion not in (0, 10, 20, 30):
-            self.exact = [None, None, None]
-            return
-        for axis, letter in enumerate(_AXES):
-            if axis in pending:
-                self.exact[axis] = pending[axis]
-                continue
-            word = next((w for w in words if w.letter == letter), None)
-            if word is None:
-                self.exact[axis] = before[axis]
-            elif self.modal.incremental:
-                self.exact[axis] = before[axis] + float(word.value)
-            else:
-                self.exact[axis] = float(word.value)
+        m = self.modal
+        for axis, value in pending.items():
+            m.exact[axis] = m.offset(axis) + m.lsb_exact(Decimal(repr(value)))
 
     def forget(self) -> None:
-        self.exact = [None, None, None]
         self.pending = {}
 
     # -- polar coordinates --------------------------------------------------------------------
@@ -278,9 +262,8 @@ class InterpreterHost:
         self.modal.line_no = line
         try:
             words = self.state.polar(words)
-            before = self.state.before()
             self.modal.block(words)
-            self.state.after(words, before)
+            self.state.after()
         except (self.block_error, PolarError) as e:
             self.modal.recover(words)
             self.state.forget()
