@@ -49,6 +49,8 @@ class Interpreter(SplineMotions, CannedCycles):
         self.feed_source: tuple[int, int, str] | None = None
         self.g92 = [0, 0, 0]
         self.tool_offset = 0
+        #: The tool length offset (LSB) in force at the last move (see M06's re-read).
+        self.move_tool_offset = 0
         self.selected: int | None = None
         self.tool: int | None = None
         self.cycle: dict[str, Decimal] = {}
@@ -152,6 +154,7 @@ class Interpreter(SplineMotions, CannedCycles):
             call(self.line_no, *args, **kwargs)
         except PlanError as e:
             raise BlockError(col, str(e)) from None
+        self.move_tool_offset = self.tool_offset
 
     def event(self, w: Word, kind: str, value: float | None = None) -> None:
         self.planner.event(self.line_no, w.text, kind, value)
@@ -176,12 +179,23 @@ class Interpreter(SplineMotions, CannedCycles):
         self.modal_settings(b)
         self.non_modal(b)
         self.motion_of(b)
+        if "tool change" in b.m:
+            self.resync_after_tool_change()
         if "stop" in b.m:
             key, w = b.m["stop"]
             if key in (2, 30):
                 self.end = True
             else:
                 self.event(w, M_CODES[key].event)
+
+    def resync_after_tool_change(self) -> None:
+        """At the end of an M06 block the program position is re-read from the last move's,
+        as ``rs274`` does: a tool length set since moves the next move's Z by the change."""
+        shift = self.tool_offset - self.move_tool_offset
+        if shift and self.planner.axes == 3:
+            x, y, z = self.planner.programmed
+            self.planner.programmed = (x, y, z + shift)
+        self.move_tool_offset = self.tool_offset
 
     def recover(self, words: list[Word]) -> None:
         """After a refused block: its programmed end becomes the next block's start, as if it
