@@ -215,7 +215,10 @@ def random_program(rng: random.Random) -> str:
         k = rng.random()
         if k < 0.1:
             lines.append(rng.choice(["G90", "G91", "G92 X0 Y0", "G92.1", "G98", "G99", "G17",
-                                     "G18", "G19", "G90.1", "G91.1", "G54", "G55"]))
+                                     "G18", "G19", "G90.1", "G91.1", "G54", "G55", "G59.1",
+                                     f"G10 L2 P{rng.randint(0, 2)} X{num()} Z{num()}",
+                                     f"G10 L20 P{rng.choice([0, 2, 7])} Y{num()}",
+                                     f"G52 X{num()} Y{num()}"]))
         elif k < 0.4:
             z = f" Z{num()}" if rng.random() < 0.3 else ""
             lines.append(f"G{rng.choice('01')} X{num()} Y{num()}{z}")

@@ -12,8 +12,8 @@ Predefined parameters (in the program's units):
 ``#5161``-``#5169``,      G28 and G30 home positions: zero (both are the origin)
 ``#5181``-``#5189``
 ``#5210``-``#5219``       G92 offset in force (1/0) and its X, Y, Z (A-W zero)
-``#5220``                 the coordinate system, 1 (G54) to 6 (G59)
-``#5221``-``#5390``       G54-G59.3 offsets: zero (K37 has no offsets to set)
+``#5220``                 the coordinate system, 1 (G54) to 9 (G59.3)
+``#5221``-``#5390``       G54-G59.3 offsets (X, Y, Z; A-W zero), as G10 set them
 ``#5400``, ``#5403``      the loaded tool and its length offset (``#5401``-``#5409``
                           other axes: zero)
 ``#5420``-``#5428``       the current position (X, Y, Z; A-W zero)
@@ -23,6 +23,8 @@ Predefined parameters (in the program's units):
                           _motion_mode _plane _coord_system _current_tool
                           _selected_tool``
 ========================  ==========================================================
+
+Offsets are in the program's units (LinuxCNC gives them in its machine units).
 
 Probe results (``#5061``-``#5070``), M66's input (``#5399``), tool diameters and any other
 ``#5001``-``#5602`` are errors naming the parameter.
@@ -36,6 +38,7 @@ from typing import Protocol
 
 from firmware_model.gcode.expr import ExprError
 from firmware_model.gcode.lex import Word
+from firmware_model.gcode.offsets import SYSTEMS, system_number
 from firmware_model.gcode.planner import Planner
 from firmware_model.gcode.words import G_CODES, code_key
 
@@ -59,6 +62,7 @@ class Modal(Protocol):
     tool: int | None
     selected: int | None
     g92: list[int]
+    g5x: dict[int, list[int]]
     tool_offset: int
     coordinate_system: int
     lsb_size: Decimal
@@ -198,9 +202,10 @@ class State:
         if 5211 <= n <= 5219:
             return self.length(m.g92[n - 5211]) if n <= 5213 else 0.0
         if n == 5220:
-            return float((m.coordinate_system - 540) // 10 + 1)
+            return float(system_number(m.coordinate_system))
         if 5221 <= n <= 5390 and (n - 5221) % 20 <= 9:
-            return 0.0
+            axis = (n - 5221) % 20
+            return self.length(m.g5x[SYSTEMS[(n - 5221) // 20]][axis]) if axis < 3 else 0.0
         if n == 5400:
             return float(m.tool or 0)
         if 5401 <= n <= 5409:
