@@ -251,6 +251,34 @@ def test_random_programs_run_as_rs274_runs_them(seed):
     assert largest_difference(ours, theirs) <= 1, text
 
 
+def random_offsets_program(rng: random.Random) -> str:
+    """A random program of moves between work offsets: G10 L2/L20, G52, G92, G54-G59.3."""
+    def num() -> str:
+        return f"{rng.uniform(-20, 20):.{rng.choice([0, 1, 3])}f}"
+
+    lines = [f"{rng.choice(['G20', 'G21'])} G90"]
+    for _ in range(rng.randint(4, 14)):
+        axes = " ".join(f"{a}{num()}" for a in rng.sample("XYZ", rng.randint(1, 3)))
+        lines.append(rng.choice([
+            f"G10 L2 P{rng.randint(0, 9)} {axes}", f"G10 L20 P{rng.randint(0, 9)} {axes}",
+            f"G52 {axes}", f"G92 {axes}", "G92.1", rng.choice(["G54", "G55", "G59", "G59.3"]),
+            f"G0 {axes}", f"G1 {axes} F100", rng.choice(["G90", "G91"])]))
+    return "\n".join([*lines, "M2"])
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not HAVE_RS274, reason="LinuxCNC's rs274 is not installed (Debian: "
+                                           "apt-get install linuxcnc-uspace): no comparison")
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**32))
+def test_random_work_offsets_move_as_rs274_moves(seed):
+    text = random_offsets_program(random.Random(seed))
+    theirs = programmed_ends(parse_linuxcnc(text, axes=3), targets=True)
+    ours = programmed_ends(parse(text, axes=3))
+    assert largest_difference(ours, theirs) is not None, text
+    assert largest_difference(ours, theirs) <= tolerance_lsb(text), text
+
+
 def example_row(name: str) -> tuple[str, str, int | None]:
     """(file, outcome, largest end-point difference to rs274 in LSB) of a LinuxCNC example."""
     if name in LINUXCNC_NOT_COMPARED:
@@ -280,3 +308,4 @@ if __name__ == "__main__":
     for cause, count in sorted(causes.items(), key=lambda item: -item[1]):
         print(f"- {count} {cause}")
     sys.exit(0)
+
