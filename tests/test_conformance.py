@@ -77,6 +77,8 @@ LINUXCNC_NOT_COMPARED: dict[str, str] = {
 #: rs274 writes coordinates with four decimals: in G20, up to 0.00005 in from the value.
 RS274_INCH_ROUNDING_LSB = 0.00005 * 25.4 / 0.001
 HAVE_RS274 = shutil.which(RS274) is not None
+NEEDS_RS274 = pytest.mark.skipif(not HAVE_RS274, reason="LinuxCNC's rs274 is not installed "
+                                 "(Debian: apt-get install linuxcnc-uspace): no comparison")
 #: The tool table both front ends get (mm; whole hundredths of an inch, as rs274 reads them).
 TOOLS = {1: 12.7, 2: 25.4, 3: 5.08, 4: 7.62, 5: 3.81, 7: 2.54, 9: 6.35, 10: 10.16}
 
@@ -150,8 +152,7 @@ def test_after_a_tool_change_the_position_is_reread_as_rs274_does(program, z):
     assert ends[-1] == (1000, 0, z)
 
 
-@pytest.mark.skipif(not HAVE_RS274, reason="LinuxCNC's rs274 is not installed (Debian: "
-                                           "apt-get install linuxcnc-uspace): no comparison")
+@NEEDS_RS274
 @pytest.mark.parametrize("path", FILES, ids=[p.name for p in FILES])
 def test_every_end_point_equals_rs274s_within_one_lsb(path):
     text = path.read_text()
@@ -183,8 +184,7 @@ def test_linuxcncs_examples_run_as_rs274_runs_them_or_name_what_is_unsupported(n
     assert largest_difference(ours, theirs) <= tolerance_lsb(text)
 
 
-@pytest.mark.skipif(not HAVE_RS274, reason="LinuxCNC's rs274 is not installed (Debian: "
-                                           "apt-get install linuxcnc-uspace): no comparison")
+@NEEDS_RS274
 @pytest.mark.parametrize("name", LINUXCNC_NOT_COMPARED)
 def test_the_examples_not_compared_are_those_rs274_or_its_reader_refuses(name):
     path = LINUXCNC_NCFILES / name
@@ -200,6 +200,14 @@ def test_every_installed_example_is_classified():
                     f"linuxcnc-uspace)")
     installed = {p.name for p in LINUXCNC_NCFILES.glob("*.ngc")}
     assert installed == LINUXCNC_EXAMPLES.keys() | LINUXCNC_NOT_COMPARED.keys()
+
+
+def assert_ends_as_rs274s(text: str, theirs: list[tuple[int, ...]], tolerance: int) -> None:
+    """The built-in front end's end points of ``text`` are ``theirs`` (``rs274``'s) within
+    ``tolerance`` LSB on every axis."""
+    ours = programmed_ends(parse(text, axes=3, tools=TOOLS))
+    difference = largest_difference(ours, theirs)
+    assert difference is not None and difference <= tolerance, (text, ours, theirs)
 
 
 def random_program(rng: random.Random) -> str:
@@ -236,8 +244,7 @@ def random_program(rng: random.Random) -> str:
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not HAVE_RS274, reason="LinuxCNC's rs274 is not installed (Debian: "
-                                           "apt-get install linuxcnc-uspace): no comparison")
+@NEEDS_RS274
 @settings(max_examples=150, deadline=None, derandomize=True)
 @given(seed=st.integers(0, 2**32))
 def test_random_programs_run_as_rs274_runs_them(seed):
@@ -246,9 +253,7 @@ def test_random_programs_run_as_rs274_runs_them(seed):
         theirs = programmed_ends(parse_linuxcnc(text, axes=3, tools=TOOLS), targets=True)
     except GcodeError:
         return  # rs274 refuses it (an R arc too short for its chord...): so do we, or more
-    ours = programmed_ends(parse(text, axes=3, tools=TOOLS))
-    assert largest_difference(ours, theirs) is not None, text
-    assert largest_difference(ours, theirs) <= 1, text
+    assert_ends_as_rs274s(text, theirs, 1)
 
 
 def random_offsets_program(rng: random.Random) -> str:
@@ -267,16 +272,13 @@ def random_offsets_program(rng: random.Random) -> str:
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(not HAVE_RS274, reason="LinuxCNC's rs274 is not installed (Debian: "
-                                           "apt-get install linuxcnc-uspace): no comparison")
+@NEEDS_RS274
 @settings(max_examples=60, deadline=None, derandomize=True)
 @given(seed=st.integers(0, 2**32))
 def test_random_work_offsets_move_as_rs274_moves(seed):
     text = random_offsets_program(random.Random(seed))
-    theirs = programmed_ends(parse_linuxcnc(text, axes=3), targets=True)
-    ours = programmed_ends(parse(text, axes=3))
-    assert largest_difference(ours, theirs) is not None, text
-    assert largest_difference(ours, theirs) <= tolerance_lsb(text), text
+    theirs = programmed_ends(parse_linuxcnc(text, axes=3, tools=TOOLS), targets=True)
+    assert_ends_as_rs274s(text, theirs, tolerance_lsb(text))
 
 
 def example_row(name: str) -> tuple[str, str, int | None]:
