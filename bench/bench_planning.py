@@ -2,8 +2,10 @@
 
 Run with ``pytest bench/bench_planning.py --benchmark-only -s``. The host plans an arc's
 FP count and end from its geometry (:func:`firmware_model.gcode.arcs.plan_block`) instead of
-walking every step as the reference model does (:func:`hdl.k3701.model.plan`); ``k37 plan``
-of a thousand-line program is timed as a whole command.
+walking every step as the reference model does (:func:`hdl.k3701.model.plan`), helices
+included; ``k37 plan`` of a thousand-line program is timed as a whole command, and the
+planning of a ten-thousand-line one (:func:`tests.programs.mixed_program`, shared with the
+tests) on its own.
 """
 
 from __future__ import annotations
@@ -12,9 +14,11 @@ import time
 from pathlib import Path
 
 from firmware_model.gcode.arcs import plan_block
+from firmware_model.job import MachineConfig, parse_for_machine
 from hdl.k3701.block import Block
 from hdl.k3701.model import plan
 from sim.cli import main
+from tests.programs import mixed_program
 
 
 def test_a_large_circle_plans_far_faster_than_its_walk(benchmark):
@@ -31,13 +35,36 @@ def test_a_large_circle_plans_far_faster_than_its_walk(benchmark):
     assert walk / fast > 100
 
 
+def test_a_large_helix_plans_far_faster_than_its_walk(benchmark):
+    # a full turn of radius 254,000 LSB (254 mm at 1 um) rising 100 mm: about 1.4 million
+    # steps for the walk
+    block = Block.arc(0, 0, -254_000, 0, sqrt2=True, ze=100_000)
+    start = time.perf_counter()
+    walked = plan(block)
+    walk = time.perf_counter() - start
+    planned = benchmark(plan_block, block)
+    fast = benchmark.stats.stats.min
+    assert planned == walked
+    print(f"\nR 254,000 LSB helix: planned in {1e3 * fast:.2f} ms, walked in {walk:.2f} s "
+          f"(x{walk / fast:,.0f})")
+    assert walk / fast > 20
+
+
 def test_plan_command_of_a_thousand_lines(benchmark, tmp_path: Path, capsys):
-    lines = ["G21 G90 F1000"]
-    for k in range(250):
-        lines += [f"G01 X{k % 50}.{k % 7} Y{k % 13}", f"G02 X{k % 50 + 2}.{k % 7} "
-                  f"Y{k % 13} I1 J0", "G01 X0 Y0", f"G03 I{1 + k % 9} J0"]
     path = tmp_path / "big.ngc"
-    path.write_text("\n".join(lines[:1000]))
+    path.write_text(mixed_program(1000))
     assert benchmark.pedantic(main, args=(["plan", str(path)],), rounds=3, iterations=1) == 0
     capsys.readouterr()
     print(f"\nk37 plan of 1,000 lines: {benchmark.stats.stats.min:.3f} s")
+
+
+def test_planning_ten_thousand_lines(benchmark):
+    # the front end and the planner (k37 plan without the start of Python and the table):
+    # 5,000 lines and 5,000 arcs; the goal is under a second
+    text = mixed_program(10_000)
+    machine, program = benchmark.pedantic(
+        parse_for_machine, args=(MachineConfig(), text), kwargs={"source": "<10k>"},
+        rounds=3, iterations=1)
+    assert machine.axes == 2 and len(program.moves) >= 9_999
+    print(f"\nplanning 10,000 lines ({len(program.moves):,} blocks): "
+          f"{benchmark.stats.stats.min:.3f} s")

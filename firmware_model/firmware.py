@@ -41,9 +41,10 @@ from hdl.k3701.block import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
 from hdl.k3701.map import block_registers
 
 __all__ = ["BLOCK_HOST_SECONDS", "AlarmEvent", "BlockObserver", "BlockRecord", "EventRecord",
-           "Firmware", "FirmwareError", "accel_lag_seconds", "check_program", "clamped_feeds",
-           "feed_limit", "feed_word", "max_feed_mm_min", "planned_seconds", "program_seconds",
-           "programmed_feed", "rm_clock_hz", "run_feed", "word_feed", "word_rate"]
+           "Firmware", "FirmwareError", "ProgramTime", "accel_lag_seconds", "check_program",
+           "clamped_feeds", "feed_limit", "feed_word", "max_feed_mm_min", "planned_seconds",
+           "program_seconds", "program_time", "programmed_feed", "rm_clock_hz", "run_feed",
+           "word_feed", "word_rate"]
 
 #: Rate-multiplier input clock: one input clock per linear step time, so the FP stream into
 #: the K3701 never has two pulses closer than the linear step latency.
@@ -165,18 +166,45 @@ def accel_lag_seconds(machine: MachineConfig, fp: int, rate: float) -> float:
     return tau * (1 + math.log(max(1.0, min(fp, rate * tau))))
 
 
+@dataclass(frozen=True)
+class ProgramTime:
+    """A program's planned machine time (s), by what it is spent on."""
+
+    #: The blocks' FP at their feed words' rates (:func:`planned_seconds`).
+    moving: float
+    #: The dwells (G04).
+    dwells: float
+    #: The ends of the blocks behind the accel/decel circuit (:func:`accel_lag_seconds`),
+    #: the host's time per block (:data:`BLOCK_HOST_SECONDS`) and the settling at the end
+    #: (:data:`SETTLE_SECONDS`).
+    stops: float
+
+    @property
+    def total(self) -> float:
+        return self.moving + self.dwells + self.stops
+
+
+def program_time(job: Job) -> ProgramTime:
+    """The program's planned machine time, an upper estimate, by part (:class:`ProgramTime`)."""
+    machine = job.machine
+    moving = dwells = 0.0
+    stops = SETTLE_SECONDS
+    for item in job.program.items:
+        if isinstance(item, Dwell):
+            dwells += item.seconds
+        elif not isinstance(item, Event):
+            moving += planned_seconds(item, machine)
+            rate = word_rate(machine, feed_word(machine, run_feed(item, machine)))
+            stops += accel_lag_seconds(machine, item.plan.fp, rate) + BLOCK_HOST_SECONDS
+    return ProgramTime(moving, dwells, stops)
+
+
 def program_seconds(job: Job) -> float:
     """The program's planned machine time, an upper estimate: each block's FP at its feed
     word's rate (:func:`planned_seconds`), its end behind the accel/decel circuit
     (:func:`accel_lag_seconds`) and the host's time (:data:`BLOCK_HOST_SECONDS`), the dwells,
     and the settling at the end (:data:`SETTLE_SECONDS`)."""
-    machine, total = job.machine, SETTLE_SECONDS
-    for item in job.program.items:
-        total += planned_seconds(item, machine)
-        if not isinstance(item, Dwell | Event):
-            rate = word_rate(machine, feed_word(machine, run_feed(item, machine)))
-            total += accel_lag_seconds(machine, item.plan.fp, rate) + BLOCK_HOST_SECONDS
-    return total
+    return program_time(job).total
 
 
 def _where(item: Item, program: Program) -> str:

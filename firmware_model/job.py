@@ -325,6 +325,13 @@ def parse_for_machine(machine: MachineConfig, text: str, *, source: str, axes_gi
         return FRONTENDS[frontend](text, source=source, lsb_mm=m.lsb_mm, sqrt2=m.sqrt2,
                                    axes=m.axes, **options)
     if not axes_given:
+        if not names_third_axis(text):
+            # Most programs: the two-axis machine's parse is the answer when it succeeds (a
+            # program that moved Z would fail there), and the program is parsed once.
+            try:
+                return replace(machine, axes=2), parsed(replace(machine, axes=2))
+            except GcodeError:
+                pass
         try:
             program = parsed(replace(machine, axes=3))
         except GcodeError as error:

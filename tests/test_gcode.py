@@ -323,7 +323,7 @@ def test_motion_errors_name_line_and_column(text, message):
     ("G04", "1:1: G04 needs P (the dwell in seconds)"),
     ("G04 P-1", "1:5: P-1: the dwell must not be negative"),
     ("G04 P1 X2", "1:8: X2: G04 takes only P (seconds)"),
-    ("G01 X1 P2 F1", "1:8: P2: P is only for G04 (dwell), G82, G64 and arcs"),
+    ("G01 X1 P2 F1", "1:8: P2: P is only for G04 (dwell), G10, G82, G64 and arcs"),
 ])
 def test_word_errors_name_line_and_column(text, message):
     assert error_of(text) == f"t.ngc:{message}"

@@ -252,6 +252,50 @@ def test_unsupported_features_are_named_once_with_their_place(text, message):
     assert error_of(text + "\n" + text) == f"t.ngc:{message}\nt.ngc:2{message[1:]}"
 
 
+# --- work offsets: G10 L2/L20, G52, G54-G59.3 -------------------------------------------------
+
+def ends(text: str) -> list[tuple[int, ...]]:
+    """The end (LSB) of every move, on three axes."""
+    return [m.end for m in parse(text, axes=3).moves]
+
+
+def test_g10_l2_sets_a_systems_offsets_and_the_machine_stays_where_it_is():
+    # rs274's ends for the same program (tests/test_conformance.py compares a corpus)
+    assert ends("G21 G90\nG0 X1 Y1 Z1\nG10 L2 P1 X10\nG0 Y0\nG0 X0\n"
+                "G10 L2 P2 X5 Y5\nG55 G0 X0\nG91 G10 L2 P0 X1\nG90 G0 X0 Y0") == [
+        (1000, 1000, 1000), (1000, 0, 1000), (10_000, 0, 1000), (5000, 0, 1000),
+        (1000, 5000, 1000)]  # G10 in G91: still the value itself
+
+
+def test_g10_l20_makes_the_current_point_the_given_one_in_its_system():
+    # the G92 offset (-2 mm on X) counts: system 8's offset becomes (3, 2) mm
+    assert ends("G21 G90\nG92 X2\nG0 X4 Y3\nG10 L20 P8 X1 Y1\nG59.2 G0 X0 Y0\n"
+                "G0 X5 Y5") == [(2000, 3000, 0), (1000, 2000, 0), (6000, 7000, 0)]
+
+
+@pytest.mark.parametrize("units", ["G21", "G20"])
+def test_the_offset_parameters_give_g10s_values_in_the_programs_units(units):
+    assert ends(f"{units} G90\nG10 L2 P1 X10 Y-2.5\nG10 L2 P9 Z3\nG53 G0 X[#5221] "
+                f"Y[#5222] Z[#5383]\nG0 X[#5220]")[0] == tuple(
+        round(v * (25.4 if units == "G20" else 1) * 1000) for v in (10, -2.5, 3))
+
+
+def test_g52_sets_the_local_offset_keeping_the_axes_it_does_not_name():
+    assert ends("G21 G90\nG52 X2 Y3\nG52 X5\nG0 X0 Y0\nG91 G52 X1\nG90 G0 X0\n"
+                "G92.1\nG0 X0 Y0") == [(5000, 3000, 0), (1000, 3000, 0), (0, 0, 0)]
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("G10 L1 P1 Z1", "1:5: L1: setting tools with G10 (L1, L10, L11) is unsupported"),
+    ("G10 P1 X1", "1:1: G10 needs L2 or L20"),
+    ("G10 L2 X1", "1:1: G10 L2 needs P0-P9, the coordinate system (P0: the one in force)"),
+    ("G10 L2 P10 X1", "1:8: G10 L2 needs P0-P9"),
+    ("G10 L2 P1 R45", "1:11: R45: rotated coordinate systems (G10 R) are unsupported"),
+])
+def test_g10_errors_name_what_is_wrong_and_where(text, message):
+    assert error_of(text).startswith(f"t.ngc:{message}")
+
+
 # --- no traceback on any input -----------------------------------------------------------------
 
 _ATOMS = st.sampled_from(["1", "0", "-2.5", ".5", "#1", "#<a>", "#<_g>", "##2", "#5420",

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from firmware_model.gcode import canon
 from firmware_model.gcode.parser import GcodeError, parse
 from sim.cli import main
+from tests.programs import mixed_program
 
 HAVE_RS274 = canon.shutil.which(canon.RS274) is not None
 
@@ -65,12 +66,8 @@ def test_plan_reports_every_error_and_exits_2(tmp_path, capsys):
 
 
 def test_plan_of_a_thousand_lines_lists_every_block(tmp_path, capsys):
-    lines = ["G21 G90 F1000"]
-    for k in range(250):
-        lines += [f"G01 X{k % 50}.{k % 7} Y{k % 13}", f"G02 X{k % 50 + 2}.{k % 7} "
-                  f"Y{k % 13} I1 J0", "G01 X0 Y0", f"G03 I{1 + k % 9} J0"]
     path = tmp_path / "big.ngc"
-    path.write_text("\n".join(lines[:1000]))
+    path.write_text(mixed_program(1000))
     assert main(["plan", str(path)]) == 0
     rows = capsys.readouterr().out.splitlines()
     # a row per block (the arcs' correction lines add to the 999 moves), their lines in order

@@ -1,7 +1,7 @@
 """The built-in front end's interpreter: modal state, and each block's words in RS-274's
-order (:mod:`firmware_model.gcode.parser` reads a program through it). Splines and canned
-cycles are in :mod:`firmware_model.gcode.spline_motions` and
-:mod:`firmware_model.gcode.cycles`."""
+order (:mod:`firmware_model.gcode.parser` reads a program through it). Splines, canned
+cycles and work offsets are in :mod:`firmware_model.gcode.spline_motions`,
+:mod:`firmware_model.gcode.cycles` and :mod:`firmware_model.gcode.offsets`."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from decimal import ROUND_HALF_UP, Decimal
 from firmware_model.gcode.block_words import BlockError, BlockWords, g_name
 from firmware_model.gcode.cycles import CannedCycles
 from firmware_model.gcode.lex import Word
+from firmware_model.gcode.offsets import SYSTEMS, Offsets
 from firmware_model.gcode.planner import PlanError, Planner
 from firmware_model.gcode.program import PLANE_AXES
 from firmware_model.gcode.spline_motions import SplineMotions
@@ -28,7 +29,7 @@ from hdl.k3701.block import COORD_MAX
 __all__ = ["Interpreter"]
 
 
-class Interpreter(SplineMotions, CannedCycles):
+class Interpreter(SplineMotions, CannedCycles, Offsets):
     """The modal state of a program being read, and what each block does with it."""
 
     def __init__(self, planner: Planner, *, lsb_mm: float, tolerance: float | None,
@@ -48,7 +49,11 @@ class Interpreter(SplineMotions, CannedCycles):
         self.feed: float | None = None
         self.feed_source: tuple[int, int, str] | None = None
         self.g92 = [0, 0, 0]
+        #: Each coordinate system's offsets (LSB), by its code (G54: 540).
+        self.g5x: dict[int, list[int]] = {code: [0, 0, 0] for code in SYSTEMS}
         self.tool_offset = 0
+        #: The tool length offset (LSB) in force at the last move (see M06's re-read).
+        self.move_tool_offset = 0
         self.selected: int | None = None
         self.tool: int | None = None
         self.cycle: dict[str, Decimal] = {}
@@ -95,9 +100,6 @@ class Interpreter(SplineMotions, CannedCycles):
         for axis, value in enumerate(self.pending_exact):
             if value is not None:
                 self.exact[axis] = value
-
-    def offset(self, axis: int) -> int:
-        return self.g92[axis] + (self.tool_offset if axis == 2 else 0)
 
     def check_range(self, word: Word, value: int, what: str) -> None:
         if abs(value) > COORD_MAX:
@@ -152,6 +154,7 @@ class Interpreter(SplineMotions, CannedCycles):
             call(self.line_no, *args, **kwargs)
         except PlanError as e:
             raise BlockError(col, str(e)) from None
+        self.move_tool_offset = self.tool_offset
 
     def event(self, w: Word, kind: str, value: float | None = None) -> None:
         self.planner.event(self.line_no, w.text, kind, value)
@@ -172,16 +175,28 @@ class Interpreter(SplineMotions, CannedCycles):
             self.dwell(b)
         elif b.word("P") is not None and not self.takes_p(b):
             p = b.word("P")
-            raise BlockError(p.col, f"{p.text}: P is only for G04 (dwell), G82, G64 and arcs")
+            raise BlockError(p.col, f"{p.text}: P is only for G04 (dwell), G10, G82, G64 and "
+                                    f"arcs")
         self.modal_settings(b)
         self.non_modal(b)
         self.motion_of(b)
+        if "tool change" in b.m:
+            self.resync_after_tool_change()
         if "stop" in b.m:
             key, w = b.m["stop"]
             if key in (2, 30):
                 self.end = True
             else:
                 self.event(w, M_CODES[key].event)
+
+    def resync_after_tool_change(self) -> None:
+        """At the end of an M06 block the program position is re-read from the last move's,
+        as ``rs274`` does: a tool length set since moves the next move's Z by the change."""
+        shift = self.tool_offset - self.move_tool_offset
+        if shift and self.planner.axes == 3:
+            x, y, z = self.planner.programmed
+            self.planner.programmed = (x, y, z + shift)
+        self.move_tool_offset = self.tool_offset
 
     def recover(self, words: list[Word]) -> None:
         """After a refused block: its programmed end becomes the next block's start, as if it
@@ -205,7 +220,7 @@ class Interpreter(SplineMotions, CannedCycles):
     def takes_p(self, b: BlockWords) -> bool:
         motion = b.code("motion") if "motion" in b.g else self.motion
         return (b.code("path") == 640 or motion in (20, 30, 50, 52, 820)
-                or self.nurbs is not None)
+                or b.code("non-modal") == 100 or self.nurbs is not None)
 
     def arc_tolerance(self) -> float:
         """The arc tolerance in LSB (the program's, or LinuxCNC's in the units in force)."""
@@ -304,14 +319,8 @@ class Interpreter(SplineMotions, CannedCycles):
             home = tuple(0 if (named[a] or not any(named)) else via[a] for a in range(3))
             self.check_z(w, home)
             self.plan(w.col, self.planner.line, home, None)
-        elif key == 920:
-            for axis, letter in enumerate(AXIS_LETTERS):
-                v = b.word(letter)
-                if v is not None:
-                    self.g92[axis] = self.pos[axis] - self.lsb(v.value) - (
-                        self.tool_offset if axis == 2 else 0)
-        elif key == 921:
-            self.g92 = [0, 0, 0]
+        elif key in (100, 520, 920, 921):
+            self.set_offsets(b, key, w)
 
     def check_z(self, w: Word, target: tuple[int, ...]) -> None:
         if self.planner.axes == 2 and target[2] != self.pos[2]:
@@ -326,8 +335,10 @@ class Interpreter(SplineMotions, CannedCycles):
     def motion_of(self, b: BlockWords) -> None:
         g = b.g.get("motion")
         order = b.word("L")
-        if order is not None and (g is None or g[0] != 52 or self.nurbs is not None):
-            raise BlockError(order.col, f"{order.text}: L is only for G05.2 (a NURBS's order)")
+        g10 = b.code("non-modal") == 100
+        if order is not None and not g10 and (g is None or g[0] != 52 or self.nurbs is not None):
+            raise BlockError(order.col, f"{order.text}: L is only for G05.2 (a NURBS's order) "
+                                        f"and G10")
         if self.nurbs is not None or (g is not None and g[0] in (52, 53)):
             for letter in "IJKRQ":
                 w = b.word(letter)
@@ -339,7 +350,7 @@ class Interpreter(SplineMotions, CannedCycles):
             if g[0] != self.motion:
                 self.cycle, self.cycle_planes = {}, None
             self.motion = None if g[0] == 800 else g[0]
-        if "non-modal" in b.g and b.g["non-modal"][0] in (280, 300, 920):
+        if "non-modal" in b.g and b.g["non-modal"][0] in (100, 280, 300, 520, 920):
             return  # their axis words are theirs
         axes = self.axis_words(b)
         for letter in "IJKRQ":

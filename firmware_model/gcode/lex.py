@@ -42,6 +42,7 @@ __all__ = ["O_KEYWORDS", "Assignment", "Comment", "LexError", "NgcLine", "OState
            "Word", "WordValue", "read_line"]
 
 _BLANK = " \t\r"
+_NO_BLANKS = str.maketrans("", "", _BLANK)
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)")
 #: Deepest nesting of brackets and functions in one value.
 MAX_NESTING = 64
@@ -152,6 +153,10 @@ def _comment(body: str, col: int) -> Comment:
 def _clean(text: str) -> tuple[str, list[int], list[Comment]]:
     """The line without blanks and comments, lower case; the column of each character kept;
     the comments."""
+    if text.isascii() and not any(c in text for c in "(;/") and text.translate(
+            _NO_BLANKS).isprintable():  # most lines: words and blanks only
+        kept = [k for k, c in enumerate(text, 1) if c not in _BLANK]
+        return text.translate(_NO_BLANKS).lower(), kept, []
     chars: list[str] = []
     cols: list[int] = []
     comments: list[Comment] = []

@@ -3,9 +3,8 @@ the current position, and polar coordinates.
 
 The interpreter keeps positions in whole LSB; a program that reads its position (``#5420``,
 ``#<_x>``) or moves in polar steps (``G91 @0.1 ^5``) would see each rounding and add them up.
-:class:`State` keeps the exact programmed coordinates beside them, as LinuxCNC's
-interpreter has them, and gives them while the machine's position is within half an LSB of
-them (else the machine's).
+:class:`State` gives the interpreter's exact programmed coordinates instead (as LinuxCNC's
+interpreter has them) while the machine's position rounds to them, else the machine's.
 
 Predefined parameters (in the program's units):
 
@@ -13,8 +12,8 @@ Predefined parameters (in the program's units):
 ``#5161``-``#5169``,      G28 and G30 home positions: zero (both are the origin)
 ``#5181``-``#5189``
 ``#5210``-``#5219``       G92 offset in force (1/0) and its X, Y, Z (A-W zero)
-``#5220``                 the coordinate system, 1 (G54) to 6 (G59)
-``#5221``-``#5390``       G54-G59.3 offsets: zero (K37 has no offsets to set)
+``#5220``                 the coordinate system, 1 (G54) to 9 (G59.3)
+``#5221``-``#5390``       G54-G59.3 offsets (X, Y, Z; A-W zero), as G10 set them
 ``#5400``, ``#5403``      the loaded tool and its length offset (``#5401``-``#5409``
                           other axes: zero)
 ``#5420``-``#5428``       the current position (X, Y, Z; A-W zero)
@@ -24,6 +23,8 @@ Predefined parameters (in the program's units):
                           _motion_mode _plane _coord_system _current_tool
                           _selected_tool``
 ========================  ==========================================================
+
+Offsets are in the program's units (LinuxCNC gives them in its machine units).
 
 Probe results (``#5061``-``#5070``), M66's input (``#5399``), tool diameters and any other
 ``#5001``-``#5602`` are errors naming the parameter.
@@ -37,6 +38,7 @@ from typing import Protocol
 
 from firmware_model.gcode.expr import ExprError
 from firmware_model.gcode.lex import Word
+from firmware_model.gcode.offsets import SYSTEMS, system_number
 from firmware_model.gcode.planner import Planner
 from firmware_model.gcode.words import G_CODES, code_key
 
@@ -45,8 +47,6 @@ __all__ = ["InterpreterHost", "Modal", "PolarError", "State", "TooManyErrors"]
 _INCH_MM = Decimal("25.4")
 _AXES = "XYZ"
 _MOTION = {k for k, c in G_CODES.items() if c.group == "motion"}
-#: G codes after which the exact coordinates are no longer known (offsets, homes, cycles).
-_RESETS = {200, 210, 280, 300, 530, 920, 921, *range(810, 900)}
 #: The last numbered parameter LinuxCNC's interpreter has.
 _LAST_PREDEFINED = 5602
 
@@ -62,12 +62,14 @@ class Modal(Protocol):
     tool: int | None
     selected: int | None
     g92: list[int]
+    g5x: dict[int, list[int]]
     tool_offset: int
     coordinate_system: int
     lsb_size: Decimal
     end: bool
     line_no: int
     planner: Planner
+    exact: list[Decimal | None]
 
     @property
     def pos(self) -> tuple[int, int, int]: ...
@@ -75,6 +77,10 @@ class Modal(Protocol):
     def offset(self, axis: int) -> int: ...
 
     def lsb(self, value: Decimal, inch: bool | None = None) -> int: ...
+
+    def lsb_exact(self, value: Decimal) -> Decimal: ...
+
+    def exact_pos(self, axis: int) -> Decimal: ...
 
     def block(self, words: list[Word]) -> None: ...
 
@@ -88,11 +94,12 @@ class PolarError(ValueError):
 
 
 class State:
-    """The predefined parameters and exact position of one program's run."""
+    """The predefined parameters and polar coordinates of one program's run, on the modal
+    interpreter's exact position."""
 
     def __init__(self, modal: Modal):
         self.modal = modal
-        self.exact: list[float | None] = [None, None, None]
+        #: A polar block's exact end (program units, by axis), kept once the block has run.
         self.pending: dict[int, float] = {}
 
     # -- lengths ------------------------------------------------------------------------------
@@ -107,41 +114,22 @@ class State:
         return lsb * self.unit_lsb()
 
     def position(self) -> tuple[float, float, float]:
-        """The current position in the program's coordinates and units: the exact one while
-        the machine is within half an LSB of it."""
-        out = []
-        for axis in range(3):
-            rounded = self.length(self.modal.pos[axis] - self.modal.offset(axis))
-            exact = self.exact[axis]
-            near = exact is not None and abs(exact - rounded) <= self.unit_lsb() * 0.5000001
-            out.append(exact if near and exact is not None else rounded)
-        return out[0], out[1], out[2]
+        """The current position in the program's coordinates and units: the interpreter's
+        exact one (its ``exact_pos``: the programmed position before its rounding, while the
+        machine's rounds to it)."""
+        m = self.modal
+        x, y, z = (float(m.exact_pos(axis) - m.offset(axis)) * self.unit_lsb()
+                   for axis in range(3))
+        return x, y, z
 
-    def before(self) -> tuple[float, float, float]:
-        return self.position()
-
-    def after(self, words: list[Word], before: tuple[float, float, float]) -> None:
-        """Keep the exact coordinates a block's words program (G00-G03 in the program's
-        coordinates); forget them after what moves otherwise."""
+    def after(self) -> None:
+        """A block has run: a polar end becomes the interpreter's exact position."""
         pending, self.pending = self.pending, {}
-        keys = {code_key(w.value) for w in words if w.letter == "G"}
-        if keys & _RESETS or self.modal.motion not in (0, 10, 20, 30):
-            self.exact = [None, None, None]
-            return
-        for axis, letter in enumerate(_AXES):
-            if axis in pending:
-                self.exact[axis] = pending[axis]
-                continue
-            word = next((w for w in words if w.letter == letter), None)
-            if word is None:
-                self.exact[axis] = before[axis]
-            elif self.modal.incremental:
-                self.exact[axis] = before[axis] + float(word.value)
-            else:
-                self.exact[axis] = float(word.value)
+        m = self.modal
+        for axis, value in pending.items():
+            m.exact[axis] = m.offset(axis) + m.lsb_exact(Decimal(repr(value)))
 
     def forget(self) -> None:
-        self.exact = [None, None, None]
         self.pending = {}
 
     # -- polar coordinates --------------------------------------------------------------------
@@ -214,9 +202,10 @@ class State:
         if 5211 <= n <= 5219:
             return self.length(m.g92[n - 5211]) if n <= 5213 else 0.0
         if n == 5220:
-            return float((m.coordinate_system - 540) // 10 + 1)
+            return float(system_number(m.coordinate_system))
         if 5221 <= n <= 5390 and (n - 5221) % 20 <= 9:
-            return 0.0
+            axis = (n - 5221) % 20
+            return self.length(m.g5x[SYSTEMS[(n - 5221) // 20]][axis]) if axis < 3 else 0.0
         if n == 5400:
             return float(m.tool or 0)
         if 5401 <= n <= 5409:
@@ -278,9 +267,8 @@ class InterpreterHost:
         self.modal.line_no = line
         try:
             words = self.state.polar(words)
-            before = self.state.before()
             self.modal.block(words)
-            self.state.after(words, before)
+            self.state.after()
         except (self.block_error, PolarError) as e:
             self.modal.recover(words)
             self.state.forget()

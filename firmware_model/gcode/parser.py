@@ -79,6 +79,9 @@ def names_third_axis(text: str) -> bool:
     """Whether a program's words name the third axis: a Z word, or G18/G19 (an arc plane with
     Z). Lines the lexer cannot read are passed over."""
     for line in text.split("\n"):
+        compact = "".join(line.split()).lower()
+        if "z" not in compact and "18" not in compact and "19" not in compact:
+            continue  # (blanks are nothing in a word: "G 1 8" is G18)
         try:
             words = read_line(line).words
         except LexError:

@@ -73,6 +73,16 @@ class Planner:
         self.programmed = (0, 0, 0)
         #: What the planner ran otherwise than programmed, and why: (line, text).
         self.notes: list[tuple[int, str]] = []
+        #: The plans made so far, by block: a program repeats its blocks (a pattern's
+        #: arcs, a zigzag's joins), and a block's plan depends on nothing else.
+        self._plans: dict[Block, Plan] = {}
+
+    def _plan(self, block: Block) -> Plan:
+        """:func:`~firmware_model.gcode.arcs.plan_block` of ``block``, made once."""
+        result = self._plans.get(block)
+        if result is None:
+            result = self._plans[block] = plan_block(block)
+        return result
 
     def mm(self, lsb: float) -> str:
         """A length in LSB as mm, to the LSB's resolution."""
@@ -118,7 +128,7 @@ class Planner:
         target = self._check_target(target)
         xe, ye, ze = (t - p for t, p in zip(target, self.position, strict=True))
         block = Block.line(xe, ye, ze, sqrt2=self.sqrt2)
-        result = plan_block(block)
+        result = self._plan(block)
         self.items.append(Line(len(self.items), line_no, xe, ye, feed, feed is None, ze=ze,
                                start=self._start(), block=block, plan=result,
                                feed_source=feed_source, correction=correction, curve=curve))
@@ -213,7 +223,7 @@ class Planner:
         offsets[first], offsets[second] = i, j
         if rel[normal] or plane != 17:  # the three-axis chip's helix and plane routing
             try:
-                result = plan_block(replace(block, ze=rel[normal], plane=plane - 17))
+                result = self._plan(replace(block, ze=rel[normal], plane=plane - 17))
             except BlockError as e:
                 self._chords(line_no, target, (i, j), plane, cw, feed, tolerance=tolerance,
                              feed_source=feed_source, why=f"the K3701 refuses this helix: {e}")
@@ -275,7 +285,7 @@ class Planner:
         refused = None
         try:
             block = Block.arc(end[0], end[1], i, j, cw=cw, sqrt2=self.sqrt2)
-            result = plan_block(block)
+            result = self._plan(block)
             if self._close(end, result, i, j, cw):
                 return block, result
         except BlockError as e:
@@ -289,7 +299,7 @@ class Planner:
                 try:
                     candidate = Block.arc(end[0] + dx, end[1] + dy, i, j, cw=cw,
                                           sqrt2=self.sqrt2)
-                    trial = plan_block(candidate)
+                    trial = self._plan(candidate)
                 except BlockError:
                     continue
                 if self._close(end, trial, i, j, cw):

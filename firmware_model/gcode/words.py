@@ -75,9 +75,16 @@ G_CODES: dict[int, Code] = {
                                 "the job's tool table; no table: zero"),
     _g(49): Code("tool length", "tool length offset off"),
     _g(53): Code("non-modal", "this G00/G01 block in machine coordinates"),
-    **{_g(54 + n): Code("coordinate system", f"work coordinate system {n + 1} (offsets zero: "
-                                             f"K37 has no G10 to set them)")
+    **{_g(54 + n): Code("coordinate system", f"work coordinate system {n + 1} (offsets zero "
+                                             f"until G10 sets them)")
        for n in range(6)},
+    **{_g(59 + n / 10): Code("coordinate system", f"work coordinate system {n + 6}, as G54")
+       for n in range(1, 4)},
+    _g(10): Code("non-modal", "set a coordinate system's offsets (P1-P9: G54-G59.3, P0: the "
+                              "one in force): L2 to X/Y/Z, L20 so that the current point is "
+                              "X/Y/Z; axes not named keep theirs; the machine does not move"),
+    _g(52): Code("non-modal", "local offset: the G92 offset set to X/Y/Z (axes not named keep "
+                              "theirs), as LinuxCNC"),
     _g(61): Code("path", "exact path (accepted: the K3701 runs every block to its end, "
                          "one path mode)"),
     _g(64): Code("path", "continuous path, P/Q tolerances ignored (accepted: one path mode)"),
@@ -128,9 +135,9 @@ LETTERS: dict[str, str] = {
     "T": "tool select (recorded; M06 loads it)",
     "H": "tool length offset number (G43)",
     "P": "dwell seconds (G04, G82); G64's tolerance (ignored); G05: second control point "
-         "along X; G05.2: a control point's weight",
+         "along X; G05.2: a control point's weight; G10: the coordinate system",
     "Q": "peck depth (G83); G64's tolerance (ignored); G05: second control point along Y",
-    "L": "order of a G05.2 NURBS (default 3)",
+    "L": "order of a G05.2 NURBS (default 3); G10's form (L2, L20)",
 }
 
 #: G codes refused with a reason (by table key).
@@ -141,8 +148,6 @@ REFUSED_G: dict[int, str] = {
     **dict.fromkeys((382, 383, 384, 385), "probing is unsupported: K37 has no probe input"),
     **dict.fromkeys((431, 432), "dynamic tool length offsets (tool-length sensing) are "
                                 "unsupported: lengths come from the job's program.tools"),
-    100: "G10 (setting offsets and tools) is unsupported: G54-G59 offsets are zero, tool "
-         "lengths come from the job's program.tools",
 }
 
 #: M codes refused with a reason: (first, last) to why.
@@ -159,7 +164,7 @@ NGC_LANGUAGE: dict[str, str] = {
     "`#1`-`#5000`": "numbered parameters, zero until set; `#1`-`#30` are a call's arguments",
     "`#<name>`, `#<_name>`": "named parameters: local to the call (or main program), global "
                              "with `_`; reading one never set is an error",
-    "`#5161`-`#5428`, `#<_x>`...": "the interpreter's: homes, G92 and G54-G59 offsets (zero), "
+    "`#5161`-`#5428`, `#<_x>`...": "the interpreter's: homes (zero), G92 and G54-G59.3 offsets, "
                                    "coordinate system, tool, current position, modes "
                                    "(`ngc_state`); others are errors naming them",
     "`#1 = value`": "takes effect after the whole line is read",

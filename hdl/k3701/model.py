@@ -44,7 +44,8 @@ from hdl.k3701.datapaths.helix_model import HelixPath
 from hdl.k3701.datapaths.linear_model import Dda, LinearPath
 from hdl.k3701.datapaths.parabolic_model import ExponentialPath, ParabolicPath
 
-__all__ = ["K3701Model", "K3701Outputs", "Path", "Plan", "make_path", "plan", "walk"]
+__all__ = ["K3701Model", "K3701Outputs", "Path", "Plan", "fp_of_steps", "make_path", "plan",
+           "walk"]
 
 Path = LinearPath | CircularPath | HelicalPath | ParabolicPath | ExponentialPath
 
@@ -108,7 +109,7 @@ def _coincident(a: Dda, b: Dda) -> int:
     return both
 
 
-def _fp(steps: int, two: int, three: int, sqrt2: bool) -> int:
+def fp_of_steps(steps: int, two: int, three: int, sqrt2: bool) -> int:
     """FP of a block with ``two`` and ``three`` steps moving two and three axes: the sum of
     the step costs over the credit per FP (N_long + ceil(N_diag / 2) for two axes)."""
     if not sqrt2:
@@ -134,8 +135,8 @@ def plan(block: Block) -> Plan:
         ends = (block.xe, block.ye, block.ze)
         pulses = {f"{axis}{sign}": max(e if sign == "+" else -e, 0)
                   for axis, e in zip("xyz", ends, strict=True) for sign in "+-"}
-        return Plan(n, diag, _fp(n, diag - three, three, block.sqrt2), ends[:2], False, pulses,
-                    block.ze)
+        return Plan(n, diag, fp_of_steps(n, diag - three, three, block.sqrt2), ends[:2], False,
+                    pulses, block.ze)
     path = make_path(replace(block, ze=0))  # the arc; the helix is spread over its steps
     steps: list[Step] = []
     final = error = False
@@ -151,7 +152,7 @@ def plan(block: Block) -> Plan:
               for axis in "xyz" for sign in "+-"}
     end = (pulses["x+"] - pulses["x-"], pulses["y+"] - pulses["y-"])
     return Plan(len(steps), counts[2] + counts[3],
-                _fp(len(steps), counts[2], counts[3], block.sqrt2), end, error, pulses,
+                fp_of_steps(len(steps), counts[2], counts[3], block.sqrt2), end, error, pulses,
                 block.ze)
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from firmware_model.firmware import SETTLE_SECONDS, planned_seconds, program_seconds
+from firmware_model.firmware import SETTLE_SECONDS, planned_seconds, program_time
 from firmware_model.gcode.parser import Arc, Dwell, Event, Item, Line
 from firmware_model.job import Job
 
@@ -73,10 +73,8 @@ def machine_time(job: Job) -> list[str]:
     """The program's planned machine time in words, and what shortens it where the exact stops
     behind the accel/decel circuit take most of it."""
     machine = job.machine
-    moving = sum(planned_seconds(m, machine) for m in job.program.moves)
-    dwells = sum(d.seconds for d in job.program.items if isinstance(d, Dwell))
-    total = program_seconds(job)
-    stops = total - moving - dwells
+    time = program_time(job)
+    total, moving, dwells, stops = time.total, time.moving, time.dwells, time.stops
     text = [f"planned machine time {_hms(total)}: {_hms(moving)} moving at the programmed "
             f"feeds, {_hms(dwells)} of dwells, {_hms(stops)} of block ends and settling (an "
             f"upper estimate; the run's default limit follows it)"]

@@ -73,12 +73,15 @@ _AXIS = _obj("one axis at the end of the run", {
 RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
     "schema_version": _int(f"version of this schema ({SCHEMA_VERSION})"),
     "job": {"type": "object", "description": "the job's configuration as run"},
-    "status": {"type": "string", "enum": ["ok", "alarm", "fault", "timeout", "interrupted"],
+    "status": {"type": "string",
+               "enum": ["ok", "alarm", "fault", "timeout", "interrupted", "stalled"],
                "description": "ok; alarm: a K3702 alarm stopped the feed; fault: an "
                               "interpolator error, FP overrun, encoder fault or settle "
                                "timeout; timeout: a limit ran out (--max-cycles, or the job's "
                                "run.max_time_s of simulated time); interrupted: a stop was "
-                               "requested (Ctrl-C)"},
+                               "requested (Ctrl-C); stalled: a block made no progress (no "
+                               "feed pulse, no axis motion) for its stall time, the reason "
+                               "names the block and its line"},
     "reason": {"type": "string", "description": "why the run ended, in words (which alarm, "
                                                 "fault or limit, at which cycle)"},
     "backend": {"type": "string", "enum": [*BACKENDS, "link"],

@@ -1,0 +1,36 @@
+( Written for K37's corpus in the style of a CamBam post in inches: a pocket and drilling )
+G20 G90 G91.1 G64 G40
+G0 Z0.125
+( T1 : 0.125 )
+T1 M6
+( Pocket1 )
+G17
+M3 S12000
+G0 X0.5 Y0.5
+G1 F10.0 Z-0.05
+G1 F30.0 X1.5
+G1 Y0.6
+G1 X0.5
+G1 Y0.7
+G1 X1.5
+G1 Y0.8
+G1 X0.5
+G1 Y0.9
+G1 X1.5
+G1 Y1.0
+G1 X0.5
+G3 X0.45 Y0.95 I0.0 J-0.05
+G1 Y0.55
+G3 X0.5 Y0.5 I0.05 J0.0
+G0 Z0.125
+( Drill1 )
+G0 X0.25 Y0.25
+G98
+G81 X0.25 Y0.25 Z-0.1 R0.05 F5.0
+X1.75 Y0.25
+X1.75 Y1.25
+X0.25 Y1.25
+G80
+G0 Z0.125
+M5
+M30
