@@ -9,8 +9,9 @@ from firmware_model.firmware import feed_word, run_feed, word_rate
 from firmware_model.job import MachineConfig
 from sim.run import runner
 from sim.run.report import RUN_SCHEMA
-from sim.run.runner import STALL_SECONDS, RunOptions, run_job, stall_seconds
+from sim.run.runner import RunOptions, run_job
 from sim.run.sampler import PROGRESS_CYCLES
+from sim.run.stall import STALL_SECONDS, stall_seconds
 
 
 def test_a_block_short_of_one_feed_pulse_ends_stalled_naming_its_block_and_line(make_job):
