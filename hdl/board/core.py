@@ -1,9 +1,12 @@
+# amaranth: UnusedElaboratable=no
 """The chipset as a board runs it: at its own 1 MHz cycle inside a faster FPGA clock.
 
 Everything a board adds around :class:`hdl.chipset.chip.Chipset`, whatever the board: the
 clock enable that keeps the chipset's cycle at the paper's 1 MHz, the synchronisers of the
 encoder lines, one sigma-delta D/A per axis and the alarm outputs. The board's top
-(:mod:`hdl.board.ulx3s`) puts it on pins with the host bridge.
+(:mod:`hdl.board.ulx3s`) puts it on pins with the host bridge. (The first line of this file
+lets a core be built for its signature and chipset parameters alone, without Amaranth's
+unused-elaboratable warning for the chipset it holds.)
 """
 
 from __future__ import annotations
@@ -92,7 +95,10 @@ class BoardCore(wiring.Component):
             m.d.sync += count.eq(0)
 
         chipset = self.chipset
-        m.submodules.chipset = EnableInserter(self.tick)(chipset)
+        # Both edges' registers (the K3702's counters change on the falling edge, in its
+        # local domain "neg"): the falling edge of the tick cycle stands for the middle of the
+        # chipset's cycle.
+        m.submodules.chipset = EnableInserter({"sync": self.tick, "neg": self.tick})(chipset)
         connect(m, flipped(self.bus), chipset.bus)
         m.d.comb += [self.irq_interp.eq(chipset.irq_interp),
                      self.irq_alarm.eq(chipset.irq_alarm)]

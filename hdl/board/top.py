@@ -1,7 +1,9 @@
+# amaranth: UnusedElaboratable=no
 """The board's top, any board: the chipset, its clock enable and the UART host bridge.
 
 Its ports are the board pins of :mod:`hdl.board.pins`, by name; :mod:`hdl.board.ulx3s` puts
-them on a board's balls.
+them on a board's balls. (The first line of this file lets a top be built for its ports alone,
+without Amaranth's unused-elaboratable warning for the core and bridge it holds.)
 """
 
 from __future__ import annotations

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from amaranth.build import Attrs, Pins, Resource
 from amaranth.hdl import ClockDomain, Elaboratable, Module
+from amaranth.lib import io
 from amaranth.lib.cdc import ResetSynchronizer
 from amaranth_boards.ulx3s import ULX3S_25F_Platform, ULX3S_85F_Platform
 
@@ -57,19 +58,26 @@ class OnBoard(Elaboratable):
             raise ValueError(f"the board clock is {platform.default_clk_frequency:g} Hz, the "
                              f"top's {self.top.core.clock_hz} Hz")
         m = Module()
-        m.domains.sync = sync = ClockDomain()
-        m.d.comb += sync.clk.eq(platform.request(platform.default_clk, 0).i)
-        m.submodules.top = top = self.top
         requested = {}
-        for pin in self.pins:
-            if pin.signal == "reset":
-                button = platform.request(*pin.resource)
-                m.submodules.reset_sync = ResetSynchronizer(button.i, domain="sync")
-                continue
-            key = _resource(pin)
-            res = requested.get(key) or requested.setdefault(key, platform.request(*key))
+
+        def buffer(name: str, direction: str, key: tuple[str, int]) -> io.Buffer:
+            res = requested.get(key) or requested.setdefault(
+                key, platform.request(*key, dir="-"))
             if key == ("uart", 0):
-                res = res.rx if pin.direction == "i" else res.tx
-            port = getattr(top, pin.signal)
-            m.d.comb += port.eq(res.i) if pin.direction == "i" else res.o.eq(port)
+                res = res.rx if direction == "i" else res.tx
+            m.submodules[f"{name}_buffer"] = buf = io.Buffer(direction, res)
+            return buf
+
+        m.domains.sync = sync = ClockDomain()
+        clk = buffer("clk", "i", (platform.default_clk, 0))
+        m.d.comb += sync.clk.eq(clk.i)
+        m.submodules.top = top = self.top
+        for pin in self.pins:
+            buf = buffer(pin.signal, pin.direction, _resource(pin))
+            if pin.signal == "reset":
+                m.submodules.reset_sync = ResetSynchronizer(buf.i, domain="sync")
+            elif pin.direction == "i":
+                m.d.comb += getattr(top, pin.signal).eq(buf.i)
+            else:
+                m.d.comb += buf.o.eq(getattr(top, pin.signal))
         return m
