@@ -13,18 +13,23 @@ __all__ = ["add_commands"]
 
 
 def _cmd_export_verilog(args: argparse.Namespace) -> int:
-    from sim.files import why
+    from sim.files import atomic_open, why
     from sim.fpga.export import export_verilog
+    from sim.fpga.fusesoc import core_text
 
     if not check(folders={"-o": args.output}):
         return 2
     try:
         paths = export_verilog(args.block or None, Path(args.output))
+        core = Path(args.output) / "k37.core"
+        with atomic_open(core, "w") as f:
+            f.write(core_text(paths))
     except OSError as e:
         print(f"k37: error: {e.filename or args.output}: not written: {why(e)}",
               file=sys.stderr)
         return 1
-    return stdout(lambda: print("\n".join(f"k37 export-verilog: wrote {p}" for p in paths)))
+    return stdout(lambda: print("\n".join(f"k37 export-verilog: wrote {p}"
+                                          for p in [*paths, core])))
 
 
 def _cmd_synth(args: argparse.Namespace) -> int:
@@ -83,7 +88,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     from sim.fpga.synth import DEVICES
 
     names = [b.name for b in BLOCKS]
-    p = sub.add_parser("export-verilog", help="write one Verilog file per chip and the top")
+    p = sub.add_parser("export-verilog", help="write one Verilog file per chip and the top, "
+                                              "and a FuseSoC core file (k37.core)")
     p.add_argument("--block", action="append", choices=[*names, "all"],
                    help="block to export (repeatable; default: all)")
     p.add_argument("-o", "--output", required=True, help="output folder")

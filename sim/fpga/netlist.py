@@ -4,10 +4,12 @@
 writes the mapped netlist (LUT4, CCU2C carry chains, PFUMX/L6MUX21 wide multiplexers,
 TRELLIS_FF flip-flops) back as Verilog; with ``placed=True`` it also places and routes it with
 nextpnr-ecp5 and writes what nextpnr made of it (TRELLIS_COMB, TRELLIS_FF and TRELLIS_IO
-cells, as they sit on the device). :func:`ecp5_cell_models` gives the cells' simulation
-models, which ship with Yosys (``share/ecp5``), made readable by Icarus Verilog 11: the
-files are included once each rather than twice, and the elaboration-time ``$error`` of an
-unsupported cell mode (which Icarus 11 cannot parse) is dropped; no such mode is used.
+cells and the DCCA clock buffer, as they sit on the device). :func:`ecp5_cell_models` gives
+the cells' simulation models, which ship with Yosys (``share/ecp5``), made readable by Icarus
+Verilog 11: the files are included once each rather than twice, and the elaboration-time
+``$error`` of an unsupported cell mode (which Icarus 11 cannot parse) is dropped; no such
+mode is used. Yosys has only a black box of the DCCA; its model here passes the clock while
+CE is high, as the ECP5's datasheet describes the primitive.
 :func:`sim.fpga.icarus.simulate` runs a netlist with them, pin for pin as the exported file.
 """
 
@@ -48,7 +50,13 @@ def ecp5_cell_models() -> list[str]:
                      re.M | re.S)
     if tbuf is None:
         raise RuntimeError(f"{share / 'simcells.v'} has no $_TBUF_ model")
-    return [common, (share / "ecp5" / "ccu2c_sim.vh").read_text(), tbuf.group()]
+    return [common, (share / "ecp5" / "ccu2c_sim.vh").read_text(), tbuf.group(), _DCCA]
+
+
+_DCCA = """module DCCA(input CLKI, input CE, output CLKO);
+    assign CLKO = CE ? CLKI : 1'b0;
+endmodule
+"""
 
 
 def ecp5_netlist(name: str, verilog: str, *, placed: bool = False,
@@ -70,6 +78,6 @@ def ecp5_netlist(name: str, verilog: str, *, placed: bool = False,
         _run([*nextpnr, *ECP5_DEVICE, "--json", f"{name}.json", "--write",
               f"{name}_placed.json", "--timing-allow-fail", "-q", "-l", f"{name}_nextpnr.log"],
              work, f"{name}: nextpnr-ecp5")
-        _run([*yosys, "-q", "-p", f"read_json {name}_placed.json; "
+        _run([*yosys, "-q", "-p", f"read_json {name}_placed.json; rename -top {name}; "
               f"write_verilog -noattr {name}_placed.v"], work, f"{name}: yosys")
         return (work / f"{name}_placed.v").read_text()
