@@ -209,3 +209,11 @@ def test_build_refuses_an_unwritable_folder_and_names_the_missing_extra(tmp_path
     assert done.returncode == 2
     assert "needs the fpga extra (pip install -e '.[fpga]')" in done.stderr
     assert "Traceback" not in done.stderr
+
+
+@needs_boards
+def test_every_board_k37_builds_has_its_platform_and_part():
+    from hdl.board.ulx3s import PLATFORMS
+    from sim.fpga.build import BOARDS
+
+    assert {board: platform.device for board, platform in PLATFORMS.items()} == BOARDS
