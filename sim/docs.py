@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from firmware_model.gcode.words import markdown as gcode_markdown
+from hdl.bridge.protocol import markdown as bridge_markdown
 from hdl.bus.registers import RegisterMap, registers_markdown
 from hdl.chipset.map import CHIP_SELECTS, REG_BITS, SUB_WINDOWS, chip_selects, port
 from hdl.feed.feed_rate_map import FEED_MAP, FEED_MAP_AXIS_FA
@@ -51,4 +52,5 @@ def documents() -> dict[str, str]:
     from sim.run.report import schema_markdown
 
     return {"registers.md": registers_document(), "run-json.md": schema_markdown(),
-            "job-keys.md": job_keys_markdown(), "gcode.md": gcode_markdown()}
+            "job-keys.md": job_keys_markdown(), "gcode.md": gcode_markdown(),
+            "bridge-protocol.md": bridge_markdown()}

@@ -22,7 +22,8 @@ from hdl.board.pins import ulx3s_pins
 from hdl.board.sigma_delta import SigmaDelta
 from hdl.board.sigma_delta_model import SigmaDeltaModel
 from hdl.board.top import BoardTop
-from hdl.bridge.protocol import OK, Identity, Op, encode, map_fingerprint
+from hdl.bridge.protocol import OK, Identity, Op, encode
+from hdl.chipset.identity import chipset_identity
 from sim.fpga.export import pins as export_pins
 from sim.fpga.icarus import HOST_DRIVES
 
@@ -165,10 +166,8 @@ def test_the_host_identifies_the_chipset_through_the_boards_uart_pins():
             reply.append(byte)
 
     simulate(top, bench)
-    chips = top.core.chipset.chips
-    fingerprint = map_fingerprint((n, cs, rm) for n, (cs, rm) in chips.items())
     assert reply[0] == OK
-    assert Identity.decode(bytes(reply[1:])) == Identity(axes=2, fingerprint=fingerprint)
+    assert Identity.decode(bytes(reply[1:])) == chipset_identity(axes=2)
 
 
 # --- the build plan -------------------------------------------------------------------------

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from testbench import simulate
 
 from hdl.bridge.chip import UartBridge
-from hdl.bridge.model import FRAMING, BridgeModel
+from hdl.bridge.model import FRAMING, BridgeModel, LineTimed
 from hdl.bridge.protocol import (
     COMMANDS,
     ERROR,
@@ -140,6 +140,8 @@ class Host:
         self.last_byte = 0
         #: Bytes received and not yet taken.
         self.received: list[int] = []
+        #: The last cycle of the last stop bit received.
+        self.stop_end = 0
 
     async def tick(self, n: int = 1) -> None:
         for _ in range(n):
@@ -159,20 +161,27 @@ class Host:
             await self.tick(self.bit)
 
     async def listen(self, ctx) -> None:
-        """Decode ``tx`` for ever into :attr:`received` (a background bench)."""
+        """Decode ``tx`` for ever into :attr:`received` (a background bench), noting the cycle
+        each byte's stop bit ends in (:attr:`stop_end`)."""
+        cycle = 0
         while True:
             while ctx.get(self.board.tx):
                 await ctx.tick()
+                cycle += 1
+            self.stop_end = cycle + 10 * self.bit - 1
             for _ in range(self.bit // 2):
                 await ctx.tick()
+                cycle += 1
             assert ctx.get(self.board.tx) == 0, "start bit too short"
             byte = 0
             for k in range(8):
                 for _ in range(self.bit):
                     await ctx.tick()
+                    cycle += 1
                 byte |= ctx.get(self.board.tx) << k
             for _ in range(self.bit):
                 await ctx.tick()
+                cycle += 1
             assert ctx.get(self.board.tx) == 1, "stop bit low"
             self.received.append(byte)
 
@@ -245,6 +254,34 @@ def _run(cycles_per_bit: int, items: list[tuple]) -> list[tuple[bytes, bytes]]:
 @given(st.sampled_from([4, 5, 8]), st.lists(_frames(), min_size=1, max_size=10))
 def test_gateware_replies_as_the_model_to_random_frames_and_garbage(cycles_per_bit, items):
     for got, expected in _run(cycles_per_bit, items):
+        assert got == expected
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.sampled_from([4, 6, 8]), st.integers(0, 40),
+       st.lists(_frames().filter(lambda item: item[0] != "broken"), min_size=1, max_size=8))
+def test_the_line_timed_model_knows_when_a_stop_and_wait_host_s_commands_run(
+        cycles_per_bit, turnaround, items):
+    board = Board(cycles_per_bit, Target())
+    model = LineTimed(BridgeModel(TargetModel(), IDENTITY), cycles_per_bit, turnaround)
+    host = Host(board)
+    pairs = []
+
+    async def bench(ctx):
+        host.ctx = ctx
+        for item in items:
+            sent = _item_bytes(item)
+            for byte in sent:
+                await host.send(byte)
+            expected = b"".join(model.receive(byte) for byte in sent)
+            got = await host.receive(len(expected), timeout=400 + 40 * host.bit)
+            pairs.append((got, expected))
+            next_frame = host.stop_end + 1 + turnaround
+            assert host.cycle <= next_frame
+            await host.tick(next_frame - host.cycle)
+
+    simulate(board, bench, background=(host.listen,))
+    for got, expected in pairs:
         assert got == expected
 
 

@@ -15,7 +15,7 @@ from amaranth.lib.wiring import In, Out, connect
 from hdl.board.core import CHIP_HZ, BoardCore
 from hdl.board.pins import BoardPin
 from hdl.bridge import UartBridge
-from hdl.bridge.protocol import Identity, map_fingerprint
+from hdl.chipset.identity import chipset_identity
 
 __all__ = ["DEFAULT_BAUD", "BoardTop"]
 
@@ -37,12 +37,15 @@ class BoardTop(wiring.Component):
     pins : tuple of BoardPin
         The board's pins (:func:`hdl.board.pins.ulx3s_pins`): the ports, by ``signal``,
         but for ``reset`` (the board's wrapper makes it the domain's reset).
+    axes : int
+        The chipset's axes, 2 or 3.
     clock_hz : int
         The board clock (:class:`~hdl.board.core.BoardCore`).
     baud : int
         The host link's bit rate; ``CHIP_HZ`` must be a multiple of it.
     **chipset : dict
-        The chipset's parameters (``axes``, ``accel``...).
+        The chipset's other parameters (``accel``...); the bridge's IDENT reply tells them
+        (:func:`hdl.chipset.identity.chipset_identity`).
 
     Members
     -------
@@ -51,15 +54,12 @@ class BoardTop(wiring.Component):
         (``uart_rx`` and ``uart_tx`` are the bridge's ``rx`` and ``tx``).
     """
 
-    def __init__(self, pins: tuple[BoardPin, ...], *, clock_hz: int = 25_000_000,
-                 baud: int = DEFAULT_BAUD, **chipset):
+    def __init__(self, pins: tuple[BoardPin, ...], *, axes: int = 3,
+                 clock_hz: int = 25_000_000, baud: int = DEFAULT_BAUD, **chipset):
         if not isinstance(baud, int) or baud <= 0 or CHIP_HZ % baud:
             raise ValueError(f"baud must divide {CHIP_HZ} (the chipset clock), not {baud!r}")
-        self.core = BoardCore(clock_hz=clock_hz, **chipset)
-        chips = self.core.chipset.chips
-        identity = Identity(axes=len(self.core.axes), fingerprint=map_fingerprint(
-            (name, select, regmap) for name, (select, regmap) in chips.items()))
-        self.bridge = UartBridge(CHIP_HZ // baud, identity)
+        self.core = BoardCore(axes=axes, clock_hz=clock_hz, **chipset)
+        self.bridge = UartBridge(CHIP_HZ // baud, chipset_identity(axes=axes, **chipset))
         self.pins = pins
         ports = {*self.core.signature.members, "uart_rx", "uart_tx"} - {"bus", "tick"}
         pins = tuple(pin for pin in pins if pin.signal != "reset")

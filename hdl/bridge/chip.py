@@ -33,9 +33,11 @@ class UartBridge(wiring.Component):
     Runs in the chipset's clock domain (``sync``, which may be clock-enabled): every timing
     below is in its cycles. A command starts in cycle E, three cycles after its last byte's
     stop bit is sampled (:func:`hdl.bridge.protocol.command_start`); what it does in E and
-    after is :data:`hdl.bridge.protocol.COMMANDS`'s. The reply's first byte goes out from the
-    cycle after the command ends (a READ: E + 2; an IDLE of N > 0: E + N + 1; a WAIT that
-    returns n: E + n + 1; the others: E + 1), each later byte right after the one before.
+    after is :data:`hdl.bridge.protocol.COMMANDS`'s. The reply's first start bit is on ``tx``
+    two cycles after the cycle the command ends in (E for WRITE, IDENT, STATUS and CYCLE, E + 1
+    for READ, E + N for an IDLE of N, E + n for a WAIT that returned n, E - 1 for an error),
+    each next start bit one cycle after the stop bit before
+    (:func:`hdl.bridge.protocol.reply_end`).
 
     Parameters
     ----------

@@ -7,8 +7,9 @@ opcode, or a byte received with a framing error, which also drops the frame it w
 The host sends a frame only once the previous frame's reply has arrived (stop-and-wait): the
 bridge buffers :data:`RX_FIFO_DEPTH` received bytes, more than the longest frame.
 
-Time is counted in chipset clock cycles. A command starts in the cycle the bridge has its last
-byte (its *start cycle* E); :data:`COMMANDS` gives each one's bus and timing in those terms.
+Time is counted in chipset clock cycles. A command starts in cycle E, three cycles after its
+last byte's stop bit is sampled (:func:`command_start`); :data:`COMMANDS` gives each one's bus
+and timing in those terms.
 This module is the one definition of the protocol, for the gateware
 (:class:`hdl.bridge.chip.UartBridge`), its reference model (:mod:`hdl.bridge.model`), the host's
 link and the documentation.
@@ -24,9 +25,10 @@ from dataclasses import dataclass
 from hdl.bus.registers import RegisterMap
 
 __all__ = ["COMMANDS", "COUNTER_BITS", "COUNT_BITS", "ERROR", "IRQ_ALARM", "IRQ_INTERP",
-           "MAX_CYCLES_PER_BIT", "MIN_CYCLES_PER_BIT", "OK", "PROTOCOL_VERSION", "REPLY_MAX",
-           "RX_FIFO_DEPTH", "Command", "Error", "Identity", "Op", "check_cycles_per_bit",
-           "command_start", "encode", "map_fingerprint", "markdown"]
+           "MAX_CYCLES_PER_BIT", "MIN_CYCLES_PER_BIT", "OK", "PROBE_AXES", "PROBE_BYTES",
+           "PROBE_FIELDS", "PROTOCOL_VERSION", "REPLY_MAX", "RX_FIFO_DEPTH",
+           "SIMULATED_COMMANDS", "Command", "Error", "Identity", "Op", "check_cycles_per_bit",
+           "command_start", "encode", "map_fingerprint", "markdown", "reply_end"]
 
 #: The protocol's version, the first byte of :attr:`Op.IDENT`'s reply.
 PROTOCOL_VERSION = 1
@@ -60,6 +62,8 @@ class Op(enum.IntEnum):
     WAIT = 0x51  # 'Q'
     STATUS = 0x53  # 'S'
     CYCLE = 0x43  # 'C'
+    #: A simulated board's only: :data:`SIMULATED_COMMANDS`.
+    PROBE = 0x50  # 'P'
 
 
 class Error(enum.IntEnum):
@@ -96,8 +100,8 @@ _COUNT = COUNT_BITS // 8
 COMMANDS: dict[Op, Command] = {c.op: c for c in (
     Command(Op.IDENT, (), (("version", 1), ("axes", 1), ("fingerprint", 4)),
             "What is behind the bridge: the protocol version, the chipset's axes and its "
-            "register maps' fingerprint (a CRC-32 of every register's name, address, width and "
-            "access). No bus cycle."),
+            "fingerprint (a CRC-32 of every register's name, address, width and access and of the "
+            "accel/decel circuits). No bus cycle."),
     Command(Op.WRITE, (("address", 1), ("data", 1)), (),
             "One bus write cycle: `w_stb` high in cycle E."),
     Command(Op.READ, (("address", 1),), (("data", 1),),
@@ -115,13 +119,33 @@ COMMANDS: dict[Op, Command] = {c.op: c for c in (
             "The bridge's cycle counter in cycle E: the cycles since reset, modulo 2^40."),
 )}
 
-#: The longest reply.
+#: The longest reply of the gateware.
 REPLY_MAX = max(c.reply_bytes for c in COMMANDS.values())
+
+#: What :attr:`Op.PROBE` reads of each axis, after the FP count: the observation counters of
+#: the simulated machine (its ports ``<axis>__<name>``), which no bus reaches.
+PROBE_FIELDS = ("pulses_pos", "pulses_neg", "command", "error", "count", "max_abs_error")
+#: Axes :attr:`Op.PROBE` always reports (zeros for an axis a machine lacks).
+PROBE_AXES = ("x", "y", "z")
+#: Bytes of each value :attr:`Op.PROBE` reads (signed, two's complement).
+PROBE_BYTES = 8
+
+#: Commands only a simulated board (``k37 serve``) answers: the logic analyser a real board
+#: lacks. The gateware answers them as a byte that is no opcode.
+SIMULATED_COMMANDS: dict[Op, Command] = {c.op: c for c in (
+    Command(Op.PROBE, (), (("cycle", PROBE_BYTES), ("fp_total", PROBE_BYTES),
+                           ("per axis x, y, z: " + ", ".join(PROBE_FIELDS),
+                            PROBE_BYTES * len(PROBE_FIELDS) * len(PROBE_AXES))),
+            "The simulated machine's observation counters in cycle E: the cycle, FP pulses "
+            "since reset "
+            "and, per axis, step pulses each way, K3702 command and error counters, the "
+            "plant's encoder count and the largest error yet. No bus cycle."),
+)}
 
 
 def encode(op: Op, *args: int) -> bytes:
     """The frame of command ``op`` with ``args`` (each in its width)."""
-    command = COMMANDS[op]
+    command = {**COMMANDS, **SIMULATED_COMMANDS}[op]
     if len(args) != len(command.args):
         raise ValueError(f"{op.name} takes {len(command.args)} arguments, not {len(args)}")
     frame = bytes([op])
@@ -150,6 +174,14 @@ def command_start(last_byte: int, cycles_per_bit: int) -> int:
     return last_byte + 2 + cycles_per_bit // 2 + 9 * cycles_per_bit + 3
 
 
+def reply_end(command_end: int, reply_bytes: int, cycles_per_bit: int) -> int:
+    """The last cycle of the last reply byte's stop bit on ``tx``, for a command that ended in
+    cycle ``command_end`` (E for WRITE, IDENT, STATUS and CYCLE, E + 1 for READ, E + N for an
+    IDLE of N, E + n for a WAIT that returned n, E - 1 for an error): the first start bit two
+    cycles later, each next one a cycle after the stop bit before."""
+    return command_end + reply_bytes * (10 * cycles_per_bit + 1)
+
+
 @dataclass(frozen=True)
 class Identity:
     """What :attr:`Op.IDENT` tells of the chipset behind a bridge."""
@@ -167,11 +199,11 @@ class Identity:
                    version=data[0])
 
 
-def map_fingerprint(maps: Iterable[tuple[str, int, RegisterMap]]) -> int:
-    """A CRC-32 of a chipset's chips as (name, chip select, register map): every register's
-    name, address, width and access, so a host can tell whether it drives the chipset it
-    expects."""
-    text = []
+def map_fingerprint(maps: Iterable[tuple[str, int, RegisterMap]], build: str = "") -> int:
+    """A CRC-32 of a chipset's chips as (name, chip select, register map), every register's
+    name, address, width and access, and of ``build``, the rest of what it was built with, so
+    a host can tell whether it drives the chipset it expects."""
+    text = [build]
     for name, select, regmap in maps:
         text.append(f"{name}@{select}:")
         text += [f"{r.name},{r.addr},{r.width},{r.access.name};" for r in regmap]
@@ -179,17 +211,40 @@ def map_fingerprint(maps: Iterable[tuple[str, int, RegisterMap]]) -> int:
 
 
 def markdown() -> str:
-    """The command table of the protocol's documentation."""
+    """The text of ``docs/bridge-protocol.md``."""
     def fields(pairs: tuple[tuple[str, int], ...]) -> str:
         return ", ".join(f"{name} ({n})" for name, n in pairs) or "-"
 
-    lines = ["| command | opcode | arguments (bytes) | reply after OK (bytes) | does |",
-             "|---|---|---|---|---|"]
+    lines = [
+        "# Bridge protocol", "",
+        "Generated by `k37 docs` from `hdl/bridge/protocol.py` (do not edit by hand).", "",
+        f"Protocol version {PROTOCOL_VERSION}. A frame is an opcode byte and its arguments, "
+        f"multi-byte values little-endian; every frame gets one reply, a status byte and the "
+        f"command's results. The host sends a frame once the previous reply has arrived; the "
+        f"bridge buffers {RX_FIFO_DEPTH} received bytes. Times are in chipset clock cycles; E "
+        f"is the cycle a command starts in. The UART is 8N1, idle high, "
+        f"{MIN_CYCLES_PER_BIT} to {MAX_CYCLES_PER_BIT} cycles per bit.", "",
+        "| command | opcode | arguments (bytes) | reply after OK (bytes) | does |",
+        "|---|---|---|---|---|"]
     for c in COMMANDS.values():
+        lines.append(f"| {c.op.name} | {c.op:#04x} `{chr(c.op)}` | {fields(c.args)} "
+                     f"| {fields(c.results)} | {c.does} |")
+    lines += ["", "A simulated board (`k37 serve`) also answers the command below; the gateware "
+              "answers it as a byte that is no opcode.", "",
+              "| command | opcode | arguments (bytes) | reply after OK (bytes) | does |",
+              "|---|---|---|---|---|"]
+    for c in SIMULATED_COMMANDS.values():
         lines.append(f"| {c.op.name} | {c.op:#04x} `{chr(c.op)}` | {fields(c.args)} "
                      f"| {fields(c.results)} | {c.does} |")
     lines += ["", "| reply status | byte | then |", "|---|---|---|",
               f"| OK | {OK:#04x} `{chr(OK)}` | the command's results |",
               f"| ERROR | {ERROR:#04x} `{chr(ERROR)}` | one code byte: "
-              + ", ".join(f"{e:#04x} {e.name}" for e in Error) + " |"]
+              + "; ".join(f"{e:#04x} {e.name}: {_ERROR_TEXT[e]}" for e in Error) + " |"]
     return "\n".join(lines) + "\n"
+
+
+_ERROR_TEXT = {
+    Error.OPCODE: "the byte was no opcode; the next byte is taken as one",
+    Error.FRAMING: "a byte came with its stop bit low; it and its frame are dropped, the next "
+                   "byte is taken as an opcode",
+}

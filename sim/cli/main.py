@@ -8,7 +8,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from sim.cli import hardware, running, studies
+from sim.cli import hardware, running, serving, studies
 from sim.cli.shared import check, interrupted, signals_interrupt, stopped
 
 __all__ = ["build_parser", "main"]
@@ -33,6 +33,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     running.add_commands(sub)
     hardware.add_commands(sub)
+    serving.add_commands(sub)
     p = sub.add_parser("docs", help="write the generated documentation (register maps, JSON "
                                     "schema, job keys)")
     p.add_argument("-o", "--output", default="docs", help="folder (default: docs)")

@@ -44,6 +44,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from sim.files import STDIO
     from sim.run.ballbar import BallbarError, check_settle
     from sim.run.jobfile import JobError, load_job, load_step_fault
+    from sim.run.linked import LinkError, run_linked
     from sim.run.output import OutputError, add_ballbar, check_outputs, write_outputs
     from sim.run.progress import ProgressPrinter
     from sim.run.runner import OptionError, RunOptions, run_job
@@ -74,8 +75,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
                              signals=tuple(g for g in args.signals.split(",") if g),
                              progress=progress, faults=faults, skip_idle=not args.no_skip_idle,
                              sigint=True)
-        result = run_job(job, options)
-    except (OutputError, OptionError, JobError, GcodeError, FirmwareError) as e:
+        if args.link is not None and (args.trace or args.plot or args.ballbar or args.gtkw):
+            raise OptionError("--trace, --plot, --ballbar, --gtkw: not with --link: the "
+                              "samples are the served machine's")
+        result = run_linked(job, options, args.link) if args.link else run_job(job, options)
+    except (OutputError, OptionError, JobError, GcodeError, FirmwareError, LinkError) as e:
         print_error(e)
         return 2
     except KeyboardInterrupt:  # outside the run itself (building the machine, the report)
@@ -208,6 +212,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                    metavar="AXIS:NM@SECONDS",
                    help="fault: a load torque step on this axis's torque drive at this time "
                         "(e.g. x:0.05@1.5)")
+    p.add_argument("--link", metavar="URL",
+                   help="run the firmware against a board over the host bridge: "
+                        "tcp://HOST:PORT (`k37 serve`) or serial:///dev/ttyUSB0[?baud=N]")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary, no progress line")
     _program_options(p)
     p.set_defaults(func=_cmd_run)

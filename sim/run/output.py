@@ -26,6 +26,7 @@ from sim.run.ballbar import BallbarError, ballbar, ballbar_figure
 from sim.run.plot import write_plot
 from sim.run.report import validate
 from sim.run.runner import RunResult
+from sim.run.sampler import SampleStore
 from sim.run.waveform import WAVE_FORMATS, wave_span, write_gtkw
 
 __all__ = ["OutputError", "add_ballbar", "check_outputs", "print_stdout", "summary",
@@ -72,6 +73,12 @@ def _point(xy: list[int], lsb_mm: float) -> str:
     return f"({xy[0] * lsb_mm:.3f}, {xy[1] * lsb_mm:.3f}) mm = ({xy[0]}, {xy[1]}) LSB"
 
 
+def _link_line(link: dict) -> str:
+    """What a run over a link says instead of the path's figures."""
+    return (f"over {link['url']}, board at cycle {link['board_cycle']:,}; no samples here (the "
+            f"trace and the path's error are the board's)")
+
+
 def summary(result: RunResult) -> str:
     """A few lines for the terminal, every figure with its unit."""
     r = result.report
@@ -92,17 +99,20 @@ def summary(result: RunResult) -> str:
              f"{r['backend']}{skipped})",
              f"  end point {_point(end['programmed'], lsb_mm)}: {reached}",
              f"  {len(r['blocks'])} block{'s' if len(r['blocks']) != 1 else ''} run; "
-             f"contour error max "
-             f"{path['max_contour_error']:.2f} LSB ({_mm(path['max_contour_error'], lsb_mm)}), "
-             f"rms {path['rms_contour_error']:.2f} LSB "
-             f"({_mm(path['rms_contour_error'], lsb_mm)}) over {path['samples']:,} samples"]
+             + (_link_line(r["link"]) if "link" in r else
+                f"contour error max "
+                f"{path['max_contour_error']:.2f} LSB ({_mm(path['max_contour_error'], lsb_mm)}), "
+                f"rms {path['rms_contour_error']:.2f} LSB "
+                f"({_mm(path['rms_contour_error'], lsb_mm)}) over {path['samples']:,} samples")]
     half = 1 << (machine.dac_bits - 1)
     for axis, a in r["axes"].items():
-        volts = DAC_VOLTS * min(a["max_abs_error"], half) / half
+        most = a["max_abs_error"]
+        largest = ("unknown" if most is None else
+                   f"{most} LSB ({_mm(most, lsb_mm)}, "
+                   f"{DAC_VOLTS * min(most, half) / half:.2f} V at the D/A)")
         lines.append(f"  {axis}: command {a['command']} LSB, actual {a['actual']} LSB "
                      f"({_mm(a['actual'], lsb_mm)}), error {a['error']} LSB, max |error| "
-                     f"{a['max_abs_error']} LSB ({_mm(a['max_abs_error'], lsb_mm)}, "
-                     f"{volts:.2f} V at the D/A)")
+                     f"{largest}")
     lines += [f"  {a['kind']}{' on axis ' + a['axis'] if a['axis'] else ''} at cycle "
               f"{a['cycle']:,} ({a['cycle'] / clock:.3f} s)" for a in r["alarms"]]
     lines += [f"  warning: {w}" for w in r["warnings"]]
@@ -113,12 +123,17 @@ def write_trace(result: RunResult, path: Path) -> None:
     """The samples as CSV, one row per sample, columns :func:`sim.run.sampler.trace_columns`
     of the machine's axes (read from the store a chunk at a time); written whole or not at
     all (:func:`sim.files.atomic_open`)."""
-    columns = result.store.columns
+    write_samples(result.store, path)
+
+
+def write_samples(store: SampleStore, path: Path) -> None:
+    """The samples of ``store`` as :func:`write_trace` writes a run's."""
+    columns = store.columns
     with atomic_open(path, "w", newline="") as f:
         out = csv.writer(f)
         out.writerow(columns)
         volts = ["volts" in name for name in columns]
-        for chunk in result.store.chunks():
+        for chunk in store.chunks():
             out.writerows([f"{v:.4f}" if is_volts else int(v)
                            for is_volts, v in zip(volts, row, strict=True)]
                           for row in chunk.tolist())

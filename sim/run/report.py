@@ -62,7 +62,9 @@ _AXIS = _obj("one axis at the end of the run", {
     "command": _int("K3702 command counter (LSB)"),
     "error": _int("K3702 error counter (LSB)"),
     "actual": _int("plant encoder count, the true position (LSB)"),
-    "max_abs_error": _int("largest absolute error at any cycle of the run (LSB)"),
+    "max_abs_error": {"type": ["integer", "null"],
+                      "description": "largest absolute error at any cycle of the run (LSB; "
+                                     "null: over a link to a real board)"},
     "flags": _obj("K3702 STATUS fields", {
         k: _int(k) for k in ("in_position", "negative", "sat_pos", "sat_neg", "alarm", "irq",
                              "bad_config")}, required=[]),
@@ -79,8 +81,9 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
                                "requested (Ctrl-C)"},
     "reason": {"type": "string", "description": "why the run ended, in words (which alarm, "
                                                 "fault or limit, at which cycle)"},
-    "backend": {"type": "string", "enum": list(BACKENDS),
-                "description": "simulation backend used"},
+    "backend": {"type": "string", "enum": [*BACKENDS, "link"],
+                "description": "simulation backend used; link: the firmware ran over a link "
+                               "(`--link`), the machine elsewhere"},
     "cycles": _int("system clock cycles simulated"),
     "clock_hz": _num("system clock (Hz)"),
     "machine_seconds": _num("simulated time, cycles / clock_hz (s)"),
@@ -100,9 +103,11 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
                                  "description": "cycle its data-request interrupt was served "
                                                 "(null: it did not end)"},
                    "fp_budget": _int("FP loaded into the decel control"),
-                   "fp_pulses": _int("FP the K3701 received during the block"),
+                   "fp_pulses": {"type": ["integer", "null"],
+                                 "description": "FP the K3701 received during the block "
+                                                "(null: over a link to a real board)"},
                    "feed_word": _int("18-bit rate multiplier word"),
-                   "steps": _STEPS,
+                   "steps": {**_STEPS, "type": ["object", "null"]},
                    "end_command": {"type": ["array", "null"], "items": {"type": "integer"},
                                    "description": "interpolated position at the block's end "
                                                   "(LSB, from the step pulses)"},
@@ -149,8 +154,19 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
                    "cycle": _int("cycle the firmware reached it at"),
                })},
 })
-#: Present only when asked for (ballbar) or when there are some (events).
-OPTIONAL = ("ballbar", "events")
+RUN_SCHEMA["properties"]["link"] = _obj(
+    "the link the firmware ran over (only with `--link`)", {
+        "url": {"type": "string", "description": "the link's URL"},
+        "probes": {"type": "boolean", "description": "the far end answered PROBE (a simulated "
+                                                     "board): the blocks' pulses are known"},
+        "board_cycle": _int("the bridge's cycle counter at the end (modulo 2^40): ahead of "
+                            "`cycles` by the time bytes spent on the line"),
+        "board_blocks": {"type": "array", "items": {"type": ["array", "null"]},
+                         "description": "each block's start and end cycle on the board "
+                                        "(null: not known, a board without PROBE)"},
+    })
+#: Present only when asked for (ballbar), when there are some (events) or with ``--link``.
+OPTIONAL = ("ballbar", "events", "link")
 RUN_SCHEMA["required"] = [key for key in RUN_SCHEMA["required"] if key not in OPTIONAL]
 
 _TYPES = {"object": dict, "array": list, "string": str, "integer": int, "number": (int, float),

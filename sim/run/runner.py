@@ -60,7 +60,8 @@ from sim.run.simulated_link import BlockMeasure, BlockMeter, SimulatedLink
 from sim.run.waveform import is_fst
 
 __all__ = ["STOP_SIGNALS", "OptionError", "RunOptions", "RunResult", "RunStopped", "build_backend",
-           "check_options", "configure_plants", "reused_backend", "run_job", "system_params"]
+           "check_options", "configure_plants", "cycle_limit", "report_document", "reused_backend",
+           "run_job", "run_status", "system_params"]
 
 
 @dataclass
@@ -352,7 +353,7 @@ def _run(job: Job, options: RunOptions, backend: Backend, traced: Path | None) -
             stopped = e
     wall = time.perf_counter() - watch.start
     sampler.flush()
-    status, reason = _status(firmware, stopped, limit_name, backend.cycle)
+    status, reason = run_status(firmware, stopped, limit_name, backend.cycle)
     report = _report(job, backend, firmware, meter, store, wall, status, reason)
     failures = []
     if options.vcd is not None and traced is not None:
@@ -434,7 +435,7 @@ def cycle_limit(job: Job, options: RunOptions) -> tuple[int, str]:
     return cycles, f"the job's limit, run.max_time_s = {seconds:g} s ({cycles:,} cycles),"
 
 
-def _status(firmware: Firmware, stopped: RunStopped | None, limit_name: str,
+def run_status(firmware: Firmware, stopped: RunStopped | None, limit_name: str,
             cycles: int) -> tuple[str, str]:
     """The run's status and why, in words."""
     for alarm in firmware.alarms:
@@ -483,31 +484,39 @@ def _end_point(job: Job, firmware: Firmware, axes: dict[str, dict]) -> dict:
 
 def _report(job: Job, backend: Backend, firmware: Firmware, meter: BlockMeter,
             store: SampleStore, wall: float, status: str, reason: str) -> dict:
-    cycles = backend.cycle
-    clock = job.machine.clock_hz
     max_contour, rms_contour = contour_summary(
         job, [(b.index, b.start_cycle) for b in firmware.blocks], store)
-    axes = {axis: _axis_report(backend, axis) for axis in job.machine.axis_names}
+    return report_document(
+        job, firmware, status=status, reason=reason, backend=backend.name,
+        cycles=backend.cycle, wall=wall, skipped=backend.skipped_cycles,
+        blocks=[_block_report(b, meter.of(b)) for b in firmware.blocks],
+        axes={axis: _axis_report(backend, axis) for axis in job.machine.axis_names},
+        path={"max_contour_error": max_contour, "rms_contour_error": rms_contour,
+              "samples": store.rows})
+
+
+def report_document(job: Job, firmware: Firmware, *, status: str, reason: str, backend: str,
+                    cycles: int, wall: float, skipped: int, blocks: list[dict],
+                    axes: dict[str, dict], path: dict) -> dict:
+    """The report of a run of ``job`` by ``firmware`` (:mod:`sim.run.report`), from what was
+    measured of it."""
+    clock = job.machine.clock_hz
     return {
         "schema_version": SCHEMA_VERSION,
         "job": job.to_dict(),
         "status": status,
         "reason": reason,
-        "backend": backend.name,
+        "backend": backend,
         "cycles": cycles,
         "clock_hz": clock,
         "machine_seconds": cycles / clock,
         "wall_seconds": wall,
         "cycles_per_second": cycles / wall if wall > 0 else 0.0,
-        "skipped_cycles": backend.skipped_cycles,
-        "blocks": [_block_report(b, meter.of(b)) for b in firmware.blocks],
+        "skipped_cycles": skipped,
+        "blocks": blocks,
         "axes": axes,
         "end_point": _end_point(job, firmware, axes),
-        "path": {
-            "max_contour_error": max_contour,
-            "rms_contour_error": rms_contour,
-            "samples": store.rows,
-        },
+        "path": path,
         "alarms": [{"axis": a.axis, "cycle": a.cycle, "kind": a.kind} for a in firmware.alarms],
         "warnings": [*job.program.notes, *clamped_feeds(job)],
         **({"events": [{"line": r.event.line_no, "word": r.event.word, "kind": r.event.kind,

@@ -1,0 +1,233 @@
+"""The chipset over the host bridge's protocol: :class:`BridgeLink`, a
+:class:`firmware_model.link.ChipsetLink` on a byte stream.
+
+One link, three transports, opened from a URL by :func:`open_link` with pyserial's
+``serial_for_url``: ``tcp://HOST:PORT`` (a simulated board, ``k37 serve``), a serial port
+(``serial:///dev/ttyUSB0`` or a bare device path, at :data:`DEFAULT_BAUD` unless the URL says
+``?baud=N``) for the real board, and ``loop://`` for tests. Each command waits for its reply
+before the next is sent (:mod:`hdl.bridge.protocol`).
+
+The link's :attr:`BridgeLink.cycle` is the host's account of time: the cycles its commands
+took (a bus cycle each, an idle's, a wait's). On a simulated board that is the machine's clock
+exactly; on a real board the chipset's clock also runs while bytes are on the line, so the gaps
+between commands are longer, and :meth:`BridgeLink.board_cycle` reads the bridge's own counter.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from urllib.parse import parse_qs, urlsplit
+
+from firmware_model.job import Job
+from firmware_model.link import Interrupts
+from hdl.bridge.protocol import (
+    COUNT_BITS,
+    ERROR,
+    IRQ_ALARM,
+    IRQ_INTERP,
+    OK,
+    PROBE_AXES,
+    PROBE_BYTES,
+    PROBE_FIELDS,
+    Error,
+    Identity,
+    Op,
+    encode,
+)
+from hdl.chipset.identity import chipset_identity
+
+__all__ = ["DEFAULT_BAUD", "BridgeLink", "LinkError", "Probe", "job_identity", "open_link"]
+
+#: A serial link's baud rate unless its URL gives one: 8 cycles per bit at the 1 MHz clock.
+DEFAULT_BAUD = 125_000
+#: Longest IDLE or WAIT sent at once, about 1 s at 1 MHz, so that every reply comes well within
+#: the link's timeout; longer ones are sent in parts (the same cycles on a simulated board).
+MAX_COUNT = 1 << 20
+
+
+class LinkError(Exception):
+    """The link failed: it cannot be opened, a reply did not come or was not understood, or
+    the chipset behind it is not the one expected."""
+
+
+def job_identity(job: Job) -> Identity:
+    """What a bridge in front of ``job``'s chipset tells (:attr:`Op.IDENT`)."""
+    machine = job.machine
+    return chipset_identity(axes=machine.axes, accel=machine.accel,
+                            accel_bits=machine.accel_bits, accel_shape=machine.accel_shape,
+                            axis_accel=job.accel_circuits(), axis_fa=job.fa_axes())
+
+
+@dataclass(frozen=True)
+class Probe:
+    """A simulated board's observation counters (:attr:`Op.PROBE`), per axis by field name."""
+
+    cycle: int
+    fp_total: int
+    axes: dict[str, dict[str, int]]
+
+
+class BridgeLink:
+    """:class:`firmware_model.link.ChipsetLink` over the bridge protocol on ``port`` (an open
+    pyserial port, or anything with ``read(n)``, ``write(data)`` and ``close()``), whose
+    ``read`` returns fewer bytes than asked only when it timed out."""
+
+    def __init__(self, port, name: str = "the link"):
+        self.port = port
+        self.name = name
+        self._cycle = 0
+        #: Whether the far end answers :attr:`Op.PROBE` (a simulated board); None: not asked.
+        self.probes: bool | None = None
+
+    @property
+    def cycle(self) -> int:
+        return self._cycle
+
+    def _command(self, op: Op, *args: int, reply: int) -> bytes:
+        try:
+            self.port.write(encode(op, *args))
+            status = self.port.read(1)
+            if status == bytes([ERROR]):
+                code = self.port.read(1)
+                known = code and code[0] in {e.value for e in Error}
+                raise _RefusedError(self.name, op, Error(code[0]) if known else code)
+            if status != bytes([OK]):
+                raise LinkError(f"{self.name}: no reply to {op.name}" if not status else
+                                f"{self.name}: {op.name} answered {status!r}, not OK")
+            data = self.port.read(reply)
+        except OSError as e:
+            raise LinkError(f"{self.name}: {e.strerror or e}") from None
+        if len(data) != reply:
+            raise LinkError(f"{self.name}: {op.name}'s reply stopped after {len(data) + 1} of "
+                            f"{reply + 1} bytes")
+        return data
+
+    def identify(self) -> Identity:
+        """What the bridge tells of the chipset behind it."""
+        return Identity.decode(self._command(Op.IDENT, reply=6))
+
+    def check(self, expected: Identity) -> None:
+        """Raise :class:`LinkError` unless the chipset behind the link is ``expected``."""
+        found = self.identify()
+        if found.version != expected.version:
+            raise LinkError(f"{self.name}: the bridge speaks protocol version {found.version}, "
+                            f"not {expected.version}")
+        if found.axes != expected.axes:
+            raise LinkError(f"{self.name}: the chipset there has {found.axes} axes, the job's "
+                            f"machine {expected.axes}")
+        if found.fingerprint != expected.fingerprint:
+            raise LinkError(f"{self.name}: the chipset there was built otherwise than the job's "
+                            f"machine (other accel/decel circuits or register maps: fingerprint "
+                            f"{found.fingerprint:#010x}, the job's {expected.fingerprint:#010x})")
+
+    def idle(self, cycles: int) -> None:
+        while cycles > 0:
+            part = min(cycles, MAX_COUNT)
+            self._command(Op.IDLE, part, reply=0)
+            self._cycle += part
+            cycles -= part
+
+    def write(self, address: int, data: int) -> None:
+        self._command(Op.WRITE, address, data, reply=0)
+        self._cycle += 1
+
+    def read(self, address: int) -> int:
+        data = self._command(Op.READ, address, reply=1)[0]
+        self._cycle += 1
+        return data
+
+    def wait_interrupt(self, max_cycles: int) -> int:
+        waited = 0
+        while waited < max_cycles:
+            part = min(max_cycles - waited, MAX_COUNT)
+            n = int.from_bytes(self._command(Op.WAIT, part, reply=COUNT_BITS // 8), "little")
+            self._cycle += n
+            waited += n
+            if n < part:
+                break
+        return waited
+
+    def interrupts(self) -> Interrupts:
+        irq = self._command(Op.STATUS, reply=1)[0]
+        return Interrupts(bool(irq & IRQ_INTERP), bool(irq & IRQ_ALARM))
+
+    def board_cycle(self) -> int:
+        """The bridge's cycle counter (modulo 2^40)."""
+        return int.from_bytes(self._command(Op.CYCLE, reply=5), "little")
+
+    def probe(self) -> Probe | None:
+        """The simulated machine's observation counters; None from a real board (which has no
+        such command)."""
+        if self.probes is False:
+            return None
+        size = PROBE_BYTES * (2 + len(PROBE_FIELDS) * len(PROBE_AXES))
+        try:
+            data = self._command(Op.PROBE, reply=size)
+        except _RefusedError as e:
+            if e.code is not Error.OPCODE:
+                raise
+            self.probes = False
+            return None
+        self.probes = True
+        values = [int.from_bytes(data[k:k + PROBE_BYTES], "little", signed=True)
+                  for k in range(0, size, PROBE_BYTES)]
+        per_axis = len(PROBE_FIELDS)
+        return Probe(values[0], values[1], {
+            axis: dict(zip(PROBE_FIELDS, values[2 + k * per_axis:2 + (k + 1) * per_axis],
+                           strict=True))
+            for k, axis in enumerate(PROBE_AXES)})
+
+    def close(self) -> None:
+        self.port.close()
+
+
+class _RefusedError(LinkError):
+    """The bridge answered ERROR."""
+
+    def __init__(self, name: str, op: Op, code: Error | bytes):
+        what = code.name if isinstance(code, Error) else repr(code)
+        super().__init__(f"{name}: the bridge answered {op.name} with error {what}")
+        self.code = code
+
+
+def _serial_for_url(url: str, **kwargs):
+    import serial  # pyserial: imported only by a link that needs it
+
+    return serial.serial_for_url(url, **kwargs)
+
+
+def open_link(url: str, timeout: float = 30.0,
+              opener: Callable[..., object] = _serial_for_url) -> BridgeLink:
+    """The link at ``url`` (``tcp://HOST:PORT``, ``serial:///dev/ttyUSB0[?baud=N]``, a device
+    path, ``socket://``, ``loop://``), each reply awaited at most ``timeout`` seconds."""
+    parts = urlsplit(url)
+    kwargs: dict = {"timeout": timeout}
+    if parts.scheme == "tcp":
+        if not parts.hostname or parts.port is None:
+            raise LinkError(f"{url}: give tcp://HOST:PORT")
+        target = f"socket://{parts.hostname}:{parts.port}"
+    elif parts.scheme in ("serial", ""):
+        target = parts.path
+        baud = parse_qs(parts.query).get("baud", [str(DEFAULT_BAUD)])[0]
+        if not baud.isdigit() or int(baud) == 0:
+            raise LinkError(f"{url}: baud must be a positive integer, not {baud!r}")
+        kwargs["baudrate"] = int(baud)
+        if not target:
+            raise LinkError(f"{url}: give serial:///dev/DEVICE")
+    else:
+        target = url
+    try:
+        port = opener(target, **kwargs)
+    except ImportError:
+        raise LinkError(f"{url}: a link needs pyserial (pip install pyserial)") from None
+    except (OSError, ValueError) as e:
+        raise LinkError(f"{url}: cannot open: {_why(e)}") from None
+    return BridgeLink(port, url)
+
+
+def _why(e: Exception) -> str:
+    text = str(e)
+    if "Connection refused" in text or "[Errno 111]" in text:
+        return "connection refused (is `k37 serve` running there?)"
+    return text

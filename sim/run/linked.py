@@ -1,0 +1,158 @@
+"""Running a job's firmware over a link: a simulated board (``k37 serve``) or the real one.
+
+:func:`run_linked` runs :class:`firmware_model.firmware.Firmware` on a
+:class:`firmware_model.bridge_link.BridgeLink` and reports as :func:`sim.run.runner.run_job`
+does, with what a host can know:
+
+* every block's cycles, FP budget and feed word, the alarms and events: the firmware's own;
+* every block's FP and step pulses and end command, and each axis's counters and encoder count:
+  read with the simulated board's PROBE command at the firmware's trace points (no bus cycle, so
+  the run is the one in process); a real board has no PROBE: the blocks' pulses are null, an
+  axis's command and error are read from its K3702 over the bus after the run, its position is
+  COMMAND - ERROR (the K3702's view of the encoder) and its largest error is null;
+* no samples: the trace, the plot, the path's contour error and the ballbar are the machine's
+  (``k37 serve --trace`` writes a simulated board's); the report's ``path`` has 0 samples and
+  zero errors.
+"""
+
+from __future__ import annotations
+
+import time
+
+from firmware_model.bridge_link import BridgeLink, LinkError, Probe, job_identity, open_link
+from firmware_model.firmware import BlockRecord, Firmware, check_program
+from firmware_model.host import Host8085
+from firmware_model.job import Job
+from hdl.chipset.map import chip_register, port
+from sim.run.report import validate
+from sim.run.runner import (
+    OptionError,
+    RunOptions,
+    RunResult,
+    cycle_limit,
+    report_document,
+    run_status,
+)
+from sim.run.sampler import SampleStore
+from sim.run.simulated_link import BlockMeasure
+
+__all__ = ["LinkError", "check_linked_options", "run_linked"]
+
+
+def check_linked_options(options: RunOptions) -> None:
+    """Refuse options a linked run cannot honour: the machine's own (a waveform, faults)."""
+    if options.vcd is not None:
+        raise OptionError("--vcd: not with --link: the waveform is the served machine's")
+    if options.faults:
+        raise OptionError("--stall, --break-line, --load-step: not with --link: faults are "
+                          "the served machine's")
+
+
+class _ProbeMeter:
+    """Block measures from the board's PROBE at the firmware's trace points (none from a
+    board without it)."""
+
+    def __init__(self, link: BridgeLink, axes: tuple[str, ...]):
+        self.link = link
+        self.axes = axes
+        self.measures: dict[int, BlockMeasure | None] = {}
+        #: Each block's start and end cycle on the board, where it answers PROBE.
+        self.board_cycles: dict[int, list[int | None]] = {}
+        self._start: Probe | None = None
+
+    def block_started(self, record: BlockRecord) -> None:
+        self._start = self.link.probe()
+        if self._start is not None:
+            self.board_cycles[record.index] = [self._start.cycle, None]
+
+    def block_ended(self, record: BlockRecord) -> None:
+        end = self.link.probe()
+        if end is None or self._start is None:
+            self.measures[record.index] = None
+            return
+        start = self._start
+        self.board_cycles[record.index][1] = end.cycle
+        steps = {f"{axis}{sign}": end.axes[axis][name] - start.axes[axis][name]
+                 for axis in self.axes for sign, name in (("+", "pulses_pos"),
+                                                          ("-", "pulses_neg"))}
+        self.measures[record.index] = BlockMeasure(
+            end.fp_total - start.fp_total, steps,
+            tuple(end.axes[axis]["pulses_pos"] - end.axes[axis]["pulses_neg"]
+                  for axis in self.axes))
+
+    def report(self, b: BlockRecord) -> dict:
+        m = self.measures.get(b.index)
+        return {"index": b.index, "line": b.line, "kind": b.kind, "start_cycle": b.start_cycle,
+                "end_cycle": b.end_cycle, "fp_budget": b.fp_budget,
+                "fp_pulses": None if m is None else m.fp_pulses, "feed_word": b.feed_word,
+                "steps": None if m is None else m.steps,
+                "end_command": None if m is None or m.end_command is None
+                else list(m.end_command)}
+
+
+def _signed(data: int, bits: int) -> int:
+    return data - (1 << bits) if data >> (bits - 1) else data
+
+
+def _read_register(link: BridgeLink, chip: str, name: str) -> int:
+    reg = chip_register(chip, name)
+    data = sum(link.read(port(chip, name, k)) << 8 * k for k in range(reg.nbytes))
+    return _signed(data, reg.width) if reg.signed else data
+
+
+def _axes(link: BridgeLink, job: Job, probe: Probe | None) -> dict[str, dict]:
+    axes = {}
+    for axis in job.machine.axis_names:
+        chip = f"K3702_{axis.upper()}"
+        if probe is not None:
+            seen = probe.axes[axis]
+            counters = {"command": seen["command"], "error": seen["error"],
+                        "actual": seen["count"], "max_abs_error": seen["max_abs_error"]}
+        else:
+            command = _read_register(link, chip, "COMMAND")
+            error = _read_register(link, chip, "ERROR")
+            counters = {"command": command, "error": error, "actual": command - error,
+                        "max_abs_error": None}
+        word = link.read(port(chip, "STATUS"))
+        flags = {f.name: f.decode(word) for f in chip_register(chip, "STATUS").fields}
+        axes[axis] = {**counters, "flags": flags}
+    return axes
+
+
+def run_linked(job: Job, options: RunOptions, url: str) -> RunResult:
+    """Run ``job``'s firmware over the link at ``url`` and report; raises
+    :class:`LinkError` if the link fails or the chipset there is not the job's."""
+    check_program(job)
+    check_linked_options(options)
+    link = open_link(url)
+    try:
+        link.check(job_identity(job))
+        return _run(job, options, link, url)
+    finally:
+        link.close()
+
+
+def _run(job: Job, options: RunOptions, link: BridgeLink, url: str) -> RunResult:
+    host = Host8085(link, clock_hz=job.machine.clock_hz)
+    meter = _ProbeMeter(link, job.machine.axis_names)
+    firmware = Firmware(host, job, budget_offset=options.budget_offset, observer=meter)
+    limit, limit_name = cycle_limit(job, options)
+    start = time.perf_counter()
+    firmware.run(limit)
+    wall = time.perf_counter() - start
+    cycles = link.cycle
+    status, reason = run_status(firmware, None, limit_name, cycles)
+    probe = link.probe()
+    report = report_document(
+        job, firmware, status=status, reason=reason, backend="link", cycles=cycles, wall=wall,
+        skipped=0, blocks=[meter.report(b) for b in firmware.blocks],
+        axes=_axes(link, job, probe),
+        path={"max_contour_error": 0.0, "rms_contour_error": 0.0, "samples": 0})
+    report["link"] = {"url": url, "probes": probe is not None,
+                      "board_cycle": link.board_cycle(),
+                      "board_blocks": [meter.board_cycles.get(b.index)
+                                       for b in firmware.blocks]}
+    validate(report)
+    store = SampleStore(job.machine.dac_bits, job.machine.axis_names)
+    return RunResult(report, store, job)
+

@@ -1,0 +1,134 @@
+"""``k37 serve``: the simulated machine behind a TCP socket, speaking the host bridge's protocol.
+
+Each connection is a session on a freshly reset machine: the bytes received go through the
+bridge's reference model (:class:`hdl.bridge.model.BridgeModel`) onto the machine's bus,
+interrupt inputs and clock (:class:`sim.run.simulated_link.SimulatedLink` over a
+:class:`sim.run.sampler.Sampler`), and simulated time passes only as the host's commands say
+(and the line's, with a UART's line time), so a session is as deterministic as a run in
+process. The board answers :attr:`Op.PROBE` too: the observation counters a real board has no
+bus for. One session at a time; a host that connects while another is being served waits.
+"""
+
+from __future__ import annotations
+
+import socket
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from firmware_model.bridge_link import job_identity
+from firmware_model.job import Job
+from hdl.bridge.model import BridgeModel, LineTimed
+from hdl.bridge.protocol import PROBE_AXES, PROBE_FIELDS, check_cycles_per_bit
+from sim.backends.contract import Backend
+from sim.run.output import write_samples
+from sim.run.runner import build_backend, configure_plants
+from sim.run.sampler import Sampler, SampleStore
+from sim.run.simulated_link import SimulatedLink
+
+__all__ = ["Session", "SimulatedBoard"]
+
+
+@dataclass
+class Session:
+    """What one connection did: its peer, the bytes it sent and the cycles it ran."""
+
+    peer: str
+    received: int = 0
+    cycles: int = 0
+
+
+class SimulatedBoard:
+    """The machine of ``job`` on backend ``kind``, served on ``host``:``port`` (0: a free
+    port, :attr:`port` once bound).
+
+    ``line``: (cycles per bit, host turnaround in cycles) to let the machine's time include a
+    UART's as on a real board (:class:`hdl.bridge.model.LineTimed`); None: time passes only as
+    the commands say. ``trace``: where each session's samples (one every ``sample_every``
+    cycles) are written as CSV when it ends, replacing the previous session's. ``probes``:
+    False to answer as a real board does, without :attr:`Op.PROBE`.
+    """
+
+    def __init__(self, job: Job, kind: str = "auto", host: str = "127.0.0.1", port: int = 0,
+                 sample_every: int = 1000, line: tuple[int, int] | None = None,
+                 trace: Path | None = None, probes: bool = True):
+        self.job = job
+        self.probes = probes
+        self.line = line
+        self.trace = trace
+        if line is not None:
+            check_cycles_per_bit(line[0])
+            if line[1] < 0:
+                raise ValueError(f"the host's turnaround must be >= 0 cycles, not {line[1]}")
+        self.listener = socket.create_server((host, port))  # first: a port in use fails fast
+        self.port: int = self.listener.getsockname()[1]
+        try:
+            self.backend: Backend = build_backend(job, kind)
+        except BaseException:
+            self.listener.close()
+            raise
+        self.sample_every = sample_every
+        self.identity = job_identity(job)
+        self.stop = threading.Event()
+
+    def _probe(self) -> list[int]:
+        backend, axes = self.backend, self.job.machine.axis_names
+        return [backend.cycle, backend.get("fp_total"),
+                *(backend.get(f"{axis}__{name}") if axis in axes else 0
+                  for axis in PROBE_AXES for name in PROBE_FIELDS)]
+
+    def serve_one(self, conn: socket.socket, peer: str) -> Session:
+        """Serve one connection to its end, on the machine reset to cycle 0."""
+        session = Session(peer)
+        self.backend.reset()
+        configure_plants(self.backend, self.job)
+        store = SampleStore(self.job.machine.dac_bits, self.job.machine.axis_names)
+        sampler = Sampler(self.backend, self.sample_every, store, skip_idle=True)
+        model: BridgeModel | LineTimed = BridgeModel(
+            SimulatedLink(sampler), self.identity, probe=self._probe if self.probes else None)
+        if self.line is not None:
+            model = LineTimed(model, *self.line)
+        with conn:
+            while not self.stop.is_set():
+                try:
+                    data = conn.recv(4096)
+                except OSError:
+                    break
+                if not data:
+                    break
+                session.received += len(data)
+                reply = b"".join(model.receive(byte) for byte in data)
+                if reply:
+                    try:
+                        conn.sendall(reply)
+                    except OSError:
+                        break
+        sampler.flush()
+        session.cycles = self.backend.cycle
+        if self.trace is not None:
+            write_samples(store, self.trace)
+        store.close()
+        return session
+
+    def serve(self, sessions: int | None = None,
+              report: Callable[[Session], None] | None = None) -> None:
+        """Serve connections one after another until :attr:`stop` is set or ``sessions`` were
+        served; ``report`` is told of each."""
+        served = 0
+        self.listener.settimeout(0.2)
+        while not self.stop.is_set() and (sessions is None or served < sessions):
+            try:
+                conn, address = self.listener.accept()
+            except TimeoutError:
+                continue
+            conn.settimeout(None)
+            conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            session = self.serve_one(conn, f"{address[0]}:{address[1]}")
+            served += 1
+            if report is not None:
+                report(session)
+
+    def close(self) -> None:
+        self.listener.close()
+        self.backend.close()
