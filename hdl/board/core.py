@@ -33,9 +33,10 @@ class BoardCore(wiring.Component):
 
     The board's clock runs at ``clock_hz``; a counter makes ``tick`` high in one cycle of
     every ``clock_hz / CHIP_HZ`` (25 on a 25 MHz board), and the chipset is built under
-    Amaranth's ``EnableInserter(tick)``: its registers change only at the edges ending a tick
-    cycle, so each of its cycles is one microsecond long and every count, rate and latency of
-    the datasheets holds unchanged. Whatever drives ``bus`` must run under the same enable
+    Amaranth's ``EnableInserter(tick)``: its rising-edge registers change only at the edge
+    ending a tick cycle and the K3702's falling-edge ones only at the falling edge inside it,
+    so each of its cycles is one microsecond long and every count, rate and latency of the
+    datasheets holds unchanged. Whatever drives ``bus`` must run under the same enable
     (one byte access per tick cycle, as the 8085's bus cycle on the real chips).
 
     Encoder lines come in asynchronous: each passes two flip-flops at the board clock, so the
@@ -56,7 +57,8 @@ class BoardCore(wiring.Component):
     -------
     bus : In(HostBus(8))
         The chipset's host bus (chip select and register address), sampled at the edge ending
-        a tick cycle; a read's byte is on ``r_data`` from the next tick cycle.
+        a tick cycle; a read's byte is on ``r_data`` from the board cycle after that edge until
+        the next read.
     tick : Out(1)
         The chipset's clock enable: high in one board cycle of every ``clock_hz / CHIP_HZ``.
     irq_interp, irq_alarm : Out(1)
