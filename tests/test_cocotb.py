@@ -36,6 +36,7 @@ def test_the_cocotb_example_passes_on_the_exported_chipset(tmp_path):
                           test_dir=EXAMPLE, build_dir=tmp_path / "sim_build",
                           extra_env={"PYTHONPATH": os.pathsep.join(
                               [str(EXAMPLE), root, os.environ.get("PYTHONPATH", "")])},
+                          results_xml=str(tmp_path / "results.xml"),
                           log_file=tmp_path / "test.log")
     tests, failed = get_results(results)
     log = (tmp_path / "test.log").read_text()
