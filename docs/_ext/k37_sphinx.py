@@ -1,9 +1,10 @@
 """Pages of the K37 manual generated from the code when the site is built.
 
-Four MyST directives, each of which renders Markdown made from one source of truth:
+Five MyST directives, each of which renders Markdown made from one source of truth:
 
 * ``k37-registers MAP``: a chip's register map (:mod:`hdl.bus.registers` tables);
 * ``k37-pins BLOCK``: the pins of an exported chip (:func:`sim.fpga.export.pins`);
+* ``k37-board-pins AXES``: the ULX3S's pin map of the board top (:mod:`hdl.board.pins`);
 * ``k37-cli``: every ``k37`` command and option (:func:`sim.cli.build_parser`);
 * ``k37-architecture``: the packages and modules, with their docstrings' first sentences.
 
@@ -61,6 +62,14 @@ def pin_table(block: str) -> str:
         rows.append(f"| `{p.name}` | {p.label or ''} | {p.direction} | {p.width} "
                     f"| {_rst_to_md(p.doc)} |")
     return "\n".join(rows) + "\n"
+
+
+def board_pin_table(axes: str) -> str:
+    """The ULX3S's pin map of the ``axes``-axis board top as a Markdown table."""
+    from hdl.board.pins import ulx3s_pins
+    from sim.fpga.build import pin_map
+
+    return pin_map(ulx3s_pins(int(axes)))
 
 
 # --- the command line ----------------------------------------------------------------------
@@ -159,6 +168,7 @@ def setup(app):
 
     app.add_directive("k37-registers", directive(register_tables, 1))
     app.add_directive("k37-pins", directive(pin_table, 1))
+    app.add_directive("k37-board-pins", directive(board_pin_table, 1))
     app.add_directive("k37-cli", directive(cli_reference, 0))
     app.add_directive("k37-architecture", directive(architecture, 0))
     return {"parallel_read_safe": True, "parallel_write_safe": True}

@@ -1,4 +1,5 @@
-"""``k37 export-verilog`` and ``k37 synth``: the gateware as Verilog and on an FPGA."""
+"""``k37 export-verilog``, ``k37 synth`` and ``k37 build``: the gateware as Verilog, on an FPGA
+and as a board's bitstream."""
 
 from __future__ import annotations
 
@@ -12,18 +13,23 @@ __all__ = ["add_commands"]
 
 
 def _cmd_export_verilog(args: argparse.Namespace) -> int:
-    from sim.files import why
+    from sim.files import atomic_open, why
     from sim.fpga.export import export_verilog
+    from sim.fpga.fusesoc import core_text
 
     if not check(folders={"-o": args.output}):
         return 2
     try:
         paths = export_verilog(args.block or None, Path(args.output))
+        core = Path(args.output) / "k37.core"
+        with atomic_open(core, "w") as f:
+            f.write(core_text(paths))
     except OSError as e:
         print(f"k37: error: {e.filename or args.output}: not written: {why(e)}",
               file=sys.stderr)
         return 1
-    return stdout(lambda: print("\n".join(f"k37 export-verilog: wrote {p}" for p in paths)))
+    return stdout(lambda: print("\n".join(f"k37 export-verilog: wrote {p}"
+                                          for p in [*paths, core])))
 
 
 def _cmd_synth(args: argparse.Namespace) -> int:
@@ -48,13 +54,42 @@ def _cmd_synth(args: argparse.Namespace) -> int:
     return 0 if report.ok else 1
 
 
+def _cmd_build(args: argparse.Namespace) -> int:
+    from sim.files import why
+    from sim.fpga.build import BuildError, build
+
+    out = args.out or f"build/{args.board}"
+    if not check(folders={"--out": out}):
+        return 2
+    try:
+        report = build(args.board, Path(out), axes=args.axes, plan_only=args.plan_only)
+    except (ImportError, FileNotFoundError, RuntimeError) as e:
+        if isinstance(e, BuildError):
+            print(f"k37: error: build failed: {e}", file=sys.stderr)
+            return 1
+        print(f"k37: error: building a bitstream needs the fpga extra "
+              f"(pip install -e '.[fpga]'): {e}", file=sys.stderr)
+        return 2
+    except OSError as e:
+        print(f"k37: error: {e.filename or out}: not written: {why(e)}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"k37 build: {stopped()}", file=sys.stderr)
+        return interrupted()
+    done = "build plan" if report.plan_only else f"{report.name}.bit"
+    return stdout(lambda: print(f"{report.format()}k37 build: wrote {done}, pins.md and "
+                                f"report.md to {report.folder}"))
+
+
 def add_commands(sub: argparse._SubParsersAction) -> None:
-    """Add ``export-verilog`` and ``synth`` to the command line."""
+    """Add ``export-verilog``, ``synth`` and ``build`` to the command line."""
     from sim.fpga.blocks import BLOCKS
+    from sim.fpga.build import BOARDS
     from sim.fpga.synth import DEVICES
 
     names = [b.name for b in BLOCKS]
-    p = sub.add_parser("export-verilog", help="write one Verilog file per chip and the top")
+    p = sub.add_parser("export-verilog", help="write one Verilog file per chip and the top, "
+                                              "and a FuseSoC core file (k37.core)")
     p.add_argument("--block", action="append", choices=[*names, "all"],
                    help="block to export (repeatable; default: all)")
     p.add_argument("-o", "--output", required=True, help="output folder")
@@ -65,3 +100,15 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                    help="block to synthesise (repeatable; default: every block and the top)")
     p.add_argument("--work-dir", help="keep netlists, logs and reports here")
     p.set_defaults(func=_cmd_synth)
+    p = sub.add_parser("build", help="build a board's bitstream (needs the fpga extra)")
+    p.add_argument("--board", choices=list(BOARDS), required=True,
+                   help="the board (its FPGA part: " + ", ".join(
+                       f"{b} {part}" for b, part in BOARDS.items()) + ")")
+    p.add_argument("--out", help="output folder (default: build/BOARD)")
+    p.add_argument("--axes", type=int, choices=(2, 3), default=3,
+                   help="the chipset's axes (2: the paper's, with the K3701's parabolic and "
+                        "exponential modes; 3: lines, arcs and helices in space)")
+    p.add_argument("--plan-only", action="store_true",
+                   help="write Amaranth's build plan, the pin map and no bitstream (no "
+                        "toolchain needed)")
+    p.set_defaults(func=_cmd_build)

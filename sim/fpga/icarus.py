@@ -82,12 +82,15 @@ def _testbench(name: str, ports: list[Pin], cycles: int) -> str:
         "endmodule", ""])
 
 
-def simulate(name: str, verilog: str, rows: Sequence[dict[str, int]]
-             ) -> list[dict[str, int | None]]:
+def simulate(name: str, verilog: str, rows: Sequence[dict[str, int]], *,
+             libraries: Sequence[str] = ()) -> list[dict[str, int | None]]:
     """Run block ``name``'s exported file ``verilog`` in Icarus on ``rows``, one dict of input
     pins per cycle (``rst`` included; ``d`` with :data:`HOST_DRIVES` for blocks with a host
     bus; pins a row omits are 0), and return every output pin's value per cycle, as seen
-    before that cycle's rising edge (None: X or Z)."""
+    before that cycle's rising edge (None: X or Z).
+
+    ``verilog`` may also be a synthesised netlist of the file (module ``name``, the same
+    ports); ``libraries`` are the Verilog texts of its cells' simulation models."""
     tools = find_iverilog()
     if tools is None:
         raise FileNotFoundError("Icarus Verilog (iverilog, vvp) is not installed")
@@ -105,7 +108,11 @@ def simulate(name: str, verilog: str, rows: Sequence[dict[str, int]]
                 packed = packed << p.width | (row.get(p.name, 0) & ((1 << p.width) - 1))
             hex_rows.append(f"{packed:x}")
         (folder / "stimulus.hex").write_text("\n".join(hex_rows) + "\n")
-        for command in ([tools[0], "-g2005", "-o", "sim", "tb.v", "dut.v"], [tools[1], "sim"]):
+        libs = [f"lib{k}.v" for k in range(len(libraries))]
+        for lib, text in zip(libs, libraries, strict=True):
+            (folder / lib).write_text(text)
+        for command in ([tools[0], "-g2005", "-s", "tb", "-o", "sim", "tb.v", "dut.v", *libs],
+                        [tools[1], "sim"]):
             done = subprocess.run(command, cwd=folder, capture_output=True, text=True)
             if done.returncode:
                 raise RuntimeError(f"{' '.join(command)} failed:\n{done.stderr}{done.stdout}")

