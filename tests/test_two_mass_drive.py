@@ -16,7 +16,7 @@ from sim.machine.two_mass import TwoMassDrive
 from sim.machine.two_mass_model import TwoMassDriveModel, TwoMassParams
 
 #: A stiff, light drive whose spring rings within a short simulation (about 200 cycles).
-FAST = {"kt": 0.5, "ja": 1e-5, "vg": 2.0, "m": 1.0, "ks": 1e9, "lead": 0.01}
+FAST = {"kt": 0.5, "ja": 1e-5, "vg": 2.0, "mass": 1.0, "ks": 1e9, "lead": 0.01}
 
 
 def drive_model(plant: PlantParams, drive: TwoMassParams, **faults: int) -> TwoMassDriveModel:
@@ -72,7 +72,7 @@ def table1_drive(**overrides) -> TwoMassParams:
     t = TABLE1_X
     radius = math.sqrt(t["ja_total"] / (t["m"] + t["m_prime"]))
     ks = (2 * math.pi * t["hz_eq3"]) ** 2 * t["m"]
-    values = {"ja": t["m_prime"] * radius ** 2, "m": t["m"], "ks": ks,
+    values = {"ja": t["m_prime"] * radius ** 2, "mass": t["m"], "ks": ks,
               "lead": 2 * math.pi * radius, "vg": 1.0, **overrides}
     return TwoMassParams(**values)
 
@@ -145,7 +145,8 @@ def test_scale_reads_the_table_and_the_motor_encoder_the_motor():
 
 
 @pytest.mark.parametrize(("key", "value", "message"), [
-    ("m", 0.0, "m must be"), ("ks", 1e15, "natural frequency"), ("lead", -1.0, "lead must be")])
+    ("mass", 0.0, "mass must be"), ("ks", 1e15, "natural frequency"),
+    ("lead", -1.0, "lead must be")])
 def test_two_mass_parameters_out_of_range_are_refused_by_name(key, value, message):
     with pytest.raises(ValueError, match=message):
         TwoMassParams(**{**FAST, key: value})

@@ -48,10 +48,10 @@ SPRING_BITS = 40
 class TwoMassParams(TorqueParams):
     """The two-mass drive's physical values: the torque drive's (``ja``: the motor's side only,
     rotor, coupling and screw; ``fc`` and ``load`` act on the table, as torques at the motor)
-    and ``m`` (table mass, kg), ``ks`` (axial stiffness, N/m), ``cs`` (its damping, N s/m),
+    and ``mass`` (the table M, kg), ``ks`` (axial stiffness, N/m), ``cs`` (its damping, N s/m),
     ``lead`` (m per revolution) and ``scale`` (the encoder reads the table)."""
 
-    m: float = 200.0
+    mass: float = 200.0
     ks: float = 1e8
     cs: float = 0.0
     lead: float = 0.01
@@ -60,16 +60,16 @@ class TwoMassParams(TorqueParams):
     @staticmethod
     def limits() -> dict[str, Limit]:
         positive = Limit(0, low_open=True)
-        return {**TorqueParams.limits(), "m": positive.scaled(1, "kg"),
+        return {**TorqueParams.limits(), "mass": positive.scaled(1, "kg"),
                 "ks": positive.scaled(1, "N/m"), "cs": Limit(0, unit="N s/m"),
                 "lead": positive.scaled(1, "m")}
 
     def __post_init__(self) -> None:
-        for name in ("m", "ks", "cs", "lead"):
+        for name in ("mass", "ks", "cs", "lead"):
             self.limits()[name].check(name, getattr(self, name))
         super().__post_init__()
-        for name, word in (("ks / m", self.ks_t), ("ks / (ja / R^2)", self.ks_m),
-                           ("cs / m", self.cs_t), ("cs / (ja / R^2)", self.cs_m)):
+        for name, word in (("ks / mass", self.ks_t), ("ks / (ja / R^2)", self.ks_m),
+                           ("cs / mass", self.cs_t), ("cs / (ja / R^2)", self.cs_m)):
             if word >= 1 << SPRING_BITS:
                 raise ValueError(f"{name} is too large for the clock (the two-mass drive's "
                                  f"natural frequency must stay below clock_hz / 100)")
@@ -87,7 +87,7 @@ class TwoMassParams(TorqueParams):
     @property
     def reduced_mass(self) -> float:
         """M_eq = M M' / (M + M') (kg)."""
-        return self.m * self.motor_mass / (self.m + self.motor_mass)
+        return self.mass * self.motor_mass / (self.mass + self.motor_mass)
 
     @property
     def free_hz(self) -> float:
@@ -97,7 +97,7 @@ class TwoMassParams(TorqueParams):
     @property
     def held_hz(self) -> float:
         """The natural frequency with the motor held: sqrt(Ks / M) / 2 pi (Hz)."""
-        return math.sqrt(self.ks / self.m) / (2 * math.pi)
+        return math.sqrt(self.ks / self.mass) / (2 * math.pi)
 
     def _word(self, per_cycle: float) -> int:
         return round(per_cycle * (1 << SPRING_FRAC))
@@ -108,7 +108,7 @@ class TwoMassParams(TorqueParams):
 
     @property
     def ks_t(self) -> int:
-        return self._word(self.ks / self.m / self.clock_hz ** 2)
+        return self._word(self.ks / self.mass / self.clock_hz ** 2)
 
     @property
     def cs_m(self) -> int:
@@ -116,12 +116,12 @@ class TwoMassParams(TorqueParams):
 
     @property
     def cs_t(self) -> int:
-        return self._word(self.cs / self.m / self.clock_hz)
+        return self._word(self.cs / self.mass / self.clock_hz)
 
     def disturbance_word(self, torque: float) -> int:
         """A torque at the motor (N m) as the force torque / R on the table, in the table's
         velocity change per cycle, counts/cycle << FRAC_BITS."""
-        per_s2 = torque / self.radius / self.m * self.counts_per_rev / self.lead
+        per_s2 = torque / self.radius / self.mass * self.counts_per_rev / self.lead
         return round(per_s2 / self.clock_hz ** 2 * (1 << FRAC_BITS))
 
     def ports(self) -> dict[str, int]:
