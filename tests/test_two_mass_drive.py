@@ -4,8 +4,8 @@ eqs. (1)-(3) and deflects by the load over the stiffness."""
 
 import math
 import random
+from dataclasses import replace
 
-import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -14,6 +14,7 @@ from test_plant import compare_with_model
 from sim.machine.plant_model import FRAC_BITS, PlantParams
 from sim.machine.two_mass import TwoMassDrive
 from sim.machine.two_mass_model import TwoMassDriveModel, TwoMassParams
+from sim.reproduce.resonance import ring_hz, table1_drive
 
 #: A stiff, light drive whose spring rings within a short simulation (about 200 cycles).
 FAST = {"kt": 0.5, "ja": 1e-5, "vg": 2.0, "mass": 1.0, "ks": 1e9, "lead": 0.01}
@@ -63,57 +64,25 @@ def test_two_mass_gateware_equals_model_through_an_undamped_ring_and_a_stall(sca
     run_both(plant, drive, stimulus)
 
 
-#: Table 1 of the profile-error paper, X axis: table mass M and the rotating parts as a mass M'
-#: (kg); Ks from its eq. (3) frequency read as Hz; the lead from Table 8's Ja = J + R^2 M.
-TABLE1_X = {"m": 241.0, "m_prime": 3476.0, "hz_eq3": 199.6, "ja_total": 0.0057}
-
-
-def table1_drive(**overrides) -> TwoMassParams:
-    t = TABLE1_X
-    radius = math.sqrt(t["ja_total"] / (t["m"] + t["m_prime"]))
-    ks = (2 * math.pi * t["hz_eq3"]) ** 2 * t["m"]
-    values = {"ja": t["m_prime"] * radius ** 2, "mass": t["m"], "ks": ks,
-              "lead": 2 * math.pi * radius, "vg": 1.0, **overrides}
-    return TwoMassParams(**values)
-
-
-def ring_hz(model: TwoMassDriveModel, cycles: int, clock_hz: float = 1e6) -> float:
-    """The spring's frequency (Hz) from the upward zero crossings of its deflection."""
-    s = np.empty(cycles)
-    for k in range(cycles):
-        model.cycle(2048)
-        s[k] = model.deflection
-    up = np.flatnonzero((s[:-1] < 0) & (s[1:] >= 0))
-    assert len(up) >= 4
-    return (len(up) - 1) / ((up[-1] - up[0]) / clock_hz)
-
-
 def test_free_two_mass_rings_at_sqrt_ks_over_reduced_mass_within_2_percent():
-    drive = table1_drive()
-    model = drive_model(PlantParams(kp=30.0, tm=0.0), drive)
-    model.alpha = 0                                   # the amplifier off: the motor's side free
-    model.deflection = 1000 << FRAC_BITS
-    measured = ring_hz(model, 40_000)
+    drive = table1_drive("x")                        # a 1/s velocity loop: the motor side free
     expected = math.sqrt(drive.ks / drive.reduced_mass) / (2 * math.pi)
     assert expected == pytest.approx(drive.free_hz)
-    assert abs(measured / expected - 1) < 0.02
-    # the profile-error paper's Table 1 ratio eq. (3) / eq. (2) for X: 0.97
-    assert drive.held_hz / measured == pytest.approx(0.97, abs=0.01)
+    assert abs(ring_hz(drive) / expected - 1) < 0.02
 
 
 def test_two_mass_with_the_motor_held_rings_at_sqrt_ks_over_m_within_2_percent():
-    drive = table1_drive(vg=2000.0)                  # a velocity loop of 5 us: the motor held
-    model = drive_model(PlantParams(kp=30.0, tm=0.0), drive)
-    model.deflection = 1000 << FRAC_BITS
-    measured = ring_hz(model, 40_000)
-    assert abs(measured / drive.held_hz - 1) < 0.02
+    drive = table1_drive("x", held=True)             # a 5 us velocity loop: the motor held
+    assert abs(ring_hz(drive) / math.sqrt(drive.ks / drive.mass) * 2 * math.pi - 1) < 0.02
+
+
+def table1_model(**overrides) -> TwoMassDriveModel:
+    return drive_model(PlantParams(kp=30.0, tm=0.0), replace(table1_drive("x"), **overrides))
 
 
 def test_undamped_spring_keeps_its_amplitude_and_damping_decays_it():
-    free = drive_model(PlantParams(kp=30.0, tm=0.0), table1_drive())
-    damped = drive_model(PlantParams(kp=30.0, tm=0.0), table1_drive(cs=2e4))
     peaks = {}
-    for name, model in (("free", free), ("damped", damped)):
+    for name, model in (("free", table1_model()), ("damped", table1_model(cs=2e4))):
         model.alpha = 0
         model.deflection = 1000 << FRAC_BITS
         trace = []
@@ -126,7 +95,7 @@ def test_undamped_spring_keeps_its_amplitude_and_damping_decays_it():
 
 
 def test_load_on_the_table_deflects_the_screw_by_force_over_stiffness():
-    drive = table1_drive(cs=2e4, load=2.0, vg=2000.0)
+    drive = replace(table1_drive("x", held=True), cs=2e4, load=2.0)
     model = drive_model(PlantParams(kp=30.0, tm=0.0), drive)
     for _ in range(200_000):
         model.cycle(2048)
@@ -136,10 +105,8 @@ def test_load_on_the_table_deflects_the_screw_by_force_over_stiffness():
 
 
 def test_scale_reads_the_table_and_the_motor_encoder_the_motor():
-    drive = table1_drive()
     for scale in (0, 1):
-        model = drive_model(PlantParams(kp=30.0, tm=0.0), drive)
-        model.scale = scale
+        model = table1_model(scale=bool(scale))
         model.deflection = 500 << FRAC_BITS
         assert model.count == (-500 if scale else 0)
 
