@@ -475,7 +475,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="fault: break this axis's /A encoder line")
     p.add_argument("--load-step", action="append", default=[], type=_load_step,
                    metavar="AXIS:NM@SECONDS",
-                   help="fault: a load torque step on this axis's torque drive at this time "
+                   help="fault: a load torque step on this axis's torque drive (on a two-mass "
+                        "drive's table) at this time "
                         "(e.g. x:0.05@1.5)")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary, no progress line")
     _program_options(p)
