@@ -5,7 +5,8 @@ the circuit of its Fig. 2 (the KM3701's up/down counter and accumulator, ``docs/
 the recursion eq (35), ``f_o(k) = f_o(k-1) + [f_i(k) - f_o(k-1)] / 2^n`` per addition pulse, and
 shows in a corner test (Fig. 12, 1 m/min) the corner following error falling when the time
 constant goes from 15 ms to 30 ms. Here the reference model of the circuit runs against eq
-(35), and the corner runs on the post-interpolation machine with both filter shapes.
+(35), and the corner runs on the post-interpolation machine with both filter shapes, on rigid
+axes and on resonant ones (the two-mass drive: the vibration under load the paper names).
 """
 
 from __future__ import annotations
