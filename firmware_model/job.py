@@ -223,9 +223,11 @@ class ServoConfig(_Checked):
     kf: float = _key(0.0, Limit(), "velocity feedforward Kf: the drive adds Kf times the "
                                    "command pulse rate to its velocity command (the "
                                    "profile-error paper)")
-    drive: str = _key("first_order", OneOf(("first_order", "torque")),
-                      "servo drive model: a first-order velocity lag Tm, or the torque drive "
-                      "(velocity loop Vg/Ti, Kt, Ja, friction; tm then unused)")
+    drive: str = _key("first_order", OneOf(("first_order", "torque", "two_mass")),
+                      "servo drive model: a first-order velocity lag Tm, the torque drive "
+                      "(velocity loop Vg/Ti, Kt, Ja, friction; tm then unused), or the two-mass "
+                      "drive (the torque drive's motor driving a table through the ball screw's "
+                      "stiffness)")
     kt: float = _key(0.5, Limit(), "torque drive: motor torque constant Kt (N m/A)")
     ja: float = _key(1e-3, Limit(), "torque drive: load inertia Ja at the motor (kg m^2)")
     vg: float = _key(0.2, Limit(), "torque drive: velocity loop gain Vg (A s/rad); the loop's "
@@ -236,6 +238,15 @@ class ServoConfig(_Checked):
     load: float = _key(0.0, Limit(), "torque drive: constant disturbance torque (N m)")
     counts_per_rev: float = _key(10_000.0, Limit(),
                                  "torque drive: encoder counts (LSB) per motor revolution")
+    mass: float = _key(200.0, Limit(), "two-mass drive: table mass M (kg); ja is then the motor's "
+                                       "side alone (rotor, coupling, screw), and fc, load act on "
+                                       "the table (as torques at the motor)")
+    ks: float = _key(1e8, Limit(), "two-mass drive: axial stiffness Ks of screw and coupling "
+                                   "between motor and table (N/m)")
+    cs: float = _key(0.0, Limit(), "two-mass drive: damping of that stiffness (N s/m)")
+    lead: float = _key(0.01, Limit(), "two-mass drive: ball screw lead (m per revolution)")
+    scale: bool = _key(False, Boolean(), "two-mass drive: the encoder is a linear scale on the "
+                                         "table; false: on the motor")
 
 
 @dataclass(frozen=True)

@@ -49,6 +49,17 @@ def test_backends_agree_with_each_axis_on_its_own_addition_clock(random_moves):
     same_on_both_backends(job, faults)
 
 
+#: The two-mass drive with every term, its encoder a linear scale on the table (138 Hz free).
+TWO_MASS = {**TORQUE, "drive": "two_mass", "cs": 2000.0, "scale": True}
+
+
+@pytest.mark.parametrize("servo", [TWO_MASS, {**TWO_MASS, "scale": False, "ti": 0.0}])
+def test_backends_agree_with_the_two_mass_drive(servo, random_moves):
+    job, faults, _ = random_moves(5, "pre", dwell=False, servo=servo)
+    assert job.servo["x"].drive == "two_mass"
+    same_on_both_backends(job, faults)
+
+
 def same_on_both_backends(job, faults) -> None:
     results = {}
     for backend in ("pysim", "cxxrtl"):

@@ -83,6 +83,17 @@ def test_skipping_with_new_circuits_feedforward_and_torque_drive_changes_no_sign
     assert skipped[3] > 0.5 * dwell * job.machine.clock_hz
 
 
+@pytest.mark.parametrize("scale", [False, True])
+def test_skipping_with_the_two_mass_drive_changes_no_signal(scale, random_moves):
+    # The two-mass drive is stepped while the spring rings or either mass moves; skips come
+    # only once the whole drive is static.
+    servo = {"drive": "two_mass", "vg": 2.0, "kf": 0.6, "d": 0.02, "fc": 0.002, "cs": 2000.0,
+             "scale": scale}
+    job, faults, _ = random_moves(3, "pre", dwell=True, servo=servo)
+    assert job.servo["y"].drive == "two_mass"
+    skipped_equals_stepped(job, faults, 1009)
+
+
 def test_skipping_with_each_axis_on_its_own_addition_clock_changes_no_signal(random_moves):
     # Each exponential circuit's accumulator counts the strobes of its own divider, at a rate
     # of its own: a skip stops before the first carry of any of them.

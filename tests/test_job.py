@@ -310,6 +310,8 @@ def test_the_ranges_are_the_blocks():
         "servo.kt": "> 0 N m/A", "servo.ja": "> 0 kg m^2", "servo.vg": "> 0 A s/rad",
         "servo.ti": ">= 0 s", "servo.d": ">= 0 N m s/rad", "servo.fc": ">= 0 N m",
         "servo.load": "a number N m", "servo.counts_per_rev": "> 0 counts",
+        "servo.mass": "> 0 kg", "servo.ks": "> 0 N/m", "servo.cs": ">= 0 N s/m",
+        "servo.lead": "> 0 m",
     }
 
 
@@ -503,7 +505,10 @@ def test_the_square_example_runs_its_file_with_a_softer_y_servo():
     ('[machine]\naccel_shape = "scurve"\n',
      "machine.accel_shape must be one of 'exponential', 'linear', 'bell', not 'scurve'"),
     ('[servo]\ndrive = "hydraulic"\n',
-     "servo.drive must be one of 'first_order', 'torque', not 'hydraulic'"),
+     "servo.drive must be one of 'first_order', 'torque', 'two_mass', not 'hydraulic'"),
+    ('[servo]\ndrive = "two_mass"\nks = 1e15\n', "servo.ks / mass is too large for the clock "
+     "(the two-mass drive's natural frequency must stay below clock_hz / 100)"),
+    ('[servo]\nscale = 1\n', "servo.scale must be true or false, not 1"),
     ('[servo.x]\nkf = 3\n', "servo.x.kf must be >= 0 and <= 2 (fraction of the command rate), "
                             "not 3.0"),
     ('[servo]\ndrive = "torque"\nja = 1e-9\n', "servo.kt * vg / ja = 1e+08 1/s must be below "

@@ -1,8 +1,8 @@
 """The companion papers' physics on the whole machine (compiled backend): the radius loss of
 a circle under post-interpolation accel/decel (the motion-errors paper), the ellipse of a gain or
 time-constant mismatch between the axes (the motion-errors and profile-error papers), and the
-profile-error paper's eq. (9) following error with velocity feedforward and viscous friction. Each
-measured figure is compared with the formula of :mod:`sim.reproduce.theory`."""
+profile-error paper's eq. (9) following error with velocity feedforward and viscous friction, and
+the ringing of its two-mass feed drive. Each measured figure is compared with its formula."""
 
 import math
 from dataclasses import replace
@@ -19,8 +19,9 @@ from sim.reproduce.theory import (
     servo_gain,
 )
 from sim.run.ballbar import ballbar
-from sim.run.jobfile import load_job
+from sim.run.jobfile import load_job, load_step_fault, torque_params
 from sim.run.runner import RunOptions, run_job
+from sim.run.sampler import TRACE_COLUMNS
 
 pytestmark = pytest.mark.slow
 
@@ -151,3 +152,30 @@ def test_steady_following_error_is_seed_003_eq_9(tmp_path, accel, servo, kf, d_r
     print(f"Kf {kf}, D/(Vg Kt) {d_ratio}, Ts {ts}: error {measured:.1f} LSB, eq. (9) "
           f"{expected:.1f} LSB")
     assert measured == pytest.approx(expected, rel=0.02)
+
+
+def test_a_load_step_on_a_two_mass_table_rings_in_the_following_error_at_sqrt_ks_over_m(
+        tmp_path):
+    # The profile-error paper's Table 1 X axis (a 241 kg table at about 200 Hz, 1 count = 1 um)
+    # with a stiff velocity loop holding the motor and a linear scale on the table: a load step
+    # during a dwell sets the table ringing at eq. (3)'s sqrt(Ks / M), in the K3702's error.
+    path = tmp_path / "ring.toml"
+    path.write_text('[servo.x]\ndrive = "two_mass"\nkt = 0.5\nja = 0.00533\nvg = 189.0\n'
+                    'mass = 241.0\nks = 3.79e8\nlead = 0.00778\ncounts_per_rev = 7780.0\n'
+                    'scale = true\n[program]\ngcode = "G04 P0.2\\nM30"\n')
+    job = load_job(path)
+    drive = torque_params(job.machine, job.servo["x"])
+    torque = 20.0
+    result = run_job(job, RunOptions(backend="cxxrtl", sample_every=20, faults={
+        "x": load_step_fault(job, "x", torque, 0.05)}))
+    assert result.report["status"] == "ok"
+    t = result.samples[:, TRACE_COLUMNS.index("cycle")] / job.machine.clock_hz
+    error = result.samples[:, TRACE_COLUMNS.index("x_error")]
+    assert not error[t < 0.05].any()
+    ring = error[(t > 0.055) & (t < 0.15)]
+    swing = ring - ring.mean()
+    up = np.flatnonzero((swing[:-1] < 0) & (swing[1:] >= 0))
+    hz = (len(up) - 1) / ((up[-1] - up[0]) * 20 / job.machine.clock_hz)
+    assert abs(hz / drive.held_hz - 1) < 0.02
+    static_counts = torque / drive.radius / drive.ks * drive.counts_per_rev / drive.lead
+    assert ring.max() - ring.min() > static_counts

@@ -10,7 +10,7 @@ import pytest
 
 from firmware_model.firmware import feed_word, word_rate
 from firmware_model.gcode.parser import Line
-from sim.reproduce import seed002, seed003
+from sim.reproduce import resonance, seed002, seed003
 from sim.reproduce.runs import RunSpec
 from sim.reproduce.theory import following_error
 from sim.run.ballbar import ballbar_of
@@ -88,3 +88,16 @@ def test_ballbar_of_samples_finds_the_ellipse_of_a_lagging_axis():
     b = ballbar_of(spec.job(), report, [samples], TRACE_COLUMNS)
     assert b.two_theta_amplitude == pytest.approx(3.0, rel=1e-6)
     assert b.two_theta_angle == pytest.approx(135, abs=0.01)
+
+
+def test_eq_4_omega_curve_keeps_the_free_mode_and_table_1_ratio_is_the_mass_split():
+    base = resonance.table1_drive("x")
+    for j_scale in (0.5, 1.0, 3.0):
+        k = resonance.jk_curve("x", 206.3, np.array([base.ja * j_scale]))[0]
+        drive = resonance.table1_drive("x", j_scale=j_scale, ks_scale=k / base.ks)
+        assert drive.free_hz == pytest.approx(206.3, rel=1e-9)
+    for axis, row in resonance.TABLE1.items():
+        drive = resonance.table1_drive(axis)
+        assert drive.held_hz / drive.free_hz == pytest.approx(
+            math.sqrt(row.m_prime / (row.m + row.m_prime)))
+        assert drive.held_hz / drive.free_hz == pytest.approx(row.ratio, abs=0.01)

@@ -210,8 +210,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                    help="fault: break this axis's /A encoder line")
     p.add_argument("--load-step", action="append", default=[], type=_load_step,
                    metavar="AXIS:NM@SECONDS",
-                   help="fault: a load torque step on this axis's torque drive at this time "
-                        "(e.g. x:0.05@1.5)")
+                   help="fault: a load torque step on this axis's torque drive (on a two-mass "
+                        "drive's table) at this time (e.g. x:0.05@1.5)")
     p.add_argument("--link", metavar="URL",
                    help="run the firmware against a board over the host bridge: "
                         "tcp://HOST:PORT (`k37 serve`) or serial:///dev/ttyUSB0[?baud=N]")

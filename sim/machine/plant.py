@@ -10,7 +10,7 @@ Fixed point: positions are counts (1 count = 1 LSB = one quadrature state) with
 
 
 
-from amaranth.hdl import Module, Mux, Signal, signed
+from amaranth.hdl import Module, Mux, Signal, Value, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
@@ -109,7 +109,7 @@ class ServoPlant(Observed, wiring.Component):
         before = Signal(signed(POSITION_BITS))
         m.d.sync += before.eq(before + self.velocity)
         position = Signal(signed(POSITION_BITS))
-        m.d.comb += position.eq(before + self.velocity)
+        m.d.comb += position.eq(self.encoder_position(m, before + self.velocity))
         # The encoder lines follow the position; a fault input acts one cycle later, as if
         # it were registered with the lines.
         glitch_a = Signal()
@@ -128,6 +128,11 @@ class ServoPlant(Observed, wiring.Component):
             self.b_n.eq(~b),
         ]
         return m
+
+    def encoder_position(self, m: Module, motor: Value) -> Value:
+        """The position the encoder reads, given the motor's (here the motor's own)."""
+        del m
+        return motor
 
     def velocity_command(self, m: Module) -> Signal:
         """vc: the drive's velocity command, clamped to the speed limit (combinational)."""

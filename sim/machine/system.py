@@ -18,13 +18,19 @@ from sim.machine.plant import ServoPlant
 from sim.machine.plant_model import ALPHA_BITS, COUNT_BITS, GAIN_BITS, KF_BITS, VMAX_BITS
 from sim.machine.torque_drive import TorqueDrive
 from sim.machine.torque_drive_model import ACCEL_BITS, AFTER_BITS, KI_BITS
+from sim.machine.two_mass import TwoMassDrive
+from sim.machine.two_mass_model import SPRING_BITS
 
-#: The servo drive of each ``drive`` name: the first-order plant, or the torque drive.
-DRIVES: dict[str, type[ServoPlant]] = {"first_order": ServoPlant, "torque": TorqueDrive}
+#: The servo drive of each ``drive`` name: the first-order plant, the torque drive, or the
+#: two-mass drive.
+DRIVES: dict[str, type[ServoPlant]] = {"first_order": ServoPlant, "torque": TorqueDrive,
+                                       "two_mass": TwoMassDrive}
 #: The torque drive's own inputs (zero and unused on a first-order axis).
 TORQUE_INPUTS = ("beta", "ki", "fc", "load", "load_step", "load_after")
+#: The two-mass drive's own inputs beyond those (unused on the other drives).
+TWO_MASS_INPUTS = ("ks_m", "ks_t", "cs_m", "cs_t", "scale")
 
-__all__ = ["DRIVES", "TORQUE_INPUTS", "AxisProbe", "System"]
+__all__ = ["DRIVES", "TORQUE_INPUTS", "TWO_MASS_INPUTS", "AxisProbe", "System"]
 
 
 class AxisProbe(wiring.Signature):
@@ -38,6 +44,9 @@ class AxisProbe(wiring.Signature):
     beta, ki, fc, load, load_step, load_after : In
         The torque drive's parameters (:class:`sim.machine.torque_drive.TorqueDrive`); not
         connected on a first-order axis.
+    ks_m, ks_t, cs_m, cs_t, scale : In
+        The two-mass drive's (:class:`sim.machine.two_mass.TwoMassDrive`); connected on a
+        two-mass axis only.
     stall, glitch_a, glitch_b, break_a : In(1)
         Fault injection (see :class:`sim.machine.plant.ServoPlant`).
     command, error : Out(signed(COUNTER_WIDTH))
@@ -61,6 +70,7 @@ class AxisProbe(wiring.Signature):
             "beta": In(ALPHA_BITS), "ki": In(KI_BITS), "fc": In(ACCEL_BITS),
             "load": In(signed(ACCEL_BITS)), "load_step": In(signed(ACCEL_BITS)),
             "load_after": In(AFTER_BITS),
+            **{name: In(SPRING_BITS) for name in TWO_MASS_INPUTS[:-1]}, "scale": In(1),
             "stall": In(1), "glitch_a": In(1), "glitch_b": In(1), "break_a": In(1),
             "command": Out(signed(COUNTER_WIDTH)), "error": Out(signed(COUNTER_WIDTH)),
             "count": Out(signed(COUNT_BITS)), "dac": Out(16), "max_abs_error": Out(COUNTER_WIDTH),
@@ -138,6 +148,9 @@ class System(Observed, wiring.Component):
             if isinstance(plant, TorqueDrive):
                 m.d.comb += [getattr(plant, name).eq(getattr(probe, name))
                              for name in TORQUE_INPUTS]
+            if isinstance(plant, TwoMassDrive):
+                m.d.comb += [getattr(plant, name).eq(getattr(probe, name))
+                             for name in TWO_MASS_INPUTS]
             m.d.comb += [
                 plant.dac.eq(pins.dac), plant.dac_zero.eq(probe.dac_zero),
                 plant.gain.eq(probe.gain), plant.alpha.eq(probe.alpha),

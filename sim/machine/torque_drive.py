@@ -32,7 +32,7 @@ from sim.machine.plant import ServoPlant
 from sim.machine.plant_model import ALPHA_BITS, VC_BITS
 from sim.machine.torque_drive_model import ACCEL_BITS, AFTER_BITS, INTEGRAL_BITS, KI_BITS, KI_FRAC
 
-__all__ = ["TorqueDrive"]
+__all__ = ["TorqueDrive", "coulomb"]
 
 class TorqueDrive(ServoPlant):
     """:class:`sim.machine.plant.ServoPlant` with the velocity update of the module docstring.
@@ -67,6 +67,13 @@ class TorqueDrive(ServoPlant):
         return FreeRunning()
 
     def next_velocity(self, m: Module, vc: Signal):
+        v1 = Signal(signed(VC_BITS + 4))
+        m.d.comb += v1.eq(self.loop_velocity(m, vc) - self.disturbance(m))
+        return Mux(self.stall, 0, coulomb(v1, self.fc))
+
+    def loop_velocity(self, m: Module, vc: Signal):
+        """The velocity after the loop's torque and the viscous friction (the model's
+        ``loop_velocity``)."""
         v = self.velocity
         ev = Signal(signed(VC_BITS + 2))
         m.d.comb += ev.eq(vc - v)
@@ -74,16 +81,22 @@ class TorqueDrive(ServoPlant):
         integral_next = Signal(signed(INTEGRAL_BITS))
         m.d.comb += integral_next.eq(integral + ev * self.ki)
         m.d.sync += integral.eq(integral_next)
+        drive = Signal(signed(VC_BITS + ALPHA_BITS + 4))
+        m.d.comb += drive.eq((ev * self.alpha - v * self.beta + (1 << (ALPHA_BITS - 1)))
+                             .shift_right(ALPHA_BITS))
+        return v + drive + integral_next.shift_right(KI_FRAC)
+
+    def disturbance(self, m: Module):
+        """The load and, from cycle ``load_after`` on, the load step."""
         elapsed = Signal(AFTER_BITS)
         stepped = Signal()
         m.d.comb += stepped.eq((self.load_step != 0) & (elapsed >= self.load_after))
         with m.If((self.load_step != 0) & ~stepped):
             m.d.sync += elapsed.eq(elapsed + 1)
-        drive = Signal(signed(VC_BITS + ALPHA_BITS + 4))
-        m.d.comb += drive.eq((ev * self.alpha - v * self.beta + (1 << (ALPHA_BITS - 1)))
-                             .shift_right(ALPHA_BITS))
-        v1 = Signal(signed(VC_BITS + 4))
-        m.d.comb += v1.eq(v + drive + integral_next.shift_right(KI_FRAC) - self.load
-                          - Mux(stepped, self.load_step, 0))
-        return Mux(self.stall, 0, Mux(v1 > self.fc, v1 - self.fc,
-                                      Mux(v1 < -self.fc, v1 + self.fc, 0)))
+        return self.load + Mux(stepped, self.load_step, 0)
+
+
+def coulomb(velocity: Signal, fc: Signal):
+    """``velocity`` less Coulomb friction ``fc``, which never reverses it (the model's
+    :func:`~sim.machine.torque_drive_model.coulomb`)."""
+    return Mux(velocity > fc, velocity - fc, Mux(velocity < -fc, velocity + fc, 0))

@@ -17,7 +17,7 @@ from sim.machine.plant_model import (
 )
 
 __all__ = ["ACCEL_BITS", "AFTER_BITS", "INTEGRAL_BITS", "KI_BITS", "KI_FRAC", "TorqueDriveModel",
-           "TorqueParams"]
+           "TorqueParams", "coulomb"]
 
 #: Fraction bits of ki (a velocity-loop integral gain per cycle^2 is tiny: 1e-8 and below).
 KI_FRAC = 40
@@ -63,7 +63,7 @@ class TorqueParams:
                                  f"drive's {ALPHA_BITS}-bit coefficients)")
         if self.ki >= 1 << KI_BITS:
             raise ValueError("ti is too short for the clock (ki must fit in 32 bits)")
-        if self.fc_word >= 1 << ACCEL_BITS or abs(self.torque_word(self.load)) >= 1 << (
+        if self.fc_word >= 1 << ACCEL_BITS or abs(self.disturbance_word(self.load)) >= 1 << (
                 ACCEL_BITS - 1):
             raise ValueError("fc and load must be below the drive's torque range")
 
@@ -91,9 +91,14 @@ class TorqueParams:
         per_s2 = torque / self.ja * self.counts_per_rev / (2 * math.pi)  # counts/s^2
         return round(per_s2 / self.clock_hz ** 2 * (1 << FRAC_BITS))
 
+    def disturbance_word(self, torque: float) -> int:
+        """A disturbance or friction torque (N m at the motor) as the drive's ``fc``, ``load``
+        and ``load_step`` ports take it: here :meth:`torque_word`."""
+        return self.torque_word(torque)
+
     @property
     def fc_word(self) -> int:
-        return self.torque_word(self.fc)
+        return self.disturbance_word(self.fc)
 
 
 @dataclass
@@ -110,16 +115,29 @@ class TorqueDriveModel(ServoPlantModel):
     integral: int = 0
     elapsed: int = 0
 
-    def cycle(self, dac: int, stall: bool = False, com: int = 0) -> None:
+    def loop_velocity(self, dac: int, com: int) -> int:
+        """The velocity after the velocity loop's torque and the viscous friction, before the
+        disturbance and Coulomb friction (advances the integral)."""
         v = self.velocity
         ev = self.command(dac, com) - v
         self.integral += ev * self.ki
+        drive = (ev * self.alpha - v * self.beta + (1 << (ALPHA_BITS - 1))) >> ALPHA_BITS
+        return v + drive + (self.integral >> KI_FRAC)
+
+    def disturbance(self) -> int:
+        """The load and, from cycle ``load_after`` on, the load step (advances the count)."""
         stepped = self.load_step != 0 and self.elapsed >= self.load_after
         if self.load_step != 0 and not stepped:
             self.elapsed += 1
-        drive = (ev * self.alpha - v * self.beta + (1 << (ALPHA_BITS - 1))) >> ALPHA_BITS
-        v1 = v + drive + (self.integral >> KI_FRAC) - self.load - (self.load_step if stepped
-                                                                   else 0)
-        v1 = v1 - max(-self.fc, min(self.fc, v1))
+        return self.load + (self.load_step if stepped else 0)
+
+    def cycle(self, dac: int, stall: bool = False, com: int = 0) -> None:
+        v1 = self.loop_velocity(dac, com) - self.disturbance()
+        v1 = coulomb(v1, self.fc)
         self.velocity = 0 if stall else wrap(v1, VC_BITS + 1)
         self.position = wrap(self.position + self.velocity, POSITION_BITS)
+
+
+def coulomb(velocity: int, fc: int) -> int:
+    """``velocity`` less Coulomb friction ``fc``, which never reverses it."""
+    return velocity - max(-fc, min(fc, velocity))

@@ -1,6 +1,7 @@
 """The profile-error paper (reducing the profile error of multi-axis control by tuning): the steady
-following error of its eq. (9) and the ballbar error of unequal axes, section 11 of
-``k37 reproduce``.
+following error of its eq. (9), the ballbar error of unequal axes, and the natural frequencies
+of its two-mass feed drive (Table 1, eqs. (1)-(4); :mod:`sim.reproduce.resonance`), section 11
+of ``k37 reproduce``.
 
 The paper's eq. (9): e_t = (Ka + Ts) F with Ka = (D / (Vg Kt) + 1 - Kf) / Kp; its tuning makes
 Kp, Ts and D / (Vg Kt) + 1 - Kf equal on every axis, with Kf = 1 + D / (Vg Kt) (eq. (10))
@@ -19,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from firmware_model.job import AxisAccelConfig, MachineConfig, ServoConfig
+from sim.reproduce import resonance
 from sim.reproduce.markdown import Section, pyplot, save_figure
 from sim.reproduce.runs import RateSpec, RunData, RunSpec, Scale, Specs, Trace
 from sim.reproduce.theory import following_error, hardware_tau, mismatch_amplitude
@@ -41,9 +43,8 @@ TS_COMMON = 0.028
 DBB_UM = (13.5, 11.4, 7.1)
 #: Ts = 2^14 / fa = 28 ms (2^15 would need fa above the 1 MHz clock).
 MACHINE = MachineConfig(accel="post", accel_bits=14, accel_fa_hz=2**14 / TS_COMMON)
-#: X's own circuit in the Ts-mismatch run: 2^13 / fa = 14 ms (the circuits share fa, so
-#: their Ts differ by powers of 2: Table 10's 26 and 28 ms cannot be set).
-X_HALF_TS = AxisAccelConfig(accel_bits=13)
+#: X's own circuit in the Ts-mismatch run: its own addition clock, 2^14 / fa = 26 ms (Table 10).
+X_OWN_TS = AxisAccelConfig(accel_fa_hz=2**14 / TS_OWN["x"])
 #: The X line of the following-error runs (mm) and its feed (mm/min); the ballbar circle's
 #: radius (mm) and feed: the paper gives neither.
 LINE_MM, LINE_FEED = 20.0, 1000.0
@@ -75,15 +76,15 @@ def _line_specs() -> dict[str, RunSpec]:
 
 
 def _circle_specs(turns: int) -> dict[str, RunSpec]:
-    """The circles: Kp unequal (Table 8's largest), Ts unequal (X's circuit 2^13 / fa), and
-    both equal (Table 9)."""
+    """The circles: Kp unequal (Table 8's largest), Ts unequal (Table 10's 26 against 28 ms),
+    and both equal (Table 9)."""
     gcode = (f"G17 G21 G91 F{CIRCLE_FEED:g}\n" + f"G03 I{-RADIUS_MM:g} J0\n" * turns
              + "G04 P0.1\nM30")
     kp = {"kp_unequal": (AXES["x"]["kp_max"], AXES["z"]["kp_max"]),
           "ts_unequal": (KP_COMMON, KP_COMMON), "equal": (KP_COMMON, KP_COMMON)}
     return {f"s003_{name}": RunSpec(f"s003_{name}", "post", gcode, 1000, machine=MACHINE,
                                     servo={"x": _servo("x", kx), "y": _servo("z", ky)},
-                                    axis_accel=({"x": X_HALF_TS} if name == "ts_unequal"
+                                    axis_accel=({"x": X_OWN_TS} if name == "ts_unequal"
                                                 else {}))
             for name, (kx, ky) in kp.items()}
 
@@ -119,8 +120,9 @@ def _lag(axis: str, kp: float, ts: float) -> float:
 
 def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> Section:
     """Section 11's rows, text and figure ``seed003.png``."""
-    sec = Section(11, "The profile-error paper: the steady following error of eq. (9), and "
-                      "equal Kp and Ts across the axes shrinking the ballbar error",
+    sec = Section(11, "The profile-error paper: the steady following error of eq. (9), "
+                      "equal Kp and Ts across the axes shrinking the ballbar error, and the "
+                      "natural frequencies of its two-mass feed drive",
                   tuple(key for key in specs if key.startswith("s003_")))
     ts = hardware_tau(MACHINE)
     speed = MACHINE.lsb_per_s(LINE_FEED)
@@ -140,7 +142,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
     circles = {name: _ballbar(runs[f"s003_{name}"], specs[f"s003_{name}"])
                for name in ("kp_unequal", "ts_unequal", "equal")}
     equal = circles["equal"]
-    ts_x = hardware_tau(replace(MACHINE, accel_bits=X_HALF_TS.accel_bits))
+    ts_x = hardware_tau(replace(MACHINE, accel_fa_hz=X_OWN_TS.accel_fa_hz))
     lags = {"kp_unequal": (_lag("x", AXES["x"]["kp_max"], ts),
                            _lag("z", AXES["z"]["kp_max"], ts)),
             "ts_unequal": (_lag("x", KP_COMMON, ts_x), _lag("z", KP_COMMON, ts)),
@@ -150,19 +152,16 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
     equal_cell = (f"equal (Kp {KP_COMMON:g}, Ts {1e3 * ts:.1f} ms): "
                   f"{equal.two_theta_amplitude:.2f} LSB (model {model['equal']:.2f}), "
                   f"circularity {equal.circularity:.1f}")
-    table10 = mismatch_amplitude(equal.path_speed, _lag("x", KP_COMMON, TS_OWN["x"]),
-                                 _lag("z", KP_COMMON, TS_OWN["z"]))
     for name, what, paper in (
             ("kp_unequal", f"Kp X {AXES['x']['kp_max']:g} / Z {AXES['z']['kp_max']:g} (each "
                            f"axis's largest, Table 8) against {KP_COMMON:g} / {KP_COMMON:g} "
                            f"(Table 9), Ts {1e3 * ts:.1f} ms",
              f"DBB amplitude {DBB_UM[0]} um (maker's settings), {DBB_UM[1]} (tuning 1), "
              f"{DBB_UM[2]} (tuning 2; Fig. 3 lost)"),
-            ("ts_unequal", f"Ts X {1e3 * ts_x:.1f} / Z {1e3 * ts:.1f} ms (Table 10's 26 / 28 "
-                           f"cannot be set) against {1e3 * ts:.1f} / {1e3 * ts:.1f} (Table 11), "
+            ("ts_unequal", f"Ts X {1e3 * ts_x:.1f} / Z {1e3 * ts:.1f} ms (Table 10, each axis "
+                           f"its own fa) against {1e3 * ts:.1f} / {1e3 * ts:.1f} (Table 11), "
                            f"Kp {KP_COMMON:g}",
-             f"Ts made equal (Table 10 to 11; no figure of its own); Table 10's Ts would "
-             f"give {table10:.1f} LSB here by the model")):
+             "Ts made equal (Table 10 to 11; no figure of its own)")):
         unequal = circles[name]
         sec.row(f"ballbar, R {RADIUS_MM:g} mm at F{CIRCLE_FEED:g}, Kf 0: {what}", paper,
                 f"2-theta amplitude {unequal.two_theta_amplitude:.2f} LSB (model "
@@ -193,11 +192,9 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
         f"given: here a circle of R {RADIUS_MM:g} mm at F{CIRCLE_FEED:g} on the X-Y plane "
         f"({_turns(scale)} turn(s) at scale `{scale.name}`, the first {SETTLE_DEG:g} "
         "degrees left out; the paper's X-Z plane), without feedforward so that Kp shows: "
-        "with each axis at the largest stable Kp of Table 8, with X's accel/decel twice as "
-        "fast as Z's, and with both equal (Table 9's Kp, Table 11's Ts). The machine's "
-        "per-axis accel/decel circuits share their addition clock fa, so their Ts differ by "
-        "powers of 2: Table 10's 26 and 28 ms cannot be set, and the Ts row runs 14 against "
-        f"28 ms instead (the model gives Table 10's mismatch {table10:.1f} LSB here). The "
+        "with each axis at the largest stable Kp of Table 8, with Table 10's own Ts on each "
+        "axis (X 26 ms, Z 28 ms: X's circuit has an addition clock of its own, "
+        "`[machine.x] accel_fa_hz`), and with both equal (Table 9's Kp, Table 11's Ts). The "
         "paper's amplitudes (13.5, 11.4, 7.1 um) come from settings it does not list (the "
         "maker's) and a circle it does not size: they are quoted, not compared.",
         "Read with corrections: section 3.4 prints the matching term as "
@@ -210,13 +207,16 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
         "loop's integral, no unit) is left out: with an integral the D droop vanishes, while "
         "eq. (9) keeps it.",
     ]
-    sec.figure = _figure(lines, circles, out)
+    jk = resonance.add_rows(sec)
+    sec.figure = _figure(lines, circles, jk, out)
     return sec
 
 
-def _figure(lines: dict[str, tuple], circles: dict[str, Ballbar], out: Path) -> str:
+def _figure(lines: dict[str, tuple], circles: dict[str, Ballbar], jk: resonance.JkStudy,
+            out: Path) -> str:
     plt = pyplot()
-    fig, (a, *polar) = plt.subplots(1, 3, figsize=(15, 4))
+    fig, (a, *polar, k) = plt.subplots(1, 4, figsize=(20, 4))
+    resonance.plot_jk(k, jk)
     for k, (trace, error, _, expected, kf) in enumerate(lines.values()):
         a.plot(trace.t, error, lw=0.8, color=f"C{k}", label=f"Kf {kf:.4f}")
         a.axhline(expected, color=f"C{k}", ls=":", lw=0.8)

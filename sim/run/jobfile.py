@@ -62,12 +62,17 @@ from hdl.common.params import Limit
 from sim.files import STDIO, InputError, read_input_text
 from sim.machine.plant_model import PlantParams
 from sim.machine.torque_drive_model import TorqueParams
+from sim.machine.two_mass_model import TwoMassParams
 
 __all__ = ["JobError", "job_from_data", "job_keys_markdown", "load_job", "load_step_fault",
            "plant_params", "read_toml", "servo_limits", "torque_params"]
 
-#: The torque drive's keys (used only with ``drive = "torque"``).
+#: The torque drive's keys (used only with ``drive = "torque"`` or ``"two_mass"``).
 TORQUE_KEYS = tuple(TorqueParams.limits())
+#: The two-mass drive's keys (used only with ``drive = "two_mass"``).
+TWO_MASS_KEYS = (*TwoMassParams.limits(), "scale")
+#: The drives with the torque drive's velocity loop.
+TORQUE_DRIVES = ("torque", "two_mass")
 
 
 class JobError(ValueError):
@@ -81,7 +86,7 @@ def servo_limits(machine: MachineConfig) -> dict[str, Limit]:
     speed = limits["max_speed"]
     return {**limits, "max_speed": speed.scaled(machine.mm_per_min(1.0), "mm/min",
                                                 f"{speed.note} and lsb_mm"),
-            **TorqueParams.limits()}
+            **TwoMassParams.limits()}
 
 
 def plant_params(machine: MachineConfig, servo: ServoConfig) -> PlantParams:
@@ -104,7 +109,11 @@ def plant_params(machine: MachineConfig, servo: ServoConfig) -> PlantParams:
 
 
 def torque_params(machine: MachineConfig, servo: ServoConfig) -> TorqueParams:
-    """The torque drive of one axis's ``servo`` on ``machine`` (ValueError naming a bad key)."""
+    """The torque drive of one axis's ``servo`` on ``machine``, or its two-mass drive
+    (:class:`~sim.machine.two_mass_model.TwoMassParams`); ValueError naming a bad key."""
+    if servo.drive == "two_mass":
+        return TwoMassParams(clock_hz=machine.clock_hz,
+                             **{name: getattr(servo, name) for name in TWO_MASS_KEYS})
     return TorqueParams(clock_hz=machine.clock_hz,
                         **{name: getattr(servo, name) for name in TORQUE_KEYS})
 
@@ -116,18 +125,18 @@ def load_step_fault(job: Job, axis: str, torque: float, at_s: float) -> dict[str
     if axis not in names:
         raise ValueError(f"no axis {axis!r}; the machine's axes are {', '.join(names)}")
     servo = job.servo[axis]
-    if servo.drive != "torque":
-        raise ValueError(f"a load step needs servo.{axis}.drive = \"torque\", not "
-                         f"{servo.drive!r}")
+    if servo.drive not in TORQUE_DRIVES:
+        raise ValueError(f"a load step needs servo.{axis}.drive = \"torque\" or "
+                         f"\"two_mass\", not {servo.drive!r}")
     Limit(unit="N m").check("load step torque", torque)
     # the time must be a cycle the simulated clock can count (2^64 cycles)
     Limit(0, ((1 << 64) - 1) / job.machine.clock_hz, unit="s").check("load step time", at_s)
     params = torque_params(job.machine, servo)
     try:
-        word = params.torque_word(torque)
+        word = params.disturbance_word(torque)
     except OverflowError:  # beyond any float: beyond the range below too
         word = 1 << 39
-    if word == 0 or abs(word) + abs(params.torque_word(params.load)) >= 1 << 39:
+    if word == 0 or abs(word) + abs(params.disturbance_word(params.load)) >= 1 << 39:
         raise ValueError(f"load step {torque!r} N m is 0 or beyond the drive's torque range")
     return {"load_step": word, "load_after": round(at_s * job.machine.clock_hz)}
 
@@ -271,9 +280,9 @@ class _TomlJob:
         servo = self.build(ServoConfig, values, prefix)
         try:
             plant_params(machine, servo)
-            for name, limit in TorqueParams.limits().items():
+            for name, limit in TwoMassParams.limits().items():
                 limit.check(name, getattr(servo, name))
-            if servo.drive == "torque":  # its fixed point (the keys are unused otherwise)
+            if servo.drive in TORQUE_DRIVES:  # its fixed point (the keys are unused otherwise)
                 torque_params(machine, servo)
         except (TypeError, ValueError) as e:
             self.fail(f"{prefix}{e}")

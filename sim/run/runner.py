@@ -52,9 +52,10 @@ from sim.files import OutputFailure, discard_temporary, keep_temporary, temporar
 if TYPE_CHECKING:
     from sim.machine.system import System
 from sim.machine.plant_model import dac_zero
+from sim.machine.two_mass_model import TwoMassParams
 from sim.run.contour import contour_summary
 from sim.run.fst import convert_in_child
-from sim.run.jobfile import plant_params, torque_params
+from sim.run.jobfile import TORQUE_DRIVES, plant_params, torque_params
 from sim.run.progress import ProgramPlan, Progress
 from sim.run.report import SCHEMA_VERSION, validate
 from sim.run.sampler import Sampler, SampleStore
@@ -157,12 +158,15 @@ def configure_plants(backend: Backend, job: Job,
         backend.set(f"{axis}__alpha", params.alpha)
         backend.set(f"{axis}__vmax", params.vmax)
         backend.set(f"{axis}__kf", params.kf_word)
-        if job.servo[axis].drive == "torque":
+        if job.servo[axis].drive in TORQUE_DRIVES:
             torque = torque_params(machine, job.servo[axis])
             for name, value in (("alpha", torque.alpha), ("beta", torque.beta),
                                 ("ki", torque.ki), ("fc", torque.fc_word),
-                                ("load", torque.torque_word(torque.load))):
+                                ("load", torque.disturbance_word(torque.load))):
                 backend.set(f"{axis}__{name}", value)
+            if isinstance(torque, TwoMassParams):
+                for name, value in torque.ports().items():
+                    backend.set(f"{axis}__{name}", value)
         backend.set(f"{axis}__dac_zero", dac_zero(machine.dac_bits))
         for name, value in faults.get(axis, {}).items():
             backend.set(f"{axis}__{name}", value)
