@@ -15,6 +15,7 @@ import os
 import pickle
 import re
 import time
+import weakref
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
@@ -166,7 +167,7 @@ class CxxrtlBackend(Backend):
                                           if facts["free_running"] else None)
         self._signed = set(facts["signed"])
         self._lib = lib = _load(self.model.path)
-        self._handle = lib.k37_create()
+        self._own(lib.k37_create())
         self._items = {lib.k37_name(self._handle, i).decode(): i
                        for i in range(lib.k37_count(self._handle))}
         # CXXRTL separates the hierarchy with spaces; names may hold dots (struct fields).
@@ -219,9 +220,15 @@ class CxxrtlBackend(Backend):
             "signed": signed,
             "free_running": base64.b64encode(pickle.dumps(free)).decode() if free else None}
 
+    def _own(self, handle: int) -> None:
+        """Hold the model instance ``handle``: it is destroyed by :meth:`close`, or when this
+        backend is collected, or at the interpreter's exit (before the library is unloaded)."""
+        self._handle = handle
+        self._destroy = weakref.finalize(self, self._lib.k37_destroy, handle)
+
     def reset(self) -> None:
-        self._lib.k37_destroy(self._handle)
-        self._handle = self._lib.k37_create()
+        self._destroy()
+        self._own(self._lib.k37_create())
         self._recording = None
         self._set_inits()
 
@@ -449,14 +456,10 @@ class CxxrtlBackend(Backend):
 
     def close(self) -> None:
         if self._handle:
-            self._lib.k37_destroy(self._handle)
+            self._destroy()
             self._handle = None
             # Any later call fails in Python rather than in C.
             self._lib = self._k37_get = self._k37_set = _Closed()
-
-    def __del__(self) -> None:
-        if getattr(self, "_handle", None):
-            self.close()
 
 
 class _Closed:
