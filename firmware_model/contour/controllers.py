@@ -29,18 +29,26 @@ from firmware_model.contour.geometry import Piece, piece
 from firmware_model.gcode.program import Move
 from firmware_model.job import ContourConfig
 
-__all__ = ["ContourController", "error_vector"]
+__all__ = ["ContourController", "error_vector", "nearest_on"]
+
+
+def nearest_on(pieces: Sequence[Piece], search: range, actual: np.ndarray
+               ) -> tuple[int, np.ndarray]:
+    """The piece among ``pieces[search]`` nearest to ``actual``, and its nearest point."""
+    best = min(((k, pieces[k].nearest(actual)[1]) for k in search),
+               key=lambda found: float((found[1] - actual) @ (found[1] - actual)))
+    return best
 
 
 def error_vector(controller: str, pieces: Sequence[Piece], running: int, reference: np.ndarray,
-                 actual: np.ndarray) -> np.ndarray:
+                 actual: np.ndarray, search: range | None = None) -> np.ndarray:
     """The contour error vector (LSB) of ``controller``'s model: from ``actual`` to its
     estimate of the nearest point of the path. ``pieces[running]`` is the move the reference
-    is on; the CEC searches it and its neighbours."""
+    is on; the CEC searches ``pieces[search]`` (default: that move and its neighbours)."""
     if controller == "cec":
-        nearest = [pieces[k].nearest(actual)[1]
-                   for k in range(max(running - 1, 0), min(running + 2, len(pieces)))]
-        return min(nearest, key=lambda q: float((q - actual) @ (q - actual))) - actual
+        if search is None:
+            search = range(max(running - 1, 0), min(running + 2, len(pieces)))
+        return nearest_on(pieces, search, actual)[1] - actual
     current = pieces[running]
     u, _ = current.nearest(reference)
     _, d1, d2 = current.derivatives(u)
@@ -75,14 +83,27 @@ class ContourController:
         self.pieces = [piece(move, axes) for move in moves]
         self.integral = np.zeros(axes)
         self.last: np.ndarray | None = None
+        #: The piece the CEC last found the tool's nearest point on.
+        self.foot = 0
 
     def correction(self, move_index: int, reference: np.ndarray,
                    actual: np.ndarray) -> np.ndarray:
         """The correction (LSB per axis) for this sample, with the program's move
         ``move_index`` (its item index) running."""
         c = self.config
-        error = error_vector(c.controller, self.pieces, self.index[move_index],
-                             np.asarray(reference, dtype=float), np.asarray(actual, dtype=float))
+        running = self.index[move_index]
+        actual = np.asarray(actual, dtype=float)
+        search = None
+        if c.controller == "cec":
+            # The tool lags the reference by many short moves (a spline's chords): its foot is
+            # tracked from sample to sample, never past the move after the running one.
+            start = min(max(self.foot - 1, 0), running)
+            search = range(start, min(max(self.foot + 3, start + 1), running + 2,
+                                      len(self.pieces)))
+            self.foot = nearest_on(self.pieces, search, actual)[0]
+            search = range(self.foot, self.foot + 1)
+        error = error_vector(c.controller, self.pieces, running,
+                             np.asarray(reference, dtype=float), actual, search)
         self.integral += error * self.period_s
         change = np.zeros_like(error) if self.last is None else error - self.last
         self.last = error
