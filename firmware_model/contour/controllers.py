@@ -35,9 +35,8 @@ __all__ = ["ContourController", "error_vector", "nearest_on"]
 def nearest_on(pieces: Sequence[Piece], search: range, actual: np.ndarray
                ) -> tuple[int, np.ndarray]:
     """The piece among ``pieces[search]`` nearest to ``actual``, and its nearest point."""
-    best = min(((k, pieces[k].nearest(actual)[1]) for k in search),
+    return min(((k, pieces[k].nearest(actual)[1]) for k in search),
                key=lambda found: float((found[1] - actual) @ (found[1] - actual)))
-    return best
 
 
 def error_vector(controller: str, pieces: Sequence[Piece], running: int, reference: np.ndarray,
