@@ -2,7 +2,8 @@
 backends run them cycle for cycle alike.
 
 The physics checks run the compiled backend (seconds of machine time); the equivalence check
-runs both backends on short random jobs with a contour controller sampling every 0.2 ms.
+runs both backends on short random jobs with a contour controller sampling every 0.2 ms, and
+the compiled backend skipping and stepping every cycle.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from test_backend_equivalence import same_on_both_backends
+from test_idle_skip import skipped_equals_stepped
 
 from firmware_model.job import ContourConfig, Job, MachineConfig, ServoConfig, parse_for_machine
 from sim.reproduce.seed002 import BEZIER_MM, Curve
@@ -83,3 +85,15 @@ def test_backends_agree_with_a_contour_controller(controller, random_moves):
     job, faults, _ = random_moves(11, "none", dwell=False)
     job = replace(job, contour=ContourConfig(controller=controller, period_ms=0.2))
     same_on_both_backends(job, faults)
+
+
+@pytest.mark.parametrize("controller", ["vgccc", "cec"])
+def test_skipping_idle_cycles_with_a_contour_controller_changes_no_signal(controller,
+                                                                          random_moves):
+    # The host's samples wake it between the chipset's events; a dwell between moves keeps
+    # the corrections held, and the skips come there and after the corrections are taken back.
+    job, faults, dwell = random_moves(6, "pre", dwell=True)  # no fault: every dwell runs
+    assert not faults
+    job = replace(job, contour=ContourConfig(controller=controller))
+    _, skipped = skipped_equals_stepped(job, faults, 1009)
+    assert skipped[3] > 0.3 * dwell * job.machine.clock_hz
