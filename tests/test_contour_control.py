@@ -15,6 +15,7 @@ from firmware_model.contour.controllers import ContourController, error_vector
 from firmware_model.contour.geometry import piece
 from firmware_model.gcode.parser import parse
 from firmware_model.job import ContourConfig
+from sim.run.jobfile import load_job
 
 
 @cache
@@ -100,3 +101,12 @@ def test_a_controller_needs_a_choice():
         ContourController(ContourConfig(), moves("G01 X1 F600"), 2, 0.001)
     with pytest.raises(ValueError, match="controller must be one of"):
         ContourConfig(controller="pid")
+
+
+def test_the_contour_table_reaches_the_job(tmp_path):
+    path = tmp_path / "job.toml"
+    path.write_text('[contour]\ncontroller = "vgccc"\nperiod_ms = 2\nkcp = 3\nkci = 0\n'
+                    'kcd = 0.1\n[program]\ngcode = "G01 X1 F100"\n')
+    job = load_job(path)
+    assert job.contour == ContourConfig("vgccc", 2.0, 3.0, 0.0, 0.1)
+    assert job.to_dict()["contour"]["controller"] == "vgccc"

@@ -282,7 +282,9 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
             f"{parabola.error[k]:.3f} mm",
             "the estimate off the contour error by more than half of it",
             abs(mine - parabola.error[k]) > parabola.error[k] / 2)
-    controlled = _controlled_rows(sec, runs, curves, bezier)
+    controlled = {key: _contour(runs[key], curves[name])
+                  for key, (name, _) in CONTOUR_RUNS.items()}
+    controlled_text = _controlled_rows(sec, controlled, bezier)
     sec.text += [
         "The contour-error paper simulates a two-axis plant (its Table 1: open loop gains "
         "10.3 and "
@@ -330,8 +332,8 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
         "chosen after seeing that the P-only tool turns the paper's overestimate into an "
         "underestimate.",
     ]
-    sec.text += controlled
-    sec.figure = _figure(got, curves, parabola.actual[k], out)
+    sec.text += controlled_text
+    sec.figure = _figure(got, controlled, curves, parabola.actual[k], out)
     return sec
 
 
@@ -345,12 +347,11 @@ def _cells(stats: tuple[float, ...]) -> str:
     return "/".join(f"{v:.3f}" for v in stats[:3]) + f" (std {stats[3]:.3f})"
 
 
-def _controlled_rows(sec: Section, runs: dict[str, RunData], curves: dict[str, Curve],
+def _controlled_rows(sec: Section, controlled: dict[str, _Contour],
                      bezier: _Contour) -> list[str]:
-    """Tables 2 and 3's rows: the host's contour controllers against their baselines, with
-    the text that states the assumptions."""
-    got = {(name, controller): _stats(_contour(runs[key], curves[name]).error)
-           for key, (name, controller) in CONTOUR_RUNS.items()}
+    """Tables 2 and 3's rows: the host's contour controllers (``controlled``, by run key)
+    against their baselines, with the text that states the assumptions."""
+    got = {CONTOUR_RUNS[key]: _stats(run.error) for key, run in controlled.items()}
     got["bezier", "none"] = _stats(bezier.error)
 
     def ratios(name: str, baseline: str) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -411,8 +412,8 @@ def _controlled_rows(sec: Section, runs: dict[str, RunData], curves: dict[str, C
     ]
 
 
-def _figure(got: dict[str, _Contour], curves: dict[str, Curve], machine_tool: np.ndarray,
-            out: Path) -> str:
+def _figure(got: dict[str, _Contour], controlled: dict[str, _Contour],
+            curves: dict[str, Curve], machine_tool: np.ndarray, out: Path) -> str:
     plt = pyplot()
     fig, (a, b, c) = plt.subplots(1, 3, figsize=(14, 4.2))
     for name, run in got.items():
@@ -424,7 +425,11 @@ def _figure(got: dict[str, _Contour], curves: dict[str, Curve], machine_tool: np
     a.set(title="the contour-error paper's curves (dashed) and the tool", xlabel="x (mm)",
           ylabel="y (mm)", aspect="equal")
     a.legend(fontsize=8)
-    b.set(title="contour error (P controller)", xlabel="time (s)", ylabel="mm")
+    for key, run in controlled.items():
+        name, controller = CONTOUR_RUNS[key]
+        b.plot(run.t, run.error, lw=0.8, label=f"{name}: {controller.upper()}")
+    b.set(title="contour error (P controller; host's VGCCC and CEC)", xlabel="time (s)",
+          ylabel="mm")
     b.legend(fontsize=8)
     curve = curves["parabola"]
     ref, tool = np.array(FIG6B["reference"]), np.array(FIG6B["tool"])
