@@ -21,6 +21,12 @@ polls both encoders' status: the encoder interface has no interrupt line (``docs
 a line fault is a flag), so this is how a broken line is seen while the axes move rather than
 only at the next block end. Any encoder fault stops the feed and the program, as an alarm
 does.
+
+With a contour controller (``[contour]``, :mod:`firmware_model.contour`) the timer ticks every
+``contour.period_ms`` instead, and its routine also reads each axis's COMMAND and ERROR
+counters, computes the correction and writes its change to each K3702's CORRECT register
+(correction pulses, at most 127 a write); after the last block the host takes the corrections
+back before it waits for the axes to settle.
 """
 
 from __future__ import annotations
@@ -29,6 +35,7 @@ import math
 from dataclasses import dataclass
 from typing import Protocol
 
+from firmware_model.contour.controllers import ContourController
 from firmware_model.gcode.parser import Dwell, Event, Item, Line, Program
 from firmware_model.gcode.program import Move
 from firmware_model.host import Host8085
@@ -39,6 +46,7 @@ from hdl.feed.divider_model import increment_for
 from hdl.feed.feed_rate_map import DIVIDER_WIDTH, FEED_BITS, fa_register
 from hdl.k3701.block import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
 from hdl.k3701.map import block_registers
+from hdl.k3702.map import K3702_MAP
 
 __all__ = ["BLOCK_HOST_SECONDS", "AlarmEvent", "BlockObserver", "BlockRecord", "EventRecord",
            "Firmware", "FirmwareError", "ProgramTime", "accel_lag_seconds", "check_program",
@@ -330,6 +338,11 @@ class Firmware:
         #: The program item running (None before the first) and the cycle it began.
         self.item: Item | None = None
         self.item_cycle = 0
+        contour = job.contour
+        #: The contour controller (None: none) and the corrections the axes hold (LSB).
+        self.contour = None if not contour.enabled else ContourController(
+            contour, job.program.moves, job.machine.axes, contour.period_ms / 1000)
+        self.held = [0] * job.machine.axes
 
     # -- initialisation ----------------------------------------------------------------------
 
@@ -372,6 +385,7 @@ class Firmware:
             else:
                 self._block(item)
         if not self.stopped and self.host.cycle < self.limit:
+            self._correct([0] * len(self.held))  # the corrections taken back
             self._settle()
         self.timed_out = self.host.cycle >= self.limit and not self.stopped
 
@@ -407,6 +421,9 @@ class Firmware:
     def _wait_block_end(self, record: BlockRecord) -> None:
         """Wait for interrupts; serve them until the K3701's data request ends the block. The
         timer interrupt wakes the host at every tick (multiples of the tick since reset)."""
+        if self.contour is not None:
+            self._wait_contour(record)
+            return
         host = self.host
         tick = max(1, round(TIMER_TICK_SECONDS * self.job.machine.clock_hz))
         chips = self._encoder_chips()
@@ -426,6 +443,54 @@ class Firmware:
                 host.work(host.timing.isr_exit)
             elif host.interrupts().any():
                 self._interrupt(record)
+
+    def _wait_contour(self, record: BlockRecord) -> None:
+        """:meth:`_wait_block_end` with a contour controller: its timer ticks every period
+        (multiples of the period since reset) into :meth:`_contour_sample`."""
+        host = self.host
+        period = max(1, round(self.job.contour.period_ms / 1000 * self.job.machine.clock_hz))
+        while record.end_cycle is None and not self.stopped:
+            left = self.limit - host.cycle
+            if left <= 0:
+                return
+            to_tick = period - host.cycle % period
+            waited = host.wait_interrupt(min(left, to_tick))
+            if host.interrupts().any():
+                self._interrupt(record)
+            elif waited == to_tick and host.cycle < self.limit:
+                self._contour_sample()
+
+    def _contour_sample(self) -> None:
+        """The contour timer's routine: the encoders' STATUS (their faults stop the program),
+        each axis's reference (COMMAND less the correction it holds) and actual position
+        (COMMAND - ERROR), then the new corrections."""
+        host = self.host
+        assert self.contour is not None and self.item is not None
+        host.work(host.timing.isr_entry)
+        statuses = {chip: host.read(chip, "STATUS") for chip in self._encoder_chips()}
+        reference, actual = [], []
+        for axis, held in zip(self.job.machine.axis_names, self.held, strict=True):
+            chip = f"K3702_{axis.upper()}"
+            command, error = host.read(chip, "COMMAND"), host.read(chip, "ERROR")
+            reference.append(command - held)
+            actual.append(command - error)
+        self._correct([round(float(c)) for c in
+                       self.contour.correction(self.item.index, reference, actual)])
+        self._encoder_faults(statuses)
+        host.work(host.timing.isr_exit)
+
+    def _correct(self, target: list[int]) -> None:
+        """Bring each axis's held correction to ``target`` (LSB, limited to half the D/A
+        range: beyond it the D/A word is saturated anyway) by CORRECT writes."""
+        limit = 1 << (self.job.machine.dac_bits - 1)
+        low, high = _CORRECT.bounds
+        for k, axis in enumerate(self.job.machine.axis_names):
+            change = max(-limit, min(limit, target[k])) - self.held[k]
+            self.held[k] += change
+            while change:
+                step = max(low, min(high, change))
+                self.host.write(f"K3702_{axis.upper()}", "CORRECT", step)
+                change -= step
 
     def _interrupt(self, record: BlockRecord | None) -> None:
         """The interrupt routine: alarm first (stop the feed), then the data request."""
@@ -510,6 +575,8 @@ class Firmware:
             self.alarms.append(AlarmEvent(None, host.cycle, "settle_timeout"))
 
 
+#: The K3702's correction-pulse register (K37's extension).
+_CORRECT = K3702_MAP["CORRECT"]
 #: How long the firmware waits for the axes to come into position after the last block.
 SETTLE_SECONDS = 5.0
 #: The settle loop's delay between polls (about 1 ms at 3.072 MHz).

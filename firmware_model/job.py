@@ -28,7 +28,8 @@ from hdl.feed.divider_model import rate_limit
 from hdl.feed.feed_rate_map import DIVIDER_WIDTH
 from hdl.k3702.map import K3702_MAP
 
-__all__ = ["AXES", "DEMO_GCODE", "AxisAccelConfig", "Boolean", "Job", "MachineConfig", "OneOf",
+__all__ = ["AXES", "CONTOUR_CONTROLLERS", "DEMO_GCODE", "AxisAccelConfig", "Boolean",
+           "ContourConfig", "Job", "MachineConfig", "OneOf",
            "OrAbsent", "RunConfig", "ServoConfig", "Valid", "demo_job", "gcode_job", "moves_z",
            "parse_for_machine"]
 
@@ -261,6 +262,35 @@ class RunConfig(_Checked):
                              "maximum, as a controller clamps it, with one warning")
 
 
+#: The host's contour controllers (``[contour] controller``): none, Koren's cross-coupled
+#: controller, Koren and Lo's variable-gain one, the contour-error paper's CEC.
+CONTOUR_CONTROLLERS = ("none", "ccc", "vgccc", "cec")
+
+
+@dataclass(frozen=True)
+class ContourConfig(_Checked):
+    """The host's contour controller (``[contour]``): sampled every ``period_ms``, it reads the
+    axes' positions over the bus and acts on them through each K3702's correction pulses
+    (:mod:`firmware_model.contour`)."""
+
+    controller: str = _key("none", OneOf(CONTOUR_CONTROLLERS),
+                           "contour controller: none, Koren's cross-coupled controller (ccc), "
+                           "Koren and Lo's variable-gain one (vgccc), or the contour-error "
+                           "paper's contour error controller (cec)")
+    period_ms: float = _key(1.0, Limit(0.05, 100.0, unit="ms"),
+                            "its sampling period (ms); the contour-error paper's: 1 ms")
+    kcp: float = _key(7.0, Limit(0.0, 1000.0), "proportional gain of its PID on the contour "
+                                               "error; the contour-error paper's: 7")
+    kci: float = _key(50.0, Limit(0.0, 1e5, unit="1/s"),
+                      "integral gain (1/s); the contour-error paper's: 50")
+    kcd: float = _key(0.5, Limit(0.0, 10.0, unit="s"),
+                      "derivative gain (s); the contour-error paper's: 0.5")
+
+    @property
+    def enabled(self) -> bool:
+        return self.controller != "none"
+
+
 @dataclass(frozen=True)
 class Job:
     """A machine, its servos and a parsed program; ``axis_accel``: the axes that have their own
@@ -272,6 +302,7 @@ class Job:
     program: Program
     run: RunConfig = field(default_factory=RunConfig)
     axis_accel: dict[str, AxisAccelConfig] = field(default_factory=dict)
+    contour: ContourConfig = field(default_factory=ContourConfig)
 
     def __post_init__(self) -> None:
         if self.axis_accel and self.machine.accel != Accel.POST.value:
@@ -301,7 +332,8 @@ class Job:
                    **{axis: config.to_dict() for axis, config in self.axis_accel.items()}}
         return {"name": self.name, "machine": machine,
                 "servo": {axis: self.servo[axis].to_dict() for axis in self.machine.axis_names},
-                "program": self.program.to_dict(), "run": self.run.to_dict()}
+                "program": self.program.to_dict(), "run": self.run.to_dict(),
+                "contour": self.contour.to_dict()}
 
 
 def demo_job() -> Job:

@@ -507,6 +507,11 @@ def cosimulate(chip: Chip, seed: int, cycles: int = CYCLES) -> int:
     """Run ``cycles`` random cycles on the Verilated export and the model; returns checks done."""
     checks = 0
     with VerilatedModel(built(chip.name)) as dut:
+        # A power-up reset first, as in Icarus: without it the time-0 falling edge counts
+        # the first cycle's inputs in the falling-edge registers.
+        dut.set("rst", 1)
+        dut.step()
+        dut.set("rst", 0)
         for t, (drive, expected) in enumerate(stimulus(chip, seed, cycles)):
             for name, value in drive.items():
                 dut.set(name, value)

@@ -185,6 +185,7 @@ def test_a_gcode_error_in_an_inline_program_names_the_job_files_own_line(tmp_pat
     ("[run]\nmax_time = 1\n" + PROGRAM, "run.max_time"),
     (PROGRAM + "tolerance = 1\n", "program.tolerance"),
     ("[machnie]\n" + PROGRAM, "machnie"),
+    ("[contour]\nkp = 1\n" + PROGRAM, "contour.kp"),
 ])
 def test_an_unknown_key_is_named_with_its_full_path(tmp_path, text, key):
     assert load_error(tmp_path, text) == f": unknown key {key}"
@@ -223,6 +224,9 @@ def test_an_unknown_key_is_named_with_its_full_path(tmp_path, text, key):
     ("[servo]\nmax_speed = 1e300", "servo.max_speed must be > 0 and < 3932160000 mm/min "
                                    "(48-bit speed limit at clock_hz and lsb_mm), not 1e+300"),
     ("[run]\nmax_time_s = 0", "run.max_time_s must be > 0 s, not 0"),
+    ("[contour]\ncontroller = 'pid'", "contour.controller must be one of 'none', 'ccc', "
+                                      "'vgccc', 'cec', not 'pid'"),
+    ("[contour]\nperiod_ms = 0", "contour.period_ms must be >= 0.05 and <= 100 ms, not 0"),
     ("name = 5", "name must be a non-empty string, not 5"),
     ("machine = 5", "machine must be a table, not 5"),
     ("servo = {x = 3}", "servo.x must be a table, not 3"),

@@ -117,6 +117,7 @@ def _streams(draw, length: int) -> list[Cycle]:
                 st.tuples(st.just("POSITION_ZONE"), st.integers(0, 300)),
                 st.tuples(st.just("ALARM_ZONE"), st.integers(0, 300)),
                 st.tuples(st.sampled_from(["COMMAND", "ERROR"]), _COUNTER_VALUES),
+                st.tuples(st.just("CORRECT"), st.integers(-128, 127)),
             ))
             cycles += _write(name, value, bits)
     return cycles
@@ -267,6 +268,38 @@ def test_clear_keeps_the_counts_of_its_own_cycle():
         assert (ctx.get(dut.command), ctx.get(dut.error)) == (1, 1)
 
     simulate(dut, bench)
+
+
+@pytest.mark.parametrize("inputs", [(0, 0, 0, 0), (1, 0, 0, 0), (0, 1, 1, 0), (1, 1, 1, 1)])
+def test_correction_pulses_move_command_and_error_together(inputs):
+    # Each CORRECT write adds its value to both counters, with the counts of its own cycle;
+    # the actual position (COMMAND - ERROR) only follows the feedback.
+    cycles = []
+    for value in (127, -128, 5, -1, 0):
+        cycles += _write("CORRECT", value, inputs) + _hold(inputs, 2)
+    _lockstep(cycles)
+    dut = K3702()
+
+    async def bench(ctx):
+        await ctx.tick()
+        for name, value in zip(INPUTS, inputs, strict=True):
+            ctx.set(getattr(dut, name), value)
+        await bus_write(ctx, dut.bus, K3702_MAP["CORRECT"].addr, (-100) & 0xFF)
+        com = inputs[0] - inputs[1]
+        fb = inputs[2] - inputs[3]
+        assert (ctx.get(dut.command), ctx.get(dut.error)) == (com, com - fb)
+        await ctx.tick()  # the correction acts here, with this cycle's counts
+        assert (ctx.get(dut.command), ctx.get(dut.error)) == (2 * com - 100,
+                                                              2 * (com - fb) - 100)
+        assert ctx.get(dut.command) - ctx.get(dut.error) == 2 * fb
+
+    simulate(dut, bench)
+
+
+def test_correction_pulses_wrap_with_the_counters():
+    cycles = (_write("COMMAND", MAX - 3) + _write("ERROR", MIN + 3) + [Cycle()]
+              + _write("CORRECT", 100) + _write("CORRECT", -128) + _hold((0, 0, 0, 0), 3))
+    _lockstep(cycles)
 
 
 # -- D/A word, zones, alarm -------------------------------------------------------------------
@@ -436,7 +469,9 @@ def test_byte_by_byte_read_of_running_error_counter_is_never_torn(start, inputs)
 
 def test_register_map_has_the_documented_layout():
     regs = {r.name: r for r in K3702_MAP}
-    assert K3702_MAP.version == 1
+    assert K3702_MAP.version == 2
+    assert (regs["CORRECT"].addr, regs["CORRECT"].width, regs["CORRECT"].signed) == (0x0F, 8,
+                                                                                     True)
     assert (regs["COMMAND"].width, regs["COMMAND"].signed) == (24, True)
     assert (regs["ERROR"].width, regs["ERROR"].signed) == (24, True)
     assert regs["DAC_BITS"].valid == (8, 16)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cache
 
 import numpy as np
 
@@ -150,9 +151,7 @@ class _Curve(_Move):
     code = ""
 
     def _path(self) -> ParabolicPath | ExponentialPath:
-        path = make_path(self.block)
-        assert isinstance(path, ParabolicPath | ExponentialPath)
-        return path
+        return _curve_path(self.block)
 
     def _curve(self) -> Callable[[np.ndarray], tuple[np.ndarray, ...]]:
         """The programmed curve in its frame: v, dv/dp and d2v/dp2 at an array of p."""
@@ -165,20 +164,37 @@ class _Curve(_Move):
         p, v = (rel[:, 1], rel[:, 0]) if path.swap else (rel[:, 0], rel[:, 1])
         return np.column_stack([path.su * p, v])
 
-    def polyline(self, count: int = 720) -> np.ndarray:
-        """``count`` absolute points along the programmed curve."""
+    @property
+    def extent(self) -> float:
+        """The end's abscissa p in the curve's frame (the curve runs over [0, extent])."""
+        return float(self._path().pe)
+
+    def at(self, p: np.ndarray) -> np.ndarray:
+        """Absolute (x, y) rows of the programmed curve at abscissae ``p`` of its frame."""
         path = self._path()
-        p = np.linspace(0.0, path.pe, count)
         v = self._curve()(p)[0]
         u = path.su * p
         rel = np.column_stack([v, u] if path.swap else [u, v])
         return rel + np.array(self.start[:2], dtype=float)
+
+    def polyline(self, count: int = 720) -> np.ndarray:
+        """``count`` absolute points along the programmed curve."""
+        return self.at(np.linspace(0.0, self.extent, count))
 
     def distances(self, points: np.ndarray) -> np.ndarray:
         """Distance of each absolute (x, y) row to the programmed curve between its ends
         (LSB)."""
         return curve_distances(self._curve(), self.frame(points),
                                (0.0, float(self._path().pe)))
+
+
+@cache
+def _curve_path(block: Block) -> ParabolicPath | ExponentialPath:
+    """The K3701's path of a curve's block (built once per block: the host evaluates it at
+    every contour sample)."""
+    path = make_path(block)
+    assert isinstance(path, ParabolicPath | ExponentialPath)
+    return path
 
 
 @dataclass(frozen=True)

@@ -37,6 +37,9 @@ class K3702(Observed, wiring.Component):
       no count is ever dropped;
     * reading byte 0 of COMMAND or ERROR (or STATUS) in cycle *t* snapshots the value shown
       in cycle *t* + 1, so the three bytes always belong to one counter value;
+    * a CORRECT write of *c* (K37's extension) whose byte is on the bus in cycle *t* adds
+      *c* to ``command`` and ``error`` at the falling edge of *t* + 1, with that cycle's
+      counts (it shows in *t* + 2), as *c* command pulses would;
     * the alarm interrupt rises together with ``alarm_n`` falling, when ``|error|`` enters
       the alarm zone, and holds until CMD.ack; a new interrupt needs a new entry.
 
@@ -108,8 +111,10 @@ class K3702(Observed, wiring.Component):
         def cmd(name: str):
             return regs.cmd.w_stb & regs.cmd.w_data[cmd_reg.field(name).offset]
 
-        # Counters: a load or clear sets the base value, the cycle's counts are added to it.
-        com_delta = self.com_pos - self.com_neg
+        # Counters: a load or clear sets the base value, the cycle's counts are added to it;
+        # the host's correction pulses (K37's CORRECT) count as command pulses.
+        correct = Mux(regs.correct.w_stb, regs.correct.w_data.as_signed(), 0)
+        com_delta = self.com_pos - self.com_neg + correct
         base_command = Mux(regs.command.w_stb, regs.command.w_data,
                            Mux(cmd("clear_command"), 0, self.command))
         base_error = Mux(regs.error.w_stb, regs.error.w_data,

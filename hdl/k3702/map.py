@@ -47,4 +47,11 @@ K3702_MAP = RegisterMap("K3702", 1, (
                                     "alarm zone in the same cycle wins"),
                  Field("clear", 3, 1, "clear STATUS.bad_config"),
              )),
-), doc="Position controller: command and error counters, D/A word, zones and alarm.")
+    Register("CORRECT", 0x0F, 8, Access.W,
+             "K37 extension, correction pulses: writing c adds c to both COMMAND and ERROR at "
+             "the falling edge of the cycle after the write, as c +COM pulses (or -c -COM "
+             "pulses) from the host would; the axis's actual position COMMAND - ERROR is "
+             "unchanged and the D/A word moves by c. A host's contour controller acts on the "
+             "axis through it; never written, the chip is the 1983 one", signed=True),
+), doc="Position controller: command and error counters, D/A word, zones and alarm; K37's "
+    "correction-pulse register CORRECT.")

@@ -72,7 +72,8 @@ class K3702Model:
                 return bank.values[counter]
             return 0 if command_bit(f"clear_{counter.lower()}") else current
 
-        com = com_pos - com_neg
+        # The host's correction pulses count as command pulses (K37's extension).
+        com = com_pos - com_neg + (bank.values["CORRECT"] if bank.w_stb("CORRECT") else 0)
         command = wrap(base("COMMAND", old.command) + com)
         error = wrap(base("ERROR", old.error) + com - fb_pos + fb_neg)
         alarm = int(abs(error) > bank.values["ALARM_ZONE"])

@@ -10,15 +10,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TypeVar
 
 import numpy as np
 
 from firmware_model.firmware import word_feed
-from firmware_model.gcode.parser import Arc, Line, parse
+from firmware_model.gcode.parser import Arc, Line, Program, parse
 from firmware_model.gcode.program import Parabola
-from firmware_model.job import AxisAccelConfig, Job, MachineConfig, ServoConfig
+from firmware_model.gcode.splines import Nurbs, SplineSpan
+from firmware_model.job import AxisAccelConfig, ContourConfig, Job, MachineConfig, ServoConfig
 from hdl.k3701.block import Block
 from sim.reproduce.paper import FEED_HIGH, FEED_LOW
 from sim.reproduce.theory import hardware_tau
@@ -76,6 +77,17 @@ SERVO = ServoConfig()
 _Move = TypeVar("_Move", Line, Arc, Parabola)
 
 
+def _with_curve(program: Program, curve: Nurbs, ends: tuple[float, ...]) -> Program:
+    """``program`` with its G01 chords carrying the exact curve between ``ends``."""
+    chords = [k for k, item in enumerate(program.items) if isinstance(item, Line)]
+    if len(chords) != len(ends) - 1:
+        raise ValueError(f"{len(chords)} chords for {len(ends) - 1} spans of the curve")
+    items = list(program.items)
+    for n, k in enumerate(chords):
+        items[k] = replace(items[k], curve=SplineSpan(curve, ends[n], ends[n + 1]))
+    return replace(program, items=tuple(items))
+
+
 @dataclass(frozen=True)
 class RunSpec:
     """One closed-loop run of a G-code program on the machine with ``accel``.
@@ -100,6 +112,12 @@ class RunSpec:
     servo: Mapping[str, ServoConfig] = field(default_factory=dict)
     #: Per-axis accel/decel circuits (``[machine.x]``, ...; the post placement only).
     axis_accel: Mapping[str, AxisAccelConfig] = field(default_factory=dict)
+    #: The host's contour controller (``[contour]``; default none).
+    contour: ContourConfig = field(default_factory=ContourConfig)
+    #: The exact curve the program's G01 chords cut, as a G5 spline's chords carry it: the
+    #: spline (LSB) and its parameter at every chord end, in order (the host's CEC and the
+    #: report measure against it).
+    exact: tuple[Nurbs, tuple[float, ...]] | None = None
 
     def __post_init__(self) -> None:
         if self.machine is not None and self.machine.accel != self.accel:
@@ -111,7 +129,10 @@ class RunSpec:
         program = parse(self.gcode, source=f"<{self.key}>", lsb_mm=machine.lsb_mm,
                         sqrt2=machine.sqrt2)
         servo = {axis: self.servo.get(axis, SERVO) for axis in machine.axis_names}
-        return Job(self.key, machine, servo, program, axis_accel=dict(self.axis_accel))
+        if self.exact is not None:
+            program = _with_curve(program, *self.exact)
+        return Job(self.key, machine, servo, program, axis_accel=dict(self.axis_accel),
+                   contour=self.contour)
 
     def move(self, kind: type[_Move]) -> _Move:
         """The program's first move (the one observed), which must be a ``kind``."""

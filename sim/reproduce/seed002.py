@@ -23,12 +23,13 @@ import numpy as np
 from numpy.polynomial import Polynomial
 
 from firmware_model.gcode.parser import Line, parse
-from firmware_model.job import MachineConfig, ServoConfig
+from firmware_model.gcode.splines import Nurbs
+from firmware_model.job import ContourConfig, MachineConfig, ServoConfig
 from sim.reproduce.markdown import Section, pyplot, save_figure
 from sim.reproduce.runs import RunData, RunSpec, Scale, Specs, Trace
 from sim.reproduce.theory import servo
 
-__all__ = ["BEZIER_MM", "FIG6B", "Curve", "section", "specs"]
+__all__ = ["BEZIER_MM", "CONTOUR_RUNS", "FIG6B", "TABLES", "Curve", "section", "specs"]
 
 #: The Bezier curve's control points (mm; the paper's Fig. 8): a closed loop of 299 mm.
 BEZIER_MM = ((0.0, 0.0), (50.0, -200.0), (150.0, 200.0), (0.0, 0.0))
@@ -40,6 +41,21 @@ FIG6B = {"reference": (13.738, -14.894), "tool": (8.490, -12.118), "radius": 7.8
 TABLE3_MEAN = 0.119
 #: Table 2: the variable-gain cross-coupling controller on the parabola (max, mean; mm).
 TABLE2_VGCCC = (0.327, 0.117)
+#: Tables 2 (parabola) and 3 (Bezier curve): max, mean and "RMS" contour error (mm) by
+#: controller ("none": the P controller alone).
+TABLES = {"parabola": {"vgccc": (0.327, 0.117, 0.113), "cec": (0.064, 0.016, 0.021)},
+          "bezier": {"none": (0.403, 0.119, 0.101), "cec": (0.017, 0.002, 0.004)}}
+#: Table 3's text: the CEC's mean contour error is "about 5 times" below the P controller's.
+TABLE3_FACTOR = 5
+#: Each curve's cubic Bezier control points (mm): the parabola's are its quadratic's raised
+#: to degree 3 (the tangents at its ends meet at (15, -30)).
+CONTROL_MM = {"bezier": BEZIER_MM, "parabola": ((0.0, 0.0), (10.0, -20.0), (20.0, -20.0),
+                                                (30.0, 0.0))}
+#: The runs with the host's contour controllers: key -> (curve, controller).
+CONTOUR_RUNS = {"s002_parabola_vgccc": ("parabola", "vgccc"),
+                "s002_parabola_cec": ("parabola", "cec"), "s002_bezier_cec": ("bezier", "cec")}
+#: How far the CEC / baseline ratios may be from the paper's (a factor either way).
+RATIO_TOLERANCE = 1.5
 #: The paper's feed (mm/s) and Table 1's plant: (open loop gain 1/s, time constant s).
 SPEED_MM_S = 60.0
 PLANT = {"x": (10.3, 0.035), "y": (10.0, 0.030)}
@@ -143,9 +159,26 @@ def specs(scale: Scale) -> Specs:
     parabola every 0.2 ms: Fig. 6(b) looks at one instant)."""
     chords = _CHORDS[scale.name]
     every = {"bezier": 1000, "parabola": 200}
-    return {f"s002_{name}": RunSpec(f"s002_{name}", "none", chords_gcode(curve, chords[name]),
-                                    every[name], machine=MACHINE, servo=SERVO)
-            for name, curve in _curves().items()}
+    curves = _curves()
+    plain = {f"s002_{name}": RunSpec(f"s002_{name}", "none", chords_gcode(curve, chords[name]),
+                                     every[name], machine=MACHINE, servo=SERVO)
+             for name, curve in curves.items()}
+    controlled = {key: RunSpec(key, "none", chords_gcode(curves[name], chords[name]), 1000,
+                               machine=MACHINE, servo=SERVO,
+                               contour=ContourConfig(controller=controller),
+                               exact=exact_curve(name, chords[name]))
+                  for key, (name, controller) in CONTOUR_RUNS.items()}
+    return plain | controlled
+
+
+def exact_curve(name: str, chords: int) -> tuple[Nurbs, tuple[float, ...]]:
+    """Curve ``name`` as a cubic spline (LSB) and its parameter at the ends of its ``chords``
+    chords of equal length (:func:`chords_gcode`'s): what the host's controller is told."""
+    curve = _curves()[name]
+    u, s = curve.arc_length()
+    ends = np.interp(np.linspace(0.0, s[-1], chords + 1), s, u)
+    points = tuple((x / MACHINE.lsb_mm, y / MACHINE.lsb_mm) for x, y in CONTROL_MM[name])
+    return Nurbs(points, (1.0,) * 4, 4), tuple(float(t) for t in ends)
 
 
 @dataclass(frozen=True)
@@ -195,7 +228,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
     """Section 10's rows, text and figure ``seed002.png``."""
     sec = Section(10, "The contour-error paper: uncompensated contouring of a parabola and a "
                       "Bezier curve, and the contour error vector",
-                  ("s002_bezier", "s002_parabola"))
+                  ("s002_bezier", "s002_parabola", *CONTOUR_RUNS))
     curves = _curves()
     chords = {name: sum(isinstance(item, Line)
                         for item in specs[f"s002_{name}"].job().program.items)
@@ -249,6 +282,9 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
             f"{parabola.error[k]:.3f} mm",
             "the estimate off the contour error by more than half of it",
             abs(mine - parabola.error[k]) > parabola.error[k] / 2)
+    controlled = {key: _contour(runs[key], curves[name])
+                  for key, (name, _) in CONTOUR_RUNS.items()}
+    controlled_text = _controlled_rows(sec, controlled, bezier)
     sec.text += [
         "The contour-error paper simulates a two-axis plant (its Table 1: open loop gains "
         "10.3 and "
@@ -296,12 +332,88 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
         "chosen after seeing that the P-only tool turns the paper's overestimate into an "
         "underestimate.",
     ]
-    sec.figure = _figure(got, curves, parabola.actual[k], out)
+    sec.text += controlled_text
+    sec.figure = _figure(got, controlled, curves, parabola.actual[k], out)
     return sec
 
 
-def _figure(got: dict[str, _Contour], curves: dict[str, Curve], machine_tool: np.ndarray,
-            out: Path) -> str:
+def _stats(errors: np.ndarray) -> tuple[float, float, float, float]:
+    """Max, mean, root mean square and standard deviation of ``errors``."""
+    return (float(errors.max()), float(errors.mean()), float(np.sqrt(np.mean(errors**2))),
+            float(errors.std()))
+
+
+def _cells(stats: tuple[float, ...]) -> str:
+    return "/".join(f"{v:.3f}" for v in stats[:3]) + f" (std {stats[3]:.3f})"
+
+
+def _controlled_rows(sec: Section, controlled: dict[str, _Contour],
+                     bezier: _Contour) -> list[str]:
+    """Tables 2 and 3's rows: the host's contour controllers (``controlled``, by run key)
+    against their baselines, with the text that states the assumptions."""
+    got = {CONTOUR_RUNS[key]: _stats(run.error) for key, run in controlled.items()}
+    got["bezier", "none"] = _stats(bezier.error)
+
+    def ratios(name: str, baseline: str) -> tuple[tuple[float, float], tuple[float, float]]:
+        """(max, mean) ratios CEC / baseline: the paper's and the emulator's."""
+        paper, cec = TABLES[name][baseline], TABLES[name]["cec"]
+        return ((cec[0] / paper[0], cec[1] / paper[1]),
+                (got[name, "cec"][0] / got[name, baseline][0],
+                 got[name, "cec"][1] / got[name, baseline][1]))
+
+    paper2, mine2 = ratios("parabola", "vgccc")
+    table2 = TABLES["parabola"]
+    sec.row("Table 2, parabola: variable-gain CCC against the CEC, max/mean/RMS contour error "
+            "(Table 1 plant, 60 mm/s, host sampling 1 ms)",
+            f"VGCCC {'/'.join(map(str, table2['vgccc']))} mm, CEC "
+            f"{'/'.join(map(str, table2['cec']))} mm; CEC / VGCCC: max {paper2[0]:.2f}, mean "
+            f"{paper2[1]:.2f}",
+            f"VGCCC {_cells(got['parabola', 'vgccc'])} mm, CEC "
+            f"{_cells(got['parabola', 'cec'])} mm; CEC / VGCCC: max {mine2[0]:.2f}, mean "
+            f"{mine2[1]:.2f}",
+            f"both ratios within a factor {RATIO_TOLERANCE} of the paper's (the absolute "
+            "values are not checked)",
+            all(1 / RATIO_TOLERANCE <= m / p <= RATIO_TOLERANCE
+                for m, p in zip(mine2, paper2, strict=True)))
+    paper3, mine3 = ratios("bezier", "none")
+    table3 = TABLES["bezier"]
+    sec.row("Table 3, Bezier curve: the P controller alone against the CEC, max/mean/RMS "
+            "contour error",
+            f"P {'/'.join(map(str, table3['none']))} mm, CEC "
+            f"{'/'.join(map(str, table3['cec']))} mm; CEC / P: max {paper3[0]:.3f}, mean "
+            f"{paper3[1]:.3f} (its text: \"about 5 times\" smaller)",
+            f"P {_cells(got['bezier', 'none'])} mm, CEC {_cells(got['bezier', 'cec'])} mm; "
+            f"CEC / P: max {mine3[0]:.3f}, mean {mine3[1]:.3f}",
+            f"CEC mean at most 1/{TABLE3_FACTOR} of the P controller's (the text's factor), "
+            "CEC max below P's",
+            mine3[1] <= 1 / TABLE3_FACTOR and mine3[0] < 1)
+    return [
+        "Tables 2 and 3 run the host's contour controllers (`[contour] controller`, "
+        "docs/guide/contour.md) on the same chords: every 1 ms the 8085 reads each axis's "
+        "COMMAND and ERROR over the bus and writes its correction to the K3702's "
+        "correction-pulse register. The chords carry the exact curve (a cubic Bezier curve; "
+        "the parabola's quadratic raised to degree 3), as a G5 spline's chords do, so the "
+        "CEC's nearest point and the VGCCC's osculating circle are the curve's. Assumptions "
+        "the paper leaves open: the VGCCC's gains are the CEC's PID (Kcp 7, Kci 50/s, "
+        "Kcd 0.5 s), so the two differ only in their contour error model; the distributor "
+        "applies the PID to the contour error vector component by component (the PID of the "
+        "error along the vector while its direction holds); the derivative is the plain "
+        "difference over one sample; the computation takes no time (the paper's PC), the "
+        "reads and writes take the 8085's.",
+        "RMS is read as the root mean square of the contour error over the samples while the "
+        "chords run; the paper's RMS below its mean (Table 2's VGCCC, Table 3's P controller) "
+        "cannot be that, so the standard deviation about the mean is shown beside it. The "
+        "rows accept on the ratio CEC / baseline: the absolute values depend on what the "
+        "paper leaves out (its friction, its interpolator's exact speed, its resolution), "
+        "and Table 3's 0.002 mm mean is below half of this emulator's 5 um LSB, where the "
+        "encoder's counts and the derivative of a quantised error set the CEC's floor. "
+        f"The CEC cuts the Bezier curve's mean contour error {1 / mine3[1]:.0f} times "
+        f"(the table: {1 / paper3[1]:.0f} times, the text: about {TABLE3_FACTOR} times).",
+    ]
+
+
+def _figure(got: dict[str, _Contour], controlled: dict[str, _Contour],
+            curves: dict[str, Curve], machine_tool: np.ndarray, out: Path) -> str:
     plt = pyplot()
     fig, (a, b, c) = plt.subplots(1, 3, figsize=(14, 4.2))
     for name, run in got.items():
@@ -313,7 +425,11 @@ def _figure(got: dict[str, _Contour], curves: dict[str, Curve], machine_tool: np
     a.set(title="the contour-error paper's curves (dashed) and the tool", xlabel="x (mm)",
           ylabel="y (mm)", aspect="equal")
     a.legend(fontsize=8)
-    b.set(title="contour error (P controller)", xlabel="time (s)", ylabel="mm")
+    for key, run in controlled.items():
+        name, controller = CONTOUR_RUNS[key]
+        b.plot(run.t, run.error, lw=0.8, label=f"{name}: {controller.upper()}")
+    b.set(title="contour error (P controller; host's VGCCC and CEC)", xlabel="time (s)",
+          ylabel="mm")
     b.legend(fontsize=8)
     curve = curves["parabola"]
     ref, tool = np.array(FIG6B["reference"]), np.array(FIG6B["tool"])

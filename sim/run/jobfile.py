@@ -26,6 +26,9 @@ TOML job::
     [run]                           # optional
     max_time_s = 10.0
 
+    [contour]                       # optional: the host's contour controller
+    controller = "cec"              # "none" | "ccc" | "vgccc" | "cec"
+
 Every value is checked when the job is loaded, against the limit of the block that has it: a
 machine key against the chipset's or the host's (:class:`firmware_model.job.MachineConfig`),
 a servo key (and each ``[servo.x]``/``[servo.y]`` override) against the simulated plant's
@@ -47,6 +50,7 @@ from typing import Any, NoReturn
 from firmware_model.gcode.parser import ARC_TOLERANCE_LIMIT, ARC_TOLERANCE_MM, Program
 from firmware_model.job import (
     AxisAccelConfig,
+    ContourConfig,
     Job,
     MachineConfig,
     OrAbsent,
@@ -236,7 +240,7 @@ class _TomlJob:
             self.fail(f"{prefix}{e}")
 
     def job(self) -> Job:
-        self.known(self.data, ("name", "machine", "servo", "program", "run"), "")
+        self.known(self.data, ("name", "machine", "servo", "program", "run", "contour"), "")
         name = self.data.get("name", self.path.stem)
         if not isinstance(name, str) or not name:
             self.fail(f"name must be a non-empty string, not {name!r}")
@@ -255,8 +259,10 @@ class _TomlJob:
                       for axis in machine.axis_names if axis in table}
         servo = self.servo(machine)
         run = self.build(RunConfig, self.table(self.data, "run", _names(RunConfig)), "run.")
+        contour = self.build(ContourConfig, self.table(self.data, "contour",
+                                                       _names(ContourConfig)), "contour.")
         try:
-            return Job(name, machine, servo, program, run, axis_accel)
+            return Job(name, machine, servo, program, run, axis_accel, contour)
         except ValueError as e:
             self.fail(str(e))
 
@@ -367,7 +373,8 @@ def job_keys_markdown() -> str:
     rows = ["Values that follow from other keys are those of the default machine.", "",
             "| key | default | values | meaning |", "|---|---|---|---|",
             "| name | the file's stem | a non-empty string | the job's name |"]
-    for table, config in (("machine", machine), ("servo", ServoConfig()), ("run", RunConfig())):
+    for table, config in (("machine", machine), ("servo", ServoConfig()), ("run", RunConfig()),
+                          ("contour", ContourConfig())):
         for f in fields(config):
             valid: Valid = config.valid(f.name)
             if table == "servo" and f.name in plant:  # type checked there, range the plant's
