@@ -133,8 +133,9 @@ def plan(block: Block) -> Plan:
         three = _coincident(a, b) if a.n and b.n else 0
         n, diag = path.n_long, a.n + b.n - three
         ends = (block.xe, block.ye, block.ze)
-        pulses = {f"{axis}{sign}": max(e if sign == "+" else -e, 0)
-                  for axis, e in zip("xyz", ends, strict=True) for sign in "+-"}
+        pulses = {"x+": max(block.xe, 0), "x-": max(-block.xe, 0),
+                  "y+": max(block.ye, 0), "y-": max(-block.ye, 0),
+                  "z+": max(block.ze, 0), "z-": max(-block.ze, 0)}
         return Plan(n, diag, fp_of_steps(n, diag - three, three, block.sqrt2), ends[:2], False,
                     pulses, block.ze)
     path = make_path(replace(block, ze=0))  # the arc; the helix is spread over its steps
