@@ -36,6 +36,7 @@ from hdl.k3701.block import (
     BlockError,
     Kind,
     Step,
+    check_coord,
     route,
     step_cost,
 )
@@ -128,11 +129,13 @@ def plan(block: Block) -> Plan:
     path comes back with ``error`` set (the chip would stop it with its ERROR bit).
     """
     if block.kind is Kind.LINEAR:
-        path = LinearPath(block.xe, block.ye, block.ze)
-        a, b = path.shorts.values()
-        three = _coincident(a, b) if a.n and b.n else 0
-        n, diag = path.n_long, a.n + b.n - three
         ends = (block.xe, block.ye, block.ze)
+        for name, end in zip(("Xe", "Ye", "Ze"), ends, strict=True):
+            check_coord(name, end)
+        # the DDA on the longest axis (LinearPath), counted without a walk
+        low, mid, n = sorted(map(abs, ends))
+        three = _coincident(Dda(low, n), Dda(mid, n)) if low else 0
+        diag = low + mid - three
         pulses = {"x+": max(block.xe, 0), "x-": max(-block.xe, 0),
                   "y+": max(block.ye, 0), "y-": max(-block.ye, 0),
                   "z+": max(block.ze, 0), "z-": max(-block.ze, 0)}
