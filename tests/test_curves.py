@@ -158,6 +158,17 @@ def test_g06_1_errors_name_line_column_and_reason(text, message):
     assert error_of(text).startswith(message)
 
 
-def test_three_axis_machine_refuses_exponentials():
-    with pytest.raises(GcodeError, match="three-axis K3701 has no exponential"):
-        parse("G91 F100 G06.1 X1 Y1 K5", source="t.ngc", axes=3)
+def test_three_axis_machine_plans_curves_in_xy_ending_exactly():
+    program = parse("G21 G91 F100 G01 Z0.5\nG06 X6 Y0 I3 J-2\nG06.1 X5 Y3 K4\n"
+                    "G06.2 X5 Y3 K-3", source="t.ngc", axes=3)
+    curves = program.items[1:]
+    assert [type(it) for it in curves] == [Parabola, Exponential, Exponential]
+    assert [it.end for it in curves] == [(6000, 0, 500), (11000, 3000, 500),
+                                         (16000, 6000, 500)]
+    assert all(it.block.ze == 0 and it.block.plane == 0 for it in curves)
+
+
+@pytest.mark.parametrize("text", ["G91 F100 G06 X6 Y0 Z1 I3 J-2", "G91 F100 G06.1 X1 Y1 Z-1 K5"])
+def test_a_curve_that_moves_z_is_refused_naming_it(text):
+    with pytest.raises(GcodeError, match=r"t.ngc:1:10: G06(\.1)?: the curve moves Z by "):
+        parse(text, source="t.ngc", axes=3)
