@@ -82,6 +82,14 @@ def test_parabola_distances_measure_the_true_curve_between_its_ends():
     assert item.distances(points) == pytest.approx([5, 10], abs=1e-6)
 
 
+def test_on_three_axes_curve_distances_count_the_height_off_the_curves_plane():
+    line, parabola = parse("G91 F100 G01 Z0.007\n" + SEED_002.split("\n", 1)[1],
+                           source="t.ngc", axes=3).items[:2]
+    points = np.array([[15_000, -15_005, 7], [15_000, -15_000, 19]], dtype=float)
+    assert parabola.start[2] == 7 and line.end[2] == 7
+    assert parabola.distances(points) == pytest.approx([5, 12], abs=1e-3)
+
+
 def test_firmware_refuses_a_parabola_faster_than_the_circular_step_rate():
     machine = MachineConfig()
     program = parse("G21 G91 F3000\nG06 X10 Y0 I5 J-2", source="p.ngc")

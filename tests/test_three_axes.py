@@ -72,6 +72,7 @@ def test_curves_in_a_program_that_moves_z_run_on_three_axes_ending_on_their_poin
     assert [b["end_command"] for b in r["blocks"]] == [list(it.end) for it in moves]
     assert [b["fp_pulses"] for b in r["blocks"]] == [it.plan.fp for it in moves]
     assert moves[4].end == (8000, 3000, 400)
+    assert r["path"]["max_contour_error"] < 10  # measured against the curves in space
 
 
 def test_a_curve_that_moves_z_is_refused_on_the_three_axis_machine():
@@ -94,7 +95,7 @@ def test_backends_give_identical_reports_and_traces_on_three_axes(accel, random_
     assert np.array_equal(py.samples, cc.samples)
 
 
-@pytest.mark.parametrize("seed", [13, pytest.param(19, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("seed", [13, pytest.param(18, marks=pytest.mark.slow)])
 def test_backends_give_identical_reports_and_traces_on_three_axes_with_curves(seed,
                                                                               random_moves):
     job, faults, _ = random_moves(seed, "pre", dwell=False, axes=3, curves=True)
