@@ -4,6 +4,8 @@ Amaranth's simulator, idle skipping exact; the job key and the automatic choice 
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from test_backend_equivalence import comparable
@@ -73,6 +75,17 @@ def test_curves_in_a_program_that_moves_z_run_on_three_axes_ending_on_their_poin
     assert [b["fp_pulses"] for b in r["blocks"]] == [it.plan.fp for it in moves]
     assert moves[4].end == (8000, 3000, 400)
     assert r["path"]["max_contour_error"] < 10  # measured against the curves in space
+
+
+def test_a_job_file_of_curves_on_a_three_axis_machine_runs_them_to_their_ends(job_file, k37):
+    path = job_file("G21 G90 F300\nG06 X3 Y0 I1.5 J-1\nG06.2 X5.5 Y1.5 K-1.5\nM30",
+                    machine="axes = 3")
+    done = k37("run", "-q", "--json", "-", str(path))
+    assert done.returncode == 0, done.stderr
+    report = json.loads(done.stdout)
+    assert "z" in report["axes"] and report["end_point"]["reached"]
+    assert [(b["kind"], b["end_command"]) for b in report["blocks"]] == [
+        ("parabolic", [3000, 0, 0]), ("exponential", [5500, 1500, 0])]
 
 
 def test_a_curve_that_moves_z_is_refused_on_the_three_axis_machine():
