@@ -133,6 +133,14 @@ def test_skipping_idle_cycles_changes_no_signal_of_the_three_axis_machine(accel,
     assert skipped[3] > 0.5 * dwell * job.machine.clock_hz
 
 
+def test_skipping_idle_cycles_changes_no_signal_of_a_three_axis_machine_drawing_curves(
+        random_moves):
+    job, faults, dwell = random_moves(13, "pre", dwell=True, axes=3, curves=True)
+    assert {"Parabola", "Exponential"} <= {type(it).__name__ for it in job.program.moves}
+    _, skipped = skipped_equals_stepped(job, faults, 10_007)
+    assert skipped[3] > 0.5 * dwell * job.machine.clock_hz
+
+
 def test_machine_axes_outside_2_and_3_is_refused_naming_the_key():
     with pytest.raises(ValueError, match="axes"):
         MachineConfig(axes=4)
