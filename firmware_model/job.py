@@ -378,9 +378,9 @@ def parse_for_machine(machine: MachineConfig, text: str, *, source: str, axes_gi
         try:
             program = parsed(replace(machine, axes=3))
         except GcodeError as error:
-            # A program only the two-axis chip runs (a parabola, an exponential) runs there;
-            # else the errors of the machine its words ask for: three axes where they name Z
-            # (or a plane with Z), two otherwise, never "two axes" hiding a real error.
+            # A program the three-axis machine refuses: the errors of the machine its words
+            # ask for, three axes where they name Z (or a plane with Z), two otherwise, never
+            # "two axes" hiding a real error.
             machine = replace(machine, axes=2)
             try:
                 return machine, parsed(machine)

@@ -34,15 +34,16 @@ def _make_job(gcode: str, machine: MachineConfig | None = None,
 
 def _random_moves(seed: int, accel: str, *, dwell: bool, axes: int = 2,
                   shape: str = "exponential", axis_shapes: dict[str, str] | None = None,
-                  servo: dict | None = None, axis_fa: tuple[str, ...] = ()
-                  ) -> tuple[Job, dict, float]:
+                  servo: dict | None = None, axis_fa: tuple[str, ...] = (),
+                  curves: bool = False) -> tuple[Job, dict, float]:
     """Three short random lines or full circles (each followed by a 50 to 150 ms dwell if
     ``dwell``) on a random small machine, and random faults: the job, its faults and the
     seconds of dwell. On three axes (``axes=3``) the lines move Z too and the circles are in
     a random plane, helical (their normal axis moving) half the time. ``shape``: the
     accel/decel circuit; ``axis_shapes``: per-axis circuits (post placement) with their own
     random widths; ``servo``: servo keys beside Kp and Tm; ``axis_fa``: axes (post placement)
-    whose circuits add at random addition clocks of their own."""
+    whose circuits add at random addition clocks of their own; ``curves``: a random parabola
+    and exponential (in XY) follow the moves."""
     rng = random.Random(seed)
     lines = [f"G21 G91 F{rng.choice((300, 1200, 2400))}"]
     seconds = 0.0
@@ -64,6 +65,13 @@ def _random_moves(seed: int, accel: str, *, dwell: bool, axes: int = 2,
             wait = rng.randint(50, 150) / 1000  # the axes settle in the first 10 to 40 ms
             lines.append(f"G04 P{wait}")
             seconds += wait
+    if curves:  # drawn after the moves, so that a seed's moves are the same either way
+        pe, vp = rng.randint(24, 40) * rng.choice((1, -1)), rng.randint(-4, 4)
+        xe, ye = rng.randint(20, 40) * rng.choice((1, -1)), rng.randint(5, 15)
+        k = rng.randint(25, 40) * rng.choice((1, -1))
+        lines += [f"G17 G06 X{pe / 1000:.3f} Y{rng.randint(-3, 3) / 1000:.3f} "
+                  f"I{pe / 2000:.4f} J{vp / 1000:.3f}",
+                  f"G06.{rng.choice((1, 2))} X{xe / 1000:.3f} Y{ye / 1000:.3f} K{k / 1000:.3f}"]
     lines.append("M30")
     machine = MachineConfig(accel=accel, accel_bits=rng.choice((4, 6, 8)), accel_shape=shape,
                             sqrt2=rng.random() < 0.5,

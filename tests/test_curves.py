@@ -82,6 +82,14 @@ def test_parabola_distances_measure_the_true_curve_between_its_ends():
     assert item.distances(points) == pytest.approx([5, 10], abs=1e-6)
 
 
+def test_on_three_axes_curve_distances_count_the_height_off_the_curves_plane():
+    line, parabola = parse("G91 F100 G01 Z0.007\n" + SEED_002.split("\n", 1)[1],
+                           source="t.ngc", axes=3).items[:2]
+    points = np.array([[15_000, -15_005, 7], [15_000, -15_000, 19]], dtype=float)
+    assert parabola.start[2] == 7 and line.end[2] == 7
+    assert parabola.distances(points) == pytest.approx([5, 12], abs=1e-3)
+
+
 def test_firmware_refuses_a_parabola_faster_than_the_circular_step_rate():
     machine = MachineConfig()
     program = parse("G21 G91 F3000\nG06 X10 Y0 I5 J-2", source="p.ngc")
@@ -158,6 +166,17 @@ def test_g06_1_errors_name_line_column_and_reason(text, message):
     assert error_of(text).startswith(message)
 
 
-def test_three_axis_machine_refuses_exponentials():
-    with pytest.raises(GcodeError, match="three-axis K3701 has no exponential"):
-        parse("G91 F100 G06.1 X1 Y1 K5", source="t.ngc", axes=3)
+def test_three_axis_machine_plans_curves_in_xy_ending_exactly():
+    program = parse("G21 G91 F100 G01 Z0.5\nG06 X6 Y0 I3 J-2\nG06.1 X5 Y3 K4\n"
+                    "G06.2 X5 Y3 K-3", source="t.ngc", axes=3)
+    curves = program.items[1:]
+    assert [type(it) for it in curves] == [Parabola, Exponential, Exponential]
+    assert [it.end for it in curves] == [(6000, 0, 500), (11000, 3000, 500),
+                                         (16000, 6000, 500)]
+    assert all(it.block.ze == 0 and it.block.plane == 0 for it in curves)
+
+
+@pytest.mark.parametrize("text", ["G91 F100 G06 X6 Y0 Z1 I3 J-2", "G91 F100 G06.1 X1 Y1 Z-1 K5"])
+def test_a_curve_that_moves_z_is_refused_naming_it(text):
+    with pytest.raises(GcodeError, match=r"t.ngc:1:10: G06(\.1)?: the curve moves Z by "):
+        parse(text, source="t.ngc", axes=3)

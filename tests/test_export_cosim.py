@@ -184,15 +184,17 @@ class K3701Chip(Chip):
         if cmd_reg.field("start").decode(cmd):
             v, ctrl = bank.values, bank.values["CTRL"]
             kind = Kind(ctrl_reg.field("circular").decode(ctrl))
+            # the curve modes: in CTRL on the two-axis build, in MODE on the three-axis one
+            where = regmap["MODE"] if "z" in self.axes else ctrl_reg
+            modes = v[where.name]
+            if where.field("exponential").decode(modes):
+                kind = Kind.EXPONENTIAL
+            elif where.field("parabolic").decode(modes):
+                kind = Kind.PARABOLIC
+            extra = {"swap": bool(where.field("swap").decode(modes)), "frac": v["E"]}
             if "z" in self.axes:  # the three-axis build: its third axis and plane
-                extra = {"ze": v["Z"], "plane": ctrl_reg.field("plane").decode(ctrl),
-                         "helix_steps": v["H"]}
-            else:  # the two-axis build: its parabolic and exponential types
-                if ctrl_reg.field("exponential").decode(ctrl):
-                    kind = Kind.EXPONENTIAL
-                elif ctrl_reg.field("parabolic").decode(ctrl):
-                    kind = Kind.PARABOLIC
-                extra = {"swap": bool(ctrl_reg.field("swap").decode(ctrl)), "frac": v["E"]}
+                extra |= {"ze": v["Z"], "plane": ctrl_reg.field("plane").decode(ctrl),
+                          "helix_steps": v["H"]}
             block = Block(kind, v["X"], v["Y"], v["I"], v["J"],
                           bool(ctrl_reg.field("cw").decode(ctrl)),
                           bool(ctrl_reg.field("sqrt2").decode(ctrl)),
@@ -203,7 +205,8 @@ class K3701Chip(Chip):
         status = regmap["STATUS"].encode(busy=out.busy, irq=out.irq, error=out.error,
                                          overrun=out.overrun)
         registers = {**{a.upper(): getattr(out, f"{a}m") for a in self.axes},
-                     "CTRL": bank.values["CTRL"], "STATUS": status}
+                     **{n: bank.values[n] for n in ("CTRL", "MODE") if n in bank.values},
+                     "STATUS": status}
         if write:
             bank.write(*write)
         bank.clock()
@@ -213,7 +216,7 @@ class K3701Chip(Chip):
 
 
 class K3701Chip3(K3701Chip):
-    """The three-axis K3701: Z and H registers, CTRL.plane routing, the Z step pulses."""
+    """The three-axis K3701: Z, H and MODE registers, CTRL.plane routing, the Z step pulses."""
 
     name, regmap, axes = "k3701_3axis", K3701_MAP_3, "xyz"
 

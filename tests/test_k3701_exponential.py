@@ -22,7 +22,6 @@ from firmware_model.gcode.curves import (
 )
 from hdl.k3701.block import COORD_MAX, Block, BlockError
 from hdl.k3701.datapaths.parabolic_model import ExponentialPath
-from hdl.k3701.map import block_registers
 from hdl.k3701.model import make_path, walk
 
 
@@ -114,11 +113,6 @@ def test_exponential_with_bad_data_is_refused(args, match):
 def test_host_refuses_curves_the_chip_cannot_draw(xe, ye, constant, log, match):
     with pytest.raises(CurveError, match=match):
         exponential_block(xe, ye, constant, log=log, sqrt2=False)
-
-
-def test_three_axis_chip_has_no_exponential():
-    with pytest.raises(ValueError, match="no exponential"):
-        block_registers(Block.exponential(10, 5, 20, 3, 0), axes=3)
 
 
 @settings(max_examples=8, deadline=None, derandomize=True)

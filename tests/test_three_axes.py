@@ -4,6 +4,8 @@ Amaranth's simulator, idle skipping exact; the job key and the automatic choice 
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from test_backend_equivalence import comparable
@@ -44,17 +46,53 @@ def test_a_program_in_the_xy_plane_keeps_the_papers_two_axes():
 
 
 @pytest.mark.parametrize("curve", ["G06 X6 Y0 I3 J-2", "G06.1 X5 Y3 K4", "G06.2 X5 Y3 K-3"])
-def test_a_curve_only_the_two_axis_chip_runs_gets_two_axes(curve):
+def test_a_curve_in_the_xy_plane_keeps_two_axes(curve):
     job = gcode_job("curve", f"G21 G90 F300\n{curve}\nM30", "<curve>")
     assert job.machine.axes == 2 and job.program.items[0].end[:2] in ((6000, 0), (5000, 3000))
 
 
-def test_a_curve_in_a_program_that_moves_z_is_refused_on_the_three_axis_machine():
-    # the program names Z, so its errors are the three-axis machine's: the curve, not the Z
-    with pytest.raises(GcodeError, match=r"^<both>:2:1: G06: the three-axis K3701 has no "
-                                         r"parabolic interpolation \(the two-axis machine runs "
-                                         r"it\)$"):
-        gcode_job("both", "G21 G90 F300\nG06 X6 Y0 I3 J-2\nG01 Z1\nM30", "<both>")
+#: Parabolas and exponentials between moves of Z: the three-axis machine runs them in XY.
+CURVES_AND_Z = """G21 G90 F300
+G01 Z0.2
+G06 X3 Y0 I1.5 J-1
+G01 Z0.4
+G06.1 X5.5 Y1.5 K2
+G06.2 X8 Y3 K-1.5
+G00 X0 Y0 Z0
+M30
+"""
+
+
+def test_curves_in_a_program_that_moves_z_run_on_three_axes_ending_on_their_points():
+    job = gcode_job("both", CURVES_AND_Z, "<both>")
+    assert job.machine.axes == 3
+    r = run_job(job, RunOptions(backend="cxxrtl")).report
+    assert r["status"] == "ok" and r["end_point"]["reached"]
+    moves = list(job.program.items)
+    assert [b["kind"] for b in r["blocks"]] == [
+        "linear", "parabolic", "linear", "exponential", "exponential", "linear"]
+    assert [b["end_command"] for b in r["blocks"]] == [list(it.end) for it in moves]
+    assert [b["fp_pulses"] for b in r["blocks"]] == [it.plan.fp for it in moves]
+    assert moves[4].end == (8000, 3000, 400)
+    assert r["path"]["max_contour_error"] < 10  # measured against the curves in space
+
+
+def test_a_job_file_of_curves_on_a_three_axis_machine_runs_them_to_their_ends(job_file, k37):
+    path = job_file("G21 G90 F300\nG06 X3 Y0 I1.5 J-1\nG06.2 X5.5 Y1.5 K-1.5\nM30",
+                    machine="axes = 3")
+    done = k37("run", "-q", "--json", "-", str(path))
+    assert done.returncode == 0, done.stderr
+    report = json.loads(done.stdout)
+    assert "z" in report["axes"] and report["end_point"]["reached"]
+    assert [(b["kind"], b["end_command"]) for b in report["blocks"]] == [
+        ("parabolic", [3000, 0, 0]), ("exponential", [5500, 1500, 0])]
+
+
+def test_a_curve_that_moves_z_is_refused_on_the_three_axis_machine():
+    with pytest.raises(GcodeError, match=r"^<z>:2:1: G06: the curve moves Z by 1.000 mm: the "
+                                         r"K3701's curves stay in their plane \(move Z with a "
+                                         r"line\)$"):
+        gcode_job("z", "G21 G90 F300\nG06 X6 Y0 Z1 I3 J-2\nM30", "<z>")
 
 
 @pytest.mark.parametrize("accel", ["pre", pytest.param("post", marks=pytest.mark.slow),
@@ -70,12 +108,35 @@ def test_backends_give_identical_reports_and_traces_on_three_axes(accel, random_
     assert np.array_equal(py.samples, cc.samples)
 
 
+@pytest.mark.parametrize("seed", [13, pytest.param(18, marks=pytest.mark.slow)])
+def test_backends_give_identical_reports_and_traces_on_three_axes_with_curves(seed,
+                                                                              random_moves):
+    job, faults, _ = random_moves(seed, "pre", dwell=False, axes=3, curves=True)
+    kinds = {type(item).__name__ for item in job.program.moves}
+    assert {"Parabola", "Exponential"} <= kinds and job.machine.axes == 3
+    results = {backend: run_job(job, RunOptions(backend=backend, max_cycles=60_000,
+                                                sample_every=25, faults=faults))
+               for backend in ("pysim", "cxxrtl")}
+    py, cc = results["pysim"], results["cxxrtl"]
+    assert comparable(py.report) == comparable(cc.report)
+    assert [b["kind"] for b in py.report["blocks"]][-2:] == ["parabolic", "exponential"]
+    assert np.array_equal(py.samples, cc.samples)
+
+
 @pytest.mark.parametrize(("accel", "seed"), [
     ("pre", 3), pytest.param("post", 4, marks=pytest.mark.slow),
     pytest.param("none", 5, marks=pytest.mark.slow)])
 def test_skipping_idle_cycles_changes_no_signal_of_the_three_axis_machine(accel, seed,
                                                                          random_moves):
     job, faults, dwell = random_moves(seed, accel, dwell=True, axes=3)
+    _, skipped = skipped_equals_stepped(job, faults, 10_007)
+    assert skipped[3] > 0.5 * dwell * job.machine.clock_hz
+
+
+def test_skipping_idle_cycles_changes_no_signal_of_a_three_axis_machine_drawing_curves(
+        random_moves):
+    job, faults, dwell = random_moves(13, "pre", dwell=True, axes=3, curves=True)
+    assert {"Parabola", "Exponential"} <= {type(it).__name__ for it in job.program.moves}
     _, skipped = skipped_equals_stepped(job, faults, 10_007)
     assert skipped[3] > 0.5 * dwell * job.machine.clock_hz
 

@@ -104,6 +104,16 @@ class Planner:
                             "runs it)")
         return target
 
+    def _check_curve_target(self, name: str, target: tuple[int, int, int]
+                            ) -> tuple[int, int, int]:
+        """A parabola's or an exponential's end: the K3701 runs them in a plane (and refuses
+        a third coordinate), so Z must stay."""
+        target = self._check_target(target)
+        if target[2] != self.position[2]:
+            raise PlanError(f"{name}: the curve moves Z by {self.mm(target[2] - self.position[2])}"
+                            f": the K3701's curves stay in their plane (move Z with a line)")
+        return target
+
     def spline(self, line_no: int, curve: Nurbs, target: tuple[int, int, int], feed: float, *,
                tolerance: float, feed_source: tuple[int, int, str] | None = None) -> None:
         """A spline in the XY plane from the position to ``target`` (its last control point,
@@ -137,11 +147,8 @@ class Planner:
     def parabola(self, line_no: int, target: tuple[int, int, int], tangent: tuple[int, int],
                  feed: float, *, feed_source: tuple[int, int, str] | None = None) -> None:
         """A parabola (G06) to ``target`` through the tangent point ``tangent`` (relative to
-        the start), on the two-axis chip: the three-axis build has no parabolic datapath."""
-        target = self._check_target(target)
-        if self.axes == 3:
-            raise PlanError("G06: the three-axis K3701 has no parabolic interpolation (the "
-                            "two-axis machine runs it)")
+        the start), in the XY plane (Z stays where it is)."""
+        target = self._check_curve_target("G06", target)
         xe, ye = target[0] - self.position[0], target[1] - self.position[1]
         try:
             block, result = parabola_block(self.position[:2], xe, ye, *tangent, self.sqrt2)
@@ -156,12 +163,10 @@ class Planner:
                     log: bool, feed: float, *,
                     feed_source: tuple[int, int, str] | None = None) -> None:
         """An exponential (G06.1), or with ``log`` a logarithm (G06.2), to ``target`` of
-        constant ``constant`` (LSB along X, or Y with ``log``), on the two-axis chip."""
-        target = self._check_target(target)
+        constant ``constant`` (LSB along X, or Y with ``log``), in the XY plane (Z stays
+        where it is)."""
         name = "G06.2" if log else "G06.1"
-        if self.axes == 3:
-            raise PlanError(f"{name}: the three-axis K3701 has no exponential interpolation "
-                            f"(the two-axis machine runs it)")
+        target = self._check_curve_target(name, target)
         xe, ye = target[0] - self.position[0], target[1] - self.position[1]
         try:
             block, result = exponential_block(xe, ye, constant, log=log, sqrt2=self.sqrt2)

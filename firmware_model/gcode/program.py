@@ -182,10 +182,13 @@ class _Curve(_Move):
         return self.at(np.linspace(0.0, self.extent, count))
 
     def distances(self, points: np.ndarray) -> np.ndarray:
-        """Distance of each absolute (x, y) row to the programmed curve between its ends
-        (LSB)."""
-        return curve_distances(self._curve(), self.frame(points),
-                               (0.0, float(self._path().pe)))
+        """Distance of each absolute (x, y) row, or (x, y, z) on a three-axis machine, to the
+        programmed curve between its ends (LSB; the curve lies at its start's z)."""
+        in_plane = curve_distances(self._curve(), self.frame(points[:, :2]),
+                                   (0.0, float(self._path().pe)))
+        if points.shape[1] < 3:
+            return in_plane
+        return np.hypot(in_plane, points[:, 2] - self.start[2])
 
 
 @cache
@@ -199,7 +202,7 @@ def _curve_path(block: Block) -> ParabolicPath | ExponentialPath:
 
 @dataclass(frozen=True)
 class Parabola(_Curve):
-    """A parabolic move (G06) on the two-axis chip.
+    """A parabolic move (G06) in the XY plane.
 
     ``xe, ye``: end relative to the start (LSB); ``i, j``: the tangent point P (the point
     whose tangent is parallel to the chord) relative to the start (LSB, as programmed).
@@ -222,7 +225,7 @@ class Parabola(_Curve):
 @dataclass(frozen=True)
 class Exponential(_Curve):
     """An exponential (G06.1) or, with ``log``, logarithmic (G06.2: an exponential of Y) move
-    on the two-axis chip.
+    in the XY plane.
 
     ``xe, ye``: end relative to the start (LSB); ``constant``: the curve's constant as
     programmed (LSB along its abscissa, X or with ``log`` Y). ``block`` and ``plan`` are the

@@ -41,15 +41,15 @@ G_CODES: dict[int, Code] = {
                           "arc over 180 degrees); an end equal to the start: a full circle"),
     _g(3): Code("motion", "CCW arc or helix, as G02"),
     _g(4): Code("non-modal", "dwell of P seconds"),
-    _g(6): Code("motion", "parabola (DIN 66025; two-axis machine, XY plane): X/Y the end, I/J "
-                          "the point whose tangent is parallel to the chord, relative to the "
-                          "start as arc centres; the parabola's axis parallel to X or Y"),
-    _g(6.1): Code("motion", "exponential (K37; two-axis machine, XY plane): X/Y the end, K "
-                            "the curve's constant, a length along X: y - y0 = (ye - y0) "
+    _g(6): Code("motion", "parabola (DIN 66025; XY plane): X/Y the end, I/J the point whose "
+                          "tangent is parallel to the chord, relative to the start as arc "
+                          "centres; the parabola's axis parallel to X or Y"),
+    _g(6.1): Code("motion", "exponential (K37; XY plane): X/Y the end, K the curve's "
+                            "constant, a length along X: y - y0 = (ye - y0) "
                             "(e^((x - x0) / K) - 1) / (e^((xe - x0) / K) - 1); K < 0 "
                             "flattens towards the end"),
-    _g(6.2): Code("motion", "logarithm (K37; two-axis machine, XY plane): the exponential of "
-                            "Y, as G06.1 with X and Y exchanged (K a length along Y): "
+    _g(6.2): Code("motion", "logarithm (K37; XY plane): the exponential of Y, as "
+                            "G06.1 with X and Y exchanged (K a length along Y): "
                             "y - y0 = K ln(1 + (x - x0) (e^((ye - y0) / K) - 1) / (xe - x0))"),
     _g(5): Code("motion", "cubic spline (XY plane): X/Y the end, I/J the first control point "
                           "from the start (after a G05 they may be left out: the previous "

@@ -4,7 +4,6 @@ and shape (:class:`hdl.chipset.chip.Chipset` builds the gateware from them)."""
 from __future__ import annotations
 
 import enum
-from dataclasses import replace
 
 from hdl.bus.registers import Register, RegisterMap
 from hdl.common.params import Limit
@@ -88,11 +87,9 @@ def chip_selects(axes: int = 2) -> dict[str, tuple[int, RegisterMap]]:
 
 
 #: What the host addresses: every chip of the largest chipset (the two-axis K3701's registers
-#: are at the same ports in the three-axis map, but for its exponential's E, beside them; the
-#: FEED chip's per-axis fa build, a superset of the plain chip's map).
-_HOST_CHIPS = {**chip_selects(3), "FEED": (CHIP_SELECTS["FEED"][0], FEED_MAP_AXIS_FA),
-               "K3701": (0, replace(
-    K3701_MAP_3, registers=(*K3701_MAP_3.registers, K3701_MAP["E"])))}
+#: are at the same ports in the three-axis map; the FEED chip's per-axis fa build, a superset
+#: of the plain chip's map).
+_HOST_CHIPS = {**chip_selects(3), "FEED": (CHIP_SELECTS["FEED"][0], FEED_MAP_AXIS_FA)}
 
 
 def _chip(chip: str) -> tuple[int, RegisterMap]:

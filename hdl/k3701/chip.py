@@ -58,8 +58,9 @@ class K3701(Observed, wiring.Component):
     axes : int
         2 (the paper's chip) or 3: the three-axis build (:data:`K3701_MAP_3`) steps lines in
         X, Y and Z (:class:`hdl.k3701.datapaths.linear.LinearDatapath3`), routes a block's axes to
-        the machine's by CTRL.plane (an arc runs in the plane's two axes) and moves a helix's third
-        axis with the arc's steps (:class:`hdl.k3701.datapaths.helix.HelixAxis`); its FP credit is
+        the machine's by CTRL.plane (an arc, a parabola or an exponential runs in the plane's two
+        axes, a curve's modes in MODE) and moves a helix's third axis with the arc's steps
+        (:class:`hdl.k3701.datapaths.helix.HelixAxis`); its FP credit is
         in quarter-FP units (a step moving 1, 2, 3 axes costs 1, 1.5, 1.75 FP with sqrt(2)
         control), the same timing as the two-axis chip for blocks without a third axis.
 

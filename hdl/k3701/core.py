@@ -68,8 +68,8 @@ class Axes:
         """One datapath per kind of :attr:`KINDS`, in that order (built once per elaboration)."""
         raise NotImplementedError
 
-    def new_kind(self, word: Value, ctrl: Register) -> Value:
-        """The type of a block starting now, from CTRL."""
+    def new_kind(self, regs: RegisterBank, word: Value, ctrl: Register) -> Value:
+        """The type of a block starting now, from CTRL (and the build's own registers)."""
         raise NotImplementedError
 
     def connect(self, m: Module, regs: RegisterBank, datapaths: list[Datapath]) -> None:
@@ -132,7 +132,7 @@ def build(chip: wiring.Component, axes: Axes) -> Module:
     credit = Signal(axes.CREDIT_WIDTH)
 
     word = regs.ctrl.w_data
-    new_kind = axes.new_kind(word, ctrl)
+    new_kind = axes.new_kind(regs, word, ctrl)
     start = regs.cmd.w_stb & regs.cmd.w_data[cmd.field("start").offset]
     m.d.comb += [
         regs.x.r_data.eq(xm),

@@ -64,23 +64,37 @@ K3701_MAP = RegisterMap("K3701", 1, (
        "of one block, step pulses out.")
 
 _CTRL = K3701_MAP["CTRL"]
+#: The curve modes: the two-axis chip's CTRL.parabolic, swap and exponential, which the
+#: three-axis chip keeps in MODE (its CTRL bits 5-6 are the plane).
+_MODES = ("parabolic", "swap", "exponential")
 #: The three-axis K3701 (``K3701(axes=3)``): the two-axis map, the third axis's Z, a helix's
-#: step count H and CTRL.plane (addresses from 0x10: the two-axis chip's stay as they are).
+#: step count H, CTRL.plane, and the curve modes in MODE (addresses from 0x10: the two-axis
+#: chip's stay as they are, E too).
 K3701_MAP_3 = RegisterMap("K3701", 1, (
-    *(replace(r, fields=(*(f for f in r.fields
-                           if f.name not in ("parabolic", "swap", "exponential")), Field(
+    *(replace(r, fields=(*(f for f in r.fields if f.name not in _MODES), Field(
         "plane", 5, 2, "the block's axes on the machine's: 0 (X, Y, Z) G17, 1 (Z, X, Y) "
-                       "G18, 2 (Y, Z, X) G19, 3 as 0; the arc runs in the first two")))
+                       "G18, 2 (Y, Z, X) G19, 3 as 0; an arc, a parabola or an exponential "
+                       "runs in the first two")))
       if r is _CTRL else r for r in K3701_MAP if r.name != "E"),
     Register("Z", 0x10, 24, Access.RW,
              f"three-axis chip: write: the third coordinate Ze of the end point (a line's, or "
-             f"a helix's travel along the plane's normal); read: remaining distance Zm "
-             f"({_COORD})", signed=True),
+             f"a helix's travel along the plane's normal; a parabola or an exponential is "
+             f"refused unless it is 0); read: remaining distance Zm ({_COORD})", signed=True),
     Register("H", 0x13, 24, Access.W,
              "three-axis chip, helix: the arc's step count N, over which the third axis makes "
              "its Ze moves, abs(Ze) <= N (a DDA on the arc's steps: it ends with the arc)"),
-), doc="Interpolator: linear and circular interpolation of one block, step pulses out. The "
-       "three-axis build adds Z, H and CTRL.plane.")
+    K3701_MAP["E"],
+    Register("MODE", 0x19, 8, Access.RW,
+             "three-axis chip: the next block's curve mode, beside CTRL (reads back; the host "
+             "writes it for every block)", fields=(
+                 Field("parabolic", 0, 1, "interpolation type parabolic (CTRL.circular is "
+                                          "then ignored)"),
+                 replace(_CTRL.field("swap"), offset=1),
+                 Field("exponential", 2, 1, "interpolation type exponential (CTRL.circular "
+                                            "and MODE.parabolic are then ignored)"))),
+), doc="Interpolator: linear, circular, parabolic and exponential (logarithmic) interpolation "
+       "of one block, step pulses out. The three-axis build adds Z, H, CTRL.plane and MODE "
+       "(the curve modes of the two-axis CTRL).")
 
 
 def k3701_map(axes: int) -> RegisterMap:
@@ -91,22 +105,22 @@ def k3701_map(axes: int) -> RegisterMap:
 def block_registers(block: Block, axes: int = 2) -> dict[str, int]:
     """The registers that load ``block`` into the K3701 of an ``axes``-axis chipset, in the
     order the host writes them (CTRL last; the block then runs on CMD.start). Lines leave I
-    and J as they are, and plain arcs H."""
+    and J as they are, and plain arcs H; the three-axis chip's MODE is written for every
+    block."""
     values = {"X": block.xe, "Y": block.ye}
     if axes == 3:
         values["Z"] = block.ze
-        if block.kind in (Kind.PARABOLIC, Kind.EXPONENTIAL):
-            raise ValueError(f"the three-axis K3701 has no {block.kind.name.lower()} "
-                             f"interpolation")
     if block.kind is not Kind.LINEAR:
         values |= {"I": block.i, "J": block.j}
         if block.ze:
             values["H"] = block.helix_steps
         if block.kind is Kind.EXPONENTIAL:
             values["E"] = block.frac
-    fields = ({"plane": block.plane} if axes == 3 else
-              {"parabolic": int(block.kind is Kind.PARABOLIC), "swap": int(block.swap),
-               "exponential": int(block.kind is Kind.EXPONENTIAL)})
+    modes = {"parabolic": int(block.kind is Kind.PARABOLIC), "swap": int(block.swap),
+             "exponential": int(block.kind is Kind.EXPONENTIAL)}
+    if axes == 3:
+        values["MODE"] = K3701_MAP_3["MODE"].encode(**modes)
+    fields = {"plane": block.plane} if axes == 3 else modes
     values["CTRL"] = k3701_map(axes)["CTRL"].encode(
         circular=int(block.kind is Kind.CIRCULAR), cw=int(block.cw), sqrt2=int(block.sqrt2),
         quadrant=block.quadrant - 1, **fields)

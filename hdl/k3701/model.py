@@ -17,6 +17,7 @@ Two layers:
 The three-axis K3701 (``axes=3``) takes a block in its own coordinates (first, second,
 third): a line moves all three (``LinearPath`` steps the longest of the three), an arc runs in
 the first two and a helix moves the third, the plane's normal, with the arc (``HelixPath``);
+a parabola or an exponential runs in the first two and is refused with a third coordinate;
 ``Block.plane`` routes the three to the machine's X, Y and Z
 (:func:`~hdl.k3701.block.route`).
 """
@@ -55,15 +56,16 @@ def make_path(block: Block) -> Path:
     """The algorithm for a block; raises :class:`BlockError` for data the chip refuses."""
     if block.kind is Kind.LINEAR:
         return LinearPath(block.xe, block.ye, block.ze)
+    if block.kind is Kind.CIRCULAR:
+        arc = CircularPath(block.xe, block.ye, block.i, block.j, block.cw, block.quadrant)
+        return HelicalPath(arc, HelixPath(block.ze, block.helix_steps)) if block.ze else arc
+    if block.ze:  # the three-axis chip: a curve runs in the block's first two axes only
+        raise BlockError(f"a {block.kind.name.lower()} block runs in its plane only: its third "
+                         f"coordinate Ze is {block.ze}, not 0")
     if block.kind is Kind.PARABOLIC:
         return ParabolicPath(block.xe, block.ye, block.i, block.j, block.swap)
-    if block.kind is Kind.EXPONENTIAL:
-        return ExponentialPath(block.xe, block.ye, block.i, block.cw, block.j, block.frac,
-                               block.swap)
-    arc = CircularPath(block.xe, block.ye, block.i, block.j, block.cw, block.quadrant)
-    if block.ze:
-        return HelicalPath(arc, HelixPath(block.ze, block.helix_steps))
-    return arc
+    return ExponentialPath(block.xe, block.ye, block.i, block.cw, block.j, block.frac,
+                           block.swap)
 
 
 def walk(block: Block) -> Iterator[Step]:
@@ -141,7 +143,9 @@ def plan(block: Block) -> Plan:
                   "z+": max(block.ze, 0), "z-": max(-block.ze, 0)}
         return Plan(n, diag, fp_of_steps(n, diag - three, three, block.sqrt2), ends[:2], False,
                     pulses, block.ze)
-    path = make_path(replace(block, ze=0))  # the arc; the helix is spread over its steps
+    # an arc without its helix (spread over its steps below); a curve as it is (refused
+    # with a third coordinate)
+    path = make_path(replace(block, ze=0) if block.kind is Kind.CIRCULAR else block)
     steps: list[Step] = []
     final = error = False
     while not final:
@@ -209,7 +213,8 @@ class K3701Model:
     ``axes=3``: the three-axis chip. Credit in quarter-FP units (an FP adds 4, a step costs
     :func:`step_cost`); the remaining distances xm, ym, zm are in block coordinates and the
     step pulses go to the machine axes CTRL.plane names (:func:`route`); a helix whose
-    |Ze| exceeds its step count N ends at the radius check with ERROR.
+    |Ze| exceeds its step count N ends at the radius check with ERROR, and a parabola or an
+    exponential with Ze other than 0 at the end of its setup.
     """
 
     def __init__(self, latency_linear: int = LATENCY_LINEAR,

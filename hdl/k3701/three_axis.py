@@ -1,12 +1,15 @@
-"""The three-axis K3701: the core with a 3-D linear datapath, the circular one and a helix.
+"""The three-axis K3701: the core with a 3-D linear datapath, the circular one and a helix,
+and the two-axis chip's parabolic datapath.
 
 A block is given in its own axes (first, second, third); CTRL.plane routes them to the
 machine's X, Y and Z (:data:`hdl.k3701.block.PLANES`). A line moves all three
 (:class:`hdl.k3701.datapaths.linear.LinearDatapath3`), an arc runs in the first two and a
 helix moves the third with the arc's steps (:class:`hdl.k3701.datapaths.helix.HelixAxis`); a
-helix of more third-axis moves than arc steps is refused. There is no parabolic or
-exponential datapath (see :data:`hdl.k3701.map.K3701_MAP_3`). The FP credit is in quarter-FP
-units: a step moving 1, 2 or 3 axes costs 4, 6 or 7 with sqrt(2) control.
+helix of more third-axis moves than arc steps is refused. A parabola or an exponential (MODE,
+the two-axis chip's CTRL.parabolic, swap and exponential) runs in the first two axes
+(:class:`hdl.k3701.datapaths.parabolic.ParabolicDatapath`); one with a third coordinate Ze
+other than 0 is refused at the end of its setup. The FP credit is in quarter-FP units: a step
+moving 1, 2 or 3 axes costs 4, 6 or 7 with sqrt(2) control.
 """
 
 from __future__ import annotations
@@ -25,36 +28,43 @@ from hdl.k3701.datapaths.base import Datapath, StepSignature, moves
 from hdl.k3701.datapaths.circular import CircularDatapath
 from hdl.k3701.datapaths.helix import HelixAxis
 from hdl.k3701.datapaths.linear import LinearDatapath3
+from hdl.k3701.datapaths.parabolic import ParabolicDatapath
+from hdl.k3701.map import K3701_MAP_3
+from hdl.k3701.two_axis import curve_inputs, curve_kind
 
 __all__ = ["ThreeAxes"]
+
+_MODE = K3701_MAP_3["MODE"]
 
 
 class ThreeAxes(Axes):
     """The three-axis build (:data:`hdl.k3701.map.K3701_MAP_3`)."""
 
-    KINDS = (Kind.LINEAR, Kind.CIRCULAR)
+    KINDS = (Kind.LINEAR, Kind.CIRCULAR, Kind.PARABOLIC)
     CREDIT_WIDTH = 4
 
     def datapaths(self) -> list[Datapath]:
-        return [LinearDatapath3(), CircularDatapath(axes=3)]
+        return [LinearDatapath3(), CircularDatapath(axes=3), ParabolicDatapath(axes=3)]
 
-    def new_kind(self, word: Value, ctrl: Register) -> Value:
-        return word[ctrl.field("circular").offset]
+    def new_kind(self, regs: RegisterBank, word: Value, ctrl: Register) -> Value:
+        return curve_kind(regs.mode.w_data, _MODE, word, ctrl)
 
     def connect(self, m: Module, regs: RegisterBank, datapaths: list[Datapath]) -> None:
         # the block's third axis: its remaining distance, its plane and an arc's helix
         self.zm = Signal(signed(24))
         zm = self.zm
         self.plane = Signal(2)
+        self.curve = Signal()  # the block is a parabola or an exponential
         m.submodules.helix = self.helix = helix = HelixAxis()
         arc = datapaths[Kind.CIRCULAR]
-        m.d.comb += [regs.z.r_data.eq(zm), helix.ze.eq(regs.z.w_data),
+        m.d.comb += [regs.z.r_data.eq(zm), regs.mode.r_data.eq(regs.mode.w_data),
+                     helix.ze.eq(regs.z.w_data),
                      helix.n.eq(regs.h.w_data),
                      helix.start.eq(arc.start), helix.advance.eq(arc.advance)]
 
     def block_inputs(self, block: wiring.PureInterface, regs: RegisterBank, word: Value,
                      ctrl: Register) -> list:
-        return [block.ze.eq(regs.z.w_data)]
+        return [block.ze.eq(regs.z.w_data), *curve_inputs(block, regs, regs.mode.w_data, _MODE)]
 
     def running_step(self, steps: list) -> list:
         # an arc's third axis is the helix's; an arc step moves one plane axis or two
@@ -66,10 +76,12 @@ class ThreeAxes(Axes):
         return [*steps[:Kind.CIRCULAR], arc, *steps[Kind.CIRCULAR + 1:]]
 
     def latch(self, regs: RegisterBank, word: Value, ctrl: Register) -> list:
-        return [self.zm.eq(regs.z.w_data), self.plane.eq(field_of(word, ctrl.field("plane")))]
+        return [self.zm.eq(regs.z.w_data), self.plane.eq(field_of(word, ctrl.field("plane"))),
+                self.curve.eq(self.new_kind(regs, word, ctrl) == Kind.PARABOLIC)]
 
     def setup_refusal(self, ready: Value) -> Value:
-        return ready & self.helix.error
+        # a helix steeper than its arc, a curve with a third coordinate
+        return ready & Mux(self.curve, self.zm != 0, self.helix.error)
 
     def credit(self, credit: Value, sqrt2: Value,
                step: Callable[[], SimpleNamespace]) -> tuple[Value, Value]:

@@ -1,7 +1,8 @@
 """The paper's two-axis K3701: the core with the linear, circular and parabolic datapaths.
 
 A block moves X and Y; CTRL.parabolic or CTRL.exponential runs the parabolic datapath (which
-also draws exponentials), else CTRL.circular picks the circular or the linear one. The FP
+also draws exponentials), else CTRL.circular picks the circular or the linear one
+(:func:`curve_kind`; the three-axis chip reads the same modes from its MODE register). The FP
 credit is in half-FP units: a step costs 2, a diagonal one 3 with sqrt(2) control.
 """
 
@@ -22,13 +23,29 @@ from hdl.k3701.datapaths.circular import CircularDatapath
 from hdl.k3701.datapaths.linear import LinearDatapath
 from hdl.k3701.datapaths.parabolic import ParabolicDatapath
 
-__all__ = ["DATAPATHS", "TwoAxes"]
+__all__ = ["DATAPATHS", "TwoAxes", "curve_inputs", "curve_kind"]
 
 #: The datapath of each interpolation type (the type is CTRL.parabolic or CTRL.exponential,
 #: else CTRL.circular): the parabolic datapath also runs exponentials (CTRL.exponential).
 DATAPATHS: dict[Kind, type[Datapath]] = {Kind.LINEAR: LinearDatapath,
                                          Kind.CIRCULAR: CircularDatapath,
                                          Kind.PARABOLIC: ParabolicDatapath}
+
+
+def curve_kind(modes: Value, where: Register, word: Value, ctrl: Register) -> Value:
+    """The type of a block starting now: parabolic (which runs exponentials too) if the curve
+    modes ``modes`` (the register ``where`` describes) name one, else circular or linear by
+    CTRL's value ``word``."""
+    return Mux(modes[where.field("parabolic").offset] | modes[where.field("exponential").offset],
+               Kind.PARABOLIC, word[ctrl.field("circular").offset])
+
+
+def curve_inputs(block: wiring.PureInterface, regs: RegisterBank, modes: Value,
+                 where: Register) -> list:
+    """The parabolic datapath's block inputs beyond the common ones, from the curve modes
+    ``modes`` (the register ``where`` describes) and E."""
+    return [block.swap.eq(modes[where.field("swap").offset]), block.e.eq(regs.e.w_data),
+            block.exponential.eq(modes[where.field("exponential").offset])]
 
 
 class TwoAxes(Axes):
@@ -40,14 +57,12 @@ class TwoAxes(Axes):
     def datapaths(self) -> list[Datapath]:
         return [DATAPATHS[k]() for k in self.KINDS]
 
-    def new_kind(self, word: Value, ctrl: Register) -> Value:
-        return Mux(word[ctrl.field("parabolic").offset] | word[ctrl.field("exponential").offset],
-                   Kind.PARABOLIC, word[ctrl.field("circular").offset])
+    def new_kind(self, regs: RegisterBank, word: Value, ctrl: Register) -> Value:
+        return curve_kind(word, ctrl, word, ctrl)
 
     def block_inputs(self, block: wiring.PureInterface, regs: RegisterBank, word: Value,
                      ctrl: Register) -> list:
-        return [block.swap.eq(word[ctrl.field("swap").offset]), block.e.eq(regs.e.w_data),
-                block.exponential.eq(word[ctrl.field("exponential").offset])]
+        return curve_inputs(block, regs, word, ctrl)
 
     def credit(self, credit: Value, sqrt2: Value,
                step: Callable[[], SimpleNamespace]) -> tuple[Value, Value]:

@@ -97,7 +97,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("synth", help="synthesise and place on an iCE40 (needs the fpga extra)")
     p.add_argument("--device", choices=list(DEVICES), default="ice40-hx8k")
     p.add_argument("--block", action="append", choices=names,
-                   help="block to synthesise (repeatable; default: every block and the top)")
+                   help="block to synthesise (repeatable; default: every block and the "
+                        "two-axis top, the three-axis builds being the ECP5 board's)")
     p.add_argument("--work-dir", help="keep netlists, logs and reports here")
     p.set_defaults(func=_cmd_synth)
     p = sub.add_parser("build", help="build a board's bitstream (needs the fpga extra)")
@@ -106,8 +107,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                        f"{b} {part}" for b, part in BOARDS.items()) + ")")
     p.add_argument("--out", help="output folder (default: build/BOARD)")
     p.add_argument("--axes", type=int, choices=(2, 3), default=3,
-                   help="the chipset's axes (2: the paper's, with the K3701's parabolic and "
-                        "exponential modes; 3: lines, arcs and helices in space)")
+                   help="the chipset's axes (2: the paper's; 3: lines, arcs and helices in "
+                        "space too; both with every K3701 mode)")
     p.add_argument("--plan-only", action="store_true",
                    help="write Amaranth's build plan, the pin map and no bitstream (no "
                         "toolchain needed)")

@@ -29,7 +29,8 @@ class Exportable:
 
     ``factory`` is ``"module:Class"``; ``params`` are constructor arguments (the defaults, the
     paper's values, otherwise); ``top`` marks the chipset top (synthesis reports it as the
-    total). The block's own ``probes`` name its output ports that are not pins of the chip;
+    total); ``ice40``: the iCE40 fit check synthesises it (the three-axis builds are the ECP5
+    board's). The block's own ``probes`` name its output ports that are not pins of the chip;
     its register maps are found in its module (every :class:`RegisterMap` there).
     """
 
@@ -38,6 +39,7 @@ class Exportable:
     title: str
     params: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))
     top: bool = False
+    ice40: bool = True
 
     def component(self) -> wiring.Component:
         """A new instance of the block."""
@@ -122,9 +124,11 @@ BLOCKS: tuple[Exportable, ...] = (
                params=_params(axis_fa=("x", "y", "z"))),
     Exportable("chipset", "hdl.chipset.chip:Chipset", "two-axis chipset top", top=True),
     Exportable("k3701_3axis", "hdl.k3701.chip:K3701",
-               "KM3701 three-axis build (3-D lines, planes, helices)", params=_params(axes=3)),
+               "KM3701 three-axis build (3-D lines, planes, helices, parabolas, exponentials)",
+               params=_params(axes=3), ice40=False),
     Exportable("chipset_3axis", "hdl.chipset.chip:Chipset",
-               "three-axis chipset top (machine.axes = 3)", params=_params(axes=3), top=True),
+               "three-axis chipset top (machine.axes = 3)", params=_params(axes=3), top=True,
+               ice40=False),
 )
 
 

