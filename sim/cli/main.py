@@ -8,7 +8,10 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from sim.cli import hardware, running, serving, studies
+import sim.cli.hardware
+import sim.cli.running
+import sim.cli.serving
+import sim.cli.studies
 from sim.cli.shared import check, interrupted, signals_interrupt, stopped
 
 __all__ = ["build_parser", "main"]
@@ -31,14 +34,14 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="k37", description="Cycle-accurate emulator of the TOKO KM3701/KM3702 NC chipset.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    running.add_commands(sub)
-    hardware.add_commands(sub)
-    serving.add_commands(sub)
+    sim.cli.running.add_commands(sub)
+    sim.cli.hardware.add_commands(sub)
+    sim.cli.serving.add_commands(sub)
     p = sub.add_parser("docs", help="write the generated documentation (register maps, JSON "
                                     "schema, job keys)")
     p.add_argument("-o", "--output", default="docs", help="folder (default: docs)")
     p.set_defaults(func=_cmd_docs)
-    studies.add_commands(sub)
+    sim.cli.studies.add_commands(sub)
     return parser
 
 
