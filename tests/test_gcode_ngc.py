@@ -10,6 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from firmware_model.gcode import ngc
+from firmware_model.gcode.lex import LexError, read_line
 from firmware_model.gcode.parser import GcodeError, parse
 
 
@@ -344,3 +345,29 @@ def few_blocks():
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(ngc, "MAX_BLOCKS", 2000)
         yield
+
+
+_PLAIN_WORDS = st.lists(st.tuples(
+    st.sampled_from("gmxyzijkrfspqnthlabcdeuvw@^o"),
+    st.from_regex(r"[+-]?(?:[0-9]{1,4}(?:\.[0-9]{0,3})?|\.[0-9]{1,3})", fullmatch=True),
+    st.sampled_from(["", " ", "\t", "  "])), max_size=8)
+
+
+@settings(max_examples=300, deadline=None, derandomize=True)
+@given(words=_PLAIN_WORDS, case=st.booleans(), lead=st.sampled_from(["", " ", "\t"]))
+def test_a_line_of_plain_words_reads_as_the_full_reader_reads_it(words, case, lead):
+    # a comment before the words sends a line through the full reader: what it reads must
+    # not change (columns three to the right)
+    text = lead + "".join(f"{letter.upper() if case else letter}{number}{blank}"
+                          for letter, number, blank in words)
+    try:
+        plain = read_line(text)
+    except LexError as e:
+        plain = (e.col, e.message)
+    try:
+        full = read_line("(c)" + text)
+        full = type(full)(tuple(w._replace(col=w.col - 3) for w in full.words),
+                          full.assignments, full.o)
+    except LexError as e:
+        full = (e.col - 3, e.message)
+    assert plain == full

@@ -3,6 +3,8 @@ M codes by modal group, and the error that refuses it."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from firmware_model.gcode.lex import Word
 from firmware_model.gcode.units import HINTS
 from firmware_model.gcode.words import (
@@ -37,6 +39,8 @@ class BlockWords:
         self.g: dict[str, tuple[int, Word]] = {}
         self.m: dict[str, tuple[int, Word]] = {}
         self.words: dict[str, Word] = {}
+        #: The word of a letter, or None.
+        self.word: Callable[[str], Word | None] = self.words.get
         for w in words:
             if w.letter in "GM":
                 self._code(w, G_CODES if w.letter == "G" else M_CODES,
@@ -68,6 +72,3 @@ class BlockWords:
 
     def code(self, group: str) -> int | None:
         return self.g[group][0] if group in self.g else None
-
-    def word(self, letter: str) -> Word | None:
-        return self.words.get(letter)

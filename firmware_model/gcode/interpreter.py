@@ -125,14 +125,11 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
                                    f"(machine.axes = 3 runs it)")
         return target[0], target[1], target[2]
 
-    def exact_target(self, b: BlockWords) -> tuple[float, float, float]:
-        """:meth:`target` before its words are rounded to the LSB grid (LSB)."""
-        target = [float(v) for v in self.pos]
-        for axis, letter in enumerate(AXIS_LETTERS):
-            w = b.word(letter)
-            if w is not None:
-                target[axis] = float(self.word_target(axis, w, self.incremental, False)[1])
-        return target[0], target[1], target[2]
+    def exact_target(self) -> tuple[float, float, float]:
+        """The last :meth:`target` before its words were rounded to the LSB grid (LSB)."""
+        x, y, z = (float(p if e is None else e) for p, e in zip(self.pos, self.pending_exact,
+                                                                strict=True))
+        return x, y, z
 
     def word_target(self, axis: int, w: Word, incremental: bool,
                     machine: bool) -> tuple[int, Decimal]:
@@ -143,7 +140,8 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
             exact = self.exact_pos(axis) + self.lsb_exact(w.value)
             return int(exact.to_integral_value(rounding=ROUND_HALF_UP)), exact
         base = self.base(axis, False, machine)
-        return base + self.lsb(w.value), base + self.lsb_exact(w.value)
+        exact = self.lsb_exact(w.value)  # rounded on its own, as lsb() rounds it
+        return base + int(exact.to_integral_value(rounding=ROUND_HALF_UP)), base + exact
 
     def base(self, axis: int, incremental: bool, machine: bool) -> int:
         """What an axis word adds to: the position (G91), the origin (G53), else the offsets."""
@@ -353,7 +351,7 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
         if "non-modal" in b.g and b.g["non-modal"][0] in (100, 280, 300, 520, 920):
             return  # their axis words are theirs
         axes = self.axis_words(b)
-        for letter in "IJKRQ":
+        for letter in "IJKRQ" if not b.words.keys().isdisjoint("IJKRQ") else ():
             w = b.word(letter)
             if w is not None and not self.uses(letter, b):
                 raise BlockError(w.col, f"{w.text}: {letter} is only for "
@@ -438,7 +436,7 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
                 centre.append(c)  # beyond the K3701's registers: the planner runs chords
         self.plan(anchor.col, self.planner.arc, target, (centre[0], centre[1]), self.plane,
                   cw, self.feed, tolerance=self.arc_tolerance(), feed_source=self.feed_source,
-                  exact=self.exact_target(b))
+                  exact=self.exact_target())
         self.keep_exact()
 
     def parabola(self, b: BlockWords, anchor: Word) -> None:

@@ -24,6 +24,7 @@ import re
 import unicodedata
 from dataclasses import dataclass, field
 from decimal import Decimal
+from typing import NamedTuple
 
 from firmware_model.gcode.expr import (
     FUNCTIONS,
@@ -44,6 +45,10 @@ __all__ = ["O_KEYWORDS", "Assignment", "Comment", "LexError", "NgcLine", "OState
 _BLANK = " \t\r"
 _NO_BLANKS = str.maketrans("", "", _BLANK)
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)")
+#: A line of words each written as a letter and a number, blanks only between words (most
+#: lines), lower case: read in one pass.
+_PLAIN_WORD = re.compile(r"([a-np-z])(" + _NUMBER.pattern + ")")
+_PLAIN_LINE = re.compile(f"(?:[{_BLANK}]*{_PLAIN_WORD.pattern})*[{_BLANK}]*")
 #: Deepest nesting of brackets and functions in one value.
 MAX_NESTING = 64
 #: O-word keywords and how many bracketed values each takes: (least, most).
@@ -56,8 +61,7 @@ O_KEYWORDS: dict[str, tuple[int, int]] = {
 _FUNCTION_NAMES = (*FUNCTIONS, "atan", "exists")
 
 
-@dataclass(frozen=True)
-class Word:
+class Word(NamedTuple):
     """A word: its letter (upper case), its text as normalised (``X-1.5``; a computed value:
     the letter and the value), its value and the column of its letter (from 1)."""
 
@@ -76,14 +80,13 @@ class LexError(ValueError):
         self.message = message
 
 
-@dataclass(frozen=True)
-class WordValue:
-    """A word before evaluation: ``literal`` its normalised text when written as a number."""
+class WordValue(NamedTuple):
+    """A word whose value is an expression (``X[1+2]``, ``Y#1``), before evaluation; a word
+    written as a number is read as its :class:`Word`."""
 
     letter: str
     node: Node
     col: int
-    literal: str | None = None
 
 
 @dataclass(frozen=True)
@@ -117,7 +120,7 @@ class Comment:
 
 @dataclass(frozen=True)
 class NgcLine:
-    words: tuple[WordValue, ...] = ()
+    words: tuple[Word | WordValue, ...] = ()
     assignments: tuple[Assignment, ...] = ()
     o: OStatement | None = None
     comments: tuple[Comment, ...] = field(default=())
@@ -365,7 +368,7 @@ class _Reader:
     def read(self) -> NgcLine:
         if self.peek() == "o":
             return NgcLine(o=self.o_statement(), comments=tuple(self.comments))
-        words: list[WordValue] = []
+        words: list[Word | WordValue] = []
         assignments: list[Assignment] = []
         while self.i < len(self.line):
             c, col = self.peek(), self.col()
@@ -382,12 +385,12 @@ class _Reader:
                 raise _bad(c, col)
         return NgcLine(tuple(words), tuple(assignments), None, tuple(self.comments))
 
-    def word(self, c: str, col: int) -> WordValue:
+    def word(self, c: str, col: int) -> Word | WordValue:
         letter = c.upper()
         start = self.i
-        node = self.number()
-        if node is not None:
-            return WordValue(letter, node, col, literal=letter + self.line[start:self.i])
+        if self.number() is not None:
+            text = self.line[start:self.i]
+            return Word(letter, letter + text, Decimal(text), col)
         nxt = self.peek()
         if nxt.isalpha():
             name = self.line[self.i:].split("[", 1)[0]
@@ -406,6 +409,11 @@ class _Reader:
 def read_line(text: str) -> NgcLine:
     """The words, parameter settings, O-word and comments of one line. Raises
     :class:`LexError`."""
+    if text.isascii():
+        lower = text.lower()
+        if _PLAIN_LINE.fullmatch(lower):
+            return NgcLine(tuple(Word(m[1].upper(), m[1].upper() + m[2], Decimal(m[2]),
+                                      m.start() + 1) for m in _PLAIN_WORD.finditer(lower)))
     try:
         return _Reader(text).read()
     except ExprError as e:  # pragma: no cover - reading builds nodes only

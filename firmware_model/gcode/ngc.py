@@ -31,7 +31,7 @@ from decimal import Decimal
 from typing import Protocol
 
 from firmware_model.gcode.expr import ExprError, Named, Node, Numbered, finite
-from firmware_model.gcode.lex import LexError, NgcLine, OStatement, Word, read_line
+from firmware_model.gcode.lex import LexError, NgcLine, OStatement, Word, WordValue, read_line
 
 __all__ = ["MAX_BLOCKS", "MAX_CALL_DEPTH", "MAX_PARAMETER", "Host", "NgcError", "run"]
 
@@ -457,7 +457,7 @@ class _Runner:
         if line.empty:
             return
         try:
-            words = [self.word(w.letter, w.literal, w.node, w.col) for w in line.words]
+            words = [w if type(w) is Word else self.word(w) for w in line.words]
             settings = [(a.target, finite(a.node.value(self.params), a.col))
                         for a in line.assignments]
             for target, value in settings:
@@ -476,9 +476,9 @@ class _Runner:
                 self.end_note(i)
                 raise _End
 
-    def word(self, letter: str, literal: str | None, node: Node, col: int) -> Word:
-        if literal is not None:
-            return Word(letter, literal, Decimal(literal[1:]), col)
+    def word(self, w: WordValue) -> Word:
+        """A word's value evaluated."""
+        letter, node, col = w
         value = finite(node.value(self.params), col)
         if letter in "GM" and abs(value * 10 - round(value * 10)) < 1e-3:
             number = Decimal(round(value * 10)) / 10

@@ -137,10 +137,10 @@ class State:
     def polar(self, words: list[Word]) -> list[Word]:
         """A block's ``@`` (radius) and ``^`` (angle, degrees) as X and Y words, as LinuxCNC
         finds a polar end point; other blocks unchanged."""
+        if not any(w.letter in "@^" for w in words):
+            return words
         radius = next((w for w in words if w.letter == "@"), None)
         angle = next((w for w in words if w.letter == "^"), None)
-        if radius is None and angle is None:
-            return words
         first = radius or angle
         assert first is not None
         if any(w.letter in "XY" for w in words):

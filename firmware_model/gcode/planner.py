@@ -93,6 +93,13 @@ class Planner:
         return self.position[:self.axes]
 
     def _check_target(self, target: tuple[int, int, int]) -> tuple[int, int, int]:
+        x, y, z = target
+        px, py, pz = self.position
+        if (-COORD_MAX <= x <= COORD_MAX and -COORD_MAX <= y <= COORD_MAX
+                and -COORD_MAX <= z <= COORD_MAX and -COORD_MAX <= x - px <= COORD_MAX
+                and -COORD_MAX <= y - py <= COORD_MAX and -COORD_MAX <= z - pz <= COORD_MAX
+                and (self.axes == 3 or z == pz)):
+            return target  # (most moves)
         for axis in range(3):
             for value, what in ((target[axis], "position"),
                                 (target[axis] - self.position[axis], "move")):
@@ -209,7 +216,7 @@ class Planner:
             raise PlanError(f"the arc's end is not on its circle: radius {self.mm(r0)} at the "
                             f"start, {self.mm(r1)} at the end (they differ by "
                             f"{abs(r1 - r0):.1f} LSB; tolerance {tolerance:g} LSB)")
-        rel = tuple(t - p for t, p in zip(target, start, strict=True))
+        rel = (target[0] - start[0], target[1] - start[1], target[2] - start[2])
         if max(abs(i), abs(j)) > COORD_MAX or i * i + j * j > MAX_RADIUS_SQUARED:
             self._check_sweep(start, (first, second), (i, j), end, cw)
             self._chords(line_no, target, (i, j), plane, cw, feed, tolerance=tolerance,
@@ -239,7 +246,11 @@ class Planner:
                               cw, feed, ze=rel[2], k=offsets[2], plane=plane,
                               start=self._start(), block=block, plan=result,
                               feed_source=feed_source))
-        self.position = tuple(self.items[-1].end) + (0,) * (3 - self.axes)
+        position = list(start)  # the chip's end: Arc.end
+        position[first] += result.end[0]
+        position[second] += result.end[1]
+        position[normal] += rel[normal]
+        self.position = (position[0], position[1], position[2])
         self.programmed = target
         if max(abs(p - t) for p, t in zip(self.position, exact or target,
                                           strict=True)) > CORRECTION_MAX:
@@ -339,6 +350,8 @@ class Planner:
         i, j = ij
         r = math.hypot(i, j)
         cx, cy = start[axes[0]] + i, start[axes[1]] + j
+        if max(abs(cx), abs(cy)) + r <= COORD_MAX:
+            return  # the whole circle is in range (most arcs)
         a0, sweep = _sweep(i, j, end, cw)
         sign = -1 if cw else 1
         for k, (axis, limit) in enumerate(((0, cx + r), (1, cy + r), (0, cx - r), (1, cy - r))):

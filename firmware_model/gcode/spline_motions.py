@@ -34,7 +34,7 @@ class SplineMotions:
         """G05 (cubic) and G05.1 (quadratic) from the position to the block's X/Y."""
         start = self.spline_start(anchor, b)
         target = self.target(b)
-        end = self.exact_target(b)[:2]
+        end = self.exact_target()[:2]
         i, j = b.word("I"), b.word("J")
         if self.motion == 50:
             p, q = b.word("P"), b.word("Q")
@@ -101,7 +101,7 @@ class SplineMotions:
         assert self.nurbs is not None
         self.spline_start(self.nurbs[3], b)
         target = self.target(b)
-        self.nurbs[0].append(self.exact_target(b)[:2])
+        self.nurbs[0].append(self.exact_target()[:2])
         self.nurbs[1].append(weight)
         self.planner.programmed = (target[0], target[1], self.pos[2])
 
