@@ -49,8 +49,8 @@ from hdl.k3701.map import block_registers
 from hdl.k3702.map import K3702_MAP
 
 __all__ = ["BLOCK_HOST_SECONDS", "AlarmEvent", "BlockObserver", "BlockRecord", "EventRecord",
-           "Firmware", "FirmwareError", "ProgramTime", "accel_lag_seconds", "check_program",
-           "clamped_feeds", "feed_limit", "feed_word", "max_feed_mm_min", "planned_seconds",
+           "Firmware", "FirmwareError", "ProgramTime", "accel_lag_seconds", "block_rate",
+           "check_program", "clamped_feeds", "feed_limit", "feed_word", "max_feed_mm_min", "planned_seconds",
            "program_seconds", "program_time", "programmed_feed", "rm_clock_hz", "run_feed",
            "word_feed", "word_rate"]
 
@@ -146,14 +146,28 @@ def word_feed(machine: MachineConfig, word: int) -> float:
     return machine.mm_per_min(word_rate(machine, word))
 
 
-def planned_seconds(item: Item, machine: MachineConfig) -> float:
+def planned_seconds(item: Item, machine: MachineConfig,
+                    rates: dict[tuple[float, Kind], float] | None = None) -> float:
     """How long ``item`` is planned to take: a dwell's time, a block's FP at its feed word's
-    rate (the accel/decel circuit's lag not counted)."""
+    rate (the accel/decel circuit's lag not counted). ``rates``: :func:`block_rate`'s."""
     if isinstance(item, Dwell):
         return item.seconds
     if isinstance(item, Event):
         return 0.0
-    return item.plan.fp / word_rate(machine, feed_word(machine, run_feed(item, machine)))
+    return item.plan.fp / block_rate(item, machine, rates)
+
+
+def block_rate(item: Move, machine: MachineConfig,
+               rates: dict[tuple[float, Kind], float] | None = None) -> float:
+    """The FP rate (FP/s) of the feed word a move runs at (:func:`run_feed`). ``rates``: the
+    rates found so far, by programmed feed and block kind (a program repeats its feeds)."""
+    key = (programmed_feed(item, machine), item.block.kind)
+    rate = None if rates is None else rates.get(key)
+    if rate is None:
+        rate = word_rate(machine, feed_word(machine, run_feed(item, machine)))
+        if rates is not None:
+            rates[key] = rate
+    return rate
 
 
 #: The host's own time per block in :func:`program_seconds` (loading the K3701, the feed and
@@ -197,12 +211,13 @@ def program_time(job: Job) -> ProgramTime:
     machine = job.machine
     moving = dwells = 0.0
     stops = SETTLE_SECONDS
+    rates: dict[tuple[float, Kind], float] = {}
     for item in job.program.items:
         if isinstance(item, Dwell):
             dwells += item.seconds
         elif not isinstance(item, Event):
-            moving += planned_seconds(item, machine)
-            rate = word_rate(machine, feed_word(machine, run_feed(item, machine)))
+            moving += planned_seconds(item, machine, rates)
+            rate = block_rate(item, machine, rates)
             stops += accel_lag_seconds(machine, item.plan.fp, rate) + BLOCK_HOST_SECONDS
     return ProgramTime(moving, dwells, stops)
 

@@ -30,6 +30,7 @@ def _kind(item: Item) -> str:
 def plan_rows(job: Job) -> list[dict[str, Any]]:
     """The program's items as JSON-able rows."""
     rows = []
+    rates: dict = {}
     for item in job.program.items:
         row: dict[str, Any] = {"index": item.index, "line": item.line_no, "kind": _kind(item)}
         if isinstance(item, Dwell):
@@ -38,7 +39,7 @@ def plan_rows(job: Job) -> list[dict[str, Any]]:
             row |= {"word": item.word, "event": item.kind, "value": item.value}
         else:  # a move: a line, an arc, a parabola or an exponential
             row |= {"end": list(item.end), "fp": item.plan.fp, "steps": item.plan.steps,
-                    "seconds": planned_seconds(item, job.machine)}
+                    "seconds": planned_seconds(item, job.machine, rates)}
             if isinstance(item, Arc):
                 row |= {"plane": item.plane, "cw": item.cw}
         rows.append(row)

@@ -60,7 +60,8 @@ class ProgramPlan:
 
     def __init__(self, job: Job):
         self.clock_hz = job.machine.clock_hz
-        seconds = [planned_seconds(item, job.machine) for item in job.program.items]
+        rates: dict = {}
+        seconds = [planned_seconds(item, job.machine, rates) for item in job.program.items]
         self.seconds = seconds
         #: Planned seconds of the items before each one.
         self.before = [0.0, *itertools.accumulate(seconds)]
