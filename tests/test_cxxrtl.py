@@ -29,9 +29,10 @@ from hdl.chipset import map as chipset_map
 from hdl.common import observation
 from hdl.common.observation import FreeRunning
 from sim.backends.contract import Backend
-from sim.backends.cxxrtl import build, codegen
+from sim.backends.cxxrtl import build, rise
 from sim.backends.cxxrtl.backend import CxxrtlBackend, WaitEnd, _WaitPolling
-from sim.backends.cxxrtl.codegen import edge_wires, fall_eval, rise_eval, skip_eval
+from sim.backends.cxxrtl.evals import edge_wires, fall_eval, skip_eval
+from sim.backends.cxxrtl.rise import rise_eval
 from sim.backends.factory import BACKENDS, make_backend
 from sim.backends.introspect import component_ports
 from sim.backends.pysim import PysimBackend
@@ -358,7 +359,7 @@ PEEKING = tuple(name for name in BLOCKS if name != "chain")
 
 @pytest.fixture(scope="module")
 def peeking():
-    """A third Zoo, on CXXRTL's fast path for waits (sim.backends.cxxrtl.codegen.edge_wires)."""
+    """A third Zoo, on CXXRTL's fast path for waits (sim.backends.cxxrtl.evals.edge_wires)."""
     yield from zoo_pair(PEEKING)
 
 
@@ -407,7 +408,7 @@ def test_the_simulated_machine_splits_its_commits_and_peeks():
 
 
 def test_a_rising_edge_runs_a_part_only_when_what_it_reads_changed():
-    """The machine's rising edge (codegen.rise_eval) runs each module's statements under a guard
+    """The machine's rising edge (rise.rise_eval) runs each module's statements under a guard
     of its own, and the plants' position and velocity, which change at every cycle of a move,
     are read by the plants alone: an encoder reads its plant through the quadrature lines,
     compared after the plant's statements, and the K3701 not at all. What follows the inputs
@@ -447,7 +448,7 @@ def test_a_rising_edge_runs_a_part_only_when_what_it_reads_changed():
 
 
 def test_only_statements_that_read_inputs_alone_count_as_input_driven():
-    """codegen._input_driven: a copy of an input, a register sampling it and what reads only
+    """rise._input_driven: a copy of an input, a register sampling it and what reads only
     that register follow the inputs; a statement that reads a memory (state, whatever its
     name) or a register with state of its own does not."""
     cxx = ("\t/*input*/ value<1> p_a;\n\twire<1> p_r;\n\twire<1> p_s;\n"
@@ -458,11 +459,11 @@ def test_only_statements_that_read_inputs_alone_count_as_input_driven():
              ("", {"i_z"}, "\ti_z = and_uu<1>(p_r.curr, p_a);\n"),
              ("pos", set(), "\tif (posedge_p_clk) {\n\t\tp_s.next = not_u<1>(p_s.curr);\n\t}\n"),
              ("", {"i_w"}, "\ti_w = or_uu<1>(p_s.curr, p_a);\n")]
-    assert codegen._input_driven(cxx, units, *codegen._targets_and_reads(units)) == {0, 1, 3}
+    assert rise._input_driven(cxx, units, *rise._targets_and_reads(units)) == {0, 1, 3}
 
 
 def test_a_skip_decision_evaluates_its_own_signals_alone_as_a_settle_would():
-    """The machine's skip evaluation (codegen.skip_eval) computes the free-running state's
+    """The machine's skip evaluation (evals.skip_eval) computes the free-running state's
     signals, quiet and every output from the state as a settle does: checked after each of
     8,000 cycles of the demo's circle in motion (feed pulses, steps, accel/decel, plants,
     encoders), bus reads and writes of a new feed word, and a new speed limit (the last two
@@ -709,7 +710,7 @@ def test_the_design_key_follows_the_parameters_and_every_source(monkeypatch, mak
 HARNESS = ("harness.cc", "model.h", "model.cc", "skip.h", "skip.cc", "plant.h", "plant.cc",
            "wait.h", "wait.cc")
 #: The files that make a compiled model (build._makers).
-MAKERS = ("build.py", "codegen.py", "words.h", *HARNESS)
+MAKERS = ("build.py", "codegen.py", "evals.py", "rise.py", "words.h", *HARNESS)
 
 
 def _edit_maker(monkeypatch: pytest.MonkeyPatch, maker: str) -> None:
@@ -752,7 +753,7 @@ def test_every_cxx_file_of_the_backend_is_a_maker():
     """A C++ file that no key covers would let a model built before an edit of it stand."""
     package = Path(build.__file__).parent
     sources = {path.name for path in package.iterdir() if path.suffix in (".cc", ".h")}
-    assert sources == set(MAKERS) - {"build.py", "codegen.py"}
+    assert sources == {name for name in MAKERS if not name.endswith(".py")}
     assert build.HARNESS == HARNESS
 
 
