@@ -861,11 +861,15 @@ _WORD_OPS = ("add_uu", "add_ss", "sub_uu", "sub_ss", "mul_uu", "mul_ss", "lt_uu"
 def test_machine_word_arithmetic_equals_cxxrtls_for_every_op_and_width(tmp_path):
     """words.h computes the design's arithmetic in machine words: each op equals CXXRTL's
     own on random operands and on the edge cases (0, all ones, the sign bit alone)."""
-    checks = [f"\tCHECK(k37_{op}<{y}>(a, b), {op}<{y}>(a, b), {a}, {b}, \"{op}<{y}>({a}, {b})\");"
+    checks = [f"CHECK(k37_{op}<{y}>(a, b), {op}<{y}>(a, b), {a}, {b}, \"{op}<{y}>({a}, {b})\");"
               for op in _WORD_OPS for y, a, b in _WORD_CASES]
-    checks += [f"\tCHECK(k37_{op}<{y}>(a), {op}<{y}>(a), {a}, 1, \"{op}<{y}>({a})\");"
+    checks += [f"CHECK(k37_{op}<{y}>(a), {op}<{y}>(a), {a}, 1, \"{op}<{y}>({a})\");"
                for op in ("neg_u", "neg_s") for y, a, _ in _WORD_CASES]
     undefs = "".join(f"#undef {op}\n" for op in (*_WORD_OPS, "neg_u", "neg_s"))
+    # one function a check: one main() of a thousand inlined loops took g++ three times as long
+    functions = "\n".join(f"static void check_{k}() {{ {check} }}"
+                          for k, check in enumerate(checks))
+    calls = "".join(f"\tcheck_{k}();\n" for k in range(len(checks)))
     (tmp_path / "check.cc").write_text(f"""#include "words.h"
 {undefs}#include <cstdio>
 #include <random>
@@ -888,9 +892,9 @@ static int failures = 0;
 		auto a = operand<A>(k); auto b = operand<B>(k / 4 + k); (void)b; \\
 		if (ours != theirs) {{ std::printf("%s differs\\n", what); failures++; break; }} \\
 	}}
+{functions}
 int main() {{
-{chr(10).join(checks)}
-	std::printf("%d failures\\n", failures);
+{calls}	std::printf("%d failures\\n", failures);
 	return failures != 0;
 }}
 """)
