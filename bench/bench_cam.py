@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import time
 
-from firmware_model.firmware import program_seconds
+from firmware_model.feeds import program_seconds
 from firmware_model.job import Job, MachineConfig, ServoConfig, parse_for_machine
 from sim.run.runner import RunOptions, build_backend, run_job
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from firmware_model.firmware import check_program
+from firmware_model.feeds import check_program
 from firmware_model.job import Job, demo_job, gcode_job
 from sim.run.contour import contour_errors
 from sim.run.runner import RunOptions, build_backend, run_job

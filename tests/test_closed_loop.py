@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from firmware_model.firmware import FirmwareError, check_program
+from firmware_model.feeds import FirmwareError, check_program
 from firmware_model.job import RunConfig
 from sim.run.jobfile import load_job
 from sim.run.runner import RunOptions, build_backend, run_job

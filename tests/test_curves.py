@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from firmware_model.firmware import FirmwareError, check_program
+from firmware_model.feeds import FirmwareError, check_program
 from firmware_model.gcode.curves import MIN_VERTEX_RADIUS
 from firmware_model.gcode.parser import GcodeError, parse
 from firmware_model.gcode.program import Exponential, Parabola

@@ -6,39 +6,35 @@ and the blocks that keep CXXRTL on its fast paths), a few seconds each, once per
 thanks to the cache, and shares them between tests.
 """
 
-import inspect
-import os
 import random
 import re
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
-from amaranth.hdl import Cat, ClockDomain, ClockSignal, Fragment, Module, Signal, signed
+from amaranth.hdl import Cat, ClockDomain, ClockSignal, Module, Signal, signed
 from amaranth.lib import data, wiring
 from amaranth.lib.wiring import In, Out, connect, flipped
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import simulate
 
-from firmware_model.job import MachineConfig, demo_job
+from firmware_model.job import demo_job
 from hdl.bus.hostbus import HostBus, RegisterBank
 from hdl.bus.registers import Access, Register, RegisterMap
 from hdl.chipset import map as chipset_map
 from hdl.common import observation
 from hdl.common.observation import FreeRunning
 from sim.backends.contract import Backend
-from sim.backends.cxxrtl import build, codegen
-from sim.backends.cxxrtl.backend import CxxrtlBackend, WaitEnd, _WaitPolling
-from sim.backends.cxxrtl.codegen import edge_wires, fall_eval, rise_eval, skip_eval
+from sim.backends.cxxrtl import build, rise
+from sim.backends.cxxrtl.backend import CxxrtlBackend
+from sim.backends.cxxrtl.evals import edge_wires, fall_eval, skip_eval
+from sim.backends.cxxrtl.rise import rise_eval
 from sim.backends.factory import BACKENDS, make_backend
 from sim.backends.introspect import component_ports
 from sim.backends.pysim import PysimBackend
 from sim.machine.system import System
 from sim.run import runner
-
-ROOT = Path(__file__).resolve().parent.parent
 
 MAP = RegisterMap("ZOO", 1, (
     Register("VALUE", 0x0, 24, Access.RW, "a signed value; reads back", signed=True),
@@ -358,7 +354,7 @@ PEEKING = tuple(name for name in BLOCKS if name != "chain")
 
 @pytest.fixture(scope="module")
 def peeking():
-    """A third Zoo, on CXXRTL's fast path for waits (sim.backends.cxxrtl.codegen.edge_wires)."""
+    """A third Zoo, on CXXRTL's fast path for waits (sim.backends.cxxrtl.evals.edge_wires)."""
     yield from zoo_pair(PEEKING)
 
 
@@ -407,7 +403,7 @@ def test_the_simulated_machine_splits_its_commits_and_peeks():
 
 
 def test_a_rising_edge_runs_a_part_only_when_what_it_reads_changed():
-    """The machine's rising edge (codegen.rise_eval) runs each module's statements under a guard
+    """The machine's rising edge (rise.rise_eval) runs each module's statements under a guard
     of its own, and the plants' position and velocity, which change at every cycle of a move,
     are read by the plants alone: an encoder reads its plant through the quadrature lines,
     compared after the plant's statements, and the K3701 not at all. What follows the inputs
@@ -447,7 +443,7 @@ def test_a_rising_edge_runs_a_part_only_when_what_it_reads_changed():
 
 
 def test_only_statements_that_read_inputs_alone_count_as_input_driven():
-    """codegen._input_driven: a copy of an input, a register sampling it and what reads only
+    """rise._input_driven: a copy of an input, a register sampling it and what reads only
     that register follow the inputs; a statement that reads a memory (state, whatever its
     name) or a register with state of its own does not."""
     cxx = ("\t/*input*/ value<1> p_a;\n\twire<1> p_r;\n\twire<1> p_s;\n"
@@ -458,11 +454,11 @@ def test_only_statements_that_read_inputs_alone_count_as_input_driven():
              ("", {"i_z"}, "\ti_z = and_uu<1>(p_r.curr, p_a);\n"),
              ("pos", set(), "\tif (posedge_p_clk) {\n\t\tp_s.next = not_u<1>(p_s.curr);\n\t}\n"),
              ("", {"i_w"}, "\ti_w = or_uu<1>(p_s.curr, p_a);\n")]
-    assert codegen._input_driven(cxx, units, *codegen._targets_and_reads(units)) == {0, 1, 3}
+    assert rise._input_driven(cxx, units, *rise._targets_and_reads(units)) == {0, 1, 3}
 
 
 def test_a_skip_decision_evaluates_its_own_signals_alone_as_a_settle_would():
-    """The machine's skip evaluation (codegen.skip_eval) computes the free-running state's
+    """The machine's skip evaluation (evals.skip_eval) computes the free-running state's
     signals, quiet and every output from the state as a settle does: checked after each of
     8,000 cycles of the demo's circle in motion (feed pulses, steps, accel/decel, plants,
     encoders), bus reads and writes of a new feed word, and a new speed limit (the last two
@@ -654,116 +650,6 @@ def test_second_construction_loads_the_cached_model(backends, capfd):
     again.close()
     with pytest.raises(RuntimeError, match="this CxxrtlBackend is closed"):
         again.step()
-
-
-def test_a_design_key_finds_the_model_without_elaborating_the_design(monkeypatch):
-    job = demo_job()
-    first = runner.build_backend(job, "cxxrtl")  # converts (or finds) and remembers
-    system = System()
-    converted = CxxrtlBackend._convert_and_build(system, None)[1]
-    monkeypatch.setattr(Fragment, "get", lambda *_: pytest.fail("elaborated the design"))
-    again = runner.build_backend(job, "cxxrtl")
-    assert again.model.path == first.model.path and not again.model.built
-    assert again._signed == set(converted["signed"]) and "x__error" in again._signed
-    assert again.ports == first.ports and len(again.ports) == len(converted["ports"])
-    assert again._free == system.free_running and again.design_name == "System"
-    assert again.probe_names() == first.probe_names()
-    first.close()
-    again.close()
-
-
-def test_a_run_of_a_remembered_design_never_imports_amaranth():
-    """The run path of a cached design (the firmware, the register maps, the compiled model)
-    is plain Python: a short job pays no HDL import."""
-    runner.build_backend(demo_job(), "cxxrtl").close()  # remembered
-    script = ("import sys\n"
-              "from firmware_model.job import demo_job\n"
-              "from sim.run.runner import RunOptions, build_backend, run_job\n"
-              "job = demo_job()\n"
-              "report = run_job(job, RunOptions(max_cycles=20000), build_backend(job, 'cxxrtl'))"
-              ".report\n"
-              "assert report['cycles'] == 20000, report['cycles']\n"
-              "print(sorted(m for m in sys.modules if m.split('.')[0] == 'amaranth'))\n")
-    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                            check=True, env=os.environ | {"PYTHONPATH": str(ROOT)})
-    assert result.stdout.strip() == "[]", result.stdout + result.stderr
-
-
-def test_the_design_key_follows_the_parameters_and_every_source(monkeypatch, make_job):
-    pre, post = make_job("M30"), make_job("M30", MachineConfig(accel="post"))
-    assert runner.design_key(pre) != runner.design_key(post)
-    before = runner.design_key(pre)
-    read = Path.read_bytes
-    monkeypatch.setattr(Path, "read_bytes", lambda path: read(path) + (
-        b"#" if path.name == "plant_model.py" else b""))
-    runner._design_sources.cache_clear()
-    try:
-        assert runner.design_key(pre) != before
-    finally:
-        monkeypatch.undo()
-        runner._design_sources.cache_clear()
-    assert runner.design_key(pre) == before
-
-
-#: The files of the harness (build.HARNESS): its translation unit and the parts it includes.
-HARNESS = ("harness.cc", "model.h", "model.cc", "skip.h", "skip.cc", "plant.h", "plant.cc",
-           "wait.h", "wait.cc")
-#: The files that make a compiled model (build._makers).
-MAKERS = ("build.py", "codegen.py", "words.h", *HARNESS)
-
-
-def _edit_maker(monkeypatch: pytest.MonkeyPatch, maker: str) -> None:
-    """Make the model's maker named ``maker`` (a file of sim/backends/cxxrtl) read as edited."""
-    read, source = Path.read_text, inspect.getsource
-    monkeypatch.setattr(Path, "read_text", lambda path, *args, **kwargs: read(
-        path, *args, **kwargs) + ("//" if path.name == maker else ""))
-    monkeypatch.setattr(inspect, "getsource", lambda obj: source(obj) + (
-        "#" if Path(getattr(obj, "__file__", "")).name == maker else ""))
-
-
-@pytest.mark.parametrize("maker", MAKERS)
-def test_a_remembered_design_is_forgotten_when_what_makes_its_model_changes(monkeypatch, maker):
-    """A model built by an older harness or generator must not stand for the design."""
-    job = demo_job()
-    runner.build_backend(job, "cxxrtl").close()  # remembered
-    key = runner.design_key(job)
-    assert build.find_design(key) is not None
-    _edit_maker(monkeypatch, maker)
-    assert build.find_design(key) is None
-
-
-@pytest.mark.parametrize("maker", MAKERS)
-def test_a_models_cache_key_changes_with_what_makes_it(monkeypatch, maker):
-    """A model built by an older Yosys script, generator, header or harness is not reused."""
-    before = build._model_key("rtlil", "runtime", ["free"], ["reads"])
-    _edit_maker(monkeypatch, maker)
-    assert build._model_key("rtlil", "runtime", ["free"], ["reads"]) != before
-
-
-@pytest.mark.parametrize("source", HARNESS)
-def test_the_harness_objects_cache_key_changes_with_each_of_its_files(monkeypatch, source):
-    """The harness's object is not reused after an edit of any file it is compiled from."""
-    before = build._runtime_key(build._harness(), "versions")
-    _edit_maker(monkeypatch, source)
-    assert build._runtime_key(build._harness(), "versions") != before
-
-
-def test_every_cxx_file_of_the_backend_is_a_maker():
-    """A C++ file that no key covers would let a model built before an edit of it stand."""
-    package = Path(build.__file__).parent
-    sources = {path.name for path in package.iterdir() if path.suffix in (".cc", ".h")}
-    assert sources == set(MAKERS) - {"build.py", "codegen.py"}
-    assert build.HARNESS == HARNESS
-
-
-def test_the_polling_waits_interface_is_the_same_on_both_sides():
-    """backend.py mirrors wait.h: the fields of its arguments in order, and why it returns."""
-    header = (Path(build.__file__).with_name("wait.h")).read_text()
-    fields = re.search(r"struct WaitPolling \{(.*?)\};", header, re.DOTALL).group(1)
-    names = re.findall(r"\b(\w+);", fields)
-    assert names == [name for name, _ in _WaitPolling._fields_]
-    body = re.search(r"enum class WaitEnd : int \{(.*?)\};", header, re.DOTALL).group(1)
-    assert dict(re.findall(r"(\w+) = (\d+),", body)) == {e.name: str(e.value) for e in WaitEnd}
 
 
 def _busy_then_idle(backend: Backend, seed: int) -> None:
@@ -975,11 +861,15 @@ _WORD_OPS = ("add_uu", "add_ss", "sub_uu", "sub_ss", "mul_uu", "mul_ss", "lt_uu"
 def test_machine_word_arithmetic_equals_cxxrtls_for_every_op_and_width(tmp_path):
     """words.h computes the design's arithmetic in machine words: each op equals CXXRTL's
     own on random operands and on the edge cases (0, all ones, the sign bit alone)."""
-    checks = [f"\tCHECK(k37_{op}<{y}>(a, b), {op}<{y}>(a, b), {a}, {b}, \"{op}<{y}>({a}, {b})\");"
+    checks = [f"CHECK(k37_{op}<{y}>(a, b), {op}<{y}>(a, b), {a}, {b}, \"{op}<{y}>({a}, {b})\");"
               for op in _WORD_OPS for y, a, b in _WORD_CASES]
-    checks += [f"\tCHECK(k37_{op}<{y}>(a), {op}<{y}>(a), {a}, 1, \"{op}<{y}>({a})\");"
+    checks += [f"CHECK(k37_{op}<{y}>(a), {op}<{y}>(a), {a}, 1, \"{op}<{y}>({a})\");"
                for op in ("neg_u", "neg_s") for y, a, _ in _WORD_CASES]
     undefs = "".join(f"#undef {op}\n" for op in (*_WORD_OPS, "neg_u", "neg_s"))
+    # one function a check: one main() of a thousand inlined loops took g++ three times as long
+    functions = "\n".join(f"static void check_{k}() {{ {check} }}"
+                          for k, check in enumerate(checks))
+    calls = "".join(f"\tcheck_{k}();\n" for k in range(len(checks)))
     (tmp_path / "check.cc").write_text(f"""#include "words.h"
 {undefs}#include <cstdio>
 #include <random>
@@ -1002,9 +892,9 @@ static int failures = 0;
 		auto a = operand<A>(k); auto b = operand<B>(k / 4 + k); (void)b; \\
 		if (ours != theirs) {{ std::printf("%s differs\\n", what); failures++; break; }} \\
 	}}
+{functions}
 int main() {{
-{chr(10).join(checks)}
-	std::printf("%d failures\\n", failures);
+{calls}	std::printf("%d failures\\n", failures);
 	return failures != 0;
 }}
 """)

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_model.firmware import (
+from firmware_model.feeds import (
     FirmwareError,
     check_program,
     clamped_feeds,

@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from firmware_model.firmware import feed_word, word_feed
+from firmware_model.feeds import feed_word, word_feed
 from sim.cli import build_parser
 from sim.reproduce.experiments import analyse, reproduce
 from sim.reproduce.paper import FEED_HIGH, FEED_LOW

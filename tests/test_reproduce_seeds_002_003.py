@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from firmware_model.firmware import feed_word, word_rate
+from firmware_model.feeds import feed_word, word_rate
 from firmware_model.gcode.parser import Line
 from sim.reproduce import resonance, seed002, seed003
 from sim.reproduce.runs import RunSpec

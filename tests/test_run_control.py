@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from firmware_model.firmware import TIMER_TICK_SECONDS, FirmwareError, check_program
+from firmware_model.feeds import FirmwareError, check_program
+from firmware_model.firmware import TIMER_TICK_SECONDS
 from firmware_model.gcode.parser import Arc
 from firmware_model.job import MachineConfig, RunConfig, demo_job
 from sim.cli import main

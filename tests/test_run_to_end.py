@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from firmware_model.firmware import program_seconds
+from firmware_model.feeds import program_seconds
 from sim.run.runner import RunOptions, cycle_limit, run_job
 
 HOUR = 3600.0

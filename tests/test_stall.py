@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from firmware_model.firmware import feed_word, run_feed, word_rate
+from firmware_model.feeds import feed_word, run_feed, word_rate
 from firmware_model.job import MachineConfig
 from sim.run import runner
 from sim.run.report import RUN_SCHEMA

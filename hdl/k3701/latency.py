@@ -21,7 +21,7 @@ class StepLatency(wiring.Component):
 
     A block of its own so that a compiled simulation evaluates what reads the strobes only
     when one changes, not at each decrement of the count (CXXRTL's parts follow the module
-    hierarchy, see :func:`sim.backends.cxxrtl.codegen.rise_eval`).
+    hierarchy, see :func:`sim.backends.cxxrtl.rise.rise_eval`).
 
     Parameters
     ----------

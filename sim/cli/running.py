@@ -39,7 +39,7 @@ def _settle(text: str) -> float:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from firmware_model.firmware import FirmwareError
+    from firmware_model.feeds import FirmwareError
     from firmware_model.gcode.parser import GcodeError
     from sim.files import STDIO
     from sim.run.ballbar import BallbarError, check_settle
@@ -120,7 +120,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 def _cmd_plan(args: argparse.Namespace) -> int:
     import json
 
-    from firmware_model.firmware import FirmwareError, check_program, clamped_feeds
+    from firmware_model.feeds import FirmwareError, check_program, clamped_feeds
     from firmware_model.gcode.parser import GcodeError
     from sim.run.jobfile import JobError, load_job
     from sim.run.plan import plan_rows, plan_table

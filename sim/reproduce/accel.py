@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from firmware_model.firmware import word_feed
+from firmware_model.feeds import word_feed
 from firmware_model.gcode.parser import Line
 from firmware_model.job import AXES
 from sim.machine.plant_model import DAC_VOLTS

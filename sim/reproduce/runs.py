@@ -15,7 +15,7 @@ from typing import TypeVar
 
 import numpy as np
 
-from firmware_model.firmware import word_feed
+from firmware_model.feeds import word_feed
 from firmware_model.gcode.parser import Arc, Line, Program, parse
 from firmware_model.gcode.program import Parabola
 from firmware_model.gcode.splines import Nurbs, SplineSpan

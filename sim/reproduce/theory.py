@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from firmware_model.firmware import rm_clock_hz
+from firmware_model.feeds import rm_clock_hz
 from firmware_model.job import MachineConfig
 from hdl.feed.divider_model import frequency_of, increment_for
 from hdl.feed.feed_rate_map import DIVIDER_WIDTH, FEED_BITS

@@ -20,7 +20,8 @@ from __future__ import annotations
 import time
 
 from firmware_model.bridge_link import BridgeLink, LinkError, Probe, job_identity, open_link
-from firmware_model.firmware import BlockRecord, Firmware, check_program
+from firmware_model.feeds import check_program
+from firmware_model.firmware import BlockRecord, Firmware
 from firmware_model.host import Host8085
 from firmware_model.job import Job
 from hdl.chipset.map import chip_register, port

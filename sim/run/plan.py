@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from firmware_model.firmware import SETTLE_SECONDS, planned_seconds, program_time
+from firmware_model.feeds import SETTLE_SECONDS, planned_seconds, program_time
 from firmware_model.gcode.parser import Arc, Dwell, Event, Item, Line
 from firmware_model.job import Job
 

@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from firmware_model.firmware import run_feed
+from firmware_model.feeds import run_feed
 from firmware_model.gcode.parser import Arc, Line
 from firmware_model.gcode.program import Exponential, Move, Parabola
 from sim.run.plot_data import PlotData, plot_data

@@ -14,7 +14,7 @@ import sys
 from dataclasses import dataclass
 from typing import TextIO
 
-from firmware_model.firmware import planned_seconds
+from firmware_model.feeds import planned_seconds
 from firmware_model.gcode.parser import Dwell, Item
 from firmware_model.job import Job
 

@@ -34,13 +34,8 @@ import numpy as np
 
 import hdl
 import sim.machine
-from firmware_model.firmware import (
-    BlockRecord,
-    Firmware,
-    check_program,
-    clamped_feeds,
-    program_seconds,
-)
+from firmware_model.feeds import check_program, clamped_feeds, program_seconds
+from firmware_model.firmware import BlockRecord, Firmware
 from firmware_model.gcode.parser import Dwell, Event
 from firmware_model.host import Host8085
 from firmware_model.job import Job
@@ -294,7 +289,7 @@ def run_job(job: Job, options: RunOptions | None = None,
             backend: Backend | None = None) -> RunResult:
     """Run ``job`` to its end (or an alarm, a fault, a limit, a stop request) and report.
 
-    Raises :class:`OptionError` or :class:`firmware_model.firmware.FirmwareError` before
+    Raises :class:`OptionError` or :class:`firmware_model.feeds.FirmwareError` before
     building anything if the options or the program cannot work. A ``backend`` passed in must
     be freshly built for the job's machine (:func:`build_backend`); it is left open, for the
     caller to look at afterwards.
@@ -404,7 +399,7 @@ def _finish_waveform(options: RunOptions, traced: Path, report: dict) -> OutputF
 
 
 #: The default cycle limit follows the program: this many times its planned machine time
-#: (:func:`firmware_model.firmware.program_seconds`), plus :data:`PLAN_MARGIN_SECONDS`.
+#: (:func:`firmware_model.feeds.program_seconds`), plus :data:`PLAN_MARGIN_SECONDS`.
 PLAN_MARGIN_FACTOR = 2
 PLAN_MARGIN_SECONDS = 10.0
 

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import math
 
-from firmware_model.firmware import Firmware, feed_word, run_feed, word_rate
+from firmware_model.feeds import feed_word, run_feed, word_rate
+from firmware_model.firmware import Firmware
 from firmware_model.gcode.parser import Move
 from firmware_model.job import Job
 from sim.run.sampler import Sampler

@@ -27,7 +27,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from sim.backends.cxxrtl import codegen
+from sim.backends.cxxrtl import codegen, evals, rise
 from sim.backends.cxxrtl.codegen import DESIGN_MAIN, design_main
 from sim.backends.toolchain import (
     Model,
@@ -100,10 +100,10 @@ def _runtime_key(harness: dict[str, str], versions: str) -> str:
 
 def _makers() -> tuple[str, ...]:
     """The source of everything that turns a design into its model besides the toolchain:
-    this module, the generator of the design's translation unit, the header it includes and
+    this module, the generators of the design's translation unit, the header it includes and
     every file of the harness."""
-    return (Path(__file__).read_text(), inspect.getsource(codegen), WORDS.read_text(),
-            *_harness().values())
+    return (Path(__file__).read_text(), *map(inspect.getsource, (codegen, evals, rise)),
+            WORDS.read_text(), *_harness().values())
 
 
 def _model_key(rtlil_text: str, runtime_key: str, free: Sequence[str],
