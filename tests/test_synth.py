@@ -11,7 +11,8 @@ import pytest
 from sim.fpga.blocks import BLOCKS
 from sim.fpga.synth import DEVICES, TARGET_MHZ, synthesize
 
-pytestmark = pytest.mark.slow
+#: One worker runs the module, so its module fixture is computed once.
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("synthesis")]
 
 
 @pytest.fixture(scope="module")
