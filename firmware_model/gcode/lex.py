@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import re
 import unicodedata
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from decimal import Decimal
 from typing import NamedTuple
 
@@ -46,8 +46,8 @@ _BLANK = " \t\r"
 _NO_BLANKS = str.maketrans("", "", _BLANK)
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)")
 #: A line of words each written as a letter and a number, blanks only between words (most
-#: lines), lower case: read in one pass.
-_PLAIN_WORD = re.compile(r"([a-np-z])(" + _NUMBER.pattern + ")")
+#: lines), upper case: read in one pass.
+_PLAIN_WORD = re.compile(r"([A-NP-Z])(" + _NUMBER.pattern + ")")
 _PLAIN_LINE = re.compile(f"(?:[{_BLANK}]*{_PLAIN_WORD.pattern})*[{_BLANK}]*")
 #: Deepest nesting of brackets and functions in one value.
 MAX_NESTING = 64
@@ -118,12 +118,13 @@ class Comment:
     col: int
 
 
-@dataclass(frozen=True)
-class NgcLine:
+class NgcLine(NamedTuple):
+    """One line as read: its words, its parameter settings, its O-word and its comments."""
+
     words: tuple[Word | WordValue, ...] = ()
     assignments: tuple[Assignment, ...] = ()
     o: OStatement | None = None
-    comments: tuple[Comment, ...] = field(default=())
+    comments: tuple[Comment, ...] = ()
 
     @property
     def empty(self) -> bool:
@@ -410,10 +411,10 @@ def read_line(text: str) -> NgcLine:
     """The words, parameter settings, O-word and comments of one line. Raises
     :class:`LexError`."""
     if text.isascii():
-        lower = text.lower()
-        if _PLAIN_LINE.fullmatch(lower):
-            return NgcLine(tuple(Word(m[1].upper(), m[1].upper() + m[2], Decimal(m[2]),
-                                      m.start() + 1) for m in _PLAIN_WORD.finditer(lower)))
+        upper = text.upper()
+        if _PLAIN_LINE.fullmatch(upper):
+            return NgcLine(tuple([Word._make((m[1], m[0], Decimal(m[2]), m.start() + 1))
+                                  for m in _PLAIN_WORD.finditer(upper)]))
     try:
         return _Reader(text).read()
     except ExprError as e:  # pragma: no cover - reading builds nodes only
