@@ -7,12 +7,14 @@ import os
 import re
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
 from amaranth.hdl import Fragment
 
 from firmware_model.job import MachineConfig, demo_job
+from sim.backends import toolchain
 from sim.backends.cxxrtl import build
 from sim.backends.cxxrtl.backend import CxxrtlBackend, WaitEnd, _WaitPolling
 from sim.machine.system import System
@@ -129,3 +131,28 @@ def test_the_polling_waits_interface_is_the_same_on_both_sides():
     assert names == [name for name, _ in _WaitPolling._fields_]
     body = re.search(r"enum class WaitEnd : int \{(.*?)\};", header, re.DOTALL).group(1)
     assert dict(re.findall(r"(\w+) = (\d+),", body)) == {e.name: str(e.value) for e in WaitEnd}
+
+
+def test_a_second_build_of_an_entry_waits_for_the_first(tmp_path):
+    """While one process builds a cache entry, another that would build the same entry waits
+    for it (and then finds the model) instead of compiling it a second time."""
+    script = ("import sys, time\n"
+              "from pathlib import Path\n"
+              "from sim.backends.toolchain import key_lock\n"
+              "root = Path(sys.argv[1])\n"
+              "with key_lock(root, 'entry'):\n"
+              "    (root / 'held').write_text('')\n"
+              "    time.sleep(0.5)\n"
+              "    (root / 'built').write_text('')\n")
+    builder = subprocess.Popen([sys.executable, "-c", script, str(tmp_path)],
+                               env=os.environ | {"PYTHONPATH": str(ROOT)})
+    try:
+        while not (tmp_path / "held").exists():
+            assert builder.poll() is None, "the builder ended without taking the lock"
+            time.sleep(0.01)
+        with toolchain.key_lock(tmp_path, "entry"):
+            assert (tmp_path / "built").exists()
+        with toolchain.key_lock(tmp_path, "another entry"):  # other keys do not wait
+            pass
+    finally:
+        assert builder.wait(timeout=60) == 0

@@ -2,7 +2,9 @@
 
 Models are cached under ``~/.cache/k37/<kind>/<sha256>/`` (or ``$K37_CACHE_DIR/<kind>``), keyed
 by everything that shapes them; nothing is ever evicted. A build happens in a private folder
-that is renamed into place, so parallel builds never see a half-written entry.
+that is renamed into place, so parallel builds never see a half-written entry, and under a
+lock on its key (:func:`key_lock`), so a second build of the same entry waits for the first
+and uses its model instead of compiling it again.
 """
 
 from __future__ import annotations
@@ -18,8 +20,13 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["Model", "build_dir", "cache_root", "find_compiler", "finish", "progress",
-           "sha256"]
+try:
+    import fcntl
+except ImportError:  # not POSIX: builds of one entry may run side by side
+    fcntl = None
+
+__all__ = ["Model", "build_dir", "cache_root", "find_compiler", "finish", "key_lock",
+           "progress", "sha256"]
 
 
 @dataclass(frozen=True)
@@ -76,3 +83,20 @@ def build_dir(root: Path, key: str) -> Iterator[Path]:
         except OSError:
             if not (root / key).exists():
                 raise
+
+
+@contextmanager
+def key_lock(root: Path, key: str) -> Iterator[None]:
+    """Held while the cache entry ``root/key`` is built: another process building the same
+    entry (a study's other worker, another test worker) waits here, then finds the entry
+    built. The lock is the operating system's (``flock``): a build that dies releases it."""
+    root.mkdir(parents=True, exist_ok=True)
+    if fcntl is None:
+        yield
+        return
+    with open(root / f".{key}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)

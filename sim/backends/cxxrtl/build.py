@@ -35,6 +35,7 @@ from sim.backends.toolchain import (
     cache_root,
     find_compiler,
     finish,
+    key_lock,
     progress,
     sha256,
 )
@@ -175,54 +176,55 @@ def build(rtlil_text: str, *, free: Sequence[str] = (), reads: Sequence[str] = (
     if library.exists():
         return Model(library, False, {})
 
-    runtime = root / f"runtime-{runtime_key}.o"
-    seconds: dict[str, float] = {}
-    with build_dir(root, key) as work:
-        start = time.perf_counter()
-        runtime_job = None
-        if not runtime.exists():
-            progress("cxxrtl", "compiling the harness (once per toolchain) ...")
-            # The sources that the key was computed from, and no others: the compile finds
-            # no include of the harness but these copies.
-            for name, text in harness.items():
-                (work / name).write_text(text)
-            runtime_job = tools.compile(HARNESS[0], "runtime.o", work)
-        progress("cxxrtl", f"new model {key[:12]}: writing C++ with Yosys ...")
-        from amaranth._toolchain.yosys import find_yosys
+    with key_lock(root, key):
+        if library.exists():  # built while this process waited for the lock
+            return Model(library, False, {})
+        runtime = root / f"runtime-{runtime_key}.o"
+        seconds: dict[str, float] = {}
+        with build_dir(root, key) as work:
+            start = time.perf_counter()
+            runtime_job = None
+            if not runtime.exists():
+                progress("cxxrtl", "compiling the harness (once per toolchain) ...")
+                # The sources that the key was computed from, and no others: the compile finds
+                # no include of the harness but these copies.
+                for name, text in harness.items():
+                    (work / name).write_text(text)
+                runtime_job = tools.compile(HARNESS[0], "runtime.o", work)
+            progress("cxxrtl", f"new model {key[:12]}: writing C++ with Yosys ...")
+            from amaranth._toolchain.yosys import find_yosys
 
-        yosys = find_yosys(lambda ver: ver >= (0, 40))
-        # The design comes in on stdin and the C++ goes out on stdout, so the WASM Yosys never
-        # needs to open a file (it may only open files below its working directory).
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            cxx = yosys.run(["-q", "-"],
-                            f"read_rtlil <<rtlil\n{rtlil_text}\nrtlil\nwrite_cxxrtl\n")
-        for warning in caught:  # e.g. feedback wires (slower, still exact): worth seeing
-            progress("cxxrtl", f"Yosys: {warning.message}")
-        (work / "design.cc").write_text(cxx)
-        # CXXRTL writes an edge detector for each clock that logic uses; only posedge_p_clk
-        # means that the falling edge of clk changes nothing.
-        detectors = set(re.findall(r"\b(?:pos|neg)edge_p_\w+\(\)", cxx))
-        falling = "false" if detectors <= {"posedge_p_clk()"} else "true"
-        (work / "design_main.cc").write_text(design_main(cxx, falling, free, reads))
-        seconds["yosys"] = time.perf_counter() - start
-        progress("cxxrtl", f"compiling the design ({len(cxx.splitlines())} lines of C++) with "
-                  f"{Path(tools.compiler).name} {' '.join(CXX_FLAGS)} ...")
-        finish(tools.compile("design_main.cc", "design.o", work, WORDS.parent),
-               "the CXXRTL design")
-        if runtime_job is not None:
-            finish(runtime_job, "the CXXRTL harness")
-            os.replace(work / "runtime.o", runtime)
-        progress("cxxrtl", "linking ...")
-        link = subprocess.run([tools.compiler, "-shared", "-o", "model.so", "design.o",
-                               str(runtime)], cwd=work, capture_output=True, text=True)
-        if link.returncode:
-            raise RuntimeError(f"linking the CXXRTL model failed:\n{link.stderr[-4000:]}")
-        seconds["compile"] = time.perf_counter() - start - seconds["yosys"]
-        for scratch in ("design.o", *HARNESS):
-            (work / scratch).unlink(missing_ok=True)
-    progress("cxxrtl", f"built in {seconds['yosys']:.1f} s (Yosys) + "
-                       f"{seconds['compile']:.1f} s (C++), cached in {library.parent}")
-    return Model(library, True, seconds)
-
-
+            yosys = find_yosys(lambda ver: ver >= (0, 40))
+            # The design comes in on stdin and the C++ goes out on stdout, so the WASM Yosys never
+            # needs to open a file (it may only open files below its working directory).
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                cxx = yosys.run(["-q", "-"],
+                                f"read_rtlil <<rtlil\n{rtlil_text}\nrtlil\nwrite_cxxrtl\n")
+            for warning in caught:  # e.g. feedback wires (slower, still exact): worth seeing
+                progress("cxxrtl", f"Yosys: {warning.message}")
+            (work / "design.cc").write_text(cxx)
+            # CXXRTL writes an edge detector for each clock that logic uses; only posedge_p_clk
+            # means that the falling edge of clk changes nothing.
+            detectors = set(re.findall(r"\b(?:pos|neg)edge_p_\w+\(\)", cxx))
+            falling = "false" if detectors <= {"posedge_p_clk()"} else "true"
+            (work / "design_main.cc").write_text(design_main(cxx, falling, free, reads))
+            seconds["yosys"] = time.perf_counter() - start
+            progress("cxxrtl", f"compiling the design ({len(cxx.splitlines())} lines of C++) with "
+                      f"{Path(tools.compiler).name} {' '.join(CXX_FLAGS)} ...")
+            finish(tools.compile("design_main.cc", "design.o", work, WORDS.parent),
+                   "the CXXRTL design")
+            if runtime_job is not None:
+                finish(runtime_job, "the CXXRTL harness")
+                os.replace(work / "runtime.o", runtime)
+            progress("cxxrtl", "linking ...")
+            link = subprocess.run([tools.compiler, "-shared", "-o", "model.so", "design.o",
+                                   str(runtime)], cwd=work, capture_output=True, text=True)
+            if link.returncode:
+                raise RuntimeError(f"linking the CXXRTL model failed:\n{link.stderr[-4000:]}")
+            seconds["compile"] = time.perf_counter() - start - seconds["yosys"]
+            for scratch in ("design.o", *HARNESS):
+                (work / scratch).unlink(missing_ok=True)
+        progress("cxxrtl", f"built in {seconds['yosys']:.1f} s (Yosys) + "
+                           f"{seconds['compile']:.1f} s (C++), cached in {library.parent}")
+        return Model(library, True, seconds)

@@ -31,6 +31,7 @@ from sim.backends.toolchain import (
     cache_root,
     find_compiler,
     finish,
+    key_lock,
     progress,
     sha256,
 )
@@ -138,40 +139,44 @@ def build(verilog: str, top: str) -> Model:
     if library.exists():
         return Model(library, False, {})
 
-    runtime = [root / f"runtime-{runtime_key}-{Path(src).stem}.o" for src in _RUNTIME]
-    seconds: dict[str, float] = {}
-    with build_dir(root, key) as work:
-        start = time.perf_counter()
-        (work / "design.v").write_text(verilog)
-        result = _run([tools.verilator, *VERILATOR_FLAGS, "--top-module", top, "-Mdir", "obj",
-                       "design.v"], cwd=work)
-        if result.returncode:
-            raise RuntimeError(f"verilating {top} failed:\n{result.stderr[-4000:]}")
-        obj = work / "obj"
-        seconds["verilate"] = time.perf_counter() - start
-        runtime_jobs = [(tools.compile(str(tools.root / "include" / src), target.name, work),
-                         target)
-                        for src, target in zip(_RUNTIME, runtime, strict=True)
-                        if not target.exists()]
-        if runtime_jobs:
-            progress("verilator", "compiling the Verilator runtime (once per toolchain) ...")
-        (obj / "ports.h").write_text(_ports_h((obj / "Vtop.h").read_text()))
-        sources = sorted(p.name for p in obj.glob("Vtop*.cpp"))
-        (obj / "model.cpp").write_text("".join(f'#include "{s}"\n' for s in sources)
-                                       + harness)
-        progress("verilator", f"new model {top} {key[:12]}: compiling {len(sources)} files ...")
-        finish(tools.compile("model.cpp", "model.o", obj), f"the Verilated {top}")
-        for job, target in runtime_jobs:
-            finish(job, "the Verilator runtime")
-            os.replace(work / target.name, target)
-        link = _run([tools.compiler, "-shared", "-pthread", "-o", str(work / "model.so"),
-                     "model.o", *map(str, runtime)], cwd=obj)
-        if link.returncode:
-            raise RuntimeError(f"linking the Verilator model failed:\n{link.stderr[-4000:]}")
-        seconds["compile"] = time.perf_counter() - start - seconds["verilate"]
-        shutil.rmtree(obj)
-        progress("verilator", f"built in {sum(seconds.values()):.1f} s, cached in {final}")
-    return Model(library, True, seconds)
+    with key_lock(root, key):
+        if library.exists():  # built while this process waited for the lock
+            return Model(library, False, {})
+        runtime = [root / f"runtime-{runtime_key}-{Path(src).stem}.o" for src in _RUNTIME]
+        seconds: dict[str, float] = {}
+        with build_dir(root, key) as work:
+            start = time.perf_counter()
+            (work / "design.v").write_text(verilog)
+            result = _run([tools.verilator, *VERILATOR_FLAGS, "--top-module", top, "-Mdir", "obj",
+                           "design.v"], cwd=work)
+            if result.returncode:
+                raise RuntimeError(f"verilating {top} failed:\n{result.stderr[-4000:]}")
+            obj = work / "obj"
+            seconds["verilate"] = time.perf_counter() - start
+            runtime_jobs = [(tools.compile(str(tools.root / "include" / src), target.name, work),
+                             target)
+                            for src, target in zip(_RUNTIME, runtime, strict=True)
+                            if not target.exists()]
+            if runtime_jobs:
+                progress("verilator", "compiling the Verilator runtime (once per toolchain) ...")
+            (obj / "ports.h").write_text(_ports_h((obj / "Vtop.h").read_text()))
+            sources = sorted(p.name for p in obj.glob("Vtop*.cpp"))
+            (obj / "model.cpp").write_text("".join(f'#include "{s}"\n' for s in sources)
+                                           + harness)
+            progress("verilator", f"new model {top} {key[:12]}: compiling {len(sources)} files ...")
+            finish(tools.compile("model.cpp", "model.o", obj), f"the Verilated {top}")
+            for job, target in runtime_jobs:
+                finish(job, "the Verilator runtime")
+                os.replace(work / target.name, target)
+            link = _run([tools.compiler, "-shared", "-pthread", "-o", str(work / "model.so"),
+                         "model.o", *map(str, runtime)], cwd=obj)
+            if link.returncode:
+                raise RuntimeError(f"linking the Verilator model failed:\n{link.stderr[-4000:]}")
+            seconds["compile"] = time.perf_counter() - start - seconds["verilate"]
+            shutil.rmtree(obj)
+            progress("verilator", f"built in {sum(seconds.values()):.1f} s, cached in {final}")
+        return Model(library, True, seconds)
+
 
 
 @dataclass(frozen=True)
