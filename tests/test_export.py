@@ -22,10 +22,6 @@ def text(name: str) -> str:
     return verilog_text(name)
 
 
-#: One worker runs the module, so its module fixture is computed once.
-pytestmark = pytest.mark.xdist_group("export")
-
-
 @pytest.fixture(scope="module")
 def exported(tmp_path_factory) -> dict[str, Path]:
     out = tmp_path_factory.mktemp("verilog") / "nested"

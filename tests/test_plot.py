@@ -16,10 +16,6 @@ from sim.run.runner import RunOptions, run_job
 GCODE = "G21 G90 F1200\nG01 X60\nG04 P0.2\nG02 X70 Y0 I5 J0\nG00 X0 Y5\nM30"
 
 
-#: One worker runs the module, so its module fixture is computed once.
-pytestmark = pytest.mark.xdist_group("plot")
-
-
 @pytest.fixture(scope="module")
 def run(make_job):
     return run_job(make_job(GCODE, name="plot"), RunOptions(sample_every=500))

@@ -34,10 +34,6 @@ def zigzag(rows: int, per_row: int, step_mm: float = 0.25, pitch_mm: float = 1.0
     return "\n".join([*lines, "M30"])
 
 
-#: One worker runs the module, so its module fixture is computed once.
-pytestmark = pytest.mark.xdist_group("plot-scale")
-
-
 @pytest.fixture(scope="module")
 def many(make_job):
     job = make_job(zigzag(4, 50), MachineConfig(accel="post", accel_bits=10), name="pocket")

@@ -26,9 +26,6 @@ from sim.reproduce.theory import (
     servo_radius_loss,
 )
 
-#: One worker runs the module, so its module fixture is computed once.
-pytestmark = pytest.mark.xdist_group("reproduction")
-
 
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory):

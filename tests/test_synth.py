@@ -11,8 +11,7 @@ import pytest
 from sim.fpga.blocks import BLOCKS
 from sim.fpga.synth import DEVICES, TARGET_MHZ, synthesize
 
-#: One worker runs the module, so its module fixture is computed once.
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("synthesis")]
+pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
