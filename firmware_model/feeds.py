@@ -150,8 +150,8 @@ def program_time(job: Job) -> ProgramTime:
         if isinstance(item, Dwell):
             dwells += item.seconds
         elif not isinstance(item, Event):
-            moving += planned_seconds(item, machine, rates)
             rate = block_rate(item, machine, rates)
+            moving += item.plan.fp / rate  # planned_seconds
             stops += accel_lag_seconds(machine, item.plan.fp, rate) + BLOCK_HOST_SECONDS
     return ProgramTime(moving, dwells, stops)
 

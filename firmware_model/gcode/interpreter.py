@@ -351,7 +351,7 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
         if "non-modal" in b.g and b.g["non-modal"][0] in (100, 280, 300, 520, 920):
             return  # their axis words are theirs
         axes = self.axis_words(b)
-        for letter in "IJKRQ" if not b.words.keys().isdisjoint("IJKRQ") else ():
+        for letter in "IJKRQ":
             w = b.word(letter)
             if w is not None and not self.uses(letter, b):
                 raise BlockError(w.col, f"{w.text}: {letter} is only for "

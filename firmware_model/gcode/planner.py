@@ -36,6 +36,7 @@ from firmware_model.gcode.program import (
     Parabola,
     _arc_steps_bound,
     _sweep,
+    chip_end,
 )
 from firmware_model.gcode.splines import Nurbs, SplineSpan, chords
 from hdl.k3701.block import COORD_MAX, MAX_RADIUS_SQUARED, Block, BlockError
@@ -246,11 +247,8 @@ class Planner:
                               cw, feed, ze=rel[2], k=offsets[2], plane=plane,
                               start=self._start(), block=block, plan=result,
                               feed_source=feed_source))
-        position = list(start)  # the chip's end: Arc.end
-        position[first] += result.end[0]
-        position[second] += result.end[1]
-        position[normal] += rel[normal]
-        self.position = (position[0], position[1], position[2])
+        x, y, z = chip_end(start, (first, second, normal), result.end, rel[normal])
+        self.position = (x, y, z)
         self.programmed = target
         if max(abs(p - t) for p, t in zip(self.position, exact or target,
                                           strict=True)) > CORRECTION_MAX:

@@ -27,11 +27,23 @@ from hdl.k3701.datapaths.parabolic_model import ExponentialPath, ParabolicPath
 from hdl.k3701.model import Plan, make_path
 
 __all__ = ["PLANE_AXES", "Arc", "Dwell", "Event", "Exponential", "Item", "Line", "Move",
-           "Parabola", "Program"]
+           "Parabola", "Program", "chip_end"]
 
 #: Machine-axis indices of a plane's first, second and normal axes (as LinuxCNC's canon).
 PLANE_AXES = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
 _AXIS_NAMES = "XYZ"
+
+
+def chip_end(start: tuple[int, ...], axes: tuple[int, int, int], plane_end: tuple[int, int],
+             normal: int) -> tuple[int, ...]:
+    """Where a block from ``start`` (machine axes) ends: ``plane_end``, the chip's end in the
+    plane of ``axes`` (machine-axis indices of its first, second and normal axes), and
+    ``normal``, the travel along the normal axis."""
+    first, second, normal_axis = axes
+    delta = [0, 0, 0]
+    delta[first], delta[second] = plane_end
+    delta[normal_axis] = normal
+    return tuple(s + d for s, d in zip(start, delta, strict=False))
 
 
 @dataclass(frozen=True)
@@ -55,11 +67,8 @@ class _Move:
     @property
     def end(self) -> tuple[int, ...]:
         """Absolute machine position after the move (LSB)."""
-        first, second, normal = self._chip_axes()
-        delta = [0, 0, 0]
-        delta[first], delta[second] = self.plan.end
-        delta[normal] = (self.xe, self.ye, self.ze)[normal]
-        return tuple(s + d for s, d in zip(self.start, delta, strict=False))
+        axes = self._chip_axes()
+        return chip_end(self.start, axes, self.plan.end, (self.xe, self.ye, self.ze)[axes[2]])
 
 
 @dataclass(frozen=True)
