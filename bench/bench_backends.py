@@ -14,11 +14,11 @@ from amaranth.hdl import Module, Mux, Signal, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out, connect, flipped
 
-from hdl.bus.hostbus import HostBus, RegisterBank
-from hdl.bus.registers import Access, Register, RegisterMap
-from sim.backends.contract import Backend
-from sim.backends.cxxrtl.backend import CxxrtlBackend
-from sim.backends.pysim import PysimBackend
+from k37.hdl.bus.hostbus import HostBus, RegisterBank
+from k37.hdl.bus.registers import Access, Register, RegisterMap
+from k37.sim.backends.contract import Backend
+from k37.sim.backends.cxxrtl.backend import CxxrtlBackend
+from k37.sim.backends.pysim import PysimBackend
 
 MAP = RegisterMap("BENCH", 1, (
     Register("DX", 0x00, 24, Access.W, "X distance of the next move", signed=True),

@@ -14,9 +14,9 @@ from __future__ import annotations
 import math
 import time
 
-from firmware_model.feeds import program_seconds
-from firmware_model.job import Job, MachineConfig, ServoConfig, parse_for_machine
-from sim.run.runner import RunOptions, build_backend, run_job
+from k37.firmware_model.feeds import program_seconds
+from k37.firmware_model.job import Job, MachineConfig, ServoConfig, parse_for_machine
+from k37.sim.run.runner import RunOptions, build_backend, run_job
 
 #: Passes of the zigzag pocket (each a line and a joining arc).
 PASSES = 600

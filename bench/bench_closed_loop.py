@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import pytest
 
-from firmware_model.job import Job, demo_job, gcode_job
-from sim.run.runner import RunOptions, build_backend, run_job
+from k37.firmware_model.job import Job, demo_job, gcode_job
+from k37.sim.run.runner import RunOptions, build_backend, run_job
 
 PYSIM_CYCLES = 20_000
 SPEEDS: dict[str, float] = {}

@@ -18,11 +18,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from firmware_model.feeds import check_program
-from firmware_model.job import Job, demo_job, gcode_job
-from sim.run.contour import contour_errors
-from sim.run.runner import RunOptions, build_backend, run_job
-from sim.run.sampler import TRACE_COLUMNS
+from k37.firmware_model.feeds import check_program
+from k37.firmware_model.job import Job, demo_job, gcode_job
+from k37.sim.run.contour import contour_errors
+from k37.sim.run.runner import RunOptions, build_backend, run_job
+from k37.sim.run.sampler import TRACE_COLUMNS
 
 ROOT = Path(__file__).resolve().parent.parent
 #: A line at the K3701's top linear feed (5,454 mm/min at 1 MHz and 1 um per pulse).
@@ -105,7 +105,7 @@ def test_an_evaluated_cycle_at_rest_bounds_the_cost_per_event(benchmark):
 def test_tiny_job_with_a_warm_cache_start_to_exit(benchmark, tmp_path):
     job = tmp_path / "tiny.toml"
     job.write_text(f'[program]\ngcode = """\n{TINY_GCODE}"""\n')
-    command = [sys.executable, "-m", "sim.cli", "run", str(job), "-q"]
+    command = [sys.executable, "-m", "k37.sim.cli", "run", str(job), "-q"]
     # As a user's: Python writes its bytecode cache (the warm-up writes it, as it writes the
     # model cache) even where the benchmark's own environment says not to.
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
@@ -124,7 +124,8 @@ def test_tiny_job_with_a_warm_cache_start_to_exit(benchmark, tmp_path):
 #: A child that runs the command line and prints its own peak resident memory (kB) last.
 _PEAK_RSS = ("import atexit, resource, runpy, sys; atexit.register(lambda: print("
              "resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr)); "
-             "sys.argv = ['k37', *sys.argv[1:]]; runpy.run_module('sim.cli', run_name='__main__')")
+             "sys.argv = ['k37', *sys.argv[1:]]; "
+             "runpy.run_module('k37.sim.cli', run_name='__main__')")
 
 
 def test_memory_is_flat_in_the_runs_length(benchmark, tmp_path):

@@ -18,9 +18,9 @@ import sys
 import time
 from pathlib import Path
 
-from sim.run.jobfile import load_job
-from sim.run.plot import figure
-from sim.run.runner import RunOptions, RunResult, run_job
+from k37.sim.run.jobfile import load_job
+from k37.sim.run.plot import figure
+from k37.sim.run.runner import RunOptions, RunResult, run_job
 
 HERE = Path(__file__).resolve().parent
 DEMO = HERE.parent / "examples" / "circle.toml"

@@ -17,8 +17,8 @@ import sys
 import time
 from pathlib import Path
 
-from sim.study.studyfile import load_study
-from sim.study.sweep import sweep
+from k37.sim.study.studyfile import load_study
+from k37.sim.study.sweep import sweep
 
 STUDY = Path(__file__).resolve().parent.parent / "examples" / "study_l16.toml"
 TIMES: dict[str, float] = {}
@@ -36,7 +36,7 @@ def _processes(folder: Path) -> float:
     for run in study.runs:
         job = folder / f"run{run.number}.toml"
         job.write_text(_job_toml(study, run))
-        subprocess.run([sys.executable, "-m", "sim.cli", "run", str(job), "-q",
+        subprocess.run([sys.executable, "-m", "k37.sim.cli", "run", str(job), "-q",
                         "--max-cycles", str(study.max_cycles), "--sample-every",
                         str(study.sample_every)], check=True,
                        env=os.environ | {"PYTHONPATH": str(STUDY.parent.parent)})
@@ -55,7 +55,7 @@ def _toml(data: dict, table: str = "") -> list[str]:
 
 
 def _job_toml(study, run) -> str:
-    """The run's job (:meth:`~sim.study.studyfile.Study.job_data`) as a job file."""
+    """The run's job (:meth:`~k37.sim.study.studyfile.Study.job_data`) as a job file."""
     return "\n".join(_toml(study.job_data(run))) + "\n"
 
 

@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import threading
 
-from firmware_model.gcode.parser import parse
-from firmware_model.job import Job, MachineConfig, ServoConfig
-from sim.run.linked import run_linked
-from sim.run.runner import RunOptions, run_job
-from sim.serve.server import SimulatedBoard
+from k37.firmware_model.gcode.parser import parse
+from k37.firmware_model.job import Job, MachineConfig, ServoConfig
+from k37.sim.run.linked import run_linked
+from k37.sim.run.runner import RunOptions, run_job
+from k37.sim.serve.server import SimulatedBoard
 
 PROGRAM = """G21 G91 F600
 G01 X0.4 Y0.2

@@ -6,7 +6,7 @@ motor, the encoder's counts take the error back to zero, as in the paper's close
     python examples/api_registers.py
 """
 
-from sim import api
+from k37.sim import api
 
 with api.Machine() as m:  # the demo's machine: the paper's chipset and servos
     print("chips:", ", ".join(m.chips()))

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim import api
+from k37.sim import api
 
 job = api.load(Path(__file__).with_name("dwell.toml"))
 result = api.run(job)

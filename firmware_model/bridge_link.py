@@ -1,11 +1,11 @@
 """The chipset over the host bridge's protocol: :class:`BridgeLink`, a
-:class:`firmware_model.link.ChipsetLink` on a byte stream.
+:class:`k37.firmware_model.link.ChipsetLink` on a byte stream.
 
 One link, three transports, opened from a URL by :func:`open_link` with pyserial's
 ``serial_for_url``: ``tcp://HOST:PORT`` (a simulated board, ``k37 serve``), a serial port
 (``serial:///dev/ttyUSB0`` or a bare device path, at :data:`DEFAULT_BAUD` unless the URL says
 ``?baud=N``) for the real board, and ``loop://`` for tests. Each command waits for its reply
-before the next is sent (:mod:`hdl.bridge.protocol`).
+before the next is sent (:mod:`k37.hdl.bridge.protocol`).
 
 The link's :attr:`BridgeLink.cycle` is the host's account of time: the cycles its commands
 took (a bus cycle each, an idle's, a wait's). On a simulated board that is the machine's clock
@@ -19,9 +19,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from urllib.parse import parse_qs, urlsplit
 
-from firmware_model.job import Job
-from firmware_model.link import Interrupts
-from hdl.bridge.protocol import (
+from k37.firmware_model.job import Job
+from k37.firmware_model.link import Interrupts
+from k37.hdl.bridge.protocol import (
     COUNT_BITS,
     ERROR,
     IRQ_ALARM,
@@ -35,7 +35,7 @@ from hdl.bridge.protocol import (
     Op,
     encode,
 )
-from hdl.chipset.identity import chipset_identity
+from k37.hdl.chipset.identity import chipset_identity
 
 __all__ = ["DEFAULT_BAUD", "BridgeLink", "LinkError", "Probe", "job_identity", "open_link"]
 
@@ -69,7 +69,7 @@ class Probe:
 
 
 class BridgeLink:
-    """:class:`firmware_model.link.ChipsetLink` over the bridge protocol on ``port`` (an open
+    """:class:`k37.firmware_model.link.ChipsetLink` over the bridge protocol on ``port`` (an open
     pyserial port, or anything with ``read(n)``, ``write(data)`` and ``close()``), whose
     ``read`` returns fewer bytes than asked only when it timed out."""
 

@@ -1,7 +1,7 @@
 """What the host works out from a program before it runs it: feed words, rates and times,
 and the checks that refuse what the hardware cannot run.
 
-A feed (mm/min) becomes FP/s (:meth:`firmware_model.job.MachineConfig.lsb_per_s`) and then the
+A feed (mm/min) becomes FP/s (:meth:`k37.firmware_model.job.MachineConfig.lsb_per_s`) and then the
 rate multiplier's word at the input clock the firmware sets (:func:`feed_word`); a word gives
 back its feed with :func:`word_feed`. A feed above the K3701's maximum runs at it
 (:func:`run_feed`), as a controller clamps it; :func:`clamped_feeds` names the lines.
@@ -17,12 +17,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from firmware_model.gcode.parser import Dwell, Event, Item, Line, Program
-from firmware_model.gcode.program import Move
-from firmware_model.job import Job, MachineConfig
-from hdl.feed.decel_control_model import BUDGET_WIDTH
-from hdl.feed.feed_rate_map import FEED_BITS
-from hdl.k3701.block import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
+from k37.firmware_model.gcode.parser import Dwell, Event, Item, Line, Program
+from k37.firmware_model.gcode.program import Move
+from k37.firmware_model.job import Job, MachineConfig
+from k37.hdl.feed.decel_control_model import BUDGET_WIDTH
+from k37.hdl.feed.feed_rate_map import FEED_BITS
+from k37.hdl.k3701.block import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
 
 __all__ = ["BLOCK_HOST_SECONDS", "CYCLE_COUNTER_BITS", "RM_CLOCK_DIVISOR", "SETTLE_SECONDS",
            "FirmwareError", "ProgramTime", "accel_lag_seconds", "block_rate", "check_program",

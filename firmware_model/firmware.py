@@ -3,13 +3,13 @@
 Main line: clear all status, set the mode, initialise the interpolator and the position
 controllers, then for each block: take it, load it, start it and wait. The interrupt routine
 serves the K3701's data request (the block ended: next block) and the K3702's alarm (stop
-the feed, report). All chip access goes through :class:`firmware_model.host.Host8085`, so
+the feed, report). All chip access goes through :class:`k37.firmware_model.host.Host8085`, so
 every register access costs the 8085's T-states and the firmware runs unchanged on every
 simulation backend.
 
-Before anything is loaded, :func:`firmware_model.feeds.check_program` refuses what the
+Before anything is loaded, :func:`k37.firmware_model.feeds.check_program` refuses what the
 hardware cannot do; each block's feed becomes the rate multiplier's word there
-(:mod:`firmware_model.feeds`).
+(:mod:`k37.firmware_model.feeds`).
 
 While the 8085 waits for a block's end, its timer interrupt (every :data:`TIMER_TICK_SECONDS`)
 polls both encoders' status: the encoder interface has no interrupt line (``docs/chips/encoder.md``:
@@ -17,7 +17,7 @@ a line fault is a flag), so this is how a broken line is seen while the axes mov
 only at the next block end. Any encoder fault stops the feed and the program, as an alarm
 does.
 
-With a contour controller (``[contour]``, :mod:`firmware_model.contour`) the timer ticks every
+With a contour controller (``[contour]``, :mod:`k37.firmware_model.contour`) the timer ticks every
 ``contour.period_ms`` instead, and its routine also reads each axis's COMMAND and ERROR
 counters, computes the correction and writes its change to each K3702's CORRECT register
 (correction pulses, at most 127 a write); after the last block the host takes the corrections
@@ -29,23 +29,23 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Protocol
 
-from firmware_model.contour.controllers import ContourController
-from firmware_model.feeds import (
+from k37.firmware_model.contour.controllers import ContourController
+from k37.firmware_model.feeds import (
     SETTLE_SECONDS,
     check_program,
     feed_word,
     rm_clock_hz,
     run_feed,
 )
-from firmware_model.gcode.parser import Dwell, Event, Item
-from firmware_model.gcode.program import Move
-from firmware_model.host import Host8085
-from firmware_model.job import Job
-from hdl.chipset.map import chip_register, port
-from hdl.feed.divider_model import increment_for
-from hdl.feed.feed_rate_map import DIVIDER_WIDTH, fa_register
-from hdl.k3701.map import block_registers
-from hdl.k3702.map import K3702_MAP
+from k37.firmware_model.gcode.parser import Dwell, Event, Item
+from k37.firmware_model.gcode.program import Move
+from k37.firmware_model.host import Host8085
+from k37.firmware_model.job import Job
+from k37.hdl.chipset.map import chip_register, port
+from k37.hdl.feed.divider_model import increment_for
+from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH, fa_register
+from k37.hdl.k3701.map import block_registers
+from k37.hdl.k3702.map import K3702_MAP
 
 __all__ = ["AlarmEvent", "BlockObserver", "BlockRecord", "EventRecord", "Firmware"]
 
@@ -89,8 +89,8 @@ class AlarmEvent:
 
 @dataclass
 class EventRecord:
-    """A word with no hardware here (:class:`firmware_model.gcode.parser.Event`) and the cycle the
-    firmware reached it at."""
+    """A word with no hardware here (:class:`k37.firmware_model.gcode.parser.Event`) and the cycle
+    the firmware reached it at."""
 
     event: Event
     cycle: int

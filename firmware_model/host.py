@@ -2,7 +2,7 @@
 
 The firmware model never touches the simulation: it issues ``OUT`` and ``IN`` instructions,
 spends T-states and waits for interrupts, and :class:`Host8085` turns them into bus cycles
-and system clock cycles on a :class:`firmware_model.link.ChipsetLink`. The same firmware code
+and system clock cycles on a :class:`k37.firmware_model.link.ChipsetLink`. The same firmware code
 therefore drives every implementation of the link, and the gaps between bus accesses are
 those of a real 8085.
 """
@@ -11,8 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from firmware_model.link import ChipsetLink, Interrupts
-from hdl.chipset.map import chip_register, port
+from k37.firmware_model.link import ChipsetLink, Interrupts
+from k37.hdl.chipset.map import chip_register, port
 
 __all__ = ["T_STATES", "Host8085", "HostTiming"]
 

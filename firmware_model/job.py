@@ -1,12 +1,12 @@
 """The job the firmware runs: the machine, its two servos, the program and the run's options.
 
-A job comes from a file (:mod:`sim.run.jobfile`, which loads ``k37 run [JOB]``'s TOML or
+A job comes from a file (:mod:`k37.sim.run.jobfile`, which loads ``k37 run [JOB]``'s TOML or
 G-code), or is built here: :func:`demo_job` (the paper's circle) and :func:`gcode_job` (a
 program on the default machine).
 
 Every :class:`MachineConfig` value is checked when it is built, against the limit of the block
-that has it: the chipset's accel/decel widths and placements (:mod:`hdl.chipset.chip`), the
-feed-rate generator's divider (:func:`hdl.feed.divider_model.rate_limit`), the chips' register
+that has it: the chipset's accel/decel widths and placements (:mod:`k37.hdl.chipset.chip`), the
+feed-rate generator's divider (:func:`k37.hdl.feed.divider_model.rate_limit`), the chips' register
 ranges (their register maps), the G-code front end's LSB length. A :class:`ServoConfig` holds
 the simulated plants' settings, which the firmware never sees: here only their type is
 checked; their ranges are the plant's fixed point on the machine's clock and LSB, which the
@@ -19,14 +19,14 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any, Protocol
 
-from firmware_model.gcode.canon import FRONTENDS
-from firmware_model.gcode.parser import LSB_MM_LIMIT, GcodeError, Program, names_third_axis
-from hdl.chipset.map import ACCEL_BITS, AXES, MACHINE_AXES, Accel, AccelShape, axis_names
-from hdl.common.params import Limit
-from hdl.encoder.map import ENCODER_MAP
-from hdl.feed.divider_model import rate_limit
-from hdl.feed.feed_rate_map import DIVIDER_WIDTH
-from hdl.k3702.map import K3702_MAP
+from k37.firmware_model.gcode.canon import FRONTENDS
+from k37.firmware_model.gcode.parser import LSB_MM_LIMIT, GcodeError, Program, names_third_axis
+from k37.hdl.chipset.map import ACCEL_BITS, AXES, MACHINE_AXES, Accel, AccelShape, axis_names
+from k37.hdl.common.params import Limit
+from k37.hdl.encoder.map import ENCODER_MAP
+from k37.hdl.feed.divider_model import rate_limit
+from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH
+from k37.hdl.k3702.map import K3702_MAP
 
 __all__ = ["AXES", "CONTOUR_CONTROLLERS", "DEMO_GCODE", "AxisAccelConfig", "Boolean",
            "ContourConfig", "Job", "MachineConfig", "OneOf",
@@ -46,7 +46,8 @@ M30
 
 
 class Valid(Protocol):
-    """The values a key takes (a :class:`hdl.common.params.Limit`, or one of the classes below)."""
+    """The values a key takes (a :class:`k37.hdl.common.params.Limit`, or one of the classes
+    below)."""
 
     def check(self, name: str, value: Any) -> Any:
         """``value``, normalised; raises TypeError or ValueError naming ``name``."""
@@ -214,7 +215,7 @@ class ServoConfig(_Checked):
     """One axis's servo drive and motor (the simulation plant).
 
     Only the values' types are checked here: their ranges are the plant's fixed point on the
-    machine's clock and LSB (``sim.run.jobfile.servo_limits``).
+    machine's clock and LSB (``k37.sim.run.jobfile.servo_limits``).
     """
 
     kp: float = _key(30.0, Limit(), "position loop gain Kp (1/s)")
@@ -271,7 +272,7 @@ CONTOUR_CONTROLLERS = ("none", "ccc", "vgccc", "cec")
 class ContourConfig(_Checked):
     """The host's contour controller (``[contour]``): sampled every ``period_ms``, it reads the
     axes' positions over the bus and acts on them through each K3702's correction pulses
-    (:mod:`firmware_model.contour`)."""
+    (:mod:`k37.firmware_model.contour`)."""
 
     controller: str = _key("none", OneOf(CONTOUR_CONTROLLERS),
                            "contour controller: none, Koren's cross-coupled controller (ccc), "
@@ -345,7 +346,7 @@ def gcode_job(name: str, text: str, source: str, *, frontend: str = "builtin",
               arc_tolerance: float | None = None) -> Job:
     """G-code ``text`` (``source`` names it in errors) on the default machine and servos (three
     axes if the program moves Z: :func:`parse_for_machine`), read by the front end
-    ``frontend`` (:data:`firmware_model.gcode.canon.FRONTENDS`)."""
+    ``frontend`` (:data:`k37.firmware_model.gcode.canon.FRONTENDS`)."""
     machine, program = parse_for_machine(MachineConfig(), text, source=source,
                                          frontend=frontend, arc_tolerance=arc_tolerance)
     return Job(name, machine, dict.fromkeys(machine.axis_names, ServoConfig()), program)

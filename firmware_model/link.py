@@ -5,9 +5,8 @@ drives (Glasgow's split of an abstract interface and its implementations): a bus
 read at an 8-bit port address, time passing with no bus activity, waiting for an interrupt,
 and the levels of the interrupt inputs (what the 8085's RIM instruction reads). Time is
 counted in system clock cycles. The firmware model uses nothing else, so it runs unchanged
-on any implementation: the simulated machine (:class:`sim.run.simulated_link.SimulatedLink`) or a
-test double.
-"""
+on any implementation: the simulated machine (:class:`k37.sim.run.simulated_link.SimulatedLink`) or
+a test double. """
 
 from __future__ import annotations
 
@@ -53,6 +52,6 @@ class ChipsetLink(Protocol):
 
     # Optional: ``wait_polling(max_cycles, period, ports, stops, idles, due)``, a halted wait with a
     # read-only timer routine that the link runs itself, as
-    # :meth:`firmware_model.host.Host8085.wait_polling` would with the operations above
-    # (see :meth:`sim.backends.contract.Backend.wait_polling`); the host looks it up with
+    # :meth:`k37.firmware_model.host.Host8085.wait_polling` would with the operations above
+    # (see :meth:`k37.sim.backends.contract.Backend.wait_polling`); the host looks it up with
     # getattr and uses its own loop where a link has none or it returns None.

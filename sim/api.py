@@ -2,7 +2,7 @@
 
 One entry point over the command line's machinery (nothing here is a second runner)::
 
-    from sim import api
+    from k37.sim import api
 
     job = api.load("examples/square.toml")          # or api.load(gcode="G01 X1 F600")
     result = api.run(job, max_cycles=2_000_000)      # RunOptions' fields as keywords
@@ -14,10 +14,10 @@ One entry point over the command line's machinery (nothing here is a second runn
         m.step(50_000)
         m.read("K3702_X", "ERROR"), m.get("x__count")
 
-:func:`load` is :func:`sim.run.jobfile.load_job` (plus G-code text); :func:`run` is
-:func:`sim.run.runner.run_job`; :class:`Machine` is a backend built and configured as a run
-builds it, driven through :class:`firmware_model.host.Host8085` (8085 bus timing) with the
-register maps of :data:`hdl.chipset.map.CHIP_SELECTS`.
+:func:`load` is :func:`k37.sim.run.jobfile.load_job` (plus G-code text); :func:`run` is
+:func:`k37.sim.run.runner.run_job`; :class:`Machine` is a backend built and configured as a run
+builds it, driven through :class:`k37.firmware_model.host.Host8085` (8085 bus timing) with the
+register maps of :data:`k37.hdl.chipset.map.CHIP_SELECTS`.
 """
 
 from __future__ import annotations
@@ -25,14 +25,14 @@ from __future__ import annotations
 from os import PathLike
 from typing import Any
 
-from firmware_model.host import Host8085
-from firmware_model.job import Job, gcode_job
-from hdl.chipset.map import CHIP_SELECTS
-from sim.backends.contract import Backend
-from sim.backends.factory import BACKEND_NAMES
-from sim.run.jobfile import load_job
-from sim.run.runner import RunOptions, RunResult, build_backend, configure_plants, run_job
-from sim.run.simulated_link import SimulatedLink
+from k37.firmware_model.host import Host8085
+from k37.firmware_model.job import Job, gcode_job
+from k37.hdl.chipset.map import CHIP_SELECTS
+from k37.sim.backends.contract import Backend
+from k37.sim.backends.factory import BACKEND_NAMES
+from k37.sim.run.jobfile import load_job
+from k37.sim.run.runner import RunOptions, RunResult, build_backend, configure_plants, run_job
+from k37.sim.run.simulated_link import SimulatedLink
 
 __all__ = ["Machine", "load", "run"]
 
@@ -42,8 +42,8 @@ def load(path: str | PathLike[str] | None = None, *, gcode: str | None = None,
     """The job in ``path`` (TOML, or G-code on the default machine), or the G-code text
     ``gcode`` on the default machine (named ``name``); neither: the built-in demo.
 
-    Raises :class:`sim.run.jobfile.JobError` or :class:`firmware_model.gcode.parser.GcodeError`.
-    """
+    Raises :class:`k37.sim.run.jobfile.JobError` or
+    :class:`k37.firmware_model.gcode.parser.GcodeError`. """
     if gcode is not None:
         if path is not None:
             raise ValueError("load: give a path or gcode, not both")
@@ -58,7 +58,7 @@ def _job(job: Job | str | PathLike[str] | None) -> Job:
 
 def run(job: Job | str | PathLike[str] | None = None, **options: Any) -> RunResult:
     """Run ``job`` (a :class:`Job`, a path, or None: the demo) with ``options``, the fields of
-    :class:`sim.run.runner.RunOptions` (``max_cycles``, ``sample_every``, ``backend``,
+    :class:`k37.sim.run.runner.RunOptions` (``max_cycles``, ``sample_every``, ``backend``,
     ``faults``, ...). The result's ``report`` is the JSON report, ``traces`` its samples."""
     return run_job(_job(job), RunOptions(**options))
 
@@ -71,7 +71,7 @@ class Machine:
     def __init__(self, job: Job | str | PathLike[str] | None = None, *,
                  backend: str = BACKEND_NAMES[0]):
         self.job = _job(job)
-        #: The :class:`sim.backends.contract.Backend`: ports, probes, stepping.
+        #: The :class:`k37.sim.backends.contract.Backend`: ports, probes, stepping.
         self.backend: Backend = build_backend(self.job, backend)
         configure_plants(self.backend, self.job)
         self.host = Host8085(SimulatedLink(self.backend), clock_hz=self.job.machine.clock_hz)
@@ -114,7 +114,7 @@ class Machine:
 
     def run(self, **options: Any) -> RunResult:
         """Run the job's program on this machine from cycle 0 (reset first if it has run),
-        with :class:`sim.run.runner.RunOptions` fields as keywords; the machine stays open to
+        with :class:`k37.sim.run.runner.RunOptions` fields as keywords; the machine stays open to
         be looked at afterwards."""
         if self.backend.cycle:
             self.backend.reset()

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from firmware_model.gcode.words import markdown as gcode_markdown
-from hdl.bridge.protocol import markdown as bridge_markdown
-from hdl.bus.registers import RegisterMap, registers_markdown
-from hdl.chipset.map import CHIP_SELECTS, REG_BITS, SUB_WINDOWS, chip_selects, port
-from hdl.feed.feed_rate_map import FEED_MAP, FEED_MAP_AXIS_FA
+from k37.firmware_model.gcode.words import markdown as gcode_markdown
+from k37.hdl.bridge.protocol import markdown as bridge_markdown
+from k37.hdl.bus.registers import RegisterMap, registers_markdown
+from k37.hdl.chipset.map import CHIP_SELECTS, REG_BITS, SUB_WINDOWS, chip_selects, port
+from k37.hdl.feed.feed_rate_map import FEED_MAP, FEED_MAP_AXIS_FA
 
 __all__ = ["REGISTER_MAPS", "documents", "registers_document"]
 
@@ -48,8 +48,8 @@ def registers_document() -> str:
 
 def documents() -> dict[str, str]:
     """Every generated document under ``docs/``, by file name."""
-    from sim.run.jobfile import job_keys_markdown
-    from sim.run.report import schema_markdown
+    from k37.sim.run.jobfile import job_keys_markdown
+    from k37.sim.run.report import schema_markdown
 
     return {"registers.md": registers_document(), "run-json.md": schema_markdown(),
             "job-keys.md": job_keys_markdown(), "gcode.md": gcode_markdown(),

@@ -16,8 +16,8 @@ from pathlib import Path
 
 import pytest
 
-from firmware_model.gcode.parser import parse
-from firmware_model.job import AxisAccelConfig, Job, MachineConfig, ServoConfig
+from k37.firmware_model.gcode.parser import parse
+from k37.firmware_model.job import AxisAccelConfig, Job, MachineConfig, ServoConfig
 
 
 def _make_job(gcode: str, machine: MachineConfig | None = None,
@@ -124,10 +124,10 @@ def job_file(tmp_path: Path) -> Callable[..., Path]:
 
 @pytest.fixture
 def k37(tmp_path: Path) -> Callable[..., subprocess.CompletedProcess]:
-    """Runs ``k37 ARGS`` in a fresh Python (``python -m sim.cli``) in ``tmp_path``."""
+    """Runs ``k37 ARGS`` in a fresh Python (``python -m k37.sim.cli``) in ``tmp_path``."""
 
     def run(*args: str) -> subprocess.CompletedProcess:
-        return subprocess.run([sys.executable, "-m", "sim.cli", *args], cwd=tmp_path,
+        return subprocess.run([sys.executable, "-m", "k37.sim.cli", *args], cwd=tmp_path,
                               capture_output=True, text=True, check=False)
 
     return run

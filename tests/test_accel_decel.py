@@ -10,10 +10,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import simulate
 
-from hdl.accel.exponential import AccelDecel
-from hdl.accel.exponential_model import AccelDecelModel
-from hdl.feed.divider_model import FA_INCREMENT, PhaseDividerModel, frequency_of, increment_for
-from sim.backends.contract import CLOCK_PERIOD
+from k37.hdl.accel.exponential import AccelDecel
+from k37.hdl.accel.exponential_model import AccelDecelModel
+from k37.hdl.feed.divider_model import FA_INCREMENT, PhaseDividerModel, frequency_of, increment_for
+from k37.sim.backends.contract import CLOCK_PERIOD
 
 #: One cycle of stimulus: (positive input pulse, negative input pulse, addition pulse).
 Cycle = tuple[int, int, bool]

@@ -10,10 +10,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_accel_decel import drain, random_stimulus, run_gateware
 
-from hdl.accel.bell import AccelBell
-from hdl.accel.bell_model import AccelBellModel
-from hdl.accel.linear import AccelLinear
-from hdl.accel.linear_model import AccelLinearModel
+from k37.hdl.accel.bell import AccelBell
+from k37.hdl.accel.bell_model import AccelBellModel
+from k37.hdl.accel.linear import AccelLinear
+from k37.hdl.accel.linear_model import AccelLinearModel
 
 SHAPES = {"linear": (AccelLinear, AccelLinearModel), "bell": (AccelBell, AccelBellModel)}
 

@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim import api
-from sim.run.report import HOW_FIELDS
-from sim.run.sampler import TRACE_COLUMNS
+from k37.sim import api
+from k37.sim.run.report import HOW_FIELDS
+from k37.sim.run.sampler import TRACE_COLUMNS
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = sorted((ROOT / "examples").glob("api_*.py"))

@@ -9,9 +9,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_model.gcode.arcs import plan_block
-from hdl.k3701.block import Block, BlockError
-from hdl.k3701.model import plan
+from k37.firmware_model.gcode.arcs import plan_block
+from k37.hdl.k3701.block import Block, BlockError
+from k37.hdl.k3701.model import plan
 
 
 def _both(xe, ye, i, j, cw, sqrt2):

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.run.report import HOW_FIELDS
-from sim.run.runner import RunOptions, run_job
+from k37.sim.run.report import HOW_FIELDS
+from k37.sim.run.runner import RunOptions, run_job
 
 
 def comparable(report: dict) -> dict:

@@ -10,8 +10,8 @@ import math
 import numpy as np
 import pytest
 
-from sim.cli import main
-from sim.run.ballbar import (
+from k37.sim.cli import main
+from k37.sim.run.ballbar import (
     BallbarError,
     arc_sweep,
     ballbar_figure,
@@ -20,7 +20,7 @@ from sim.run.ballbar import (
     circle_figures,
     feed_in_out,
 )
-from sim.run.report import RUN_SCHEMA, validate
+from k37.sim.run.report import RUN_SCHEMA, validate
 
 
 def arc_samples(start_deg: float, sweep_deg: float, n: int = 2000, radius: float = 10_000,

@@ -17,15 +17,15 @@ from hypothesis import strategies as st
 from test_export_cosim import SEEDS, _core_port, amaranth_chipset, chipset_stimulus
 from testbench import simulate
 
-from hdl.board.core import CHIP_HZ, BoardCore
-from hdl.board.pins import ulx3s_pins
-from hdl.board.sigma_delta import SigmaDelta
-from hdl.board.sigma_delta_model import SigmaDeltaModel
-from hdl.board.top import BoardTop
-from hdl.bridge.protocol import OK, Identity, Op, encode
-from hdl.chipset.identity import chipset_identity
-from sim.fpga.export import pins as export_pins
-from sim.fpga.icarus import HOST_DRIVES
+from k37.hdl.board.core import CHIP_HZ, BoardCore
+from k37.hdl.board.pins import ulx3s_pins
+from k37.hdl.board.sigma_delta import SigmaDelta
+from k37.hdl.board.sigma_delta_model import SigmaDeltaModel
+from k37.hdl.board.top import BoardTop
+from k37.hdl.bridge.protocol import OK, Identity, Op, encode
+from k37.hdl.chipset.identity import chipset_identity
+from k37.sim.fpga.export import pins as export_pins
+from k37.sim.fpga.icarus import HOST_DRIVES
 
 needs_boards = pytest.mark.skipif(importlib.util.find_spec("amaranth_boards") is None,
                                   reason="amaranth-boards (the fpga extra) is not installed")
@@ -175,7 +175,7 @@ def test_the_host_identifies_the_chipset_through_the_boards_uart_pins():
 @needs_boards
 @pytest.mark.slow
 def test_the_build_plan_places_every_pin_and_constrains_the_board_clock(tmp_path):
-    from sim.fpga.build import build
+    from k37.sim.fpga.build import build
 
     report = build("ulx3s-25f", tmp_path, plan_only=True, progress=lambda _: None)
     name = report.name
@@ -193,7 +193,7 @@ def test_the_build_plan_places_every_pin_and_constrains_the_board_clock(tmp_path
 
 
 def _k37(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "sim.cli", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "k37.sim.cli", *args], capture_output=True,
                           text=True, env=env, check=False)
 
 
@@ -212,7 +212,7 @@ def test_build_refuses_an_unwritable_folder_and_names_the_missing_extra(tmp_path
 
 @needs_boards
 def test_every_board_k37_builds_has_its_platform_and_part():
-    from hdl.board.ulx3s import PLATFORMS
-    from sim.fpga.build import BOARDS
+    from k37.hdl.board.ulx3s import PLATFORMS
+    from k37.sim.fpga.build import BOARDS
 
     assert {board: platform.device for board, platform in PLATFORMS.items()} == BOARDS

@@ -11,9 +11,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from testbench import simulate
 
-from hdl.bridge.chip import UartBridge
-from hdl.bridge.model import FRAMING, BridgeModel, LineTimed
-from hdl.bridge.protocol import (
+from k37.hdl.bridge.chip import UartBridge
+from k37.hdl.bridge.model import FRAMING, BridgeModel, LineTimed
+from k37.hdl.bridge.protocol import (
     COMMANDS,
     ERROR,
     OK,
@@ -25,9 +25,9 @@ from hdl.bridge.protocol import (
     encode,
     map_fingerprint,
 )
-from hdl.bus.hostbus import HostBus
-from hdl.chipset.chip import Chipset
-from hdl.chipset.map import chip_selects, port
+from k37.hdl.bus.hostbus import HostBus
+from k37.hdl.chipset.chip import Chipset
+from k37.hdl.chipset.map import chip_selects, port
 
 IDENTITY = Identity(axes=2, fingerprint=0x12345678)
 #: The test target's registers: 16 bytes; writing TIMER starts a countdown that raises
@@ -61,7 +61,7 @@ class Target(wiring.Component):
 
 
 class TargetModel:
-    """:class:`Target`, cycle by cycle (a :class:`hdl.bridge.model.Target`)."""
+    """:class:`Target`, cycle by cycle (a :class:`k37.hdl.bridge.model.Target`)."""
 
     def __init__(self):
         self.cycle = 0

@@ -16,8 +16,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from firmware_model.job import MachineConfig, RunConfig, ServoConfig
-from sim.cli import main
+from k37.firmware_model.job import MachineConfig, RunConfig, ServoConfig
+from k37.sim.cli import main
 
 NUMBERS = st.one_of(
     st.integers(-3, 3), st.integers(-(2**70), 2**70),

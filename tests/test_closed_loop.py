@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from firmware_model.feeds import FirmwareError, check_program
-from firmware_model.job import RunConfig
-from sim.run.jobfile import load_job
-from sim.run.runner import RunOptions, build_backend, run_job
-from sim.run.sampler import TRACE_COLUMNS
+from k37.firmware_model.feeds import FirmwareError, check_program
+from k37.firmware_model.job import RunConfig
+from k37.sim.run.jobfile import load_job
+from k37.sim.run.runner import RunOptions, build_backend, run_job
+from k37.sim.run.sampler import TRACE_COLUMNS
 
 ROOT = Path(__file__).resolve().parent.parent
 COL = {name: k for k, name in enumerate(TRACE_COLUMNS)}

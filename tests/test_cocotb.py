@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from test_export_cosim import needs_icarus
 
-from sim.fpga.export import export_verilog
+from k37.sim.fpga.export import export_verilog
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "cocotb"
 

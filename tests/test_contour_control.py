@@ -11,11 +11,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_model.contour.controllers import ContourController, error_vector
-from firmware_model.contour.geometry import piece
-from firmware_model.gcode.parser import parse
-from firmware_model.job import ContourConfig
-from sim.run.jobfile import load_job
+from k37.firmware_model.contour.controllers import ContourController, error_vector
+from k37.firmware_model.contour.geometry import piece
+from k37.firmware_model.gcode.parser import parse
+from k37.firmware_model.job import ContourConfig
+from k37.sim.run.jobfile import load_job
 
 
 @cache

@@ -15,10 +15,10 @@ import pytest
 from test_backend_equivalence import same_on_both_backends
 from test_idle_skip import skipped_equals_stepped
 
-from firmware_model.job import ContourConfig, Job, MachineConfig, ServoConfig, parse_for_machine
-from sim.reproduce.seed002 import BEZIER_MM, Curve
-from sim.run.contour import contour_errors
-from sim.run.runner import RunOptions, run_job
+from k37.firmware_model.job import ContourConfig, Job, MachineConfig, ServoConfig, parse_for_machine
+from k37.sim.reproduce.seed002 import BEZIER_MM, Curve
+from k37.sim.run.contour import contour_errors
+from k37.sim.run.runner import RunOptions, run_job
 
 #: The contour-error paper's Table 1 plant at its 60 mm/s, on a 5 um LSB.
 MACHINE = MachineConfig(accel="none", lsb_mm=0.005)

@@ -6,15 +6,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from firmware_model.feeds import FirmwareError, check_program
-from firmware_model.gcode.curves import MIN_VERTEX_RADIUS
-from firmware_model.gcode.parser import GcodeError, parse
-from firmware_model.gcode.program import Exponential, Parabola
-from firmware_model.job import Job, MachineConfig, RunConfig, ServoConfig
-from hdl.k3701.block import Block, Kind
-from hdl.k3701.model import plan
-from sim.run.report import HOW_FIELDS
-from sim.run.runner import RunOptions, run_job
+from k37.firmware_model.feeds import FirmwareError, check_program
+from k37.firmware_model.gcode.curves import MIN_VERTEX_RADIUS
+from k37.firmware_model.gcode.parser import GcodeError, parse
+from k37.firmware_model.gcode.program import Exponential, Parabola
+from k37.firmware_model.job import Job, MachineConfig, RunConfig, ServoConfig
+from k37.hdl.k3701.block import Block, Kind
+from k37.hdl.k3701.model import plan
+from k37.sim.run.report import HOW_FIELDS
+from k37.sim.run.runner import RunOptions, run_job
 
 SEED_002 = "G21 G90 F1000\nG06 X30 Y0 I15 J-15\nM30"
 

@@ -19,22 +19,22 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import simulate
 
-from firmware_model.job import demo_job
-from hdl.bus.hostbus import HostBus, RegisterBank
-from hdl.bus.registers import Access, Register, RegisterMap
-from hdl.chipset import map as chipset_map
-from hdl.common import observation
-from hdl.common.observation import FreeRunning
-from sim.backends.contract import Backend
-from sim.backends.cxxrtl import build, rise
-from sim.backends.cxxrtl.backend import CxxrtlBackend
-from sim.backends.cxxrtl.evals import edge_wires, fall_eval, skip_eval
-from sim.backends.cxxrtl.rise import rise_eval
-from sim.backends.factory import BACKENDS, make_backend
-from sim.backends.introspect import component_ports
-from sim.backends.pysim import PysimBackend
-from sim.machine.system import System
-from sim.run import runner
+from k37.firmware_model.job import demo_job
+from k37.hdl.bus.hostbus import HostBus, RegisterBank
+from k37.hdl.bus.registers import Access, Register, RegisterMap
+from k37.hdl.chipset import map as chipset_map
+from k37.hdl.common import observation
+from k37.hdl.common.observation import FreeRunning
+from k37.sim.backends.contract import Backend
+from k37.sim.backends.cxxrtl import build, rise
+from k37.sim.backends.cxxrtl.backend import CxxrtlBackend
+from k37.sim.backends.cxxrtl.evals import edge_wires, fall_eval, skip_eval
+from k37.sim.backends.cxxrtl.rise import rise_eval
+from k37.sim.backends.factory import BACKENDS, make_backend
+from k37.sim.backends.introspect import component_ports
+from k37.sim.backends.pysim import PysimBackend
+from k37.sim.machine.system import System
+from k37.sim.run import runner
 
 MAP = RegisterMap("ZOO", 1, (
     Register("VALUE", 0x0, 24, Access.RW, "a signed value; reads back", signed=True),
@@ -354,7 +354,7 @@ PEEKING = tuple(name for name in BLOCKS if name != "chain")
 
 @pytest.fixture(scope="module")
 def peeking():
-    """A third Zoo, on CXXRTL's fast path for waits (sim.backends.cxxrtl.evals.edge_wires)."""
+    """A third Zoo, on CXXRTL's fast path for waits (k37.sim.backends.cxxrtl.evals.edge_wires)."""
     yield from zoo_pair(PEEKING)
 
 

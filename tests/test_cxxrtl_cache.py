@@ -13,12 +13,12 @@ from pathlib import Path
 import pytest
 from amaranth.hdl import Fragment
 
-from firmware_model.job import MachineConfig, demo_job
-from sim.backends import toolchain
-from sim.backends.cxxrtl import build
-from sim.backends.cxxrtl.backend import CxxrtlBackend, WaitEnd, _WaitPolling
-from sim.machine.system import System
-from sim.run import runner
+from k37.firmware_model.job import MachineConfig, demo_job
+from k37.sim.backends import toolchain
+from k37.sim.backends.cxxrtl import build
+from k37.sim.backends.cxxrtl.backend import CxxrtlBackend, WaitEnd, _WaitPolling
+from k37.sim.machine.system import System
+from k37.sim.run import runner
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -44,8 +44,8 @@ def test_a_run_of_a_remembered_design_never_imports_amaranth():
     is plain Python: a short job pays no HDL import."""
     runner.build_backend(demo_job(), "cxxrtl").close()  # remembered
     script = ("import sys\n"
-              "from firmware_model.job import demo_job\n"
-              "from sim.run.runner import RunOptions, build_backend, run_job\n"
+              "from k37.firmware_model.job import demo_job\n"
+              "from k37.sim.run.runner import RunOptions, build_backend, run_job\n"
               "job = demo_job()\n"
               "report = run_job(job, RunOptions(max_cycles=20000), build_backend(job, 'cxxrtl'))"
               ".report\n"
@@ -138,7 +138,7 @@ def test_a_second_build_of_an_entry_waits_for_the_first(tmp_path):
     for it (and then finds the model) instead of compiling it a second time."""
     script = ("import sys, time\n"
               "from pathlib import Path\n"
-              "from sim.backends.toolchain import key_lock\n"
+              "from k37.sim.backends.toolchain import key_lock\n"
               "root = Path(sys.argv[1])\n"
               "with key_lock(root, 'entry'):\n"
               "    (root / 'held').write_text('')\n"

@@ -19,9 +19,9 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from testbench import read_reg, simulate, write_reg
 
-from hdl.feed.decel_control import DecelControl
-from hdl.feed.decel_control_map import DECEL_MAP
-from hdl.feed.decel_control_model import BUDGET_WIDTH, DecelControlModel
+from k37.hdl.feed.decel_control import DecelControl
+from k37.hdl.feed.decel_control_map import DECEL_MAP
+from k37.hdl.feed.decel_control_model import BUDGET_WIDTH, DecelControlModel
 
 BUDGET, REMAINING, CTRL, STATUS = (DECEL_MAP[name] for name in
                                    ("BUDGET", "REMAINING", "CTRL", "STATUS"))

@@ -7,8 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import simulate
 
-from hdl.feed.divider import PhaseDivider
-from hdl.feed.divider_model import (
+from k37.hdl.feed.divider import PhaseDivider
+from k37.hdl.feed.divider_model import (
     FA_INCREMENT,
     PhaseDividerModel,
     frequency_of,

@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from sim.cli import build_parser, main
-from sim.docs import REGISTER_MAPS, documents, registers_document
+from k37.sim.cli import build_parser, main
+from k37.sim.docs import REGISTER_MAPS, documents, registers_document
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -50,7 +50,7 @@ def _source_files() -> set[str]:
 
 def test_the_architecture_page_names_every_package_and_module():
     page = k37_sphinx.architecture()
-    packages = {str(p.parent.relative_to(ROOT)).replace("/", ".")
+    packages = {"k37." + str(p.parent.relative_to(ROOT)).replace("/", ".")
                 for name in ("hdl", "sim", "firmware_model")
                 for p in (ROOT / name).rglob("__init__.py")}
     named = set(re.findall(r"\*\*`([\w.]+)`\*\*: \S", page))

@@ -9,9 +9,9 @@ from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 from testbench import BusOp, bus_write, drive_bus, read_ops, read_reg, simulate, write_ops
 
-from hdl.encoder.chip import EncoderInterface
-from hdl.encoder.map import ENCODER_MAP, Decode
-from hdl.encoder.model import EncoderModel
+from k37.hdl.encoder.chip import EncoderInterface
+from k37.hdl.encoder.map import ENCODER_MAP, Decode
+from k37.hdl.encoder.model import EncoderModel
 
 WIRES = ("a", "a_n", "b", "b_n")
 #: (A, B) at x4 position p (index p mod 4): A leading B, 00 -> 10 -> 11 -> 01, counts up.

@@ -9,10 +9,10 @@ from pathlib import Path
 import pytest
 from amaranth.back import verilog
 
-from hdl.feed.divider import PhaseDivider
-from sim.backends.verilator.model import lint
-from sim.fpga.blocks import BLOCKS, Exportable, block
-from sim.fpga.export import CORE_WAIVERS, export_verilog, pins, verilog_text
+from k37.hdl.feed.divider import PhaseDivider
+from k37.sim.backends.verilator.model import lint
+from k37.sim.fpga.blocks import BLOCKS, Exportable, block
+from k37.sim.fpga.export import CORE_WAIVERS, export_verilog, pins, verilog_text
 
 NAMES = [b.name for b in BLOCKS]
 
@@ -44,7 +44,7 @@ def test_export_all_writes_one_file_per_registered_block(exported):
 
 
 def test_named_blocks_are_written_in_the_order_given(tmp_path, monkeypatch):
-    monkeypatch.setattr("sim.fpga.export.verilog_text", text)  # the files' text is tested above
+    monkeypatch.setattr("k37.sim.fpga.export.verilog_text", text)  # the files' text is tested above
     paths = export_verilog(["divider", "rate_multiplier"], tmp_path)
     assert paths == [tmp_path / "divider.v", tmp_path / "rate_multiplier.v"]
     assert export_verilog(["all"], tmp_path) == [tmp_path / f"{n}.v" for n in NAMES]
@@ -137,7 +137,7 @@ class BadProbes(PhaseDivider):
 
 def test_a_probe_that_is_not_an_output_port_is_refused(monkeypatch):
     bad = Exportable("bad", f"{__name__}:BadProbes", "test")
-    monkeypatch.setattr("sim.fpga.blocks.BLOCKS", (*BLOCKS, bad))
+    monkeypatch.setattr("k37.sim.fpga.blocks.BLOCKS", (*BLOCKS, bad))
     with pytest.raises(ValueError, match=r"bad: probes \['nope'\] are not output ports"):
         pins("bad")
 

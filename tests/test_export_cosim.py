@@ -6,7 +6,7 @@ it) is driven through its chip pins with seeded random stimulus: random host bus
 D/address//CS//RD//WR (whole registers, stray bytes, unmapped addresses, strobes while not
 selected, junk on D), random block inputs and one reset pulse. Every output pin, and D with
 its output enable, is compared cycle by cycle with the block's plain-Python reference model,
-which sees the same inputs through a bus model of :class:`hdl.bus.hostbus.RegisterBank`.
+which sees the same inputs through a bus model of :class:`k37.hdl.bus.hostbus.RegisterBank`.
 
 One Verilator build per block per session (and a disk cache keyed by the file's hash).
 Icarus (four-state, event-driven: it reads the file as another simulator or a synthesis tool
@@ -24,30 +24,30 @@ import pytest
 from amaranth.hdl import ClockDomain, Module
 from amaranth.sim import Simulator
 
-from hdl.accel.bell_model import AccelBellModel
-from hdl.accel.exponential_model import AccelDecelModel
-from hdl.accel.linear_model import AccelLinearModel
-from hdl.bus.hostbus_model import RegisterBankModel
-from hdl.bus.registers import Register, RegisterMap
-from hdl.chipset.map import CHIP_SELECTS, REG_BITS
-from hdl.encoder.map import ENCODER_MAP
-from hdl.encoder.model import EncoderModel
-from hdl.feed.decel_control_map import DECEL_MAP
-from hdl.feed.decel_control_model import DecelControlModel
-from hdl.feed.divider_model import PhaseDividerModel
-from hdl.feed.feed_rate_map import DIVIDER_WIDTH, FA_AXES, FEED_MAP, FEED_MAP_AXIS_FA
-from hdl.feed.feed_rate_model import FeedRateModel
-from hdl.feed.rate_multiplier_model import RateMultiplierModel
-from hdl.k3701.block import Block, Kind
-from hdl.k3701.map import K3701_MAP, K3701_MAP_3
-from hdl.k3701.model import K3701Model
-from hdl.k3702.map import K3702_MAP
-from hdl.k3702.model import K3702Model
-from sim.backends.verilator.model import Model, VerilatedModel, build
-from sim.fpga.blocks import BLOCKS, block
-from sim.fpga.export import pins as export_pins
-from sim.fpga.export import verilog_text
-from sim.fpga.icarus import HOST_DRIVES, find_iverilog, simulate
+from k37.hdl.accel.bell_model import AccelBellModel
+from k37.hdl.accel.exponential_model import AccelDecelModel
+from k37.hdl.accel.linear_model import AccelLinearModel
+from k37.hdl.bus.hostbus_model import RegisterBankModel
+from k37.hdl.bus.registers import Register, RegisterMap
+from k37.hdl.chipset.map import CHIP_SELECTS, REG_BITS
+from k37.hdl.encoder.map import ENCODER_MAP
+from k37.hdl.encoder.model import EncoderModel
+from k37.hdl.feed.decel_control_map import DECEL_MAP
+from k37.hdl.feed.decel_control_model import DecelControlModel
+from k37.hdl.feed.divider_model import PhaseDividerModel
+from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH, FA_AXES, FEED_MAP, FEED_MAP_AXIS_FA
+from k37.hdl.feed.feed_rate_model import FeedRateModel
+from k37.hdl.feed.rate_multiplier_model import RateMultiplierModel
+from k37.hdl.k3701.block import Block, Kind
+from k37.hdl.k3701.map import K3701_MAP, K3701_MAP_3
+from k37.hdl.k3701.model import K3701Model
+from k37.hdl.k3702.map import K3702_MAP
+from k37.hdl.k3702.model import K3702Model
+from k37.sim.backends.verilator.model import Model, VerilatedModel, build
+from k37.sim.fpga.blocks import BLOCKS, block
+from k37.sim.fpga.export import pins as export_pins
+from k37.sim.fpga.export import verilog_text
+from k37.sim.fpga.icarus import HOST_DRIVES, find_iverilog, simulate
 
 SEEDS = (1, 2)
 CYCLES = 20000
@@ -63,7 +63,8 @@ def built(name: str) -> Model:
 # --- the host bus as the wrapper's pins see it -------------------------------------------------
 
 class BusModel:
-    """Byte-level :class:`~hdl.bus.hostbus.RegisterBank`: shadows for writes, latches for reads."""
+    """Byte-level :class:`~k37.hdl.bus.hostbus.RegisterBank`: shadows for writes, latches for
+    reads."""
 
     def __init__(self, regmap: RegisterMap):
         self.regmap = regmap

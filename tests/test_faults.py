@@ -19,13 +19,13 @@ from pathlib import Path
 
 import pytest
 
-from sim.cli import main
-from sim.files import OutputError, atomic_open, check_outputs
-from sim.run import runner
-from sim.run.fst import convert_in_child
-from sim.study import sweep as sweep_module
-from sim.study.studyfile import load_study
-from sim.study.sweep import sweep
+from k37.sim.cli import main
+from k37.sim.files import OutputError, atomic_open, check_outputs
+from k37.sim.run import runner
+from k37.sim.run.fst import convert_in_child
+from k37.sim.study import sweep as sweep_module
+from k37.sim.study.studyfile import load_study
+from k37.sim.study.sweep import sweep
 
 ROOT = Path(__file__).resolve().parent.parent
 CIRCLE = ROOT / "examples" / "circle.toml"
@@ -116,7 +116,7 @@ def test_a_closed_stdout_is_refused_before_the_run(monkeypatch, capsys):
 
 def test_a_full_stdout_is_an_error_naming_it_and_the_files_are_written(tmp_path):
     with open("/dev/full", "w") as full:
-        done = subprocess.run([sys.executable, "-m", "sim.cli", "run", str(CIRCLE), "--json",
+        done = subprocess.run([sys.executable, "-m", "k37.sim.cli", "run", str(CIRCLE), "--json",
                                str(tmp_path / "r.json")], stdout=full, stderr=subprocess.PIPE,
                               text=True, env=ENV, timeout=600, check=False)
     assert done.returncode == 1
@@ -147,7 +147,7 @@ def test_plan_to_a_closed_or_full_stdout_is_an_error_not_a_traceback(monkeypatch
     assert main(["plan", str(CIRCLE)]) == 2
     _one_error(capsys.readouterr().err, "stdout: closed")
     with open("/dev/full", "w") as full:
-        done = subprocess.run([sys.executable, "-m", "sim.cli", "plan", str(CIRCLE)],
+        done = subprocess.run([sys.executable, "-m", "k37.sim.cli", "plan", str(CIRCLE)],
                               stdout=full, stderr=subprocess.PIPE, text=True, env=ENV,
                               timeout=120, check=False)
     assert done.returncode == 1
@@ -211,7 +211,7 @@ def _start_run(tmp_path: Path) -> subprocess.Popen:
     """``k37 run`` of the demo, slow enough to be stopped (every cycle evaluated), once its
     waveform's temporary file shows that the run has begun."""
     process = subprocess.Popen(
-        [sys.executable, "-m", "sim.cli", "run", "--no-skip-idle", "--json", "r.json",
+        [sys.executable, "-m", "k37.sim.cli", "run", "--no-skip-idle", "--json", "r.json",
          "--trace", "t.csv", "--vcd", "w.vcd", "--vcd-stop", "10"],
         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
     deadline = time.monotonic() + 300
@@ -238,8 +238,8 @@ def test_sigterm_stops_a_run_as_ctrl_c_does_and_exits_143(tmp_path):
 
 def test_sigterm_before_the_run_exits_143_with_one_line(tmp_path):
     process = subprocess.Popen(
-        [sys.executable, "-c", "import time, sys; from sim.cli import main; "
-         "from sim.run import jobfile; load = jobfile.load_job; "
+        [sys.executable, "-c", "import time, sys; from k37.sim.cli import main; "
+         "from k37.sim.run import jobfile; load = jobfile.load_job; "
          "jobfile.load_job = lambda *a, **k: (print('loading', flush=True), time.sleep(60), "
          "load(*a, **k))[2]; sys.exit(main(['run', '-q']))"],
         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=ENV)
@@ -278,7 +278,7 @@ def test_an_overflowing_load_step_is_an_error(tmp_path, monkeypatch, capsys, ste
 def test_a_time_limit_beyond_the_cycle_limit_leaves_the_cycle_limit(make_job):
     from dataclasses import replace
 
-    from firmware_model.job import RunConfig
+    from k37.firmware_model.job import RunConfig
 
     job = replace(make_job("G21 G91 F600\nG01 X1\nM30"), run=RunConfig(max_time_s=1e308))
     assert runner.cycle_limit(job, runner.RunOptions(max_cycles=5000))[0] == 5000
@@ -297,10 +297,10 @@ def test_a_program_file_that_is_not_a_regular_file_is_refused(tmp_path, capsys):
 
 
 def test_a_program_beyond_the_size_limit_is_refused(tmp_path, monkeypatch, capsys):
-    import sim.files
+    import k37.sim.files
 
-    monkeypatch.setattr(sim.files, "MAX_INPUT_BYTES", 1000)
-    monkeypatch.setattr(sim.files.read_input_text, "__kwdefaults__", {"encoding": "utf-8",
+    monkeypatch.setattr(k37.sim.files, "MAX_INPUT_BYTES", 1000)
+    monkeypatch.setattr(k37.sim.files.read_input_text, "__kwdefaults__", {"encoding": "utf-8",
                                                                      "limit": 1000})
     (tmp_path / "long.ngc").write_text("G21 G91 F600\n" + "G01 X0.001\n" * 200 + "M30\n")
     assert main(["plan", str(tmp_path / "long.ngc")]) == 2
@@ -419,12 +419,12 @@ def test_a_factor_named_as_a_metric_is_refused(tmp_path, capsys):
 _SLOW_SWEEP = textwrap.dedent("""
     import os, sys, time
     from pathlib import Path
-    from sim.study import sweep
+    from k37.sim.study import sweep
     def slow(study, run):
         Path(sys.argv[2], f"worker-{os.getpid()}").write_text("")
         time.sleep(600)
     sweep.run_one = slow
-    from sim.cli import main
+    from k37.sim.cli import main
     sys.exit(main(["sweep", sys.argv[1], "--out", sys.argv[2] + "/out", "-j", "2", "-q"]))
 """)
 

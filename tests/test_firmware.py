@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_model.feeds import (
+from k37.firmware_model.feeds import (
     FirmwareError,
     check_program,
     clamped_feeds,
@@ -19,15 +19,15 @@ from firmware_model.feeds import (
     word_feed,
     word_rate,
 )
-from firmware_model.host import T_STATES, Host8085
-from firmware_model.job import MachineConfig, RunConfig
-from hdl.chipset.map import port
-from hdl.feed.feed_rate_map import FEED_BITS
-from hdl.k3701.block import Kind
+from k37.firmware_model.host import T_STATES, Host8085
+from k37.firmware_model.job import MachineConfig, RunConfig
+from k37.hdl.chipset.map import port
+from k37.hdl.feed.feed_rate_map import FEED_BITS
+from k37.hdl.k3701.block import Kind
 
 
 class FakeLink:
-    """A :class:`firmware_model.link.ChipsetLink` that records the cycle of every bus access;
+    """A :class:`k37.firmware_model.link.ChipsetLink` that records the cycle of every bus access;
     reads return a fixed byte."""
 
     def __init__(self):

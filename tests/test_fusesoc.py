@@ -9,7 +9,7 @@ from importlib import metadata
 
 import pytest
 
-from sim.fpga.fusesoc import core_text
+from k37.sim.fpga.fusesoc import core_text
 
 
 def test_the_core_lists_every_file_and_a_lint_target_per_block(tmp_path):
@@ -26,7 +26,7 @@ def test_the_core_lists_every_file_and_a_lint_target_per_block(tmp_path):
 @pytest.mark.skipif(shutil.which("fusesoc") is None,
                     reason="FuseSoC is not installed (pip install fusesoc)")
 def test_fusesoc_reads_the_core_that_export_verilog_writes(tmp_path):
-    done = subprocess.run([sys.executable, "-m", "sim.cli", "export-verilog", "--block",
+    done = subprocess.run([sys.executable, "-m", "k37.sim.cli", "export-verilog", "--block",
                            "divider", "--block", "k3702", "-o", str(tmp_path)],
                           capture_output=True, text=True, check=False)
     assert done.returncode == 0, done.stderr

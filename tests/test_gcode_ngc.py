@@ -9,9 +9,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from firmware_model.gcode import ngc
-from firmware_model.gcode.lex import LexError, read_line
-from firmware_model.gcode.parser import GcodeError, parse
+from k37.firmware_model.gcode import ngc
+from k37.firmware_model.gcode.lex import LexError, read_line
+from k37.firmware_model.gcode.parser import GcodeError, parse
 
 
 def xs(text: str, **kwargs) -> list[int]:

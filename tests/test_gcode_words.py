@@ -8,12 +8,12 @@ import math
 import pytest
 from test_gcode import error_of
 
-from firmware_model.gcode.parser import MAX_ERRORS, Arc, Dwell, Event, GcodeError, Line, parse
-from firmware_model.gcode.words import G_CODES, M_CODES, markdown
-from firmware_model.job import gcode_job
-from sim.run.jobfile import load_job
-from sim.run.report import validate
-from sim.run.runner import RunOptions, run_job
+from k37.firmware_model.gcode.parser import MAX_ERRORS, Arc, Dwell, Event, GcodeError, Line, parse
+from k37.firmware_model.gcode.words import G_CODES, M_CODES, markdown
+from k37.firmware_model.job import gcode_job
+from k37.sim.run.jobfile import load_job
+from k37.sim.run.report import validate
+from k37.sim.run.runner import RunOptions, run_job
 
 
 def ends(text: str, **kwargs) -> list[tuple[int, ...]]:

@@ -6,8 +6,8 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out, connect, flipped
 from testbench import bus_read, bus_write, read_reg, simulate, write_reg
 
-from hdl.bus.hostbus import HostBus, RegisterBank
-from hdl.bus.registers import Access, Field, Register, RegisterMap
+from k37.hdl.bus.hostbus import HostBus, RegisterBank
+from k37.hdl.bus.registers import Access, Field, Register, RegisterMap
 
 MAP = RegisterMap("TEST", 1, (
     Register("VALUE", 0x0, 24, Access.RW, "24-bit value; reads back a running counter",

@@ -2,7 +2,7 @@
 
 While the machine stands still (a dwell, the host busy, the axes at rest) only the feed-rate
 generator's dividers and rate multiplier, and the accel/decel accumulators between their
-carries, run on (``sim.machine.system.free_running``); the compiled backend then skips ahead and
+carries, run on (``k37.sim.machine.system.free_running``); the compiled backend then skips ahead and
 advances them in closed form. Every signal of the design must end up as if each cycle had
 been evaluated.
 """
@@ -17,15 +17,15 @@ from amaranth.lib.wiring import In, Out
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_model.job import Job, MachineConfig, ServoConfig
-from hdl.k3701.block import Block
-from hdl.k3701.chip import K3701
-from hdl.k3701.map import K3701_MAP, block_registers
-from sim.backends.cxxrtl.backend import CxxrtlBackend
-from sim.machine.plant import ServoPlant
-from sim.machine.plant_model import ALPHA_BITS, COUNT_BITS, GAIN_BITS
-from sim.run.report import HOW_FIELDS
-from sim.run.runner import RunOptions, build_backend, run_job
+from k37.firmware_model.job import Job, MachineConfig, ServoConfig
+from k37.hdl.k3701.block import Block
+from k37.hdl.k3701.chip import K3701
+from k37.hdl.k3701.map import K3701_MAP, block_registers
+from k37.sim.backends.cxxrtl.backend import CxxrtlBackend
+from k37.sim.machine.plant import ServoPlant
+from k37.sim.machine.plant_model import ALPHA_BITS, COUNT_BITS, GAIN_BITS
+from k37.sim.run.report import HOW_FIELDS
+from k37.sim.run.runner import RunOptions, build_backend, run_job
 
 
 def run(job: Job, faults: dict, kind: str, skip: bool, sample_every: int,

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from firmware_model.gcode.parser import Arc, GcodeError, Line, parse
-from firmware_model.job import (
+from k37.firmware_model.gcode.parser import Arc, GcodeError, Line, parse
+from k37.firmware_model.job import (
     AXES,
     DEMO_GCODE,
     Job,
@@ -21,16 +21,16 @@ from firmware_model.job import (
     ServoConfig,
     demo_job,
 )
-from hdl.chipset.chip import Chipset
-from hdl.common.params import Limit
-from hdl.encoder.map import ENCODER_MAP
-from hdl.feed.divider_model import increment_for
-from hdl.feed.feed_rate_map import DIVIDER_WIDTH
-from hdl.k3702.map import K3702_MAP
-from sim.cli import main
-from sim.machine.plant_model import ALPHA_BITS, GAIN_BITS, VMAX_BITS, PlantParams
-from sim.run.jobfile import JobError, job_keys_markdown, load_job, plant_params, servo_limits
-from sim.run.runner import system_params
+from k37.hdl.chipset.chip import Chipset
+from k37.hdl.common.params import Limit
+from k37.hdl.encoder.map import ENCODER_MAP
+from k37.hdl.feed.divider_model import increment_for
+from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH
+from k37.hdl.k3702.map import K3702_MAP
+from k37.sim.cli import main
+from k37.sim.machine.plant_model import ALPHA_BITS, GAIN_BITS, VMAX_BITS, PlantParams
+from k37.sim.run.jobfile import JobError, job_keys_markdown, load_job, plant_params, servo_limits
+from k37.sim.run.runner import system_params
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 PROGRAM = '[program]\ngcode = "G01 X1 F100"\n'

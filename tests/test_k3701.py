@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import bus_write, read_reg, simulate, write_reg
 
-from hdl.k3701.block import (
+from k37.hdl.k3701.block import (
     CIRCLE_SETUP_CYCLES,
     COORD_MAX,
     LATENCY_CIRCULAR,
@@ -21,12 +21,12 @@ from hdl.k3701.block import (
     Kind,
     quadrant_of,
 )
-from hdl.k3701.chip import K3701
-from hdl.k3701.datapaths.circular import CircularDatapath
-from hdl.k3701.datapaths.linear import LinearDatapath
-from hdl.k3701.map import K3701_MAP, block_registers
-from hdl.k3701.model import K3701Model, make_path, plan, walk
-from sim.reproduce.paper import table1
+from k37.hdl.k3701.chip import K3701
+from k37.hdl.k3701.datapaths.circular import CircularDatapath
+from k37.hdl.k3701.datapaths.linear import LinearDatapath
+from k37.hdl.k3701.map import K3701_MAP, block_registers
+from k37.hdl.k3701.model import K3701Model, make_path, plan, walk
+from k37.sim.reproduce.paper import table1
 
 OUTPUTS = ("x_pos", "x_neg", "y_pos", "y_neg", "busy", "irq", "error", "overrun")
 CMD = K3701_MAP["CMD"]

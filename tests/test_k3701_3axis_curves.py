@@ -14,9 +14,9 @@ from test_k3701_3axis import compare3
 from test_k3701_exponential import exponentials
 from test_k3701_parabolic import parabolas
 
-from hdl.k3701.block import PLANES, Block, BlockError, Kind, route
-from hdl.k3701.map import K3701_MAP_3, block_registers
-from hdl.k3701.model import plan, walk
+from k37.hdl.k3701.block import PLANES, Block, BlockError, Kind, route
+from k37.hdl.k3701.map import K3701_MAP_3, block_registers
+from k37.hdl.k3701.model import plan, walk
 
 planes = st.integers(0, 2)
 

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from test_k3701 import check_clean_end_on_gateware, compare_with_model, fp_kinds, fp_source
 from test_k3701_parabolic import visited
 
-from firmware_model.gcode.curves import (
+from k37.firmware_model.gcode.curves import (
     MAX_GROWTH,
     MIN_CONSTANT,
     CurveError,
@@ -20,9 +20,9 @@ from firmware_model.gcode.curves import (
     exponential_block,
     exponential_frame,
 )
-from hdl.k3701.block import COORD_MAX, Block, BlockError
-from hdl.k3701.datapaths.parabolic_model import ExponentialPath
-from hdl.k3701.model import make_path, walk
+from k37.hdl.k3701.block import COORD_MAX, Block, BlockError
+from k37.hdl.k3701.datapaths.parabolic_model import ExponentialPath
+from k37.hdl.k3701.model import make_path, walk
 
 
 @st.composite

@@ -9,10 +9,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_k3701 import check_clean_end_on_gateware, compare_with_model, fp_kinds, fp_source
 
-from firmware_model.gcode.curves import frame_distances
-from hdl.k3701.block import COORD_MAX, Block, BlockError
-from hdl.k3701.datapaths.parabolic_model import FramePath, ParabolicPath
-from hdl.k3701.model import make_path, plan
+from k37.firmware_model.gcode.curves import frame_distances
+from k37.hdl.k3701.block import COORD_MAX, Block, BlockError
+from k37.hdl.k3701.datapaths.parabolic_model import FramePath, ParabolicPath
+from k37.hdl.k3701.model import make_path, plan
 
 
 def curve_distances(path: ParabolicPath, points: np.ndarray) -> np.ndarray:

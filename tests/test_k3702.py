@@ -18,10 +18,10 @@ from testbench import (
     write_reg,
 )
 
-from hdl.k3702.chip import K3702
-from hdl.k3702.map import K3702_MAP
-from hdl.k3702.model import K3702Model, K3702Outputs, wrap
-from sim.backends.contract import CLOCK_PERIOD
+from k37.hdl.k3702.chip import K3702
+from k37.hdl.k3702.map import K3702_MAP
+from k37.hdl.k3702.model import K3702Model, K3702Outputs, wrap
+from k37.sim.backends.contract import CLOCK_PERIOD
 
 INPUTS = ("com_pos", "com_neg", "fb_pos", "fb_neg")
 PORTS = tuple(f.name for f in fields(K3702Outputs) if f.name != "status")

@@ -11,17 +11,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim.reproduce.theory import (
+from k37.sim.reproduce.theory import (
     accel_gain,
     following_error,
     hardware_tau,
     mismatch_amplitude,
     servo_gain,
 )
-from sim.run.ballbar import ballbar
-from sim.run.jobfile import load_job, load_step_fault, torque_params
-from sim.run.runner import RunOptions, run_job
-from sim.run.sampler import TRACE_COLUMNS
+from k37.sim.run.ballbar import ballbar
+from k37.sim.run.jobfile import load_job, load_step_fault, torque_params
+from k37.sim.run.runner import RunOptions, run_job
+from k37.sim.run.sampler import TRACE_COLUMNS
 
 pytestmark = pytest.mark.slow
 

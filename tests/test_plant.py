@@ -8,8 +8,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import simulate
 
-from sim.machine.plant import ServoPlant
-from sim.machine.plant_model import ALPHA_BITS, FRAC_BITS, PlantParams, ServoPlantModel, dac_zero
+from k37.sim.machine.plant import ServoPlant
+from k37.sim.machine.plant_model import (
+    ALPHA_BITS,
+    FRAC_BITS,
+    PlantParams,
+    ServoPlantModel,
+    dac_zero,
+)
 
 
 def compare_with_model(params: PlantParams, dac_bits: int, stimulus: list[tuple],

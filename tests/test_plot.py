@@ -6,12 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.run import plot as plot_module
-from sim.run import plot_data as plot_data_module
-from sim.run.contour import contour_errors
-from sim.run.plot import BOUNDARY, figure, windowed_speed
-from sim.run.plot_data import BlockContour, plot_data
-from sim.run.runner import RunOptions, run_job
+from k37.sim.run import plot as plot_module
+from k37.sim.run import plot_data as plot_data_module
+from k37.sim.run.contour import contour_errors
+from k37.sim.run.plot import BOUNDARY, figure, windowed_speed
+from k37.sim.run.plot_data import BlockContour, plot_data
+from k37.sim.run.runner import RunOptions, run_job
 
 GCODE = "G21 G90 F1200\nG01 X60\nG04 P0.2\nG02 X70 Y0 I5 J0\nG00 X0 Y5\nM30"
 

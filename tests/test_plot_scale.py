@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from firmware_model.job import MachineConfig
-from sim.run.plot import (
+from k37.firmware_model.job import MachineConfig
+from k37.sim.run.plot import (
     BOUNDARY,
     MAX_BOUNDARIES,
     MAX_LABELS,
@@ -20,7 +20,7 @@ from sim.run.plot import (
     marked_blocks,
     thin,
 )
-from sim.run.runner import RunOptions, run_job
+from k37.sim.run.runner import RunOptions, run_job
 
 
 def zigzag(rows: int, per_row: int, step_mm: float = 0.25, pitch_mm: float = 1.0) -> str:

@@ -15,15 +15,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import simulate
 
-from hdl.feed.rate_multiplier import RateMultiplier
-from hdl.feed.rate_multiplier_model import (
+from k37.hdl.feed.rate_multiplier import RateMultiplier
+from k37.hdl.feed.rate_multiplier_model import (
     STAGE_BITS,
     RateMultiplierModel,
     gate,
     selected_bit,
     stage_gate,
 )
-from sim.backends.cxxrtl.backend import CxxrtlBackend
+from k37.sim.backends.cxxrtl.backend import CxxrtlBackend
 
 #: The 7497's decoding gates as the datasheet's logic diagram wires them: rate bit b passes
 #: the counter states s with s mod period == residue (F: QA low; E: QA high, QB low; ...).

@@ -13,12 +13,12 @@ import math
 import numpy as np
 import pytest
 
-from firmware_model.feeds import feed_word, word_feed
-from sim.cli import build_parser
-from sim.reproduce.experiments import analyse, reproduce
-from sim.reproduce.paper import FEED_HIGH, FEED_LOW
-from sim.reproduce.runs import MACHINE, QUICK
-from sim.reproduce.theory import (
+from k37.firmware_model.feeds import feed_word, word_feed
+from k37.sim.cli import build_parser
+from k37.sim.reproduce.experiments import analyse, reproduce
+from k37.sim.reproduce.paper import FEED_HIGH, FEED_LOW
+from k37.sim.reproduce.runs import MACHINE, QUICK
+from k37.sim.reproduce.theory import (
     fp_rate,
     hardware_tau,
     lag,

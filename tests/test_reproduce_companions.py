@@ -14,17 +14,17 @@ import math
 import numpy as np
 import pytest
 
-from firmware_model.job import MachineConfig
-from sim.reproduce.circle_error import (
+from k37.firmware_model.job import MachineConfig
+from k37.sim.reproduce.circle_error import (
     LEVELS,
     conditions,
     exact_loss,
     mismatch_ellipse,
     paper_loss,
 )
-from sim.reproduce.seed000 import circuit_outputs, recursion_35
-from sim.reproduce.theory import accel_filter, mismatch_amplitude, moving_average, servo
-from sim.study.analysis import response_surface
+from k37.sim.reproduce.seed000 import circuit_outputs, recursion_35
+from k37.sim.reproduce.theory import accel_filter, mismatch_amplitude, moving_average, servo
+from k37.sim.study.analysis import response_surface
 
 
 def test_recursion_35_is_a_first_order_lag_of_2_to_the_n_additions():

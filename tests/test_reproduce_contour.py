@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from firmware_model.gcode.parser import Line
-from sim.reproduce import seed002
-from sim.reproduce.runs import QUICK, RunSpec
+from k37.firmware_model.gcode.parser import Line
+from k37.sim.reproduce import seed002
+from k37.sim.reproduce.runs import QUICK, RunSpec
 
 CURVES = {"bezier": seed002.Curve.bezier(seed002.BEZIER_MM), "parabola": seed002.Curve.parabola()}
 

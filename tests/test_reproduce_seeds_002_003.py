@@ -8,13 +8,13 @@ import math
 import numpy as np
 import pytest
 
-from firmware_model.feeds import feed_word, word_rate
-from firmware_model.gcode.parser import Line
-from sim.reproduce import resonance, seed002, seed003
-from sim.reproduce.runs import RunSpec
-from sim.reproduce.theory import following_error
-from sim.run.ballbar import ballbar_of
-from sim.run.sampler import TRACE_COLUMNS
+from k37.firmware_model.feeds import feed_word, word_rate
+from k37.firmware_model.gcode.parser import Line
+from k37.sim.reproduce import resonance, seed002, seed003
+from k37.sim.reproduce.runs import RunSpec
+from k37.sim.reproduce.theory import following_error
+from k37.sim.run.ballbar import ballbar_of
+from k37.sim.run.sampler import TRACE_COLUMNS
 
 
 def test_fig_6b_contour_error_vector_is_0_043_where_the_osculating_circle_says_0_377():

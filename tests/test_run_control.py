@@ -20,20 +20,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from firmware_model.feeds import FirmwareError, check_program
-from firmware_model.firmware import TIMER_TICK_SECONDS
-from firmware_model.gcode.parser import Arc
-from firmware_model.job import MachineConfig, RunConfig, demo_job
-from sim.cli import main
-from sim.run import runner
-from sim.run.contour import contour_errors, contour_summary
-from sim.run.jobfile import load_job
-from sim.run.output import summary, write_trace
-from sim.run.progress import Progress, ProgressPrinter
-from sim.run.report import HOW_FIELDS, validate
-from sim.run.runner import RunOptions, RunResult, run_job
-from sim.run.sampler import CHUNK_ROWS, PROGRESS_CYCLES, TRACE_COLUMNS, SampleStore
-from sim.run.simulated_link import SimulatedLink
+from k37.firmware_model.feeds import FirmwareError, check_program
+from k37.firmware_model.firmware import TIMER_TICK_SECONDS
+from k37.firmware_model.gcode.parser import Arc
+from k37.firmware_model.job import MachineConfig, RunConfig, demo_job
+from k37.sim.cli import main
+from k37.sim.run import runner
+from k37.sim.run.contour import contour_errors, contour_summary
+from k37.sim.run.jobfile import load_job
+from k37.sim.run.output import summary, write_trace
+from k37.sim.run.progress import Progress, ProgressPrinter
+from k37.sim.run.report import HOW_FIELDS, validate
+from k37.sim.run.runner import RunOptions, RunResult, run_job
+from k37.sim.run.sampler import CHUNK_ROWS, PROGRESS_CYCLES, TRACE_COLUMNS, SampleStore
+from k37.sim.run.simulated_link import SimulatedLink
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -96,7 +96,7 @@ def test_ctrl_c_stops_the_run_writes_every_output_as_interrupted_and_exits_130(t
     # --no-skip-idle: the demo then takes seconds; the VCD's temporary file (beside it, renamed
     # when whole) appears when the run begins.
     process = subprocess.Popen(
-        [sys.executable, "-m", "sim.cli", "run", "--no-skip-idle", "--json", "r.json",
+        [sys.executable, "-m", "k37.sim.cli", "run", "--no-skip-idle", "--json", "r.json",
          "--trace", "t.csv", "--vcd", "w.vcd", "--vcd-stop", "10"],
         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         env={**os.environ, "PYTHONPATH": str(ROOT)})

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from firmware_model.feeds import program_seconds
-from sim.run.runner import RunOptions, cycle_limit, run_job
+from k37.firmware_model.feeds import program_seconds
+from k37.sim.run.runner import RunOptions, cycle_limit, run_job
 
 HOUR = 3600.0
 

@@ -14,21 +14,21 @@ from contextlib import contextmanager
 
 import pytest
 
-from firmware_model.bridge_link import (
+from k37.firmware_model.bridge_link import (
     DEFAULT_BAUD,
     BridgeLink,
     LinkError,
     job_identity,
     open_link,
 )
-from firmware_model.job import Job, MachineConfig
-from hdl.bridge.protocol import Identity
-from hdl.chipset.identity import chipset_identity
-from hdl.chipset.map import Accel
-from sim.run.linked import run_linked
-from sim.run.output import summary, write_trace
-from sim.run.runner import RunOptions, run_job, system_params
-from sim.serve.server import SimulatedBoard
+from k37.firmware_model.job import Job, MachineConfig
+from k37.hdl.bridge.protocol import Identity
+from k37.hdl.chipset.identity import chipset_identity
+from k37.hdl.chipset.map import Accel
+from k37.sim.run.linked import run_linked
+from k37.sim.run.output import summary, write_trace
+from k37.sim.run.runner import RunOptions, run_job, system_params
+from k37.sim.serve.server import SimulatedBoard
 
 #: What a link run shares with the run in process: everything the firmware and the pulses
 #: decide (not how the run was computed, nor the samples the served machine keeps).
@@ -242,14 +242,14 @@ def test_serve_refuses_a_port_in_use(k37):
 
 @pytest.mark.slow
 def test_k37_serve_and_run_link_from_the_command_line(tmp_path):
-    serve = subprocess.Popen([sys.executable, "-m", "sim.cli", "serve", "--port", "0",
+    serve = subprocess.Popen([sys.executable, "-m", "k37.sim.cli", "serve", "--port", "0",
                               "--sessions", "1"], stderr=subprocess.PIPE, text=True,
                              cwd=tmp_path)
     try:
         line = serve.stderr.readline()
         assert "tcp://127.0.0.1:" in line, line
         url = line[line.index("tcp://"):].split()[0]
-        linked = subprocess.run([sys.executable, "-m", "sim.cli", "run", "--link", url,
+        linked = subprocess.run([sys.executable, "-m", "k37.sim.cli", "run", "--link", url,
                                  "--json", "linked.json", "-q"], cwd=tmp_path,
                                 capture_output=True, text=True, timeout=300)
         assert linked.returncode == 0, linked.stderr
@@ -258,7 +258,7 @@ def test_k37_serve_and_run_link_from_the_command_line(tmp_path):
         serve.kill()
         serve.wait()
         serve.stderr.close()
-    here = subprocess.run([sys.executable, "-m", "sim.cli", "run", "--json", "here.json", "-q"],
+    here = subprocess.run([sys.executable, "-m", "k37.sim.cli", "run", "--json", "here.json", "-q"],
                           cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert here.returncode == 0, here.stderr
     a, b = (json.loads((tmp_path / name).read_text()) for name in ("here.json", "linked.json"))

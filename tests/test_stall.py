@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from firmware_model.feeds import feed_word, run_feed, word_rate
-from firmware_model.job import MachineConfig
-from sim.run import runner
-from sim.run.report import RUN_SCHEMA
-from sim.run.runner import RunOptions, run_job
-from sim.run.sampler import PROGRESS_CYCLES
-from sim.run.stall import STALL_SECONDS, stall_seconds
+from k37.firmware_model.feeds import feed_word, run_feed, word_rate
+from k37.firmware_model.job import MachineConfig
+from k37.sim.run import runner
+from k37.sim.run.report import RUN_SCHEMA
+from k37.sim.run.runner import RunOptions, run_job
+from k37.sim.run.sampler import PROGRESS_CYCLES
+from k37.sim.run.stall import STALL_SECONDS, stall_seconds
 
 
 def test_a_block_short_of_one_feed_pulse_ends_stalled_naming_its_block_and_line(make_job):

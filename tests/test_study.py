@@ -13,13 +13,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sim.run.ballbar import FIGURES, BallbarError, ballbar
-from sim.run.jobfile import JobError, load_job
-from sim.run.runner import RunOptions, run_job
-from sim.study.analysis import AnalysisError, main_effects, response_surface
-from sim.study.design import DesignError, design, orthogonal_array
-from sim.study.studyfile import load_study
-from sim.study.sweep import SweepError, sweep
+from k37.sim.run.ballbar import FIGURES, BallbarError, ballbar
+from k37.sim.run.jobfile import JobError, load_job
+from k37.sim.run.runner import RunOptions, run_job
+from k37.sim.study.analysis import AnalysisError, main_effects, response_surface
+from k37.sim.study.design import DesignError, design, orthogonal_array
+from k37.sim.study.studyfile import load_study
+from k37.sim.study.sweep import SweepError, sweep
 
 
 @pytest.mark.parametrize(("name", "q", "factors"), [
@@ -109,7 +109,7 @@ def test_the_example_study_loads_and_each_run_is_a_job():
 def test_a_bad_level_is_a_row_with_status_error_naming_the_key(tmp_path):
     study = load_study(write_study(tmp_path, '[factors]\nfeed = [600]\nradius = [5]\n'
                                              '"servo.kp" = [-3.0]'))
-    from sim.study.sweep import run_one
+    from k37.sim.study.sweep import run_one
 
     row = run_one(study, study.runs[0])
     assert row["status"] == "error" and "servo.kp" in row["reason"]
@@ -239,7 +239,7 @@ def test_the_response_surface_says_when_the_runs_are_too_few():
 
 
 def test_k37_effects_prints_the_main_effects_and_the_surface(tmp_path, capsys):
-    from sim.cli import main
+    from k37.sim.cli import main
 
     with open(tmp_path / "results.csv", "w", newline="") as f:
         writer = csv.writer(f)
@@ -254,7 +254,7 @@ def test_k37_effects_prints_the_main_effects_and_the_surface(tmp_path, capsys):
 
 
 def test_k37_run_ballbar_writes_the_polar_plot_and_the_figures(tmp_path, job_file):
-    from sim.cli import main
+    from k37.sim.cli import main
 
     circle = job_file("G21 G90 F1200\nG03 X0 Y0 I-5 J0\nM30", machine='accel = "none"')
     assert main(["run", str(circle), "--ballbar", str(tmp_path / "b.png"), "--json",

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import pytest
 
-from sim.fpga.blocks import BLOCKS
-from sim.fpga.synth import DEVICES, TARGET_MHZ, synthesize
+from k37.sim.fpga.blocks import BLOCKS
+from k37.sim.fpga.synth import DEVICES, TARGET_MHZ, synthesize
 
 pytestmark = pytest.mark.slow
 

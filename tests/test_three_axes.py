@@ -11,9 +11,9 @@ import pytest
 from test_backend_equivalence import comparable
 from test_idle_skip import skipped_equals_stepped
 
-from firmware_model.gcode.parser import GcodeError
-from firmware_model.job import MachineConfig, gcode_job
-from sim.run.runner import RunOptions, run_job
+from k37.firmware_model.gcode.parser import GcodeError
+from k37.firmware_model.job import MachineConfig, gcode_job
+from k37.sim.run.runner import RunOptions, run_job
 
 #: Every kind of three-axis move, each ending on its programmed point.
 PROGRAM = """G21 G90 F900

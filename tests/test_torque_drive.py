@@ -10,9 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_plant import compare_with_model
 
-from sim.machine.plant_model import FRAC_BITS, PlantParams
-from sim.machine.torque_drive import TorqueDrive
-from sim.machine.torque_drive_model import TorqueDriveModel, TorqueParams
+from k37.sim.machine.plant_model import FRAC_BITS, PlantParams
+from k37.sim.machine.torque_drive import TorqueDrive
+from k37.sim.machine.torque_drive_model import TorqueDriveModel, TorqueParams
 
 CLOCK = 1e6
 

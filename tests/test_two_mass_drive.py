@@ -11,10 +11,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_plant import compare_with_model
 
-from sim.machine.plant_model import FRAC_BITS, PlantParams
-from sim.machine.two_mass import TwoMassDrive
-from sim.machine.two_mass_model import TwoMassDriveModel, TwoMassParams
-from sim.reproduce.resonance import ring_hz, table1_drive
+from k37.sim.machine.plant_model import FRAC_BITS, PlantParams
+from k37.sim.machine.two_mass import TwoMassDrive
+from k37.sim.machine.two_mass_model import TwoMassDriveModel, TwoMassParams
+from k37.sim.reproduce.resonance import ring_hz, table1_drive
 
 #: A stiff, light drive whose spring rings within a short simulation (about 200 cycles).
 FAST = {"kt": 0.5, "ja": 1e-5, "vg": 2.0, "mass": 1.0, "ks": 1e9, "lead": 0.01}

@@ -9,9 +9,9 @@ import math
 import pytest
 import pywellen
 
-from firmware_model.job import demo_job
-from sim.run.runner import OptionError, RunOptions, build_backend, run_job
-from sim.run.waveform import GTKW_GROUPS, GTKW_WIDTH_PX, wave_signals, wave_span, write_gtkw
+from k37.firmware_model.job import demo_job
+from k37.sim.run.runner import OptionError, RunOptions, build_backend, run_job
+from k37.sim.run.waveform import GTKW_GROUPS, GTKW_WIDTH_PX, wave_signals, wave_span, write_gtkw
 
 CHIP_SCOPES = ("k3701", "k3702_x", "k3702_y", "encoder_x", "encoder_y", "feed", "decel",
                "accel")

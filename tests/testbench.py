@@ -14,7 +14,7 @@ from typing import Any, NamedTuple
 from amaranth.lib import wiring
 from amaranth.sim import Simulator
 
-from hdl.bus.registers import Register
+from k37.hdl.bus.registers import Register
 
 __all__ = [
     "CLOCK_PERIOD",

@@ -2,10 +2,10 @@
 
 Five MyST directives, each of which renders Markdown made from one source of truth:
 
-* ``k37-registers MAP``: a chip's register map (:mod:`hdl.bus.registers` tables);
-* ``k37-pins BLOCK``: the pins of an exported chip (:func:`sim.fpga.export.pins`);
-* ``k37-board-pins AXES``: the ULX3S's pin map of the board top (:mod:`hdl.board.pins`);
-* ``k37-cli``: every ``k37`` command and option (:func:`sim.cli.build_parser`);
+* ``k37-registers MAP``: a chip's register map (:mod:`k37.hdl.bus.registers` tables);
+* ``k37-pins BLOCK``: the pins of an exported chip (:func:`k37.sim.fpga.export.pins`);
+* ``k37-board-pins AXES``: the ULX3S's pin map of the board top (:mod:`k37.hdl.board.pins`);
+* ``k37-cli``: every ``k37`` command and option (:func:`k37.sim.cli.build_parser`);
 * ``k37-architecture``: the packages and modules, with their docstrings' first sentences.
 
 The functions that make the Markdown are plain Python, so the tests call them too.
@@ -33,11 +33,11 @@ def _rst_to_md(text: str) -> str:
 # --- register maps -------------------------------------------------------------------------
 
 def _maps() -> dict:
-    from hdl.encoder.map import ENCODER_MAP
-    from hdl.feed.decel_control_map import DECEL_MAP
-    from hdl.feed.feed_rate_map import FEED_MAP
-    from hdl.k3701.map import K3701_MAP, K3701_MAP_3
-    from hdl.k3702.map import K3702_MAP
+    from k37.hdl.encoder.map import ENCODER_MAP
+    from k37.hdl.feed.decel_control_map import DECEL_MAP
+    from k37.hdl.feed.feed_rate_map import FEED_MAP
+    from k37.hdl.k3701.map import K3701_MAP, K3701_MAP_3
+    from k37.hdl.k3702.map import K3702_MAP
 
     return {"K3701": K3701_MAP, "K3701_3": K3701_MAP_3, "K3702": K3702_MAP,
             "ENCODER": ENCODER_MAP, "FEED": FEED_MAP, "DECEL": DECEL_MAP}
@@ -55,7 +55,7 @@ def register_tables(name: str) -> str:
 
 def pin_table(block: str) -> str:
     """The pins of exported block ``block`` as a Markdown table."""
-    from sim.fpga.export import pins
+    from k37.sim.fpga.export import pins
 
     rows = ["| pin | label | direction | bits | meaning |", "|---|---|---|---:|---|"]
     for p in pins(block):
@@ -66,8 +66,8 @@ def pin_table(block: str) -> str:
 
 def board_pin_table(axes: str) -> str:
     """The ULX3S's pin map of the ``axes``-axis board top as a Markdown table."""
-    from hdl.board.pins import ulx3s_pins
-    from sim.fpga.build import pin_map
+    from k37.hdl.board.pins import ulx3s_pins
+    from k37.sim.fpga.build import pin_map
 
     return pin_map(ulx3s_pins(int(axes)))
 
@@ -87,7 +87,7 @@ def _option_row(action: argparse.Action) -> str:
 
 def cli_reference() -> str:
     """Every ``k37`` command with its usage and options, from the argument parser."""
-    from sim.cli import build_parser
+    from k37.sim.cli import build_parser
 
     parser = build_parser()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
@@ -122,7 +122,7 @@ def architecture() -> str:
     """One table per package: its docstring, then each module with its first paragraph."""
     out = []
     for pkg in source_packages():
-        dotted = ".".join(pkg.relative_to(ROOT).parts)
+        dotted = ".".join(("k37", *pkg.relative_to(ROOT).parts))
         out += [f"**`{dotted}`**: {_first_sentence(pkg / '__init__.py')}", "",
                 "| module | what it holds |", "|---|---|"]
         files = sorted(p for p in pkg.iterdir()

@@ -5,7 +5,7 @@ Export the chipset (``k37 export-verilog --block chipset -o build/``), then run 
 with cocotb's runner (``tests/test_cocotb.py`` shows how) on ``build/chipset.v`` and
 ``chipset_tb.v``. Every bus access is one cycle of the 1 MHz clock with /CS and /RD or /WR
 low; a read's byte is on D in the next cycle. Port addresses come from the chipset's map
-(:func:`hdl.chipset.map.port`), as the firmware's do.
+(:func:`k37.hdl.chipset.map.port`), as the firmware's do.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import cocotb
 from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, RisingEdge
 
-from hdl.chipset.map import port
+from k37.hdl.chipset.map import port
 
 
 async def start(dut) -> None:

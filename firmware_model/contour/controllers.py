@@ -11,7 +11,7 @@ contour-error paper's point: its controller is better because its error model is
   (its gains follow the direction theta and the radius of curvature rho there, every sample);
   on a straight piece, the CCC's;
 * ``cec``, the contour-error paper's contour error controller: the nearest point of the
-  programmed path itself (:meth:`firmware_model.contour.geometry.Piece.nearest`), searched on
+  programmed path itself (:meth:`k37.firmware_model.contour.geometry.Piece.nearest`), searched on
   the running move and its neighbours.
 
 The vector then goes through a PID (gains ``kcp``, ``kci``, ``kcd``) taken component by
@@ -25,9 +25,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from firmware_model.contour.geometry import Piece, piece
-from firmware_model.gcode.program import Move
-from firmware_model.job import ContourConfig
+from k37.firmware_model.contour.geometry import Piece, piece
+from k37.firmware_model.gcode.program import Move
+from k37.firmware_model.job import ContourConfig
 
 __all__ = ["ContourController", "error_vector", "nearest_on"]
 

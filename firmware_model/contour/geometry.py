@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from firmware_model.gcode.parser import Arc, Line
-from firmware_model.gcode.program import Move
+from k37.firmware_model.gcode.parser import Arc, Line
+from k37.firmware_model.gcode.program import Move
 
 __all__ = ["GRID", "Piece", "piece"]
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from firmware_model.gcode.lex import Word
-from firmware_model.gcode.units import HINTS
-from firmware_model.gcode.words import (
+from k37.firmware_model.gcode.lex import Word
+from k37.firmware_model.gcode.units import HINTS
+from k37.firmware_model.gcode.words import (
     G_CODES,
     LETTERS,
     M_CODES,

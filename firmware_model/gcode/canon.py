@@ -3,9 +3,9 @@
 ``rs274 -g FILE OUT`` (Debian's ``linuxcnc-uspace``) resolves parameters, expressions, O-word
 subroutines and loops, offsets and canned cycles, and writes the canonical machine commands
 one per line (``   12 N..... STRAIGHT_FEED(1.0000, 2.0000, 0.0000, ...)``). :func:`parse_canon`
-turns that text into the same :class:`~firmware_model.gcode.program.Program` the built-in front end
-builds, through the same :class:`~firmware_model.gcode.planner.Planner` (exact ends, correction
-lines, events); :func:`parse_linuxcnc` runs ``rs274`` on a program first.
+turns that text into the same :class:`~k37.firmware_model.gcode.program.Program` the built-in front
+end builds, through the same :class:`~k37.firmware_model.gcode.planner.Planner` (exact ends,
+correction lines, events); :func:`parse_linuxcnc` runs ``rs274`` on a program first.
 
 Canonical positions are in the program's coordinate system and length units: the machine
 position adds the G5x, G92 and tool length offsets the interpreter announces
@@ -27,7 +27,7 @@ from collections.abc import Mapping
 from decimal import ROUND_HALF_UP, Decimal
 from pathlib import Path
 
-from firmware_model.gcode.parser import (
+from k37.firmware_model.gcode.parser import (
     ARC_TOLERANCE_LIMIT,
     ARC_TOLERANCE_MM,
     AXES_LIMIT,
@@ -36,8 +36,8 @@ from firmware_model.gcode.parser import (
     GcodeError,
     parse,
 )
-from firmware_model.gcode.planner import Planner
-from firmware_model.gcode.program import Program
+from k37.firmware_model.gcode.planner import Planner
+from k37.firmware_model.gcode.program import Program
 
 __all__ = ["FRONTENDS", "RS274", "parse_canon", "parse_linuxcnc", "rs274_canon"]
 
@@ -165,8 +165,8 @@ def parse_canon(canon: str, *, source: str = "<canon>", lsb_mm: float = 0.001,
                 sqrt2: bool = True, arc_tolerance: float | None = None, axes: int = 2,
                 origin: tuple[str, int] | None = None) -> Program:
     """A program from ``rs274``'s canonical commands (its ``OUT`` file's text); the
-    keywords as :func:`firmware_model.gcode.parser.parse`'s. Raises
-    :class:`~firmware_model.gcode.parser.GcodeError`, naming the command's line."""
+    keywords as :func:`k37.firmware_model.gcode.parser.parse`'s. Raises
+    :class:`~k37.firmware_model.gcode.parser.GcodeError`, naming the command's line."""
     lsb_mm = LSB_MM_LIMIT.check("lsb_mm", lsb_mm)
     if arc_tolerance is not None:
         arc_tolerance = ARC_TOLERANCE_LIMIT.check("arc_tolerance", arc_tolerance)
@@ -196,7 +196,7 @@ def rs274_canon(text: str, *, source: str = "<gcode>", origin: tuple[str, int] |
     """Run LinuxCNC's ``rs274`` on a program; its canonical commands. ``tools``: tool lengths
     (mm) by number, written as ``rs274``'s tool table (which it reads in inches); none: tools
     0 to 999 of length zero, as the built-in front end's. Raises
-    :class:`~firmware_model.gcode.parser.GcodeError` when it is not installed or refuses the
+    :class:`~k37.firmware_model.gcode.parser.GcodeError` when it is not installed or refuses the
     program (its message, at the line of the block it quotes)."""
     name, first = origin or (source, 1)
     exe = shutil.which(RS274)
@@ -252,7 +252,7 @@ def _rs274_error(output: str, text: str) -> tuple[int, int, str]:
 def parse_linuxcnc(text: str, *, source: str = "<gcode>",
                    tools: Mapping[int, float] | None = None, **kwargs) -> Program:
     """:func:`parse_canon` of ``rs274``'s output for the program ``text``; the keywords as
-    :func:`firmware_model.gcode.parser.parse`'s."""
+    :func:`k37.firmware_model.gcode.parser.parse`'s."""
     canon = rs274_canon(text, source=source, origin=kwargs.get("origin"), tools=tools)
     return parse_canon(canon, source=source, **kwargs)
 

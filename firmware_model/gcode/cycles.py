@@ -1,11 +1,11 @@
 """Canned cycles (G81, G82, G83) as the interpreter expands them (a mixin of
-:class:`firmware_model.gcode.interpreter.Interpreter`), as LinuxCNC's interpreter does."""
+:class:`k37.firmware_model.gcode.interpreter.Interpreter`), as LinuxCNC's interpreter does."""
 
 from __future__ import annotations
 
-from firmware_model.gcode.block_words import BlockError, BlockWords
-from firmware_model.gcode.lex import Word
-from firmware_model.gcode.units import G83_CLEARANCE_MM, MAX_PECKS
+from k37.firmware_model.gcode.block_words import BlockError, BlockWords
+from k37.firmware_model.gcode.lex import Word
+from k37.firmware_model.gcode.units import G83_CLEARANCE_MM, MAX_PECKS
 
 __all__ = ["CannedCycles"]
 

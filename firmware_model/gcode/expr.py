@@ -2,7 +2,7 @@
 
 A value in a line is a number, a parameter (``#1``, ``##2``, ``#[1+2]``, ``#<name>``), an
 expression in brackets, a unary function (``SIN[30]``, ``ATAN[1]/[2]``, ``EXISTS[#<x>]``) or a
-sign before one of these; :mod:`firmware_model.gcode.lex` reads it into the nodes below and
+sign before one of these; :mod:`k37.firmware_model.gcode.lex` reads it into the nodes below and
 :meth:`Node.value` evaluates it, as LinuxCNC's interpreter does:
 
 * binary operators by precedence, each level left to right: ``**``; ``*``, ``/``, ``MOD``;

@@ -1,7 +1,7 @@
 """The built-in front end's interpreter: modal state, and each block's words in RS-274's
-order (:mod:`firmware_model.gcode.parser` reads a program through it). Splines, canned
-cycles and work offsets are in :mod:`firmware_model.gcode.spline_motions`,
-:mod:`firmware_model.gcode.cycles` and :mod:`firmware_model.gcode.offsets`."""
+order (:mod:`k37.firmware_model.gcode.parser` reads a program through it). Splines, canned
+cycles and work offsets are in :mod:`k37.firmware_model.gcode.spline_motions`,
+:mod:`k37.firmware_model.gcode.cycles` and :mod:`k37.firmware_model.gcode.offsets`."""
 
 from __future__ import annotations
 
@@ -9,22 +9,22 @@ import math
 from collections.abc import Mapping
 from decimal import ROUND_HALF_UP, Decimal
 
-from firmware_model.gcode.block_words import BlockError, BlockWords, g_name
-from firmware_model.gcode.cycles import CannedCycles
-from firmware_model.gcode.lex import Word
-from firmware_model.gcode.offsets import SYSTEMS, Offsets
-from firmware_model.gcode.planner import PlanError, Planner
-from firmware_model.gcode.program import PLANE_AXES
-from firmware_model.gcode.spline_motions import SplineMotions
-from firmware_model.gcode.units import (
+from k37.firmware_model.gcode.block_words import BlockError, BlockWords, g_name
+from k37.firmware_model.gcode.cycles import CannedCycles
+from k37.firmware_model.gcode.lex import Word
+from k37.firmware_model.gcode.offsets import SYSTEMS, Offsets
+from k37.firmware_model.gcode.planner import PlanError, Planner
+from k37.firmware_model.gcode.program import PLANE_AXES
+from k37.firmware_model.gcode.spline_motions import SplineMotions
+from k37.firmware_model.gcode.units import (
     ARC_TOLERANCE_MM,
     AXIS_LETTERS,
     INCH_MM,
     OFFSET_LETTERS,
     USES,
 )
-from firmware_model.gcode.words import M_CODES
-from hdl.k3701.block import COORD_MAX
+from k37.firmware_model.gcode.words import M_CODES
+from k37.hdl.k3701.block import COORD_MAX
 
 __all__ = ["Interpreter"]
 

@@ -4,13 +4,13 @@ Lines are read as LinuxCNC's interpreter reads them (RS-274/NGC). Spaces and tab
 anywhere outside comments and are dropped (``X 1 2.5`` is X12.5, ``#<tool dia>`` is
 ``#<tooldia>``); letters are read in either case. Comments ``( ... )`` (not nested, closed
 on their line) and ``; ...`` are kept apart (``(MSG,...)`` and ``(DEBUG,...)`` are messages,
-see :mod:`firmware_model.gcode.ngc`), and a ``/`` first on a line (block delete) is ignored:
+see :mod:`k37.firmware_model.gcode.ngc`), and a ``/`` first on a line (block delete) is ignored:
 the block-delete switch is off, as in LinuxCNC's ``rs274``.
 
 A word is a letter and a value: a number (an optional sign, ASCII digits with an optional
 decimal point), a parameter (``#1``, ``##1``, ``#[1+1]``, ``#<name>``), an expression in
 brackets, a unary function (``SIN[..]``, ``ATAN[..]/[..]``, ``EXISTS[#<name>]``) or a sign
-before one of these (:mod:`firmware_model.gcode.expr`). ``@`` and ``^`` are the polar
+before one of these (:mod:`k37.firmware_model.gcode.expr`). ``@`` and ``^`` are the polar
 radius and angle. ``#n = value`` and ``#<name> = value`` set parameters; ``O`` first on a
 line is an O-word statement (``o100 while [...]``, ``o<name> call [1] [2]``).
 
@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from decimal import Decimal
 from typing import NamedTuple
 
-from firmware_model.gcode.expr import (
+from k37.firmware_model.gcode.expr import (
     FUNCTIONS,
     PRECEDENCE,
     Binary,

@@ -2,7 +2,7 @@
 
 :func:`run` executes a program's lines as LinuxCNC's interpreter does and hands each line's
 words, evaluated, to a :class:`Host` (the modal interpreter of
-:mod:`firmware_model.gcode.parser`), each word keeping its line and column:
+:mod:`k37.firmware_model.gcode.parser`), each word keeping its line and column:
 
 * numbered parameters ``#1``-``#5000`` (zero until set), named ``#<x>`` (local to the
   subroutine call or the main program) and ``#<_x>`` (global); reading a named parameter
@@ -30,8 +30,8 @@ from dataclasses import dataclass, field
 from decimal import Decimal
 from typing import Protocol
 
-from firmware_model.gcode.expr import ExprError, Named, Node, Numbered, finite
-from firmware_model.gcode.lex import LexError, NgcLine, OStatement, Word, WordValue, read_line
+from k37.firmware_model.gcode.expr import ExprError, Named, Node, Numbered, finite
+from k37.firmware_model.gcode.lex import LexError, NgcLine, OStatement, Word, WordValue, read_line
 
 __all__ = ["MAX_BLOCKS", "MAX_CALL_DEPTH", "MAX_PARAMETER", "Host", "NgcError", "run"]
 
@@ -74,7 +74,7 @@ class Host(Protocol):
 
     def predefined(self, key: int | str, col: int) -> float | None:
         """A predefined parameter's value; None: not predefined; raises
-        :class:`~firmware_model.gcode.expr.ExprError` for one that is unsupported."""
+        :class:`~k37.firmware_model.gcode.expr.ExprError` for one that is unsupported."""
 
 
 # -- the program's structure ------------------------------------------------------------------

@@ -36,11 +36,11 @@ import math
 from decimal import Decimal
 from typing import Protocol
 
-from firmware_model.gcode.expr import ExprError
-from firmware_model.gcode.lex import Word
-from firmware_model.gcode.offsets import SYSTEMS, system_number
-from firmware_model.gcode.planner import Planner
-from firmware_model.gcode.words import G_CODES, code_key
+from k37.firmware_model.gcode.expr import ExprError
+from k37.firmware_model.gcode.lex import Word
+from k37.firmware_model.gcode.offsets import SYSTEMS, system_number
+from k37.firmware_model.gcode.planner import Planner
+from k37.firmware_model.gcode.words import G_CODES, code_key
 
 __all__ = ["InterpreterHost", "Modal", "PolarError", "State", "TooManyErrors"]
 
@@ -52,7 +52,7 @@ _LAST_PREDEFINED = 5602
 
 
 class Modal(Protocol):
-    """The modal interpreter's state, as :mod:`firmware_model.gcode.parser` keeps it."""
+    """The modal interpreter's state, as :mod:`k37.firmware_model.gcode.parser` keeps it."""
 
     inch: bool
     incremental: bool
@@ -246,8 +246,8 @@ class TooManyErrors(Exception):  # noqa: N818 - the program stops, not an error 
 
 
 class InterpreterHost:
-    """The modal interpreter as :func:`firmware_model.gcode.ngc.run` runs it
-    (:class:`~firmware_model.gcode.ngc.Host`): its errors (``block_error``, with ``col`` and
+    """The modal interpreter as :func:`k37.firmware_model.gcode.ngc.run` runs it
+    (:class:`~k37.firmware_model.gcode.ngc.Host`): its errors (``block_error``, with ``col`` and
     ``message``) each reported once, at most ``max_errors``; messages as events."""
 
     def __init__(self, modal: Modal, block_error: type[Exception], max_errors: int):

@@ -1,5 +1,5 @@
 """Work offsets as LinuxCNC's interpreter keeps them (a mixin of
-:class:`firmware_model.gcode.interpreter.Interpreter`): the nine coordinate systems G54-G59.3
+:class:`k37.firmware_model.gcode.interpreter.Interpreter`): the nine coordinate systems G54-G59.3
 that G10 L2/L20 set, and the G92 offset that G92, G52 and G92.1 set.
 
 A position in the program's coordinates is the machine's less the offsets in force: the
@@ -13,9 +13,9 @@ values given (the axes not named keep theirs), as LinuxCNC does.
 
 from __future__ import annotations
 
-from firmware_model.gcode.block_words import BlockError, BlockWords
-from firmware_model.gcode.lex import Word
-from firmware_model.gcode.units import AXIS_LETTERS
+from k37.firmware_model.gcode.block_words import BlockError, BlockWords
+from k37.firmware_model.gcode.lex import Word
+from k37.firmware_model.gcode.units import AXIS_LETTERS
 
 __all__ = ["SYSTEMS", "Offsets", "system_number"]
 

@@ -1,12 +1,13 @@
 """The built-in G-code front end: RS-274 text to K3701 blocks in machine LSB units.
 
-:func:`parse` reads a program and returns a :class:`~firmware_model.gcode.program.Program`: its
+:func:`parse` reads a program and returns a :class:`~k37.firmware_model.gcode.program.Program`: its
 :class:`Line`, :class:`Arc`, :class:`Dwell` and :class:`Event` items, each ready for the
 firmware model. The words it takes, their modal groups and meanings are the tables of
-:mod:`firmware_model.gcode.words` (``docs/gcode.md``); the lexer (:mod:`firmware_model.gcode.lex`)
-says how a line is read. In short, what CAM post-processors emit: G00-G03 (I/J/K or R arcs,
-helices on three axes), G04, G17-G19, G20/G21, G28/G30, G40, G43/G49, G53, G54-G59, G61/G64,
-G80-G83, G90/G91, G90.1/G91.1, G92/G92.1, G94, G98/G99, F, S, T, H, N, M00-M09 and M30.
+:mod:`k37.firmware_model.gcode.words` (``docs/gcode.md``); the lexer
+(:mod:`k37.firmware_model.gcode.lex`) says how a line is read. In short, what CAM post-processors
+emit: G00-G03 (I/J/K or R arcs, helices on three axes), G04, G17-G19, G20/G21, G28/G30, G40,
+G43/G49, G53, G54-G59, G61/G64, G80-G83, G90/G91, G90.1/G91.1, G92/G92.1, G94, G98/G99, F, S, T, H,
+N, M00-M09 and M30.
 
 Semantics (RS-274/NGC's, as LinuxCNC's ``rs274``; the decisions are in the README):
 
@@ -17,7 +18,7 @@ Semantics (RS-274/NGC's, as LinuxCNC's ``rs274``; the decisions are in the READM
 * Coordinates are rounded to the nearest LSB (halves away from zero) with decimal
   arithmetic, each absolute coordinate on its own, so rounding never accumulates. Every
   block ends exactly on its programmed point (an arc's chip end an LSB or two off is followed
-  by the host's correction line, :mod:`firmware_model.gcode.program`).
+  by the host's correction line, :mod:`k37.firmware_model.gcode.program`).
 * The machine position is the program's start (the origin). G54-G59 offsets are zero; G92
   offsets, the tool length (Z) and G53 act as in RS-274/NGC. G28/G30 go to the origin.
 * Canned cycles are expanded into moves as LinuxCNC does (G83 rapids back down to 0.254 mm,
@@ -28,8 +29,8 @@ Semantics (RS-274/NGC's, as LinuxCNC's ``rs274``; the decisions are in the READM
   or helical arc, a canned cycle) is an error naming ``machine.axes = 3``.
 
 The RS-274/NGC language (parameters, expressions, O-word subroutines and loops, polar
-coordinates, messages) is evaluated by :mod:`firmware_model.gcode.ngc`, which hands the
-interpreter (:mod:`firmware_model.gcode.interpreter`) each line's words with their values,
+coordinates, messages) is evaluated by :mod:`k37.firmware_model.gcode.ngc`, which hands the
+interpreter (:mod:`k37.firmware_model.gcode.interpreter`) each line's words with their values,
 line and column.
 
 Every error of a program is reported once (up to :data:`MAX_ERRORS`), each ``file:line:col:
@@ -42,14 +43,14 @@ import contextlib
 import gc
 from collections.abc import Iterator, Mapping
 
-from firmware_model.gcode import ngc
-from firmware_model.gcode.block_words import BlockError
-from firmware_model.gcode.interpreter import Interpreter
-from firmware_model.gcode.lex import LexError, Word, read_line
-from firmware_model.gcode.ngc_state import InterpreterHost, TooManyErrors
-from firmware_model.gcode.planner import Planner
-from firmware_model.gcode.program import Arc, Dwell, Event, Item, Line, Move, Parabola, Program
-from firmware_model.gcode.units import (
+from k37.firmware_model.gcode import ngc
+from k37.firmware_model.gcode.block_words import BlockError
+from k37.firmware_model.gcode.interpreter import Interpreter
+from k37.firmware_model.gcode.lex import LexError, Word, read_line
+from k37.firmware_model.gcode.ngc_state import InterpreterHost, TooManyErrors
+from k37.firmware_model.gcode.planner import Planner
+from k37.firmware_model.gcode.program import Arc, Dwell, Event, Item, Line, Move, Parabola, Program
+from k37.firmware_model.gcode.units import (
     ARC_TOLERANCE_LIMIT,
     ARC_TOLERANCE_MM,
     AXES_LIMIT,

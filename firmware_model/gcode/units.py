@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from decimal import Decimal
 
-from hdl.common.params import Limit
+from k37.hdl.common.params import Limit
 
 __all__ = ["ARC_TOLERANCE_LIMIT", "ARC_TOLERANCE_MM", "AXES_LIMIT", "AXIS_LETTERS",
            "G83_CLEARANCE_MM", "HINTS", "INCH_MM", "LSB_MM_LIMIT",

@@ -1,10 +1,9 @@
 """The G-code words the built-in front end takes: defined once, documented from here.
 
 :data:`G_CODES` and :data:`M_CODES` give every code its modal group and meaning, and
-:data:`LETTERS` every other word; the interpreter (:mod:`firmware_model.gcode.parser`) dispatches on
-these tables and ``docs/gcode.md`` is generated from them (:func:`markdown`). A new G code
-is one entry here and one handler there.
-"""
+:data:`LETTERS` every other word; the interpreter (:mod:`k37.firmware_model.gcode.parser`)
+dispatches on these tables and ``docs/gcode.md`` is generated from them (:func:`markdown`). A new G
+code is one entry here and one handler there. """
 
 from __future__ import annotations
 
@@ -159,7 +158,7 @@ REFUSED_M: dict[tuple[int, int], str] = {
 }
 
 #: The RS-274/NGC language the front end evaluates before the words above act
-#: (:mod:`firmware_model.gcode.ngc`): construct, what is taken.
+#: (:mod:`k37.firmware_model.gcode.ngc`): construct, what is taken.
 NGC_LANGUAGE: dict[str, str] = {
     "`#1`-`#5000`": "numbered parameters, zero until set; `#1`-`#30` are a call's arguments",
     "`#<name>`, `#<_name>`": "named parameters: local to the call (or main program), global "
@@ -184,7 +183,7 @@ NGC_LANGUAGE: dict[str, str] = {
 
 def markdown() -> str:
     """``docs/gcode.md``: the dialect's words, generated from the tables above."""
-    from firmware_model.gcode.ngc import MAX_BLOCKS, MAX_CALL_DEPTH
+    from k37.firmware_model.gcode.ngc import MAX_BLOCKS, MAX_CALL_DEPTH
     def code(prefix: str, key: int) -> str:
         number = f"{key // 10:02d}" if key % 10 == 0 else f"{key / 10:04.1f}"
         return prefix + number

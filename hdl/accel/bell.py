@@ -1,24 +1,24 @@
 """Bell-shaped accel/decel circuit: the linear circuit, then the exponential one.
 
-The reference model is :class:`hdl.accel.bell_model.AccelBellModel`.
+The reference model is :class:`k37.hdl.accel.bell_model.AccelBellModel`.
 """
 
 from __future__ import annotations
 
 from amaranth.hdl import Module, Signal
 
-from hdl.accel.exponential import AccelCircuit, AccelDecel, accel_members
-from hdl.accel.exponential_model import check_params
-from hdl.accel.linear import AccelLinear
-from hdl.accel.linear_model import check_bins
-from hdl.common.observation import FreeRunning
+from k37.hdl.accel.exponential import AccelCircuit, AccelDecel, accel_members
+from k37.hdl.accel.exponential_model import check_params
+from k37.hdl.accel.linear import AccelLinear
+from k37.hdl.accel.linear_model import check_bins
+from k37.hdl.common.observation import FreeRunning
 
 __all__ = ["AccelBell"]
 
 
 class AccelBell(AccelCircuit):
-    """Bell accel/decel (the filters paper's eq. (40)): :class:`hdl.accel.linear.AccelLinear`
-    (moving average over T = 2**n / fa) feeding :class:`hdl.accel.exponential.AccelDecel`
+    """Bell accel/decel (the filters paper's eq. (40)): :class:`k37.hdl.accel.linear.AccelLinear`
+    (moving average over T = 2**n / fa) feeding :class:`k37.hdl.accel.exponential.AccelDecel`
     (tau = 2**n / fa).
 
     Cycle timing: an output pulse of the linear stage in cycle *t* is an input pulse of the
@@ -28,7 +28,7 @@ class AccelBell(AccelCircuit):
     Parameters
     ----------
     n, counter_width, bidirectional, bins_bits
-        As :class:`hdl.accel.linear.AccelLinear` (both stages have the same n).
+        As :class:`k37.hdl.accel.linear.AccelLinear` (both stages have the same n).
 
     Members
     -------
@@ -47,7 +47,7 @@ class AccelBell(AccelCircuit):
     idle : Out(1)
         Both stages drained.
 
-    Simulation only (see :mod:`hdl.common.observation`)
+    Simulation only (see :mod:`k37.hdl.common.observation`)
     --------------------------------------------
     quiet : Signal(1)
         Both stages quiet: the linear one drained, the exponential one with nothing pending.
@@ -69,7 +69,7 @@ class AccelBell(AccelCircuit):
     @staticmethod
     def declare(n: int, bidirectional: bool) -> FreeRunning:
         """The exponential stage's accumulator, as
-        :meth:`hdl.accel.exponential.AccelDecel.declare`."""
+        :meth:`k37.hdl.accel.exponential.AccelDecel.declare`."""
         return AccelDecel.declare(n, bidirectional).under("exponential").merge(quiet="quiet")
 
     def elaborate(self, platform) -> Module:

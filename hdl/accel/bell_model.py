@@ -1,4 +1,4 @@
-"""Reference model of :class:`hdl.accel.bell.AccelBell`: bell-shaped accel/decel, the linear
+"""Reference model of :class:`k37.hdl.accel.bell.AccelBell`: bell-shaped accel/decel, the linear
 circuit followed by the exponential one (the filters paper's eq. (40)), both on the same addition
 clock.
 
@@ -10,8 +10,8 @@ and falls without a jump. Each stage conserves pulses, so the cascade does:
 
 from __future__ import annotations
 
-from hdl.accel.exponential_model import AccelDecelModel
-from hdl.accel.linear_model import AccelLinearModel
+from k37.hdl.accel.exponential_model import AccelDecelModel
+from k37.hdl.accel.linear_model import AccelLinearModel
 
 __all__ = ["AccelBellModel"]
 

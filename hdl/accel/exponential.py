@@ -1,6 +1,6 @@
 """Exponential accel/decel circuit: up/down counter plus accumulator (``docs/chips/accel.md``).
 
-The reference model is :class:`hdl.accel.exponential_model.AccelDecelModel`.
+The reference model is :class:`k37.hdl.accel.exponential_model.AccelDecelModel`.
 """
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ from amaranth.hdl import Module, Mux, Signal, signed, unsigned
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.accel.exponential_model import check_params
-from hdl.common.observation import CarryAccumulator, FreeRunning, Observed
+from k37.hdl.accel.exponential_model import check_params
+from k37.hdl.common.observation import CarryAccumulator, FreeRunning, Observed
 
 __all__ = ["AccelCircuit", "AccelDecel", "accel_members", "carry_and_pulses"]
 
@@ -80,9 +80,9 @@ class AccelDecel(AccelCircuit):
     ``inputs = outputs + x + pending``: after the input stops and the circuit drains, the
     output count equals the input count exactly.
 
-    The addition clock fa comes from outside (a :class:`hdl.feed.divider.PhaseDivider` with
-    ``hdl.feed.divider_model.FA_INCREMENT`` gives the paper's 109.227 kHz, tau = 300 ms at n = 15),
-    so one divider can serve several circuits and tests can drive ``add`` freely.
+    The addition clock fa comes from outside (a :class:`k37.hdl.feed.divider.PhaseDivider` with
+    ``k37.hdl.feed.divider_model.FA_INCREMENT`` gives the paper's 109.227 kHz, tau = 300 ms at n =
+    15), so one divider can serve several circuits and tests can drive ``add`` freely.
 
     Cycle timing: the addition of cycle *t* uses ``x`` and ``y`` of cycle *t* (an input
     pulse of cycle *t* is counted in ``x`` from cycle *t* + 1, not in that addition); all
@@ -126,7 +126,7 @@ class AccelDecel(AccelCircuit):
     idle : Out(1)
         Drained: ``x == 0`` and ``pending == 0`` (``y`` keeps its residue).
 
-    Simulation only (see :mod:`hdl.common.observation`)
+    Simulation only (see :mod:`k37.hdl.common.observation`)
     --------------------------------------------
     quiet : Signal(1)
         No output pulse pending: until the accumulator's next carry only ``y`` changes.

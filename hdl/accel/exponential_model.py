@@ -1,4 +1,4 @@
-"""Reference model of :class:`hdl.accel.exponential.AccelDecel` (``docs/chips/accel.md``).
+"""Reference model of :class:`k37.hdl.accel.exponential.AccelDecel` (``docs/chips/accel.md``).
 
 The circuit of the filters paper's Fig. 2 (the system paper's circuit): input pulses count
 the up/down counter x up; on each addition pulse the accumulator becomes ``y <- (y + x) mod
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hdl.common.params import positive_int
+from k37.hdl.common.params import positive_int
 
 __all__ = ["AccelDecelModel", "check_inp", "check_params", "sign", "wrap"]
 

@@ -1,6 +1,6 @@
 """Linear accel/decel circuit: a moving average of the pulse rate over T = 2**n / fa.
 
-The reference model is :class:`hdl.accel.linear_model.AccelLinearModel` (which explains the
+The reference model is :class:`k37.hdl.accel.linear_model.AccelLinearModel` (which explains the
 circuit and why no pulse is lost).
 """
 
@@ -8,10 +8,10 @@ from __future__ import annotations
 
 from amaranth.hdl import Cat, Module, Mux, Signal
 
-from hdl.accel.exponential import AccelCircuit, accel_members, carry_and_pulses
-from hdl.accel.exponential_model import check_params
-from hdl.accel.linear_model import check_bins
-from hdl.common.observation import FreeRunning
+from k37.hdl.accel.exponential import AccelCircuit, accel_members, carry_and_pulses
+from k37.hdl.accel.exponential_model import check_params
+from k37.hdl.accel.linear_model import check_bins
+from k37.hdl.common.observation import FreeRunning
 
 __all__ = ["AccelLinear"]
 
@@ -67,7 +67,7 @@ class AccelLinear(AccelCircuit):
     idle : Out(1)
         Drained: no pulse in any bin, none pending; the circuit is then static.
 
-    Simulation only (see :mod:`hdl.common.observation`)
+    Simulation only (see :mod:`k37.hdl.common.observation`)
     --------------------------------------------
     quiet : Signal(1)
         ``idle``: a drained circuit changes no register until its next input pulse.
@@ -89,7 +89,7 @@ class AccelLinear(AccelCircuit):
     @staticmethod
     def declare(n: int, bidirectional: bool) -> FreeRunning:  # noqa: ARG004 (the family's call)
         """The free-running declaration (nothing but ``quiet``), as
-        :meth:`hdl.accel.exponential.AccelDecel.declare`."""
+        :meth:`k37.hdl.accel.exponential.AccelDecel.declare`."""
         return FreeRunning(quiet="quiet")
 
     def elaborate(self, platform) -> Module:

@@ -1,4 +1,4 @@
-"""Reference model of :class:`hdl.accel.linear.AccelLinear`: linear accel/decel as a moving
+"""Reference model of :class:`k37.hdl.accel.linear.AccelLinear`: linear accel/decel as a moving
 average over the time constant T = 2**n / fa.
 
 The output rate is the input rate averaged over the last T: a step of the input rate comes
@@ -25,8 +25,8 @@ Bidirectional (post-interpolation) use: counts are signed; the carry is the floo
 
 from __future__ import annotations
 
-from hdl.accel.exponential_model import check_inp, check_params, sign, wrap
-from hdl.common.params import positive_int
+from k37.hdl.accel.exponential_model import check_inp, check_params, sign, wrap
+from k37.hdl.common.params import positive_int
 
 __all__ = ["AccelLinearModel", "check_bins"]
 

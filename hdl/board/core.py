@@ -1,10 +1,10 @@
 # amaranth: UnusedElaboratable=no
 """The chipset as a board runs it: at its own 1 MHz cycle inside a faster FPGA clock.
 
-Everything a board adds around :class:`hdl.chipset.chip.Chipset`, whatever the board: the
+Everything a board adds around :class:`k37.hdl.chipset.chip.Chipset`, whatever the board: the
 clock enable that keeps the chipset's cycle at the paper's 1 MHz, the synchronisers of the
 encoder lines, one sigma-delta D/A per axis and the alarm outputs. The board's top
-(:mod:`hdl.board.ulx3s`) puts it on pins with the host bridge. (The first line of this file
+(:mod:`k37.hdl.board.ulx3s`) puts it on pins with the host bridge. (The first line of this file
 lets a core be built for its signature and chipset parameters alone, without Amaranth's
 unused-elaboratable warning for the chipset it holds.)
 """
@@ -16,11 +16,11 @@ from amaranth.lib import wiring
 from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.wiring import In, Out, connect, flipped
 
-from hdl.board.sigma_delta import SigmaDelta
-from hdl.bus.hostbus import HostBus
-from hdl.chipset.chip import Chipset
-from hdl.chipset.map import axis_names
-from hdl.common.params import positive_int
+from k37.hdl.board.sigma_delta import SigmaDelta
+from k37.hdl.bus.hostbus import HostBus
+from k37.hdl.chipset.chip import Chipset
+from k37.hdl.chipset.map import axis_names
+from k37.hdl.common.params import positive_int
 
 __all__ = ["CHIP_HZ", "BoardCore"]
 
@@ -42,16 +42,16 @@ class BoardCore(wiring.Component):
     Encoder lines come in asynchronous: each passes two flip-flops at the board clock, so the
     chipset sees a line at most 2 board cycles plus one chipset cycle after it changes, and
     takes ``a_n = ~a``, ``b_n = ~b`` (single-ended encoders; its line-break check never fires).
-    The D/A outputs run at the full board clock (:class:`~hdl.board.sigma_delta.SigmaDelta`).
+    The D/A outputs run at the full board clock (:class:`~k37.hdl.board.sigma_delta.SigmaDelta`).
 
     Parameters
     ----------
     axes : int
-        2 or 3 (:class:`~hdl.chipset.chip.Chipset`).
+        2 or 3 (:class:`~k37.hdl.chipset.chip.Chipset`).
     clock_hz : int
         The board clock; a multiple of :data:`CHIP_HZ`, at least twice it.
     **chipset : dict
-        Further :class:`~hdl.chipset.chip.Chipset` parameters (``accel``, ``accel_shape``...).
+        Further :class:`~k37.hdl.chipset.chip.Chipset` parameters (``accel``, ``accel_shape``...).
 
     Members
     -------

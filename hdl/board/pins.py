@@ -1,6 +1,6 @@
 """The board's pin map: which board pin carries which chipset signal (no Amaranth here).
 
-The one source of the pin map: :mod:`hdl.board.ulx3s` requests these pins from the board's
+The one source of the pin map: :mod:`k37.hdl.board.ulx3s` requests these pins from the board's
 Amaranth platform, ``k37 build`` writes them with their FPGA balls next to the bitstream and
 the manual's pin table (``docs/guide/fpga.md``) is made from them.
 """
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from hdl.chipset.map import axis_names
+from k37.hdl.chipset.map import axis_names
 
 __all__ = ["BoardPin", "ulx3s_pins"]
 

@@ -1,6 +1,6 @@
 """First-order sigma-delta D/A: a 16-bit D/A word as a one-bit stream on one pin.
 
-The reference model is :class:`hdl.board.sigma_delta_model.SigmaDeltaModel`.
+The reference model is :class:`k37.hdl.board.sigma_delta_model.SigmaDeltaModel`.
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from amaranth.hdl import Module, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.common.params import positive_int
+from k37.hdl.common.params import positive_int
 
 __all__ = ["SigmaDelta"]
 

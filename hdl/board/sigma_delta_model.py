@@ -1,4 +1,4 @@
-"""Reference model of :class:`hdl.board.sigma_delta.SigmaDelta`.
+"""Reference model of :class:`k37.hdl.board.sigma_delta.SigmaDelta`.
 
 A first-order sigma-delta modulator: a ``width``-bit accumulator adds the input word every
 cycle, and the carry out of that addition is the output bit of the next cycle. Over cycles
@@ -10,7 +10,7 @@ frequencies, where an RC low pass removes it).
 
 from __future__ import annotations
 
-from hdl.common.params import positive_int
+from k37.hdl.common.params import positive_int
 
 __all__ = ["SigmaDeltaModel"]
 

@@ -1,7 +1,7 @@
 # amaranth: UnusedElaboratable=no
 """The board's top, any board: the chipset, its clock enable and the UART host bridge.
 
-Its ports are the board pins of :mod:`hdl.board.pins`, by name; :mod:`hdl.board.ulx3s` puts
+Its ports are the board pins of :mod:`k37.hdl.board.pins`, by name; :mod:`k37.hdl.board.ulx3s` puts
 them on a board's balls. (The first line of this file lets a top be built for its ports alone,
 without Amaranth's unused-elaboratable warning for the core and bridge it holds.)
 """
@@ -12,10 +12,10 @@ from amaranth.hdl import EnableInserter, Module
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out, connect
 
-from hdl.board.core import CHIP_HZ, BoardCore
-from hdl.board.pins import BoardPin
-from hdl.bridge import UartBridge
-from hdl.chipset.identity import chipset_identity
+from k37.hdl.board.core import CHIP_HZ, BoardCore
+from k37.hdl.board.pins import BoardPin
+from k37.hdl.bridge import UartBridge
+from k37.hdl.chipset.identity import chipset_identity
 
 __all__ = ["DEFAULT_BAUD", "BoardTop"]
 
@@ -25,7 +25,7 @@ DEFAULT_BAUD = 125_000
 
 
 class BoardTop(wiring.Component):
-    """A :class:`~hdl.board.core.BoardCore` driven by a :class:`~hdl.bridge.UartBridge`.
+    """A :class:`~k37.hdl.board.core.BoardCore` driven by a :class:`~k37.hdl.bridge.UartBridge`.
 
     The bridge runs under the core's clock enable, like the chipset: its UART bit time is
     ``CHIP_HZ / baud`` chipset cycles, and it drives the chipset's bus one byte access per
@@ -35,22 +35,22 @@ class BoardTop(wiring.Component):
     Parameters
     ----------
     pins : tuple of BoardPin
-        The board's pins (:func:`hdl.board.pins.ulx3s_pins`): the ports, by ``signal``,
+        The board's pins (:func:`k37.hdl.board.pins.ulx3s_pins`): the ports, by ``signal``,
         but for ``reset`` (the board's wrapper makes it the domain's reset).
     axes : int
         The chipset's axes, 2 or 3.
     clock_hz : int
-        The board clock (:class:`~hdl.board.core.BoardCore`).
+        The board clock (:class:`~k37.hdl.board.core.BoardCore`).
     baud : int
         The host link's bit rate; ``CHIP_HZ`` must be a multiple of it.
     **chipset : dict
         The chipset's other parameters (``accel``...); the bridge's IDENT reply tells them
-        (:func:`hdl.chipset.identity.chipset_identity`).
+        (:func:`k37.hdl.chipset.identity.chipset_identity`).
 
     Members
     -------
     <signal> : In(1) or Out(1)
-        One per board pin; timings as :class:`~hdl.board.core.BoardCore`'s ports
+        One per board pin; timings as :class:`~k37.hdl.board.core.BoardCore`'s ports
         (``uart_rx`` and ``uart_tx`` are the bridge's ``rx`` and ``tx``).
     """
 

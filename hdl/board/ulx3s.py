@@ -1,7 +1,7 @@
 """The ULX3S board (Lattice ECP5): the board top on its pins, through amaranth-boards.
 
 Needs the ``fpga`` extra (``amaranth-boards``). :func:`platform` gives the board's Amaranth
-platform with the expansion-connector pins of :func:`hdl.board.pins.ulx3s_pins` added;
+platform with the expansion-connector pins of :func:`k37.hdl.board.pins.ulx3s_pins` added;
 :class:`OnBoard` is the elaboratable its ``prepare``/``build`` takes.
 """
 
@@ -13,8 +13,8 @@ from amaranth.lib import io
 from amaranth.lib.cdc import ResetSynchronizer
 from amaranth_boards.ulx3s import ULX3S_25F_Platform, ULX3S_85F_Platform
 
-from hdl.board.pins import BoardPin, ulx3s_pins
-from hdl.board.top import BoardTop
+from k37.hdl.board.pins import BoardPin, ulx3s_pins
+from k37.hdl.board.top import BoardTop
 
 __all__ = ["PLATFORMS", "OnBoard", "platform"]
 
@@ -42,7 +42,7 @@ def platform(board: str, axes: int = 3):
 
 
 class OnBoard(Elaboratable):
-    """A :class:`~hdl.board.top.BoardTop` of the ULX3S's pins, each port on its pin.
+    """A :class:`~k37.hdl.board.top.BoardTop` of the ULX3S's pins, each port on its pin.
 
     The ``sync`` domain runs from the board's 25 MHz oscillator; the ``reset`` pin (a button)
     resets it through a :class:`~amaranth.lib.cdc.ResetSynchronizer` (asserted at once,

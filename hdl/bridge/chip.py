@@ -1,5 +1,5 @@
-"""The host bridge in gateware: the protocol of :mod:`hdl.bridge.protocol` on a UART, driving the
-chipset's 8-bit bus."""
+"""The host bridge in gateware: the protocol of :mod:`k37.hdl.bridge.protocol` on a UART, driving
+the chipset's 8-bit bus."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from amaranth.lib import wiring
 from amaranth.lib.fifo import SyncFIFOBuffered
 from amaranth.lib.wiring import In, Out
 
-from hdl.bridge.protocol import (
+from k37.hdl.bridge.protocol import (
     COMMANDS,
     COUNT_BITS,
     COUNTER_BITS,
@@ -21,8 +21,8 @@ from hdl.bridge.protocol import (
     Op,
     check_cycles_per_bit,
 )
-from hdl.bridge.uart import UartRx, UartTx
-from hdl.bus.hostbus import HostBus
+from k37.hdl.bridge.uart import UartRx, UartTx
+from k37.hdl.bus.hostbus import HostBus
 
 __all__ = ["UartBridge"]
 
@@ -32,12 +32,12 @@ class UartBridge(wiring.Component):
 
     Runs in the chipset's clock domain (``sync``, which may be clock-enabled): every timing
     below is in its cycles. A command starts in cycle E, three cycles after its last byte's
-    stop bit is sampled (:func:`hdl.bridge.protocol.command_start`); what it does in E and
-    after is :data:`hdl.bridge.protocol.COMMANDS`'s. The reply's first start bit is on ``tx``
+    stop bit is sampled (:func:`k37.hdl.bridge.protocol.command_start`); what it does in E and
+    after is :data:`k37.hdl.bridge.protocol.COMMANDS`'s. The reply's first start bit is on ``tx``
     two cycles after the cycle the command ends in (E for WRITE, IDENT, STATUS and CYCLE, E + 1
     for READ, E + N for an IDLE of N, E + n for a WAIT that returned n, E - 1 for an error),
     each next start bit one cycle after the stop bit before
-    (:func:`hdl.bridge.protocol.reply_end`).
+    (:func:`k37.hdl.bridge.protocol.reply_end`).
 
     Parameters
     ----------

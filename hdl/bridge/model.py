@@ -3,17 +3,16 @@
 :class:`BridgeModel` takes the bytes a host sends and gives the bridge's replies, executing each
 command on a :class:`Target`: the chipset's bus, interrupt inputs and clock. Behind a socket on
 the simulated machine (``k37 serve``) the target's time passes only as the commands say; against
-the gateware (:class:`hdl.bridge.chip.UartBridge`) each byte comes with the cycle its command may
-start (:func:`hdl.bridge.protocol.command_start`), so the model gives the same replies, cycle
-counts included.
-"""
+the gateware (:class:`k37.hdl.bridge.chip.UartBridge`) each byte comes with the cycle its command
+may start (:func:`k37.hdl.bridge.protocol.command_start`), so the model gives the same replies,
+cycle counts included. """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from typing import Protocol
 
-from hdl.bridge.protocol import (
+from k37.hdl.bridge.protocol import (
     COMMANDS,
     COUNTER_BITS,
     ERROR,
@@ -37,7 +36,7 @@ FRAMING = -1
 
 
 class Target(Protocol):
-    """What the bridge drives: the shape of :class:`firmware_model.link.ChipsetLink`."""
+    """What the bridge drives: the shape of :class:`k37.firmware_model.link.ChipsetLink`."""
 
     @property
     def cycle(self) -> int: ...
@@ -126,8 +125,8 @@ class LineTimed:
     The host is stop-and-wait: its first frame's start bit begins in cycle 0, each later frame's
     ``turnaround`` cycles after the cycle that ends the previous reply's last stop bit, and a
     frame's bytes go back to back, ten bit times of ``cycles_per_bit`` cycles each. A command
-    starts as the gateware's does (:func:`hdl.bridge.protocol.command_start`) and its reply
-    takes the line as the gateware's does (:func:`hdl.bridge.protocol.reply_end`). The target's
+    starts as the gateware's does (:func:`k37.hdl.bridge.protocol.command_start`) and its reply
+    takes the line as the gateware's does (:func:`k37.hdl.bridge.protocol.reply_end`). The target's
     time then includes the line's, as a real board's does.
     """
 

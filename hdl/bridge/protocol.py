@@ -11,9 +11,8 @@ Time is counted in chipset clock cycles. A command starts in cycle E, three cycl
 last byte's stop bit is sampled (:func:`command_start`); :data:`COMMANDS` gives each one's bus
 and timing in those terms.
 This module is the one definition of the protocol, for the gateware
-(:class:`hdl.bridge.chip.UartBridge`), its reference model (:mod:`hdl.bridge.model`), the host's
-link and the documentation.
-"""
+(:class:`k37.hdl.bridge.chip.UartBridge`), its reference model (:mod:`k37.hdl.bridge.model`), the
+host's link and the documentation. """
 
 from __future__ import annotations
 
@@ -22,7 +21,7 @@ import zlib
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from hdl.bus.registers import RegisterMap
+from k37.hdl.bus.registers import RegisterMap
 
 __all__ = ["COMMANDS", "COUNTER_BITS", "COUNT_BITS", "ERROR", "IRQ_ALARM", "IRQ_INTERP",
            "MAX_CYCLES_PER_BIT", "MIN_CYCLES_PER_BIT", "OK", "PROBE_AXES", "PROBE_BYTES",

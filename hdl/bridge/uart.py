@@ -1,8 +1,8 @@
 """A small UART, 8 data bits, no parity, one stop bit, for the host bridge.
 
-The bit time is a whole number of clock cycles (:func:`hdl.bridge.protocol.check_cycles_per_bit`);
-both ends run in the ``sync`` domain, which may be a clock-enabled one.
-"""
+The bit time is a whole number of clock cycles
+(:func:`k37.hdl.bridge.protocol.check_cycles_per_bit`); both ends run in the ``sync`` domain, which
+may be a clock-enabled one. """
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from amaranth.lib import wiring
 from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.wiring import In, Out
 
-from hdl.bridge.protocol import check_cycles_per_bit
+from k37.hdl.bridge.protocol import check_cycles_per_bit
 
 __all__ = ["UartRx", "UartTx"]
 

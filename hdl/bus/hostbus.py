@@ -10,8 +10,8 @@ Every chip of the set (K3701, K3702, the feed path) talks to the 8085 through th
   latched and the higher bytes are read from the latch, so a counter that keeps running can
   never be read torn.
 
-A :class:`RegisterBank` implements a chip's :class:`~hdl.bus.registers.RegisterMap` (the data
-the host, the firmware and the docs share, in :mod:`hdl.bus.registers`).
+A :class:`RegisterBank` implements a chip's :class:`~k37.hdl.bus.registers.RegisterMap` (the data
+the host, the firmware and the docs share, in :mod:`k37.hdl.bus.registers`).
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from amaranth.hdl import Cat, Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.bus.registers import Access, Register, RegisterMap
+from k37.hdl.bus.registers import Access, Register, RegisterMap
 
 __all__ = ["HostBus", "RegisterBank", "RegisterPort"]
 

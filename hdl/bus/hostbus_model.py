@@ -1,4 +1,4 @@
-"""Register-level reference model of :class:`hdl.bus.hostbus.RegisterBank`: what a chip sees.
+"""Register-level reference model of :class:`k37.hdl.bus.hostbus.RegisterBank`: what a chip sees.
 
 The chips' reference models use it to reproduce the bank's timing exactly: a register whose
 committing (last) byte the host writes in cycle *t* shows its new value, with ``w_stb``, in
@@ -8,13 +8,13 @@ pulses in cycle *t* + 1 instead.
 
 from __future__ import annotations
 
-from hdl.bus.registers import Register, RegisterMap
+from k37.hdl.bus.registers import Register, RegisterMap
 
 __all__ = ["RegisterBankModel"]
 
 
 class RegisterBankModel:
-    """The chip-facing side of a :class:`~hdl.bus.hostbus.RegisterBank`, one cycle at a time.
+    """The chip-facing side of a :class:`~k37.hdl.bus.hostbus.RegisterBank`, one cycle at a time.
 
     Call :meth:`write` for the host's committing write of the current cycle (if any), read
     :attr:`values`, :meth:`w_stb` and :meth:`w_err` for what the chip sees in the current

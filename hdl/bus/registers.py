@@ -1,9 +1,9 @@
 """The chips' register maps as data: what the host, the firmware and the docs see of a chip.
 
 A :class:`RegisterMap` is the single source of truth for a chip's registers: the gateware's
-:class:`hdl.bus.hostbus.RegisterBank`, the firmware model's constants and ``docs/registers.md``
+:class:`k37.hdl.bus.hostbus.RegisterBank`, the firmware model's constants and ``docs/registers.md``
 all come from it. Register semantics (little-endian; a write commits on its last byte, a read
-snapshots on its first) are the bank's: see :mod:`hdl.bus.hostbus`. This module, and each chip's
+snapshots on its first) are the bank's: see :mod:`k37.hdl.bus.hostbus`. This module, and each chip's
 ``*_map`` module, imports nothing of Amaranth, so a host or a run that only talks to the chips
 never loads the HDL.
 """
@@ -14,7 +14,7 @@ import enum
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
-from hdl.common.params import Limit
+from k37.hdl.common.params import Limit
 
 __all__ = ["Access", "Field", "Register", "RegisterMap", "registers_markdown"]
 

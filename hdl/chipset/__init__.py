@@ -1,3 +1,3 @@
-"""The chipset: the chips on one 8085 bus (:mod:`hdl.chipset.chip`) and its chip selects
-(:mod:`hdl.chipset.map`).
+"""The chipset: the chips on one 8085 bus (:mod:`k37.hdl.chipset.chip`) and its chip selects
+(:mod:`k37.hdl.chipset.map`).
 """

@@ -9,17 +9,17 @@ Signal flow, with the accel/decel circuit in one of three places::
     K3701 +-Z -> [post: ACCEL] -> K3702 Z -> DAC Z      encoder Z -> +-FB -> K3702 Z
                                                         (three-axis chipset only)
 
-where ACCEL is the accel/decel circuit of the chosen :class:`~hdl.chipset.map.AccelShape` (per
+where ACCEL is the accel/decel circuit of the chosen :class:`~k37.hdl.chipset.map.AccelShape` (per
 axis in post). Every circuit adds at the FEED chip's addition clock fa, or, in post, at an axis's
-own (``axis_fa``: the FEED chip's per-axis fa build, :func:`hdl.feed.feed_rate_map.feed_map`).
+own (``axis_fa``: the FEED chip's per-axis fa build, :func:`k37.hdl.feed.feed_rate_map.feed_map`).
 
 Host bus: an 8085 I/O port address is ``chip select << 5 | register address``; the chip
-selects are :data:`hdl.chipset.map.CHIP_SELECTS`, the registers each chip's own map. The
+selects are :data:`k37.hdl.chipset.map.CHIP_SELECTS`, the registers each chip's own map. The
 three-axis chipset adds the Z axis's K3702 and encoder interface on the one select left, 7,
 which decodes A4 as well: the K3702 at 0xe0 (A4 = 0), the encoder interface at 0xf0 (A4 = 1,
-:data:`~hdl.chipset.map.SUB_WINDOWS`), and its K3701 is the three-axis build
-(:data:`hdl.k3701.map.K3701_MAP_3`, a superset of the two-axis map).
-:func:`hdl.chipset.map.port` turns a (chip, register) pair into the port address, for the
+:data:`~k37.hdl.chipset.map.SUB_WINDOWS`), and its K3701 is the three-axis build
+(:data:`k37.hdl.k3701.map.K3701_MAP_3`, a superset of the two-axis map).
+:func:`k37.hdl.chipset.map.port` turns a (chip, register) pair into the port address, for the
 firmware and the docs alike; that module holds everything the host and a job see of the
 chipset, without Amaranth.
 """
@@ -34,11 +34,11 @@ from amaranth.hdl import Array, Cat, Module, Mux, Signal, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.accel.bell import AccelBell
-from hdl.accel.exponential import AccelDecel
-from hdl.accel.linear import AccelLinear
-from hdl.bus.hostbus import HostBus
-from hdl.chipset.map import (
+from k37.hdl.accel.bell import AccelBell
+from k37.hdl.accel.exponential import AccelDecel
+from k37.hdl.accel.linear import AccelLinear
+from k37.hdl.bus.hostbus import HostBus
+from k37.hdl.chipset.map import (
     ACCEL_BITS,
     REG_BITS,
     SUB_WINDOWS,
@@ -48,14 +48,14 @@ from hdl.chipset.map import (
     axis_names,
     chip_selects,
 )
-from hdl.common.observation import FreeRunning, Observed
-from hdl.encoder.chip import EncoderInterface
-from hdl.feed.decel_control import DecelControl
-from hdl.feed.feed_rate import FeedRate
-from hdl.feed.feed_rate_map import feed_map
-from hdl.k3701.chip import K3701
-from hdl.k3702.chip import K3702
-from hdl.k3702.map import COUNTER_WIDTH
+from k37.hdl.common.observation import FreeRunning, Observed
+from k37.hdl.encoder.chip import EncoderInterface
+from k37.hdl.feed.decel_control import DecelControl
+from k37.hdl.feed.feed_rate import FeedRate
+from k37.hdl.feed.feed_rate_map import feed_map
+from k37.hdl.k3701.chip import K3701
+from k37.hdl.k3702.chip import K3702
+from k37.hdl.k3702.map import COUNTER_WIDTH
 
 __all__ = ["AxisPins", "Chipset"]
 
@@ -135,7 +135,7 @@ class Chipset(Observed, wiring.Component):
     x, y : Out(AxisPins())
         The axes (and ``z`` on three axes).
 
-    Simulation only (attributes, not pins: see :mod:`hdl.common.observation`)
+    Simulation only (attributes, not pins: see :mod:`k37.hdl.common.observation`)
     ----------------------------------------------------------------
     quiet : Signal(1)
         Every accel/decel circuit is ``quiet`` (no output pulse pending; a linear or bell

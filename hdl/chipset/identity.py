@@ -1,10 +1,10 @@
-"""What a host bridge in front of a chipset tells of it (:attr:`hdl.bridge.protocol.Op.IDENT`),
+"""What a host bridge in front of a chipset tells of it (:attr:`k37.hdl.bridge.protocol.Op.IDENT`),
 from the chipset's build parameters, without Amaranth.
 
 Two chipsets have the same identity when they have the same axes, register maps and accel/decel
 circuits: what the firmware of a job needs to find. The board's bitstream and a host's job
 compute it with :func:`chipset_identity` from the arguments of
-:class:`hdl.chipset.chip.Chipset`.
+:class:`k37.hdl.chipset.chip.Chipset`.
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ import enum
 import json
 from collections.abc import Iterable, Mapping
 
-from hdl.bridge.protocol import Identity, map_fingerprint
-from hdl.chipset.map import axis_names, chip_selects
-from hdl.feed.feed_rate_map import feed_map
+from k37.hdl.bridge.protocol import Identity, map_fingerprint
+from k37.hdl.chipset.map import axis_names, chip_selects
+from k37.hdl.feed.feed_rate_map import feed_map
 
 __all__ = ["chipset_identity"]
 

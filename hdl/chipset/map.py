@@ -1,17 +1,17 @@
 """The chipset as the host and a job see it: chip selects and ports, axes, accel/decel placement
-and shape (:class:`hdl.chipset.chip.Chipset` builds the gateware from them)."""
+and shape (:class:`k37.hdl.chipset.chip.Chipset` builds the gateware from them)."""
 
 from __future__ import annotations
 
 import enum
 
-from hdl.bus.registers import Register, RegisterMap
-from hdl.common.params import Limit
-from hdl.encoder.map import ENCODER_MAP
-from hdl.feed.decel_control_map import DECEL_MAP
-from hdl.feed.feed_rate_map import FEED_MAP, FEED_MAP_AXIS_FA
-from hdl.k3701.map import K3701_MAP, K3701_MAP_3
-from hdl.k3702.map import K3702_MAP
+from k37.hdl.bus.registers import Register, RegisterMap
+from k37.hdl.common.params import Limit
+from k37.hdl.encoder.map import ENCODER_MAP
+from k37.hdl.feed.decel_control_map import DECEL_MAP
+from k37.hdl.feed.feed_rate_map import FEED_MAP, FEED_MAP_AXIS_FA
+from k37.hdl.k3701.map import K3701_MAP, K3701_MAP_3
+from k37.hdl.k3702.map import K3702_MAP
 
 __all__ = ["ACCEL_BITS", "ALL_AXES", "AXES", "CHIP_SELECTS", "MACHINE_AXES", "REG_BITS",
            "SUB_WINDOWS", "Z_CHIPS", "Accel", "AccelShape", "axis_names", "chip_register",
@@ -50,9 +50,9 @@ class AccelShape(enum.Enum):
 
     #: The paper's up/down counter + accumulator, fo = fi (1 - exp(-t / tau)).
     EXPONENTIAL = "exponential"
-    #: A moving average over T = 2^n / fa (:class:`hdl.accel.linear.AccelLinear`): a ramp.
+    #: A moving average over T = 2^n / fa (:class:`k37.hdl.accel.linear.AccelLinear`): a ramp.
     LINEAR = "linear"
-    #: The moving average, then the exponential circuit (:class:`hdl.accel.bell.AccelBell`).
+    #: The moving average, then the exponential circuit (:class:`k37.hdl.accel.bell.AccelBell`).
     BELL = "bell"
 
 

@@ -1,3 +1,3 @@
-"""What every block shares: parameter checks and limits (:mod:`hdl.common.params`) and what a
-block tells a simulator beyond its pins (:mod:`hdl.common.observation`).
+"""What every block shares: parameter checks and limits (:mod:`k37.hdl.common.params`) and what a
+block tells a simulator beyond its pins (:mod:`k37.hdl.common.observation`).
 """

@@ -32,7 +32,7 @@ def join(scope: str, path: str) -> str:
 
 @dataclass(frozen=True)
 class PhaseAccumulator:
-    """A :class:`hdl.feed.divider.PhaseDivider` at ``path`` (``phase``, ``increment``, ``stb``
+    """A :class:`k37.hdl.feed.divider.PhaseDivider` at ``path`` (``phase``, ``increment``, ``stb``
     below it): it adds ``increment`` to ``phase`` at every edge, for ever."""
 
     #: The signals below ``path`` a backend reads (and writes, of the registers).
@@ -47,7 +47,7 @@ class PhaseAccumulator:
 
 @dataclass(frozen=True)
 class StrobeCounter:
-    """A :class:`hdl.feed.rate_multiplier.RateMultiplier` at ``path`` (``count``, ``select``,
+    """A :class:`k37.hdl.feed.rate_multiplier.RateMultiplier` at ``path`` (``count``, ``select``,
     ``word``): it counts the cycles in which the accumulator at ``clock``'s ``stb`` is high,
     and pulses in those that select a set bit of ``word``. While the signal ``gate`` reads 1
     its pulses matter, so a skip must stop before the next one (None: they never matter)."""
@@ -67,7 +67,7 @@ class StrobeCounter:
 
 @dataclass(frozen=True)
 class CarryAccumulator:
-    """An :class:`hdl.accel.exponential.AccelDecel` at ``path`` (``y``, ``x``): at each cycle in
+    """An :class:`k37.hdl.accel.exponential.AccelDecel` at ``path`` (``y``, ``x``): at each cycle in
     which the accumulator at ``clock``'s ``stb`` is high, ``y += x`` in ``n`` bits; a carry
     out of them changes ``x`` and sends a pulse, so a skip must stop before the next carry.
     ``clock`` is None until the parent that wires the strobe says which accumulator it is."""
@@ -125,7 +125,7 @@ class FreeRunning:
     a carry accumulator's next carry, a strobe counter's next pulse through its open gate, a
     plant's next count or a countdown's stop; a backend that skips idle cycles then proves a
     fixed point of the rest from one cycle and advances this state, up to that event
-    (:meth:`sim.backends.contract.Backend.step` with ``skip_idle``). ``quiet`` None: the
+    (:meth:`k37.sim.backends.contract.Backend.step` with ``skip_idle``). ``quiet`` None: the
     declaring block has no such signal (its parent provides one).
     """
 

@@ -1,7 +1,7 @@
 """Encoder interface gateware (``docs/chips/encoder.md``): receiver, glitch filter, quadrature
 decoder.
 
-The reference model is :mod:`hdl.encoder.model`; this module is tested against it cycle by
+The reference model is :mod:`k37.hdl.encoder.model`; this module is tested against it cycle by
 cycle.
 """
 
@@ -10,8 +10,8 @@ from amaranth.hdl import Module, Mux, Signal, Value
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out, connect, flipped
 
-from hdl.bus.hostbus import HostBus, RegisterBank
-from hdl.encoder.map import ENCODER_MAP, Decode
+from k37.hdl.bus.hostbus import HostBus, RegisterBank
+from k37.hdl.encoder.map import ENCODER_MAP, Decode
 
 __all__ = ["EncoderInterface"]
 
@@ -50,7 +50,7 @@ class EncoderInterface(wiring.Component):
     Members
     -------
     bus : In(HostBus(ENCODER_MAP.addr_width))
-        Host interface (see :mod:`hdl.bus.hostbus`); registers in :data:`ENCODER_MAP`.
+        Host interface (see :mod:`k37.hdl.bus.hostbus`); registers in :data:`ENCODER_MAP`.
     a, a_n, b, b_n : In(1)
         The encoder's lines A, /A, B, /B, sampled every cycle.
     fb_pos, fb_neg : Out(1)

@@ -1,11 +1,11 @@
 """The encoder interface's registers as the host sees them
-(:class:`hdl.encoder.chip.EncoderInterface` implements them)."""
+(:class:`k37.hdl.encoder.chip.EncoderInterface` implements them)."""
 
 from __future__ import annotations
 
 import enum
 
-from hdl.bus.registers import Access, Field, Register, RegisterMap
+from k37.hdl.bus.registers import Access, Field, Register, RegisterMap
 
 __all__ = ["ENCODER_MAP", "FILTER_INIT", "Decode"]
 

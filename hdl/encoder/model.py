@@ -1,13 +1,13 @@
 """Reference model of the encoder interface (``docs/chips/encoder.md``), in plain Python.
 
 One :meth:`EncoderModel.step` is one sample: the inputs of a clock cycle and the rising edge
-that ends it. The gateware :class:`hdl.encoder.chip.EncoderInterface` matches it cycle by cycle.
+that ends it. The gateware :class:`k37.hdl.encoder.chip.EncoderInterface` matches it cycle by cycle.
 """
 
 from __future__ import annotations
 
-from hdl.bus.hostbus_model import RegisterBankModel
-from hdl.encoder.map import ENCODER_MAP, Decode
+from k37.hdl.bus.hostbus_model import RegisterBankModel
+from k37.hdl.encoder.map import ENCODER_MAP, Decode
 
 __all__ = ["EncoderModel"]
 
@@ -59,7 +59,7 @@ class EncoderModel:
     """One encoder interface, one sample per :meth:`step`.
 
     Host writes go through :meth:`write` with the bus timing (see
-    :class:`~hdl.bus.hostbus_model.RegisterBankModel`): a write issued before step *t* acts from
+    :class:`~k37.hdl.bus.hostbus_model.RegisterBankModel`): a write issued before step *t* acts from
     step *t* + 1 on.
     """
 

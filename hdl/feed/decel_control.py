@@ -1,17 +1,17 @@
 """Decel control: the host-loaded FP budget gate before the accel/decel circuit
 (``docs/chips/decel.md``).
 
-The reference model is :class:`hdl.feed.decel_control_model.DecelControlModel`.
+The reference model is :class:`k37.hdl.feed.decel_control_model.DecelControlModel`.
 """
 
 from amaranth.hdl import Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out, connect, flipped
 
-from hdl.bus.hostbus import HostBus, RegisterBank
-from hdl.common.observation import Observed
-from hdl.feed.decel_control_map import DECEL_MAP
-from hdl.feed.decel_control_model import BUDGET_WIDTH
+from k37.hdl.bus.hostbus import HostBus, RegisterBank
+from k37.hdl.common.observation import Observed
+from k37.hdl.feed.decel_control_map import DECEL_MAP
+from k37.hdl.feed.decel_control_model import BUDGET_WIDTH
 
 __all__ = ["DecelControl"]
 

@@ -1,10 +1,10 @@
 """The decel (FP budget) control's registers as the host sees them
-(:class:`hdl.feed.decel_control.DecelControl` implements them)."""
+(:class:`k37.hdl.feed.decel_control.DecelControl` implements them)."""
 
 from __future__ import annotations
 
-from hdl.bus.registers import Access, Field, Register, RegisterMap
-from hdl.feed.decel_control_model import BUDGET_WIDTH
+from k37.hdl.bus.registers import Access, Field, Register, RegisterMap
+from k37.hdl.feed.decel_control_model import BUDGET_WIDTH
 
 __all__ = ["DECEL_MAP"]
 

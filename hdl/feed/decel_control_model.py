@@ -1,4 +1,4 @@
-"""Reference model of :class:`hdl.feed.decel_control.DecelControl`, the FP budget gate
+"""Reference model of :class:`k37.hdl.feed.decel_control.DecelControl`, the FP budget gate
 (``docs/chips/decel.md``).
 
 The host loads the number of feed pulses a block needs; input pulses pass and count the

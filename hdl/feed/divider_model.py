@@ -1,4 +1,4 @@
-"""Reference model of :class:`hdl.feed.divider.PhaseDivider`, and its frequency arithmetic.
+"""Reference model of :class:`k37.hdl.feed.divider.PhaseDivider`, and its frequency arithmetic.
 
 A phase accumulator of ``width`` bits adds ``increment`` every cycle; each carry out is one
 strobe, one cycle later. Over cycles 1..T there are exactly ``floor(T * increment / 2**width)``
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hdl.common.params import Limit, positive_int
+from k37.hdl.common.params import Limit, positive_int
 
 __all__ = ["FA_INCREMENT", "PhaseDividerModel", "frequency_of", "increment_for", "rate_limit"]
 

@@ -1,9 +1,9 @@
 """Feed-rate generator: the rate multiplier, its input-clock divider and the fa divider(s).
 
-The host sets the feed word and the dividers through :func:`~hdl.feed.feed_rate_map.feed_map`;
-the blocks inside are :class:`hdl.feed.rate_multiplier.RateMultiplier` and
-:class:`hdl.feed.divider.PhaseDivider`, each tested against its own reference model, and the
-chip against :class:`hdl.feed.feed_rate_model.FeedRateModel`.
+The host sets the feed word and the dividers through :func:`~k37.hdl.feed.feed_rate_map.feed_map`;
+the blocks inside are :class:`k37.hdl.feed.rate_multiplier.RateMultiplier` and
+:class:`k37.hdl.feed.divider.PhaseDivider`, each tested against its own reference model, and the
+chip against :class:`k37.hdl.feed.feed_rate_model.FeedRateModel`.
 """
 
 from collections.abc import Iterable
@@ -12,10 +12,10 @@ from amaranth.hdl import Module
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out, connect, flipped
 
-from hdl.bus.hostbus import HostBus, RegisterBank
-from hdl.common.observation import FreeRunning, Observed, PhaseAccumulator, StrobeCounter
-from hdl.feed.divider import PhaseDivider
-from hdl.feed.feed_rate_map import (
+from k37.hdl.bus.hostbus import HostBus, RegisterBank
+from k37.hdl.common.observation import FreeRunning, Observed, PhaseAccumulator, StrobeCounter
+from k37.hdl.feed.divider import PhaseDivider
+from k37.hdl.feed.feed_rate_map import (
     DIVIDER_WIDTH,
     FA_AXES,
     FEED_BITS,
@@ -23,7 +23,7 @@ from hdl.feed.feed_rate_map import (
     fa_register,
     feed_map,
 )
-from hdl.feed.rate_multiplier import RateMultiplier
+from k37.hdl.feed.rate_multiplier import RateMultiplier
 
 __all__ = ["FeedRate"]
 
@@ -49,7 +49,7 @@ class FeedRate(Observed, wiring.Component):
     fa_x, fa_y, fa_z : Out(1), per-axis fa build
         The addition clock enable of each axis in ``axis_fa`` (registered).
 
-    Simulation only (see :mod:`hdl.common.observation`)
+    Simulation only (see :mod:`k37.hdl.common.observation`)
     --------------------------------------------
     free_running : FreeRunning
         Every divider runs on for ever and the rate multiplier counts the input clock's

@@ -1,13 +1,13 @@
-"""The feed-rate generator's registers as the host sees them (:class:`hdl.feed.feed_rate.FeedRate`
-implements them)."""
+"""The feed-rate generator's registers as the host sees them
+(:class:`k37.hdl.feed.feed_rate.FeedRate` implements them)."""
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 
-from hdl.bus.registers import Access, Register, RegisterMap
-from hdl.feed.divider_model import FA_INCREMENT
-from hdl.feed.rate_multiplier_model import STAGE_BITS
+from k37.hdl.bus.registers import Access, Register, RegisterMap
+from k37.hdl.feed.divider_model import FA_INCREMENT
+from k37.hdl.feed.rate_multiplier_model import STAGE_BITS
 
 __all__ = ["DIVIDER_WIDTH", "FA_AXES", "FEED_BITS", "FEED_MAP", "FEED_MAP_AXIS_FA", "FEED_STAGES",
            "fa_register", "feed_map"]

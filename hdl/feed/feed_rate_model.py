@@ -1,14 +1,14 @@
-"""Reference model of :class:`hdl.feed.feed_rate.FeedRate`: its register bank, rate multiplier and
-dividers composed one cycle at a time (``docs/chips/feed.md``)."""
+"""Reference model of :class:`k37.hdl.feed.feed_rate.FeedRate`: its register bank, rate multiplier
+and dividers composed one cycle at a time (``docs/chips/feed.md``)."""
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 
-from hdl.bus.hostbus_model import RegisterBankModel
-from hdl.feed.divider_model import PhaseDividerModel
-from hdl.feed.feed_rate_map import DIVIDER_WIDTH, FA_AXES, FEED_STAGES, fa_register, feed_map
-from hdl.feed.rate_multiplier_model import RateMultiplierModel
+from k37.hdl.bus.hostbus_model import RegisterBankModel
+from k37.hdl.feed.divider_model import PhaseDividerModel
+from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH, FA_AXES, FEED_STAGES, fa_register, feed_map
+from k37.hdl.feed.rate_multiplier_model import RateMultiplierModel
 
 __all__ = ["FeedRateModel"]
 

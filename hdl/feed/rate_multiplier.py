@@ -1,6 +1,6 @@
 """Cascaded SN7497-style binary rate multiplier: the feedrate generator (``docs/chips/feed.md``).
 
-The reference model (and the 7497's decoding table) is :mod:`hdl.feed.rate_multiplier_model`.
+The reference model (and the 7497's decoding table) is :mod:`k37.hdl.feed.rate_multiplier_model`.
 """
 
 from __future__ import annotations
@@ -9,9 +9,9 @@ from amaranth.hdl import Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.common.observation import Observed
-from hdl.common.params import positive_int
-from hdl.feed.rate_multiplier_model import STAGE_BITS, selected_bit
+from k37.hdl.common.observation import Observed
+from k37.hdl.common.params import positive_int
+from k37.hdl.feed.rate_multiplier_model import STAGE_BITS, selected_bit
 
 __all__ = ["RateMultiplier"]
 
@@ -40,7 +40,7 @@ class RateMultiplier(Observed, wiring.Component):
         Feed word ``W``; sampled in every input clock (the 7497's rate inputs are live).
     clk_en : In(1)
         Input clock: each cycle it is high is one input clock pulse (e.g. a
-        :class:`hdl.feed.divider.PhaseDivider` strobe).
+        :class:`k37.hdl.feed.divider.PhaseDivider` strobe).
     out : Out(1)
         Output pulse, combinational: high in the same cycle as the ``clk_en`` it gates, when
         the counter state reached by that input clock selects it. Input clock *k* after reset
@@ -68,11 +68,11 @@ class RateMultiplier(Observed, wiring.Component):
         m = Module()
         bits = STAGE_BITS * self.stages
         # The gates pass the clock in state k iff the word bit they select is set
-        # (:func:`hdl.feed.rate_multiplier_model.selected_bit`): bit (bits - 1 - t) where t is the
-        # number of trailing ones of k (stage s = t // 6 is the first one not in state 63, and
-        # its gate for rate bit 5 - t % 6 is open); no bit when k is all ones. ``select`` holds
-        # that bit index for the state the next input clock reaches (the sentinel ``bits`` for
-        # none), updated only when the counter moves, so each cycle costs one shift.
+        # (:func:`k37.hdl.feed.rate_multiplier_model.selected_bit`): bit (bits - 1 - t) where t is
+        # the number of trailing ones of k (stage s = t // 6 is the first one not in state 63, and
+        # its gate for rate bit 5 - t % 6 is open); no bit when k is all ones. ``select`` holds that
+        # bit index for the state the next input clock reaches (the sentinel ``bits`` for none),
+        # updated only when the counter moves, so each cycle costs one shift.
         select = Signal(range(bits + 1), init=selected_bit(1, self.stages))
         with m.If(self.clk_en):
             m.d.sync += [self.count.eq(self.count + 1),
@@ -83,8 +83,8 @@ class RateMultiplier(Observed, wiring.Component):
 
 
 def _select_expr(state, bits: int):
-    """:func:`hdl.feed.rate_multiplier_model.selected_bit` of the Amaranth value ``state`` (taken
-    modulo ``2**bits``), as a chain of multiplexers on its trailing ones."""
+    """:func:`k37.hdl.feed.rate_multiplier_model.selected_bit` of the Amaranth value ``state``
+    (taken modulo ``2**bits``), as a chain of multiplexers on its trailing ones."""
     result = bits
     for t in reversed(range(bits)):
         result = Mux(state[t], result, bits - 1 - t)

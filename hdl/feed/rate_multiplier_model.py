@@ -1,4 +1,4 @@
-"""Reference model of :class:`hdl.feed.rate_multiplier.RateMultiplier` (``docs/chips/feed.md``).
+"""Reference model of :class:`k37.hdl.feed.rate_multiplier.RateMultiplier` (``docs/chips/feed.md``).
 
 One SN7497 holds a 6-bit counter that advances on each input clock; its six decoding gates
 pass the clock for disjoint counter states (the datasheet's logic, QA = counter bit 0):
@@ -33,7 +33,7 @@ bit ``6 * stages - 1 - t``) are tested against it.
 
 from __future__ import annotations
 
-from hdl.common.params import positive_int
+from k37.hdl.common.params import positive_int
 
 __all__ = ["STAGE_BITS", "RateMultiplierModel", "gate", "selected_bit", "stage_gate"]
 

@@ -1,3 +1,3 @@
-"""The KM3701 interpolator: the chip (:mod:`hdl.k3701.chip`), its shared core, step latency and
+"""The KM3701 interpolator: the chip (:mod:`k37.hdl.k3701.chip`), its shared core, step latency and
 datapaths, its register map and reference model.
 """

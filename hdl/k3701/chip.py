@@ -1,22 +1,22 @@
 """KM3701 interpolator gateware.
 
 The chip's ports, parameters and timing; its logic is the shared core
-(:mod:`hdl.k3701.core`) composed with the two-axis (:mod:`hdl.k3701.two_axis`) or the
-three-axis (:mod:`hdl.k3701.three_axis`) datapaths. The reference model is
-:mod:`hdl.k3701.model`; this chip is tested against it cycle by cycle.
+(:mod:`k37.hdl.k3701.core`) composed with the two-axis (:mod:`k37.hdl.k3701.two_axis`) or the
+three-axis (:mod:`k37.hdl.k3701.three_axis`) datapaths. The reference model is
+:mod:`k37.hdl.k3701.model`; this chip is tested against it cycle by cycle.
 """
 
 from amaranth.hdl import Module, Signal
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.bus.hostbus import HostBus
-from hdl.common.observation import Countdown, FreeRunning, Observed
-from hdl.k3701.block import CIRCLE_SETUP_CYCLES, LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
-from hdl.k3701.core import build
-from hdl.k3701.map import k3701_map
-from hdl.k3701.three_axis import ThreeAxes
-from hdl.k3701.two_axis import DATAPATHS, TwoAxes
+from k37.hdl.bus.hostbus import HostBus
+from k37.hdl.common.observation import Countdown, FreeRunning, Observed
+from k37.hdl.k3701.block import CIRCLE_SETUP_CYCLES, LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
+from k37.hdl.k3701.core import build
+from k37.hdl.k3701.map import k3701_map
+from k37.hdl.k3701.three_axis import ThreeAxes
+from k37.hdl.k3701.two_axis import DATAPATHS, TwoAxes
 
 __all__ = ["K3701"]
 
@@ -26,7 +26,7 @@ class K3701(Observed, wiring.Component):
 
     The host loads a block through :data:`K3701_MAP` and writes ``CMD.start``; each feed pulse
     earns step credit and each step emits one-cycle pulses on the axes it moves. Timing is
-    that of :class:`hdl.k3701.model.K3701Model` (S is the cycle after the host's write of the
+    that of :class:`k37.hdl.k3701.model.K3701Model` (S is the cycle after the host's write of the
     start command):
 
     * linear: BUSY and FP intake from S+1; circular: BUSY from S+1, a serial radius check
@@ -38,11 +38,11 @@ class K3701(Observed, wiring.Component):
       one FP arriving meanwhile is held, a further one sets OVERRUN and is lost;
     * BUSY falls and ``irq`` rises in the cycle of the final step's pulses.
 
-    Inside, the core (:mod:`hdl.k3701.core`) runs the block (registers, commands and status,
+    Inside, the core (:mod:`k37.hdl.k3701.core`) runs the block (registers, commands and status,
     FP intake and credit, the pulses), its step latency count times the steps and the
-    datapaths' stages (:mod:`hdl.k3701.latency`), and one datapath per interpolation type
-    decides its steps (:mod:`hdl.k3701.datapaths`, through the interface of
-    :mod:`hdl.k3701.datapaths.base`). Each step is decided before its FP can come: a line's
+    datapaths' stages (:mod:`k37.hdl.k3701.latency`), and one datapath per interpolation type
+    decides its steps (:mod:`k37.hdl.k3701.datapaths`, through the interface of
+    :mod:`k37.hdl.k3701.datapaths.base`). Each step is decided before its FP can come: a line's
     next step in the cycle the current one is output, a circle's first step during the radius
     check and each following one in four pipelined cycles of the current step's latency.
     The logic thus works only when there is something to decide, which keeps compiled
@@ -57,17 +57,17 @@ class K3701(Observed, wiring.Component):
         Cycles of the circular radius check; must equal 25 (24 squarer cycles plus the check).
     axes : int
         2 (the paper's chip) or 3: the three-axis build (:data:`K3701_MAP_3`) steps lines in
-        X, Y and Z (:class:`hdl.k3701.datapaths.linear.LinearDatapath3`), routes a block's axes to
-        the machine's by CTRL.plane (an arc, a parabola or an exponential runs in the plane's two
+        X, Y and Z (:class:`k37.hdl.k3701.datapaths.linear.LinearDatapath3`), routes a block's axes
+        to the machine's by CTRL.plane (an arc, a parabola or an exponential runs in the plane's two
         axes, a curve's modes in MODE) and moves a helix's third axis with the arc's steps
-        (:class:`hdl.k3701.datapaths.helix.HelixAxis`); its FP credit is
-        in quarter-FP units (a step moving 1, 2, 3 axes costs 1, 1.5, 1.75 FP with sqrt(2)
-        control), the same timing as the two-axis chip for blocks without a third axis.
+        (:class:`k37.hdl.k3701.datapaths.helix.HelixAxis`); its FP credit is in quarter-FP units (a
+        step moving 1, 2, 3 axes costs 1, 1.5, 1.75 FP with sqrt(2) control), the same timing as the
+        two-axis chip for blocks without a third axis.
 
     Members
     -------
     bus : In(HostBus(k3701_map(axes).addr_width))
-        Host interface (see :mod:`hdl.bus.hostbus` for its cycle timing).
+        Host interface (see :mod:`k37.hdl.bus.hostbus` for its cycle timing).
     fp : In(1)
         Feed pulse, sampled every cycle; each cycle it is high counts as one FP.
     x_pos, x_neg, y_pos, y_neg : Out(1)
@@ -81,15 +81,15 @@ class K3701(Observed, wiring.Component):
     error, overrun : Out(1)
         The sticky STATUS bits.
 
-    Simulation only (attributes, not pins: see :mod:`hdl.common.observation`)
+    Simulation only (attributes, not pins: see :mod:`k37.hdl.common.observation`)
     ----------------------------------------------------------------
     quiet : Signal(1)
         While no FP comes, the step latency count affects nothing but its own decrement each
         cycle until it reaches 1: FP is low, and the count is 0 (waiting for FP) or at least
         2 and past the running datapath's decision stages; combinational.
     free_running : FreeRunning
-        The latency count (``latency.count``, of :class:`hdl.k3701.latency.StepLatency`), a
-        :class:`hdl.common.observation.Countdown` that stops before 1.
+        The latency count (``latency.count``, of :class:`k37.hdl.k3701.latency.StepLatency`), a
+        :class:`k37.hdl.common.observation.Countdown` that stops before 1.
     """
 
     def __init__(self, *, latency_linear: int = LATENCY_LINEAR,

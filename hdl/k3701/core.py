@@ -4,8 +4,8 @@ The core holds the block's registers, START and BUSY, the feed intake and step c
 step latency and the end of a block; its :class:`Axes` composition adds the datapaths and
 everything that depends on the number of axes: which datapath a block starts, the block's
 registers each datapath reads, the credit a step costs and where a step's pulses go. The
-two compositions are :class:`hdl.k3701.two_axis.TwoAxes` (the paper's chip) and
-:class:`hdl.k3701.three_axis.ThreeAxes`; :class:`hdl.k3701.chip.K3701` picks one.
+two compositions are :class:`k37.hdl.k3701.two_axis.TwoAxes` (the paper's chip) and
+:class:`k37.hdl.k3701.three_axis.ThreeAxes`; :class:`k37.hdl.k3701.chip.K3701` picks one.
 
 Written for compiled simulation (CXXRTL evaluates an expression only when the conditions
 around it select it, if it feeds one register and no intermediate value is used twice or
@@ -23,11 +23,11 @@ from amaranth.hdl import Cat, Const, Module, Mux, Signal, Value, ValueLike, sign
 from amaranth.lib import enum, wiring
 from amaranth.lib.wiring import connect, flipped
 
-from hdl.bus.hostbus import RegisterBank
-from hdl.bus.registers import Field, Register
-from hdl.k3701.block import Kind
-from hdl.k3701.datapaths.base import Datapath, StepSignature
-from hdl.k3701.latency import StepLatency
+from k37.hdl.bus.hostbus import RegisterBank
+from k37.hdl.bus.registers import Field, Register
+from k37.hdl.k3701.block import Kind
+from k37.hdl.k3701.datapaths.base import Datapath, StepSignature
+from k37.hdl.k3701.latency import StepLatency
 
 __all__ = ["Axes", "build", "field_of", "select"]
 
@@ -55,7 +55,7 @@ class Axes:
     """What a K3701 build adds to the core: its datapaths and what depends on its axes.
 
     :func:`build` calls the hooks below in this order while it elaborates the chip; ``chip``
-    is the :class:`hdl.k3701.chip.K3701` being built, ``m`` its module, ``regs`` its
+    is the :class:`k37.hdl.k3701.chip.K3701` being built, ``m`` its module, ``regs`` its
     register bank, ``word`` the CTRL register's value and ``ctrl`` CTRL's description.
     """
 

@@ -1,6 +1,6 @@
 """The K3701's step latency count and the strobes it times (``docs/chips/k3701.md``).
 
-The reference model is :class:`hdl.k3701.latency_model.StepLatencyModel`.
+The reference model is :class:`k37.hdl.k3701.latency_model.StepLatencyModel`.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from amaranth.hdl import Const, Module, Mux
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.k3701.latency_model import check_params
+from k37.hdl.k3701.latency_model import check_params
 
 __all__ = ["StepLatency"]
 
@@ -21,7 +21,7 @@ class StepLatency(wiring.Component):
 
     A block of its own so that a compiled simulation evaluates what reads the strobes only
     when one changes, not at each decrement of the count (CXXRTL's parts follow the module
-    hierarchy, see :func:`sim.backends.cxxrtl.rise.rise_eval`).
+    hierarchy, see :func:`k37.sim.backends.cxxrtl.rise.rise_eval`).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Reference model of :class:`hdl.k3701.latency.StepLatency`, the K3701's step latency count.
+"""Reference model of :class:`k37.hdl.k3701.latency.StepLatency`, the K3701's step latency count.
 
 The count holds a step between the FP that completes its credit and its pulses: loaded with
 ``L - 1`` (``L`` the running type's latency), it goes down by one per cycle, and the cycles on
@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from hdl.common.params import positive_int
+from k37.hdl.common.params import positive_int
 
 __all__ = ["LatencyOutputs", "StepLatencyModel", "check_params"]
 

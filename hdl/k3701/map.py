@@ -1,12 +1,13 @@
 """The KM3701's registers as the host sees them, and the register values that load a block
-(:class:`hdl.k3701.chip.K3701` implements them; :mod:`hdl.k3701.model` states the behaviour)."""
+(:class:`k37.hdl.k3701.chip.K3701` implements them; :mod:`k37.hdl.k3701.model` states the
+behaviour)."""
 
 from __future__ import annotations
 
 from dataclasses import replace
 
-from hdl.bus.registers import Access, Field, Register, RegisterMap
-from hdl.k3701.block import Block, Kind
+from k37.hdl.bus.registers import Access, Field, Register, RegisterMap
+from k37.hdl.k3701.block import Block, Kind
 
 __all__ = ["K3701_MAP", "K3701_MAP_3", "block_registers", "k3701_map"]
 

@@ -3,23 +3,23 @@
 Two layers:
 
 * the paths state the interpolation algorithms step by step, with no notion of time, one
-  module beside each datapath: :class:`~hdl.k3701.datapaths.linear_model.LinearPath`,
-  :class:`~hdl.k3701.datapaths.circular_model.CircularPath` (and a helix's
-  :class:`~hdl.k3701.datapaths.helix_model.HelixPath`),
-  :class:`~hdl.k3701.datapaths.parabolic_model.ParabolicPath` and
-  :class:`~hdl.k3701.datapaths.parabolic_model.ExponentialPath`, on the block, step and constants
-  of :mod:`hdl.k3701.block`. :func:`make_path` picks a block's path and :func:`plan` runs a whole
-  block through it: the exact FP-count calculator the firmware model uses.
+  module beside each datapath: :class:`~k37.hdl.k3701.datapaths.linear_model.LinearPath`,
+  :class:`~k37.hdl.k3701.datapaths.circular_model.CircularPath` (and a helix's
+  :class:`~k37.hdl.k3701.datapaths.helix_model.HelixPath`),
+  :class:`~k37.hdl.k3701.datapaths.parabolic_model.ParabolicPath` and
+  :class:`~k37.hdl.k3701.datapaths.parabolic_model.ExponentialPath`, on the block, step and
+  constants of :mod:`k37.hdl.k3701.block`. :func:`make_path` picks a block's path and :func:`plan`
+  runs a whole block through it: the exact FP-count calculator the firmware model uses.
 * :class:`K3701Model` adds the chip's timing, cycle by cycle: BUSY, the step latency, the FP
   credit in half-FP units (quarter-FP units on the three-axis chip), the one-FP hold and the
-  overrun bit. The gateware (:mod:`hdl.k3701.chip`) is tested against it cycle by cycle.
+  overrun bit. The gateware (:mod:`k37.hdl.k3701.chip`) is tested against it cycle by cycle.
 
 The three-axis K3701 (``axes=3``) takes a block in its own coordinates (first, second,
 third): a line moves all three (``LinearPath`` steps the longest of the three), an arc runs in
 the first two and a helix moves the third, the plane's normal, with the arc (``HelixPath``);
 a parabola or an exponential runs in the first two and is refused with a third coordinate;
 ``Block.plane`` routes the three to the machine's X, Y and Z
-(:func:`~hdl.k3701.block.route`).
+(:func:`~k37.hdl.k3701.block.route`).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 
-from hdl.k3701.block import (
+from k37.hdl.k3701.block import (
     CIRCLE_SETUP_CYCLES,
     LATENCY_CIRCULAR,
     LATENCY_LINEAR,
@@ -41,10 +41,10 @@ from hdl.k3701.block import (
     route,
     step_cost,
 )
-from hdl.k3701.datapaths.circular_model import CircularPath, HelicalPath
-from hdl.k3701.datapaths.helix_model import HelixPath
-from hdl.k3701.datapaths.linear_model import Dda, LinearPath
-from hdl.k3701.datapaths.parabolic_model import ExponentialPath, ParabolicPath
+from k37.hdl.k3701.datapaths.circular_model import CircularPath, HelicalPath
+from k37.hdl.k3701.datapaths.helix_model import HelixPath
+from k37.hdl.k3701.datapaths.linear_model import Dda, LinearPath
+from k37.hdl.k3701.datapaths.parabolic_model import ExponentialPath, ParabolicPath
 
 __all__ = ["K3701Model", "K3701Outputs", "Path", "Plan", "fp_of_steps", "make_path", "plan",
            "walk"]

@@ -2,12 +2,12 @@
 and the two-axis chip's parabolic datapath.
 
 A block is given in its own axes (first, second, third); CTRL.plane routes them to the
-machine's X, Y and Z (:data:`hdl.k3701.block.PLANES`). A line moves all three
-(:class:`hdl.k3701.datapaths.linear.LinearDatapath3`), an arc runs in the first two and a
-helix moves the third with the arc's steps (:class:`hdl.k3701.datapaths.helix.HelixAxis`); a
+machine's X, Y and Z (:data:`k37.hdl.k3701.block.PLANES`). A line moves all three
+(:class:`k37.hdl.k3701.datapaths.linear.LinearDatapath3`), an arc runs in the first two and a
+helix moves the third with the arc's steps (:class:`k37.hdl.k3701.datapaths.helix.HelixAxis`); a
 helix of more third-axis moves than arc steps is refused. A parabola or an exponential (MODE,
 the two-axis chip's CTRL.parabolic, swap and exponential) runs in the first two axes
-(:class:`hdl.k3701.datapaths.parabolic.ParabolicDatapath`); one with a third coordinate Ze
+(:class:`k37.hdl.k3701.datapaths.parabolic.ParabolicDatapath`); one with a third coordinate Ze
 other than 0 is refused at the end of its setup. The FP credit is in quarter-FP units: a step
 moving 1, 2 or 3 axes costs 4, 6 or 7 with sqrt(2) control.
 """
@@ -20,17 +20,17 @@ from types import SimpleNamespace
 from amaranth.hdl import Module, Mux, Signal, Value, signed
 from amaranth.lib import wiring
 
-from hdl.bus.hostbus import RegisterBank
-from hdl.bus.registers import Register
-from hdl.k3701.block import PLANES, Kind
-from hdl.k3701.core import Axes, field_of
-from hdl.k3701.datapaths.base import Datapath, StepSignature, moves
-from hdl.k3701.datapaths.circular import CircularDatapath
-from hdl.k3701.datapaths.helix import HelixAxis
-from hdl.k3701.datapaths.linear import LinearDatapath3
-from hdl.k3701.datapaths.parabolic import ParabolicDatapath
-from hdl.k3701.map import K3701_MAP_3
-from hdl.k3701.two_axis import curve_inputs, curve_kind
+from k37.hdl.bus.hostbus import RegisterBank
+from k37.hdl.bus.registers import Register
+from k37.hdl.k3701.block import PLANES, Kind
+from k37.hdl.k3701.core import Axes, field_of
+from k37.hdl.k3701.datapaths.base import Datapath, StepSignature, moves
+from k37.hdl.k3701.datapaths.circular import CircularDatapath
+from k37.hdl.k3701.datapaths.helix import HelixAxis
+from k37.hdl.k3701.datapaths.linear import LinearDatapath3
+from k37.hdl.k3701.datapaths.parabolic import ParabolicDatapath
+from k37.hdl.k3701.map import K3701_MAP_3
+from k37.hdl.k3701.two_axis import curve_inputs, curve_kind
 
 __all__ = ["ThreeAxes"]
 
@@ -38,7 +38,7 @@ _MODE = K3701_MAP_3["MODE"]
 
 
 class ThreeAxes(Axes):
-    """The three-axis build (:data:`hdl.k3701.map.K3701_MAP_3`)."""
+    """The three-axis build (:data:`k37.hdl.k3701.map.K3701_MAP_3`)."""
 
     KINDS = (Kind.LINEAR, Kind.CIRCULAR, Kind.PARABOLIC)
     CREDIT_WIDTH = 4

@@ -14,14 +14,14 @@ from types import SimpleNamespace
 from amaranth.hdl import Module, Mux, Signal, Value
 from amaranth.lib import wiring
 
-from hdl.bus.hostbus import RegisterBank
-from hdl.bus.registers import Register
-from hdl.k3701.block import Kind
-from hdl.k3701.core import Axes
-from hdl.k3701.datapaths.base import Datapath, moves
-from hdl.k3701.datapaths.circular import CircularDatapath
-from hdl.k3701.datapaths.linear import LinearDatapath
-from hdl.k3701.datapaths.parabolic import ParabolicDatapath
+from k37.hdl.bus.hostbus import RegisterBank
+from k37.hdl.bus.registers import Register
+from k37.hdl.k3701.block import Kind
+from k37.hdl.k3701.core import Axes
+from k37.hdl.k3701.datapaths.base import Datapath, moves
+from k37.hdl.k3701.datapaths.circular import CircularDatapath
+from k37.hdl.k3701.datapaths.linear import LinearDatapath
+from k37.hdl.k3701.datapaths.parabolic import ParabolicDatapath
 
 __all__ = ["DATAPATHS", "TwoAxes", "curve_inputs", "curve_kind"]
 
@@ -49,7 +49,7 @@ def curve_inputs(block: wiring.PureInterface, regs: RegisterBank, modes: Value,
 
 
 class TwoAxes(Axes):
-    """The two-axis build (:data:`hdl.k3701.map.K3701_MAP`)."""
+    """The two-axis build (:data:`k37.hdl.k3701.map.K3701_MAP`)."""
 
     KINDS = tuple(DATAPATHS)
     CREDIT_WIDTH = 3

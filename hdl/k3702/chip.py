@@ -1,15 +1,15 @@
 """KM3702 position controller gateware (``docs/chips/k3702.md``), one per axis.
 
-The reference model is :mod:`hdl.k3702.model`; this module is tested against it cycle by cycle.
+The reference model is :mod:`k37.hdl.k3702.model`; this module is tested against it cycle by cycle.
 """
 
 from amaranth.hdl import ClockDomain, ClockSignal, Const, Module, Mux, ResetSignal, Signal, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out, connect, flipped
 
-from hdl.bus.hostbus import HostBus, RegisterBank
-from hdl.common.observation import Observed
-from hdl.k3702.map import COUNTER_WIDTH, K3702_MAP
+from k37.hdl.bus.hostbus import HostBus, RegisterBank
+from k37.hdl.common.observation import Observed
+from k37.hdl.k3702.map import COUNTER_WIDTH, K3702_MAP
 
 __all__ = ["K3702"]
 
@@ -21,7 +21,7 @@ class K3702(Observed, wiring.Component):
 
     All of the chip's own state (counters, flags, D/A word, interrupt) changes on the
     **falling** clock edge, in a local ``neg`` domain driven by the system clock; the host
-    interface (:class:`~hdl.bus.hostbus.RegisterBank`) works on the rising edge. Each falling
+    interface (:class:`~k37.hdl.bus.hostbus.RegisterBank`) works on the rising edge. Each falling
     edge samples the four count inputs, and the outputs are computed from the new counter
     value and the zone settings of that cycle, so they always agree with ``error``.
 
@@ -50,7 +50,7 @@ class K3702(Observed, wiring.Component):
     Members
     -------
     bus : In(HostBus(K3702_MAP.addr_width))
-        Host interface (see :mod:`hdl.bus.hostbus` for its cycle timing); registers in
+        Host interface (see :mod:`k37.hdl.bus.hostbus` for its cycle timing); registers in
         :data:`K3702_MAP`.
     com_pos, com_neg : In(1)
         +COM / -COM command pulses (from the interpolator), level-sensitive, sampled at the

@@ -1,8 +1,9 @@
-"""The KM3702's registers as the host sees them (:class:`hdl.k3702.chip.K3702` implements them)."""
+"""The KM3702's registers as the host sees them (:class:`k37.hdl.k3702.chip.K3702` implements
+them)."""
 
 from __future__ import annotations
 
-from hdl.bus.registers import Access, Field, Register, RegisterMap
+from k37.hdl.bus.registers import Access, Field, Register, RegisterMap
 
 __all__ = ["COUNTER_WIDTH", "K3702_MAP"]
 

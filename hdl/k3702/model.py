@@ -2,15 +2,15 @@
 
 One :meth:`K3702Model.step` is one clock cycle: the falling edge inside it (where the chip's
 counters and flags change) and the rising edge that ends it (where the host bus acts). The
-gateware :class:`hdl.k3702.chip.K3702` matches it cycle by cycle.
+gateware :class:`k37.hdl.k3702.chip.K3702` matches it cycle by cycle.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from hdl.bus.hostbus_model import RegisterBankModel
-from hdl.k3702.map import COUNTER_WIDTH, K3702_MAP
+from k37.hdl.bus.hostbus_model import RegisterBankModel
+from k37.hdl.k3702.map import COUNTER_WIDTH, K3702_MAP
 
 __all__ = ["K3702Model", "K3702Outputs", "wrap"]
 
@@ -45,7 +45,7 @@ class K3702Model:
     """One KM3702, one clock cycle per :meth:`step`.
 
     Host writes go through :meth:`write` with the same timing as the bus (see
-    :class:`~hdl.bus.hostbus_model.RegisterBankModel`): a write issued before step *t* acts in
+    :class:`~k37.hdl.bus.hostbus_model.RegisterBankModel`): a write issued before step *t* acts in
     step *t* + 1.
     """
 

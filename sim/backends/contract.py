@@ -10,9 +10,9 @@ steps are visible to :meth:`~Backend.get` at once (combinational paths settle). 
 domain's clock is driven (``rst`` stays low); it starts low, so the first cycle has no falling
 edge, as with ``Simulator.add_clock``.
 
-:class:`sim.backends.pysim.PysimBackend` runs Amaranth's own simulator and is the reference;
-the compiled :class:`sim.backends.cxxrtl.backend.CxxrtlBackend` matches it bit for bit;
-:func:`sim.backends.factory.make_backend` picks one.
+:class:`k37.sim.backends.pysim.PysimBackend` runs Amaranth's own simulator and is the reference;
+the compiled :class:`k37.sim.backends.cxxrtl.backend.CxxrtlBackend` matches it bit for bit;
+:func:`k37.sim.backends.factory.make_backend` picks one.
 
 Names
 -----
@@ -90,7 +90,7 @@ class Backend(abc.ABC):
     """
 
     def __init__(self, ports: Mapping[str, Port], name: str):
-        #: The top-level ports by name (:func:`sim.backends.introspect.component_ports`).
+        #: The top-level ports by name (:func:`k37.sim.backends.introspect.component_ports`).
         self.ports: dict[str, Port] = dict(ports)
         #: The design's class name, for messages.
         self.design_name = name
@@ -117,9 +117,8 @@ class Backend(abc.ABC):
 
         With ``skip_idle``, a backend may count cycles without evaluating them once the design
         is provably at a fixed point (nothing changes and the inputs are held, or only the
-        component's declared :class:`hdl.common.observation.FreeRunning` state changes while it is
-        quiet, which is then advanced in closed form); the state is exactly that of stepping.
-        """
+        component's declared :class:`k37.hdl.common.observation.FreeRunning` state changes while it
+        is quiet, which is then advanced in closed form); the state is exactly that of stepping. """
 
     @abc.abstractmethod
     def run_until(self, port_name: str, max_cycles: int, *, skip_idle: bool = False) -> int:
@@ -220,7 +219,7 @@ class Backend(abc.ABC):
         return sign_extend(raw, width) if signed else raw
 
     def bus_write(self, addr: int, data: int, *, bus: str = "bus") -> None:
-        """One host write cycle on the :class:`hdl.bus.hostbus.HostBus` named ``bus``."""
+        """One host write cycle on the :class:`k37.hdl.bus.hostbus.HostBus` named ``bus``."""
         self.set(f"{bus}__addr", addr)
         self.set(f"{bus}__w_data", data)
         self.set(f"{bus}__w_stb", 1)
@@ -240,7 +239,7 @@ class Backend(abc.ABC):
                      due: bool = False, skip_idle: bool = False,
                      bus: str = "bus") -> tuple[int, list[int] | None, int] | None:
         """A host's halted wait for ``port_name`` with a timer routine that only reads, run by
-        the backend itself (:meth:`firmware_model.host.Host8085.wait_polling`, whose own loop
+        the backend itself (:meth:`k37.firmware_model.host.Host8085.wait_polling`, whose own loop
         of :meth:`run_until`, :meth:`step` and :meth:`bus_read` it equals): at most
         ``max_cycles``; at each tick (a multiple of ``period``) that a wait reached without the
         port high, and before ``max_cycles`` ran out, routine k idles ``idles[k (n + 1) + j]``

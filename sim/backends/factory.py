@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import sys
 
-from sim.backends.contract import CLOCK_PERIOD, Backend, Design, instantiate
-from sim.backends.toolchain import find_compiler
+from k37.sim.backends.contract import CLOCK_PERIOD, Backend, Design, instantiate
+from k37.sim.backends.toolchain import find_compiler
 
 __all__ = ["BACKENDS", "BACKEND_NAMES", "make_backend"]
 
@@ -23,7 +23,7 @@ def make_backend(design: Design, kind: str = BACKEND_NAMES[0], *,
 
     ``design_key``, if given, names the design by what it is made from (its sources and
     parameters): the compiled backend then finds a model built before without elaborating
-    the design (:func:`sim.backends.cxxrtl.build.remember_design`).
+    the design (:func:`k37.sim.backends.cxxrtl.build.remember_design`).
 
     ``auto`` picks the compiled backend when a C++ compiler is available, and otherwise says
     so in one line on stderr and falls back to Amaranth's simulator.
@@ -36,9 +36,9 @@ def make_backend(design: Design, kind: str = BACKEND_NAMES[0], *,
               "slower)", file=sys.stderr)
         kind = "pysim"
     if kind == "pysim":
-        from sim.backends.pysim import PysimBackend
+        from k37.sim.backends.pysim import PysimBackend
 
         return PysimBackend(instantiate(design), period=period)
-    from sim.backends.cxxrtl.backend import CxxrtlBackend
+    from k37.sim.backends.cxxrtl.backend import CxxrtlBackend
 
     return CxxrtlBackend(design, period=period, design_key=design_key)

@@ -11,7 +11,7 @@ from typing import Any
 from amaranth.hdl import Shape, Value, ValueCastable
 from amaranth.lib import wiring
 
-from sim.backends.contract import Port
+from k37.sim.backends.contract import Port
 
 __all__ = ["component_ports", "signal_paths"]
 

@@ -11,7 +11,7 @@ from amaranth.hdl._ast import SignalDict
 from amaranth.lib import wiring
 from amaranth.sim import Simulator
 
-from sim.backends.contract import (
+from k37.sim.backends.contract import (
     CLOCK_PERIOD,
     Backend,
     Port,
@@ -19,7 +19,7 @@ from sim.backends.contract import (
     check_window,
     select_signals,
 )
-from sim.backends.introspect import component_ports, signal_paths
+from k37.sim.backends.introspect import component_ports, signal_paths
 
 __all__ = ["PysimBackend"]
 

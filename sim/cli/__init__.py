@@ -1,5 +1,5 @@
 """The ``k37`` command line (:func:`main`), one module per family of commands."""
 
-from sim.cli.main import build_parser, main
+from k37.sim.cli.main import build_parser, main
 
 __all__ = ["build_parser", "main"]

@@ -1,7 +1,7 @@
-"""``python -m sim.cli``: the ``k37`` command."""
+"""``python -m k37.sim.cli``: the ``k37`` command."""
 
 import sys
 
-from sim.cli.main import main
+from k37.sim.cli.main import main
 
 sys.exit(main())

@@ -7,15 +7,15 @@ import argparse
 import sys
 from pathlib import Path
 
-from sim.cli.shared import check, interrupted, stdout, stopped
+from k37.sim.cli.shared import check, interrupted, stdout, stopped
 
 __all__ = ["add_commands"]
 
 
 def _cmd_export_verilog(args: argparse.Namespace) -> int:
-    from sim.files import atomic_open, why
-    from sim.fpga.export import export_verilog
-    from sim.fpga.fusesoc import core_text
+    from k37.sim.files import atomic_open, why
+    from k37.sim.fpga.export import export_verilog
+    from k37.sim.fpga.fusesoc import core_text
 
     if not check(folders={"-o": args.output}):
         return 2
@@ -33,7 +33,7 @@ def _cmd_export_verilog(args: argparse.Namespace) -> int:
 
 
 def _cmd_synth(args: argparse.Namespace) -> int:
-    from sim.fpga.synth import synthesize
+    from k37.sim.fpga.synth import synthesize
 
     if not check(folders={"--work-dir": args.work_dir}):
         return 2
@@ -55,8 +55,8 @@ def _cmd_synth(args: argparse.Namespace) -> int:
 
 
 def _cmd_build(args: argparse.Namespace) -> int:
-    from sim.files import why
-    from sim.fpga.build import BuildError, build
+    from k37.sim.files import why
+    from k37.sim.fpga.build import BuildError, build
 
     out = args.out or f"build/{args.board}"
     if not check(folders={"--out": out}):
@@ -83,9 +83,9 @@ def _cmd_build(args: argparse.Namespace) -> int:
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
     """Add ``export-verilog``, ``synth`` and ``build`` to the command line."""
-    from sim.fpga.blocks import BLOCKS
-    from sim.fpga.build import BOARDS
-    from sim.fpga.synth import DEVICES
+    from k37.sim.fpga.blocks import BLOCKS
+    from k37.sim.fpga.build import BOARDS
+    from k37.sim.fpga.synth import DEVICES
 
     names = [b.name for b in BLOCKS]
     p = sub.add_parser("export-verilog", help="write one Verilog file per chip and the top, "

@@ -8,17 +8,17 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-import sim.cli.hardware
-import sim.cli.running
-import sim.cli.serving
-import sim.cli.studies
-from sim.cli.shared import check, interrupted, signals_interrupt, stopped
+import k37.sim.cli.hardware
+import k37.sim.cli.running
+import k37.sim.cli.serving
+import k37.sim.cli.studies
+from k37.sim.cli.shared import check, interrupted, signals_interrupt, stopped
 
 __all__ = ["build_parser", "main"]
 
 
 def _cmd_docs(args: argparse.Namespace) -> int:
-    from sim.docs import documents
+    from k37.sim.docs import documents
 
     if not check(folders={"-o": args.output}):
         return 2
@@ -34,14 +34,14 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="k37", description="Cycle-accurate emulator of the TOKO KM3701/KM3702 NC chipset.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    sim.cli.running.add_commands(sub)
-    sim.cli.hardware.add_commands(sub)
-    sim.cli.serving.add_commands(sub)
+    k37.sim.cli.running.add_commands(sub)
+    k37.sim.cli.hardware.add_commands(sub)
+    k37.sim.cli.serving.add_commands(sub)
     p = sub.add_parser("docs", help="write the generated documentation (register maps, JSON "
                                     "schema, job keys)")
     p.add_argument("-o", "--output", default="docs", help="folder (default: docs)")
     p.set_defaults(func=_cmd_docs)
-    sim.cli.studies.add_commands(sub)
+    k37.sim.cli.studies.add_commands(sub)
     return parser
 
 

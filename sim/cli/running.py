@@ -7,7 +7,7 @@ import math
 import sys
 from pathlib import Path
 
-from sim.cli.shared import check, interrupted, positive_int, print_error, stdout, stopped
+from k37.sim.cli.shared import check, interrupted, positive_int, print_error, stdout, stopped
 
 __all__ = ["add_commands"]
 
@@ -39,15 +39,15 @@ def _settle(text: str) -> float:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    from firmware_model.feeds import FirmwareError
-    from firmware_model.gcode.parser import GcodeError
-    from sim.files import STDIO
-    from sim.run.ballbar import BallbarError, check_settle
-    from sim.run.jobfile import JobError, load_job, load_step_fault
-    from sim.run.linked import LinkError, run_linked
-    from sim.run.output import OutputError, add_ballbar, check_outputs, write_outputs
-    from sim.run.progress import ProgressPrinter
-    from sim.run.runner import OptionError, RunOptions, run_job
+    from k37.firmware_model.feeds import FirmwareError
+    from k37.firmware_model.gcode.parser import GcodeError
+    from k37.sim.files import STDIO
+    from k37.sim.run.ballbar import BallbarError, check_settle
+    from k37.sim.run.jobfile import JobError, load_job, load_step_fault
+    from k37.sim.run.linked import LinkError, run_linked
+    from k37.sim.run.output import OutputError, add_ballbar, check_outputs, write_outputs
+    from k37.sim.run.progress import ProgressPrinter
+    from k37.sim.run.runner import OptionError, RunOptions, run_job
 
     progress = None if args.quiet else ProgressPrinter(sys.stderr)
     try:
@@ -120,10 +120,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
 def _cmd_plan(args: argparse.Namespace) -> int:
     import json
 
-    from firmware_model.feeds import FirmwareError, check_program, clamped_feeds
-    from firmware_model.gcode.parser import GcodeError
-    from sim.run.jobfile import JobError, load_job
-    from sim.run.plan import plan_rows, plan_table
+    from k37.firmware_model.feeds import FirmwareError, check_program, clamped_feeds
+    from k37.firmware_model.gcode.parser import GcodeError
+    from k37.sim.run.jobfile import JobError, load_job
+    from k37.sim.run.plan import plan_rows, plan_table
 
     if not check():
         return 2
@@ -144,7 +144,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 
 
 def _program_options(p: argparse.ArgumentParser) -> None:
-    from firmware_model.gcode.canon import FRONTENDS
+    from k37.firmware_model.gcode.canon import FRONTENDS
 
     p.add_argument("--frontend", choices=list(FRONTENDS), default="builtin",
                    help="G-code front end: builtin (default), or linuxcnc (full RS-274/NGC "
@@ -155,7 +155,7 @@ def _program_options(p: argparse.ArgumentParser) -> None:
 
 
 def _tolerance(text: str) -> float:
-    from firmware_model.gcode.parser import ARC_TOLERANCE_LIMIT
+    from k37.firmware_model.gcode.parser import ARC_TOLERANCE_LIMIT
 
     try:
         return ARC_TOLERANCE_LIMIT.check("arc tolerance", float(text))
@@ -165,8 +165,8 @@ def _tolerance(text: str) -> float:
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
     """Add ``run`` and ``plan`` to the command line."""
-    from hdl.chipset.map import ALL_AXES
-    from sim.backends.factory import BACKEND_NAMES
+    from k37.hdl.chipset.map import ALL_AXES
+    from k37.sim.backends.factory import BACKEND_NAMES
 
     p = sub.add_parser("run", help="run a job (TOML or G-code); no job: the built-in demo")
     p.add_argument("job", nargs="?", help="job file: .toml, or G-code run on the default machine")

@@ -7,7 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from sim.cli.shared import check, interrupted, print_error, stopped
+from k37.sim.cli.shared import check, interrupted, print_error, stopped
 
 __all__ = ["add_commands"]
 
@@ -24,7 +24,7 @@ def _port(text: str) -> int:
 
 
 def _cycles_per_bit(text: str) -> int:
-    from hdl.bridge.protocol import check_cycles_per_bit
+    from k37.hdl.bridge.protocol import check_cycles_per_bit
 
     try:
         return check_cycles_per_bit(int(text))
@@ -43,12 +43,12 @@ def _cycles(text: str) -> int:
 
 
 def _cmd_serve(args: argparse.Namespace) -> int:
-    from firmware_model.gcode.parser import GcodeError
+    from k37.firmware_model.gcode.parser import GcodeError
 
     if not check([("--trace", args.trace)]):
         return 2
-    from sim.run.jobfile import JobError, load_job
-    from sim.serve.server import Session, SimulatedBoard
+    from k37.sim.run.jobfile import JobError, load_job
+    from k37.sim.serve.server import Session, SimulatedBoard
 
     try:
         job = load_job(args.job)
@@ -82,8 +82,8 @@ def _cmd_serve(args: argparse.Namespace) -> int:
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
     """Add ``serve`` to the command line."""
-    from sim.backends.factory import BACKEND_NAMES
-    from sim.cli.shared import positive_int
+    from k37.sim.backends.factory import BACKEND_NAMES
+    from k37.sim.cli.shared import positive_int
 
     p = sub.add_parser("serve", help="serve a simulated board: the job's machine behind a TCP "
                                      "socket, for `k37 run --link tcp://HOST:PORT`")

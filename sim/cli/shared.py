@@ -63,9 +63,9 @@ def stopped(signum: signal.Signals | None = None) -> str:
 def check(files: Sequence[tuple[str, str | Path | None]] = (), *,
            folders: dict[str, str | Path | None] | None = None,
            inputs: Sequence[str | Path | None] = (), stdout: bool = True) -> bool:
-    """:func:`sim.files.check_outputs`, its error printed: whether the outputs can be
+    """:func:`k37.sim.files.check_outputs`, its error printed: whether the outputs can be
     written."""
-    from sim.files import OutputError, check_outputs
+    from k37.sim.files import OutputError, check_outputs
 
     try:
         check_outputs(files, folders=folders, inputs=inputs, stdout=stdout)
@@ -78,7 +78,7 @@ def check(files: Sequence[tuple[str, str | Path | None]] = (), *,
 def stdout(write: Callable[[], object]) -> int:
     """Print to stdout with ``write``: 0, or 1 with one error line if stdout fails (full,
     closed)."""
-    from sim.files import why
+    from k37.sim.files import why
 
     try:
         write()

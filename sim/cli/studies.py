@@ -8,13 +8,13 @@ import os
 import sys
 from pathlib import Path
 
-from sim.cli.shared import check, interrupted, positive_int, print_error, stdout, stopped
+from k37.sim.cli.shared import check, interrupted, positive_int, print_error, stdout, stopped
 
 __all__ = ["add_commands"]
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    from sim.reproduce.experiments import reproduce
+    from k37.sim.reproduce.experiments import reproduce
 
     def progress(message: str) -> None:
         if not args.quiet:
@@ -29,7 +29,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         print(f"k37 reproduce: {stopped()}; the workers are stopped", file=sys.stderr)
         return interrupted()
     except OSError as e:
-        from sim.files import why
+        from k37.sim.files import why
 
         print(f"k37: error: {e.filename or out}: not written: {why(e)}", file=sys.stderr)
         return 1
@@ -46,9 +46,9 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
-    from sim.run.jobfile import JobError
-    from sim.study.studyfile import load_study
-    from sim.study.sweep import SweepError, sweep
+    from k37.sim.run.jobfile import JobError
+    from k37.sim.study.studyfile import load_study
+    from k37.sim.study.sweep import SweepError, sweep
 
     def progress(message: str) -> None:
         if not args.quiet:
@@ -70,7 +70,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         print_error(e)
         return 2
     except OSError as e:
-        from sim.files import why
+        from k37.sim.files import why
 
         print(f"k37: error: {e.filename or out}: {why(e)}", file=sys.stderr)
         return 1
@@ -86,8 +86,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 def _cmd_effects(args: argparse.Namespace) -> int:
     import csv
 
-    from sim.files import atomic_path, why
-    from sim.study.analysis import (
+    from k37.sim.files import atomic_path, why
+    from k37.sim.study.analysis import (
         AnalysisError,
         effects_figure,
         main_effects,

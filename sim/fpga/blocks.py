@@ -2,7 +2,7 @@
 """The registry of exportable blocks: :data:`BLOCKS`, each built from its module on demand.
 
 The registry itself imports no gateware (nor Amaranth): the command line lists the blocks'
-names without elaborating anything; :mod:`sim.fpga.export` and :mod:`sim.fpga.synth` build
+names without elaborating anything; :mod:`k37.sim.fpga.export` and :mod:`k37.sim.fpga.synth` build
 them. (The first line of this file lets them build a block only to read its signature, without
 Amaranth's unused-elaboratable warning.)
 """
@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
-from hdl.bus.registers import RegisterMap
+from k37.hdl.bus.registers import RegisterMap
 
 if TYPE_CHECKING:
     from amaranth.lib import wiring
@@ -48,7 +48,7 @@ class Exportable:
     @property
     def probes(self) -> tuple[str, ...]:
         """The block's observation outputs (the ``probes`` of the instance built with
-        ``params``: :class:`hdl.common.observation.Observed`), kept out of the pins."""
+        ``params``: :class:`k37.hdl.common.observation.Observed`), kept out of the pins."""
         return getattr(self.component(), "probes", ())
 
     def _module(self):
@@ -93,40 +93,40 @@ def _params(**kwargs: Any) -> MappingProxyType:
 #: Every exportable block, in the order the files are written; ``top=True`` marks the
 #: chipset tops (the two-axis one first: synthesis reports it as the total).
 BLOCKS: tuple[Exportable, ...] = (
-    Exportable("k3701", "hdl.k3701.chip:K3701", "KM3701 two-axis interpolator"),
-    Exportable("k3702", "hdl.k3702.chip:K3702", "KM3702 position controller (one axis)"),
-    Exportable("encoder", "hdl.encoder.chip:EncoderInterface", "encoder interface (one axis)"),
-    Exportable("accel_decel", "hdl.accel.exponential:AccelDecel",
+    Exportable("k3701", "k37.hdl.k3701.chip:K3701", "KM3701 two-axis interpolator"),
+    Exportable("k3702", "k37.hdl.k3702.chip:K3702", "KM3702 position controller (one axis)"),
+    Exportable("encoder", "k37.hdl.encoder.chip:EncoderInterface", "encoder interface (one axis)"),
+    Exportable("accel_decel", "k37.hdl.accel.exponential:AccelDecel",
                "exponential accel/decel, pre-interpolation (FP) form"),
-    Exportable("accel_decel_axis", "hdl.accel.exponential:AccelDecel",
+    Exportable("accel_decel_axis", "k37.hdl.accel.exponential:AccelDecel",
                "exponential accel/decel, post-interpolation (signed, one axis) form",
                params=_params(bidirectional=True)),
-    Exportable("accel_linear", "hdl.accel.linear:AccelLinear",
+    Exportable("accel_linear", "k37.hdl.accel.linear:AccelLinear",
                "linear accel/decel (moving average over T), pre-interpolation (FP) form"),
-    Exportable("accel_linear_axis", "hdl.accel.linear:AccelLinear",
+    Exportable("accel_linear_axis", "k37.hdl.accel.linear:AccelLinear",
                "linear accel/decel, post-interpolation (signed, one axis) form",
                params=_params(bidirectional=True)),
-    Exportable("accel_bell", "hdl.accel.bell:AccelBell",
+    Exportable("accel_bell", "k37.hdl.accel.bell:AccelBell",
                "bell accel/decel (linear then exponential), pre-interpolation (FP) form"),
-    Exportable("accel_bell_axis", "hdl.accel.bell:AccelBell",
+    Exportable("accel_bell_axis", "k37.hdl.accel.bell:AccelBell",
                "bell accel/decel, post-interpolation (signed, one axis) form",
                params=_params(bidirectional=True)),
-    Exportable("rate_multiplier", "hdl.feed.rate_multiplier:RateMultiplier",
+    Exportable("rate_multiplier", "k37.hdl.feed.rate_multiplier:RateMultiplier",
                "cascaded SN7497-style binary rate multiplier (feedrate)"),
-    Exportable("divider", "hdl.feed.divider:PhaseDivider",
+    Exportable("divider", "k37.hdl.feed.divider:PhaseDivider",
                "phase-accumulator clock-enable divider"),
-    Exportable("decel_control", "hdl.feed.decel_control:DecelControl",
+    Exportable("decel_control", "k37.hdl.feed.decel_control:DecelControl",
                "decel control (FP budget gate)"),
-    Exportable("feed_rate", "hdl.feed.feed_rate:FeedRate",
+    Exportable("feed_rate", "k37.hdl.feed.feed_rate:FeedRate",
                "feed-rate generator (rate multiplier and its two dividers on the host bus)"),
-    Exportable("feed_rate_axis_fa", "hdl.feed.feed_rate:FeedRate",
+    Exportable("feed_rate_axis_fa", "k37.hdl.feed.feed_rate:FeedRate",
                "feed-rate generator, per-axis fa build (an addition clock for each axis)",
                params=_params(axis_fa=("x", "y", "z"))),
-    Exportable("chipset", "hdl.chipset.chip:Chipset", "two-axis chipset top", top=True),
-    Exportable("k3701_3axis", "hdl.k3701.chip:K3701",
+    Exportable("chipset", "k37.hdl.chipset.chip:Chipset", "two-axis chipset top", top=True),
+    Exportable("k3701_3axis", "k37.hdl.k3701.chip:K3701",
                "KM3701 three-axis build (3-D lines, planes, helices, parabolas, exponentials)",
                params=_params(axes=3), ice40=False),
-    Exportable("chipset_3axis", "hdl.chipset.chip:Chipset",
+    Exportable("chipset_3axis", "k37.hdl.chipset.chip:Chipset",
                "three-axis chipset top (machine.axes = 3)", params=_params(axes=3), top=True,
                ice40=False),
 )

@@ -1,7 +1,7 @@
 """``k37 build``: the chipset on a board, from Amaranth's build plan to a bitstream.
 
 The board's Amaranth platform (amaranth-boards) turns the board top
-(:class:`hdl.board.ulx3s.OnBoard`: the three-axis chipset, the UART host bridge, encoder
+(:class:`k37.hdl.board.ulx3s.OnBoard`: the three-axis chipset, the UART host bridge, encoder
 inputs, sigma-delta D/A outputs, alarm LEDs) into a build plan: the design as RTLIL, the
 Yosys script, the pin constraints (LPF) and the script that runs Yosys ``synth_ecp5``,
 nextpnr-ecp5 and ecppack. :func:`build` writes the plan to a folder and, unless
@@ -23,8 +23,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from hdl.board.pins import BoardPin, ulx3s_pins
-from sim.fpga.synth import _tool, _tools_versions
+from k37.hdl.board.pins import BoardPin, ulx3s_pins
+from k37.sim.fpga.synth import _tool, _tools_versions
 
 __all__ = ["BOARDS", "BoardReport", "build", "pin_map"]
 
@@ -124,7 +124,7 @@ def build(board: str, folder: Path, *, axes: int = 3, plan_only: bool = False,
     start = time.perf_counter()
     env = None if plan_only else _environment()   # the tools first: fail before the work
     try:
-        from hdl.board.ulx3s import OnBoard, platform
+        from k37.hdl.board.ulx3s import OnBoard, platform
     except ImportError as e:
         raise ImportError(f"amaranth-boards is not installed: pip install 'k37[fpga]' ({e})"
                           ) from e

@@ -15,7 +15,7 @@ Each exported file holds two layers:
 The header names the block's parameters, its register map(s) and version, and the clocking
 and bus protocol; the port list gives each pin its datasheet name and meaning. Waivers for
 Verilator's ``-Wall`` lint are written inline, each with its reason (:data:`CORE_WAIVERS`).
-:data:`sim.fpga.blocks.BLOCKS` is the registry of exportable blocks; adding one (the chipset
+:data:`k37.sim.fpga.blocks.BLOCKS` is the registry of exportable blocks; adding one (the chipset
 top) is one line.
 """
 
@@ -34,10 +34,10 @@ from amaranth.back import verilog
 from amaranth.hdl import Shape
 from amaranth.lib import wiring
 
-from hdl.bus.hostbus import HostBus
-from hdl.chipset.map import SUB_WINDOWS
-from sim.files import atomic_open
-from sim.fpga.blocks import BLOCKS, Exportable, block
+from k37.hdl.bus.hostbus import HostBus
+from k37.hdl.chipset.map import SUB_WINDOWS
+from k37.sim.files import atomic_open
+from k37.sim.fpga.blocks import BLOCKS, Exportable, block
 
 __all__ = ["CORE_WAIVERS", "Pin", "export_verilog", "pins", "verilog_text"]
 

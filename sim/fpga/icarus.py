@@ -24,7 +24,7 @@ import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
-from sim.fpga.export import Pin, pins
+from k37.sim.fpga.export import Pin, pins
 
 __all__ = ["find_iverilog", "simulate"]
 

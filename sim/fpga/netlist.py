@@ -6,7 +6,7 @@ TRELLIS_FF flip-flops) back as Verilog. :func:`ecp5_cell_models` gives the cells
 models, which ship with Yosys (``share/ecp5``), made readable by Icarus Verilog 11: the files
 are included once each rather than twice, and the elaboration-time ``$error`` of an
 unsupported cell mode (which Icarus 11 cannot parse) is dropped; no such mode is used.
-:func:`sim.fpga.icarus.simulate` runs a netlist with them, pin for pin as the exported file.
+:func:`k37.sim.fpga.icarus.simulate` runs a netlist with them, pin for pin as the exported file.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-from sim.fpga.synth import _run, _tool
+from k37.sim.fpga.synth import _run, _tool
 
 __all__ = ["ecp5_cell_models", "ecp5_netlist"]
 

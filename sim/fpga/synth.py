@@ -1,6 +1,6 @@
 """FPGA synthesis of the exported chips: Yosys ``synth_ice40`` and nextpnr-ice40, per block.
 
-Each registered block of the iCE40 fit check (:data:`sim.fpga.blocks.BLOCKS` but the
+Each registered block of the iCE40 fit check (:data:`k37.sim.fpga.blocks.BLOCKS` but the
 three-axis builds, which are the ECP5 board's) is exported, synthesised alone and placed and
 routed alone on the device, so its LUTs, flip-flops and maximum clock frequency are its own;
 the chipset top (the first entry with ``top=True``, the two-axis chipset) gives the total, and
@@ -29,7 +29,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from sim.fpga.blocks import BLOCKS, Exportable, block
+from k37.sim.fpga.blocks import BLOCKS, Exportable, block
 
 __all__ = ["DEVICES", "TARGET_MHZ", "BlockResult", "Device", "SynthReport", "synthesize"]
 
@@ -222,7 +222,7 @@ def synthesize(device: str = "ice40-hx8k", blocks: list[str] | None = None, *,
                else [block(name) for name in blocks])
     if not isinstance(jobs, int) or jobs < 1:
         raise ValueError(f"jobs must be a positive integer, not {jobs!r}")
-    from sim.fpga.export import verilog_text  # Amaranth: only when synthesising
+    from k37.sim.fpga.export import verilog_text  # Amaranth: only when synthesising
 
     tools = _tools_versions()
     say = progress or (lambda line: print(f"k37 synth: {line}", file=sys.stderr, flush=True))

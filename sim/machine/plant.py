@@ -14,8 +14,8 @@ from amaranth.hdl import Module, Mux, Signal, Value, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.common.observation import FreeRunning, Observed, PlantState
-from sim.machine.plant_model import (
+from k37.hdl.common.observation import FreeRunning, Observed, PlantState
+from k37.sim.machine.plant_model import (
     ALPHA_BITS,
     COUNT_BITS,
     FRAC_BITS,
@@ -98,7 +98,7 @@ class ServoPlant(Observed, wiring.Component):
     @staticmethod
     def declare() -> FreeRunning:
         """While the chipset stands still, a compiled backend steps the plant natively, with
-        this fixed-point format, up to its next count (:mod:`hdl.common.observation`)."""
+        this fixed-point format, up to its next count (:mod:`k37.hdl.common.observation`)."""
         return FreeRunning(plants=(PlantState("", VC_BITS, ALPHA_BITS, FRAC_BITS),))
 
     def elaborate(self, platform) -> Module:

@@ -1,4 +1,4 @@
-"""Reference model of :class:`sim.machine.plant.ServoPlant`: its fixed-point update, in Python,
+"""Reference model of :class:`k37.sim.machine.plant.ServoPlant`: its fixed-point update, in Python,
 and the plant's parameters and their fixed-point encoding (:class:`PlantParams`), which the
 gateware and a run share without importing Amaranth."""
 
@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from hdl.common.params import Limit
+from k37.hdl.common.params import Limit
 
 __all__ = ["ALPHA_BITS", "COUNT_BITS", "DAC_VOLTS", "FRAC_BITS", "GAIN_BITS", "KF_BITS", "KF_LIMIT",
            "POSITION_BITS", "PRODUCT_BITS", "VC_BITS", "VC_MAX", "VMAX_BITS", "PlantParams",

@@ -9,17 +9,17 @@ from amaranth.hdl import Module, Mux, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.bus.hostbus import HostBus
-from hdl.chipset.chip import Chipset
-from hdl.chipset.map import Accel, AccelShape
-from hdl.common.observation import FreeRunning, Observed
-from hdl.k3702.map import COUNTER_WIDTH
-from sim.machine.plant import ServoPlant
-from sim.machine.plant_model import ALPHA_BITS, COUNT_BITS, GAIN_BITS, KF_BITS, VMAX_BITS
-from sim.machine.torque_drive import TorqueDrive
-from sim.machine.torque_drive_model import ACCEL_BITS, AFTER_BITS, KI_BITS
-from sim.machine.two_mass import TwoMassDrive
-from sim.machine.two_mass_model import SPRING_BITS
+from k37.hdl.bus.hostbus import HostBus
+from k37.hdl.chipset.chip import Chipset
+from k37.hdl.chipset.map import Accel, AccelShape
+from k37.hdl.common.observation import FreeRunning, Observed
+from k37.hdl.k3702.map import COUNTER_WIDTH
+from k37.sim.machine.plant import ServoPlant
+from k37.sim.machine.plant_model import ALPHA_BITS, COUNT_BITS, GAIN_BITS, KF_BITS, VMAX_BITS
+from k37.sim.machine.torque_drive import TorqueDrive
+from k37.sim.machine.torque_drive_model import ACCEL_BITS, AFTER_BITS, KI_BITS
+from k37.sim.machine.two_mass import TwoMassDrive
+from k37.sim.machine.two_mass_model import SPRING_BITS
 
 #: The servo drive of each ``drive`` name: the first-order plant, the torque drive, or the
 #: two-mass drive.
@@ -39,16 +39,16 @@ class AxisProbe(wiring.Signature):
     Members
     -------
     gain, alpha, vmax, kf, dac_zero : In
-        Plant parameters (:class:`sim.machine.plant.PlantParams`; ``dac_zero`` from
-        :func:`sim.machine.plant.dac_zero` of the K3702's DAC_BITS).
+        Plant parameters (:class:`k37.sim.machine.plant.PlantParams`; ``dac_zero`` from
+        :func:`k37.sim.machine.plant.dac_zero` of the K3702's DAC_BITS).
     beta, ki, fc, load, load_step, load_after : In
-        The torque drive's parameters (:class:`sim.machine.torque_drive.TorqueDrive`); not
+        The torque drive's parameters (:class:`k37.sim.machine.torque_drive.TorqueDrive`); not
         connected on a first-order axis.
     ks_m, ks_t, cs_m, cs_t, scale : In
-        The two-mass drive's (:class:`sim.machine.two_mass.TwoMassDrive`); connected on a
+        The two-mass drive's (:class:`k37.sim.machine.two_mass.TwoMassDrive`); connected on a
         two-mass axis only.
     stall, glitch_a, glitch_b, break_a : In(1)
-        Fault injection (see :class:`sim.machine.plant.ServoPlant`).
+        Fault injection (see :class:`k37.sim.machine.plant.ServoPlant`).
     command, error : Out(signed(COUNTER_WIDTH))
         The K3702's counters.
     count : Out(signed(COUNT_BITS))
@@ -79,7 +79,7 @@ class AxisProbe(wiring.Signature):
 
 
 class System(Observed, wiring.Component):
-    """Chipset + plants. See :class:`hdl.chipset.chip.Chipset` for ``accel``, ``accel_bits``,
+    """Chipset + plants. See :class:`k37.hdl.chipset.chip.Chipset` for ``accel``, ``accel_bits``,
     ``axes`` (one plant per axis), ``accel_shape``, ``axis_accel`` and ``axis_fa``; ``drives``:
     per axis, the servo drive's name in :data:`DRIVES` (default ``"first_order"``).
 
@@ -98,12 +98,11 @@ class System(Observed, wiring.Component):
     x, y : Out(AxisProbe())
         Per-axis plant settings, faults and observations (and ``z`` on three axes).
 
-    ``free_running`` (:mod:`hdl.common.observation`) is what runs on while the machine stands still:
-    the chipset's (the feed-rate generator's dividers and rate multiplier, the accel/decel
-    accumulators, the K3701's step latency count) and the plants while they move within one
-    encoder count. That is a dwell, the host busy, the axes settling, and, at a low feed, most
-    of every move: the compiled backend's idle skipping advances them up to the next event.
-    """
+    ``free_running`` (:mod:`k37.hdl.common.observation`) is what runs on while the machine stands
+    still: the chipset's (the feed-rate generator's dividers and rate multiplier, the accel/decel
+    accumulators, the K3701's step latency count) and the plants while they move within one encoder
+    count. That is a dwell, the host busy, the axes settling, and, at a low feed, most of every
+    move: the compiled backend's idle skipping advances them up to the next event. """
 
     def __init__(self, *, accel: Accel | str = Accel.PRE, accel_bits: int = 15, axes: int = 2,
                  accel_shape: AccelShape | str = AccelShape.EXPONENTIAL,

@@ -2,10 +2,10 @@
 paper).
 
 The drive of the profile-error paper (its eqs. (9)-(16)): the position loop's velocity command vc
-(with the feedforward of :class:`sim.machine.plant.ServoPlant`) drives a PI velocity loop of gain Vg
-(A s/rad) and integral time Ti; the motor's torque Kt i (N m) turns the load inertia Ja
-(kg m^2) against viscous friction D (N m s/rad), Coulomb friction Fc (N m) and a disturbance
-torque (N m, the load). Per cycle, in the plant's fixed point (velocity in counts/cycle):
+(with the feedforward of :class:`k37.sim.machine.plant.ServoPlant`) drives a PI velocity loop of
+gain Vg (A s/rad) and integral time Ti; the motor's torque Kt i (N m) turns the load inertia Ja (kg
+m^2) against viscous friction D (N m s/rad), Coulomb friction Fc (N m) and a disturbance torque (N
+m, the load). Per cycle, in the plant's fixed point (velocity in counts/cycle):
 
     ev = vc - v
     I += ev * ki                              ki = (Kt Vg / Ja) dt^2 / Ti   (0: no integral)
@@ -27,15 +27,21 @@ while it moves, its registers change and every cycle is evaluated; at rest it is
 from amaranth.hdl import Module, Mux, Signal, signed
 from amaranth.lib.wiring import In
 
-from hdl.common.observation import FreeRunning
-from sim.machine.plant import ServoPlant
-from sim.machine.plant_model import ALPHA_BITS, VC_BITS
-from sim.machine.torque_drive_model import ACCEL_BITS, AFTER_BITS, INTEGRAL_BITS, KI_BITS, KI_FRAC
+from k37.hdl.common.observation import FreeRunning
+from k37.sim.machine.plant import ServoPlant
+from k37.sim.machine.plant_model import ALPHA_BITS, VC_BITS
+from k37.sim.machine.torque_drive_model import (
+    ACCEL_BITS,
+    AFTER_BITS,
+    INTEGRAL_BITS,
+    KI_BITS,
+    KI_FRAC,
+)
 
 __all__ = ["TorqueDrive", "coulomb"]
 
 class TorqueDrive(ServoPlant):
-    """:class:`sim.machine.plant.ServoPlant` with the velocity update of the module docstring.
+    """:class:`k37.sim.machine.plant.ServoPlant` with the velocity update of the module docstring.
 
     Members (beyond the plant's; ``alpha`` is here Kt Vg / Ja dt << 24)
     ---------------------------------------------------------------
@@ -98,5 +104,5 @@ class TorqueDrive(ServoPlant):
 
 def coulomb(velocity: Signal, fc: Signal):
     """``velocity`` less Coulomb friction ``fc``, which never reverses it (the model's
-    :func:`~sim.machine.torque_drive_model.coulomb`)."""
+    :func:`~k37.sim.machine.torque_drive_model.coulomb`)."""
     return Mux(velocity > fc, velocity - fc, Mux(velocity < -fc, velocity + fc, 0))

@@ -1,4 +1,4 @@
-"""Reference model of :class:`sim.machine.torque_drive.TorqueDrive`: its fixed-point update, and
+"""Reference model of :class:`k37.sim.machine.torque_drive.TorqueDrive`: its fixed-point update, and
 the drive's parameters and their fixed-point encoding (:class:`TorqueParams`)."""
 
 from __future__ import annotations
@@ -6,8 +6,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from hdl.common.params import Limit
-from sim.machine.plant_model import (
+from k37.hdl.common.params import Limit
+from k37.sim.machine.plant_model import (
     ALPHA_BITS,
     FRAC_BITS,
     POSITION_BITS,

@@ -2,7 +2,7 @@
 axial stiffness (the profile-error paper's Fig. 1 and eqs. (1)-(4)).
 
 The update, its fixed point and the natural frequencies are in
-:mod:`sim.machine.two_mass_model`. The drive declares no native update for idle skipping: while
+:mod:`k37.sim.machine.two_mass_model`. The drive declares no native update for idle skipping: while
 either mass moves or the spring rings, its registers change and every cycle is evaluated; once
 both are at rest with the spring still, it is static and the rest of the machine may skip.
 """
@@ -10,16 +10,16 @@ both are at rest with the spring still, it is static and the rest of the machine
 from amaranth.hdl import Module, Mux, Signal, Value, signed
 from amaranth.lib.wiring import In
 
-from sim.machine.plant_model import POSITION_BITS, VC_BITS
-from sim.machine.torque_drive import TorqueDrive, coulomb
-from sim.machine.two_mass_model import SPRING_BITS, SPRING_FRAC
+from k37.sim.machine.plant_model import POSITION_BITS, VC_BITS
+from k37.sim.machine.torque_drive import TorqueDrive, coulomb
+from k37.sim.machine.two_mass_model import SPRING_BITS, SPRING_FRAC
 
 __all__ = ["TwoMassDrive"]
 
 
 class TwoMassDrive(TorqueDrive):
-    """:class:`sim.machine.torque_drive.TorqueDrive` whose motor drives a table through a spring
-    (:class:`sim.machine.two_mass_model.TwoMassDriveModel`).
+    """:class:`k37.sim.machine.torque_drive.TorqueDrive` whose motor drives a table through a spring
+    (:class:`k37.sim.machine.two_mass_model.TwoMassDriveModel`).
 
     Members (beyond the torque drive's; ``fc``, ``load`` and ``load_step`` act on the table,
     ``velocity`` is the motor's)

@@ -1,5 +1,5 @@
-"""Reference model of :class:`sim.machine.two_mass.TwoMassDrive`: its fixed-point update, and the
-drive's parameters and their fixed-point encoding (:class:`TwoMassParams`).
+"""Reference model of :class:`k37.sim.machine.two_mass.TwoMassDrive`: its fixed-point update, and
+the drive's parameters and their fixed-point encoding (:class:`TwoMassParams`).
 
 The feed drive of the profile-error paper's Fig. 1 as two masses: the motor's side (rotor,
 coupling and ball screw, inertia J = ``ja``) and the table (mass M), joined by the ball screw's
@@ -7,7 +7,7 @@ axial stiffness Ks and damping c through the lead p (R = p / 2 pi). Seen along t
 side is the mass M' = J / R^2. Both are counted in encoder counts: the table's position in the
 counts the motor turns to reach it (``counts_per_rev`` per lead), the spring's deflection s as
 the motor's position less the table's. Per cycle, after the torque drive's velocity loop
-(:class:`sim.machine.torque_drive_model.TorqueDriveModel`: vm' = vm + loop torque - D term):
+(:class:`k37.sim.machine.torque_drive_model.TorqueDriveModel`: vm' = vm + loop torque - D term):
 
     fm = round((s * ks_m + (vm - vt) * cs_m) / 2^SPRING_FRAC)     ks_m = Ks / M' dt^2
     ft = round((s * ks_t + (vm - vt) * cs_t) / 2^SPRING_FRAC)     ks_t = Ks / M  dt^2
@@ -31,9 +31,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from hdl.common.params import Limit
-from sim.machine.plant_model import COUNT_BITS, FRAC_BITS, POSITION_BITS, VC_BITS, wrap
-from sim.machine.torque_drive_model import TorqueDriveModel, TorqueParams, coulomb
+from k37.hdl.common.params import Limit
+from k37.sim.machine.plant_model import COUNT_BITS, FRAC_BITS, POSITION_BITS, VC_BITS, wrap
+from k37.sim.machine.torque_drive_model import TorqueDriveModel, TorqueParams, coulomb
 
 __all__ = ["SPRING_BITS", "SPRING_FRAC", "TwoMassDriveModel", "TwoMassParams"]
 

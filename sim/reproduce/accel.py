@@ -12,14 +12,14 @@ from pathlib import Path
 
 import numpy as np
 
-from firmware_model.feeds import word_feed
-from firmware_model.gcode.parser import Line
-from firmware_model.job import AXES
-from sim.machine.plant_model import DAC_VOLTS
-from sim.reproduce.markdown import Section, pct, pyplot, save_figure
-from sim.reproduce.paper import FEED_HIGH, PAPER_TAU_S
-from sim.reproduce.runs import MACHINE, SERVO, RunData, Specs, Trace
-from sim.reproduce.theory import E63, fp_rate, hardware_tau, lag, servo
+from k37.firmware_model.feeds import word_feed
+from k37.firmware_model.gcode.parser import Line
+from k37.firmware_model.job import AXES
+from k37.sim.machine.plant_model import DAC_VOLTS
+from k37.sim.reproduce.markdown import Section, pct, pyplot, save_figure
+from k37.sim.reproduce.paper import FEED_HIGH, PAPER_TAU_S
+from k37.sim.reproduce.runs import MACHINE, SERVO, RunData, Specs, Trace
+from k37.sim.reproduce.theory import E63, fp_rate, hardware_tau, lag, servo
 
 __all__ = ["section"]
 

@@ -6,7 +6,7 @@ accel/decel circuit and the servo is R (1 - |G_acc(jw)| |G(jw)|), w = V / R
 (:func:`exact_loss`); the motion-errors paper's eqs (9)/(10) are its second-order terms
 (:func:`paper_loss`);
 two axes of different gains turn the circle into an ellipse (:func:`mismatch_ellipse`).
-:func:`arc_losses` measures the L16 runs of :mod:`~sim.reproduce.seed001`.
+:func:`arc_losses` measures the L16 runs of :mod:`~k37.sim.reproduce.seed001`.
 """
 
 from __future__ import annotations
@@ -16,11 +16,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from firmware_model.job import ServoConfig
-from sim.reproduce.runs import MACHINE, RunData, Trace
-from sim.reproduce.theory import accel_gain, servo_gain, servo_response
-from sim.run.ballbar import Ballbar, circle_figures
-from sim.study.design import design
+from k37.firmware_model.job import ServoConfig
+from k37.sim.reproduce.runs import MACHINE, RunData, Trace
+from k37.sim.reproduce.theory import accel_gain, servo_gain, servo_response
+from k37.sim.run.ballbar import Ballbar, circle_figures
+from k37.sim.study.design import design
 
 __all__ = ["LEVELS", "LINEAR_A", "SETTLE_S", "TM_MOTOR", "TRUNCATION", "ArcLoss", "Condition",
            "arc_losses", "conditions", "exact_loss", "loss_table", "mismatch_ellipse",

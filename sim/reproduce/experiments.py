@@ -4,21 +4,19 @@ Each experiment of the paper (section 3 and its photos, the maximum step rates, 
 the FP-budget warning) is run on the emulated machine with the compiled backend, and each
 observation becomes a row of ``report.md``: the paper's figure, the emulator's, the tolerance
 and pass or fail. The comparisons are computed against the paper's numbers
-(:mod:`~sim.reproduce.paper`) or against the physics that explains them
-(:mod:`~sim.reproduce.theory`), never written in.
+(:mod:`~k37.sim.reproduce.paper`) or against the physics that explains them
+(:mod:`~k37.sim.reproduce.theory`), never written in.
 
-:func:`reproduce` runs every run (:mod:`~sim.reproduce.workers`) and :func:`analyse` turns
-them into the seven sections, one module each: :mod:`~sim.reproduce.accel`,
-:mod:`~sim.reproduce.rates`, :mod:`~sim.reproduce.fp_counts`,
-:mod:`~sim.reproduce.path_error`, :mod:`~sim.reproduce.fp_control`,
-:mod:`~sim.reproduce.budget` and :mod:`~sim.reproduce.parabola` (the K3701's parabolic mode on
-the contour-error paper's parabola), then one section per companion paper (:data:`COMPANIONS`):
-:mod:`~sim.reproduce.seed000` (the accel/decel filters) and :mod:`~sim.reproduce.seed001`
-(radius error by accel/decel type).
-:data:`~sim.reproduce.runs.FULL` is the scale of the committed
-figures; :data:`~sim.reproduce.runs.QUICK` shrinks the long runs for CI, and the report says
-what each scale shrank.
-"""
+:func:`reproduce` runs every run (:mod:`~k37.sim.reproduce.workers`) and :func:`analyse` turns
+them into the seven sections, one module each: :mod:`~k37.sim.reproduce.accel`,
+:mod:`~k37.sim.reproduce.rates`, :mod:`~k37.sim.reproduce.fp_counts`,
+:mod:`~k37.sim.reproduce.path_error`, :mod:`~k37.sim.reproduce.fp_control`,
+:mod:`~k37.sim.reproduce.budget` and :mod:`~k37.sim.reproduce.parabola` (the K3701's parabolic mode
+on the contour-error paper's parabola), then one section per companion paper (:data:`COMPANIONS`):
+:mod:`~k37.sim.reproduce.seed000` (the accel/decel filters) and :mod:`~k37.sim.reproduce.seed001`
+(radius error by accel/decel type). :data:`~k37.sim.reproduce.runs.FULL` is the scale of the
+committed figures; :data:`~k37.sim.reproduce.runs.QUICK` shrinks the long runs for CI, and the
+report says what each scale shrank. """
 
 from __future__ import annotations
 
@@ -27,7 +25,7 @@ from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 
-from sim.reproduce import (
+from k37.sim.reproduce import (
     accel,
     budget,
     fp_control,
@@ -40,9 +38,9 @@ from sim.reproduce import (
     seed002,
     seed003,
 )
-from sim.reproduce.markdown import Reproduction, report_markdown
-from sim.reproduce.runs import FULL, QUICK, RunData, Scale, Specs, run_specs
-from sim.reproduce.workers import run_all
+from k37.sim.reproduce.markdown import Reproduction, report_markdown
+from k37.sim.reproduce.runs import FULL, QUICK, RunData, Scale, Specs, run_specs
+from k37.sim.reproduce.workers import run_all
 
 __all__ = ["COMPANIONS", "all_specs", "analyse", "reproduce"]
 
@@ -67,7 +65,7 @@ def reproduce(out: Path, *, quick: bool = False, jobs: int = 2,
               progress: Callable[[str], None] | None = None) -> Reproduction:
     """Run every experiment, write the figures and ``report.md`` into ``out``.
 
-    ``quick`` runs the smaller :data:`~sim.reproduce.runs.QUICK` scale (for CI); ``jobs`` is
+    ``quick`` runs the smaller :data:`~k37.sim.reproduce.runs.QUICK` scale (for CI); ``jobs`` is
     the number of worker processes for the closed-loop runs.
     """
     scale = QUICK if quick else FULL

@@ -11,11 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
-from firmware_model.gcode.parser import Line
-from firmware_model.job import AXES
-from sim.reproduce.markdown import Section, pyplot, save_figure
-from sim.reproduce.path_error import Circle
-from sim.reproduce.runs import MACHINE, RunData, Specs, Trace
+from k37.firmware_model.gcode.parser import Line
+from k37.firmware_model.job import AXES
+from k37.sim.reproduce.markdown import Section, pyplot, save_figure
+from k37.sim.reproduce.path_error import Circle
+from k37.sim.reproduce.runs import MACHINE, RunData, Specs, Trace
 
 __all__ = ["section"]
 

@@ -12,10 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.reproduce.markdown import Section, pyplot, save_figure
-from sim.reproduce.paper import table1
-from sim.reproduce.runs import RunData
-from sim.reproduce.theory import quarter_counts
+from k37.sim.reproduce.markdown import Section, pyplot, save_figure
+from k37.sim.reproduce.paper import table1
+from k37.sim.reproduce.runs import RunData
+from k37.sim.reproduce.theory import quarter_counts
 
 __all__ = ["section"]
 

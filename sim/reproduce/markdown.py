@@ -14,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from firmware_model.gcode.parser import Arc, Line
-from sim.reproduce.paper import FEED_HIGH, FEED_LOW, PAPER_TAU_S
-from sim.reproduce.runs import MACHINE, QUICK, SERVO, RunData, Scale, run_specs
-from sim.reproduce.theory import fp_rate
+from k37.firmware_model.gcode.parser import Arc, Line
+from k37.sim.reproduce.paper import FEED_HIGH, FEED_LOW, PAPER_TAU_S
+from k37.sim.reproduce.runs import MACHINE, QUICK, SERVO, RunData, Scale, run_specs
+from k37.sim.reproduce.theory import fp_rate
 
 __all__ = ["Reproduction", "Row", "Section", "pct", "pyplot", "report_markdown", "save_figure",
            "table_markdown"]
@@ -54,7 +54,7 @@ class Section:
 
 @dataclass
 class Reproduction:
-    """The outcome of :func:`sim.reproduce.experiments.reproduce`."""
+    """The outcome of :func:`k37.sim.reproduce.experiments.reproduce`."""
 
     scale: Scale
     sections: list[Section]

@@ -15,10 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from firmware_model.gcode.parser import Line
-from firmware_model.gcode.program import Parabola
-from sim.reproduce.markdown import Section, pyplot, save_figure
-from sim.reproduce.runs import MACHINE, PARABOLA_FEED, RunData, Specs, Trace
+from k37.firmware_model.gcode.parser import Line
+from k37.firmware_model.gcode.program import Parabola
+from k37.sim.reproduce.markdown import Section, pyplot, save_figure
+from k37.sim.reproduce.runs import MACHINE, PARABOLA_FEED, RunData, Specs, Trace
 
 __all__ = ["section"]
 

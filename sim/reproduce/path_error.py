@@ -14,12 +14,19 @@ from pathlib import Path
 
 import numpy as np
 
-from firmware_model.gcode.parser import Arc
-from firmware_model.job import MachineConfig
-from sim.reproduce.markdown import Section, pct, pyplot, save_figure
-from sim.reproduce.paper import FEED_HIGH, FEED_LOW
-from sim.reproduce.runs import MACHINE, SERVO, RunData, RunSpec, Scale, Specs, Trace
-from sim.reproduce.theory import fp_rate, hardware_tau, ideal_command, lag, servo, servo_radius_loss
+from k37.firmware_model.gcode.parser import Arc
+from k37.firmware_model.job import MachineConfig
+from k37.sim.reproduce.markdown import Section, pct, pyplot, save_figure
+from k37.sim.reproduce.paper import FEED_HIGH, FEED_LOW
+from k37.sim.reproduce.runs import MACHINE, SERVO, RunData, RunSpec, Scale, Specs, Trace
+from k37.sim.reproduce.theory import (
+    fp_rate,
+    hardware_tau,
+    ideal_command,
+    lag,
+    servo,
+    servo_radius_loss,
+)
 
 __all__ = ["Circle", "circles", "section"]
 

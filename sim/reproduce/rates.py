@@ -1,14 +1,14 @@
 """Experiment 2: the K3701's maximum step rates at a 1 MHz clock (section 2 (1)).
 
 Measured on the gateware inside the post machine with the feed path wide open (the
-:class:`~sim.reproduce.runs.RateSpec` run), against the paper's 90.0 and 47.6 K/sec.
+:class:`~k37.sim.reproduce.runs.RateSpec` run), against the paper's 90.0 and 47.6 K/sec.
 """
 
 from __future__ import annotations
 
-from sim.reproduce.markdown import Section
-from sim.reproduce.paper import PAPER_RATE_CIRCULAR, PAPER_RATE_LINEAR
-from sim.reproduce.runs import MACHINE, RunData, Specs
+from k37.sim.reproduce.markdown import Section
+from k37.sim.reproduce.paper import PAPER_RATE_CIRCULAR, PAPER_RATE_LINEAR
+from k37.sim.reproduce.runs import MACHINE, RunData, Specs
 
 __all__ = ["section"]
 

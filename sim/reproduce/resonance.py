@@ -16,9 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.machine.plant_model import FRAC_BITS, PlantParams
-from sim.machine.two_mass_model import TwoMassDriveModel, TwoMassParams
-from sim.reproduce.markdown import Section
+from k37.sim.machine.plant_model import FRAC_BITS, PlantParams
+from k37.sim.machine.two_mass_model import TwoMassDriveModel, TwoMassParams
+from k37.sim.reproduce.markdown import Section
 
 __all__ = ["TABLE1", "TABLE8_JA", "JkStudy", "Table1Axis", "add_rows", "jk_curve", "plot_jk",
            "ring_hz", "table1_drive"]

@@ -2,7 +2,7 @@
 
 :func:`run_specs` lists every run at a :class:`Scale`: a :class:`RunSpec` is a G-code program
 on the machine with the accel/decel circuit before (``pre``) or after (``post``) the
-interpolator, the :class:`RateSpec` the step-rate measurement. :mod:`sim.reproduce.workers`
+interpolator, the :class:`RateSpec` the step-rate measurement. :mod:`k37.sim.reproduce.workers`
 executes them; each comes back as a :class:`RunData`, whose samples :class:`Trace` reads.
 """
 
@@ -15,15 +15,15 @@ from typing import TypeVar
 
 import numpy as np
 
-from firmware_model.feeds import word_feed
-from firmware_model.gcode.parser import Arc, Line, Program, parse
-from firmware_model.gcode.program import Parabola
-from firmware_model.gcode.splines import Nurbs, SplineSpan
-from firmware_model.job import AxisAccelConfig, ContourConfig, Job, MachineConfig, ServoConfig
-from hdl.k3701.block import Block
-from sim.reproduce.paper import FEED_HIGH, FEED_LOW
-from sim.reproduce.theory import hardware_tau
-from sim.run.sampler import TRACE_COLUMNS
+from k37.firmware_model.feeds import word_feed
+from k37.firmware_model.gcode.parser import Arc, Line, Program, parse
+from k37.firmware_model.gcode.program import Parabola
+from k37.firmware_model.gcode.splines import Nurbs, SplineSpan
+from k37.firmware_model.job import AxisAccelConfig, ContourConfig, Job, MachineConfig, ServoConfig
+from k37.hdl.k3701.block import Block
+from k37.sim.reproduce.paper import FEED_HIGH, FEED_LOW
+from k37.sim.reproduce.theory import hardware_tau
+from k37.sim.run.sampler import TRACE_COLUMNS
 
 __all__ = ["FULL", "MACHINE", "PARABOLA_FEED", "PARABOLA_MM", "QUICK", "SERVO", "RateSpec",
            "RunData", "RunSpec", "Scale", "Specs", "Trace", "minus_spec", "parabola_y",
@@ -94,7 +94,7 @@ class RunSpec:
 
     The companion papers' runs name their own machine, servos and per-axis accel/decel
     circuits; runs whose machines elaborate the same design share one compiled model
-    (:func:`~sim.run.runner.design_key`).
+    (:func:`~k37.sim.run.runner.design_key`).
     """
 
     key: str

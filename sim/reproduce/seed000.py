@@ -17,16 +17,16 @@ from pathlib import Path
 
 import numpy as np
 
-from firmware_model.job import MachineConfig, ServoConfig
-from hdl.accel.exponential_model import AccelDecelModel
-from hdl.feed.divider_model import PhaseDividerModel, increment_for
-from hdl.feed.feed_rate_map import DIVIDER_WIDTH
-from sim.machine.two_mass_model import TwoMassParams
-from sim.reproduce.markdown import Section, pyplot, save_figure
-from sim.reproduce.paper import FEED_HIGH
-from sim.reproduce.runs import MACHINE, RunData, RunSpec, Scale, Specs, Trace
-from sim.reproduce.theory import accel_filter, fp_rate, hardware_tau, servo
-from sim.run.jobfile import torque_params
+from k37.firmware_model.job import MachineConfig, ServoConfig
+from k37.hdl.accel.exponential_model import AccelDecelModel
+from k37.hdl.feed.divider_model import PhaseDividerModel, increment_for
+from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH
+from k37.sim.machine.two_mass_model import TwoMassParams
+from k37.sim.reproduce.markdown import Section, pyplot, save_figure
+from k37.sim.reproduce.paper import FEED_HIGH
+from k37.sim.reproduce.runs import MACHINE, RunData, RunSpec, Scale, Specs, Trace
+from k37.sim.reproduce.theory import accel_filter, fp_rate, hardware_tau, servo
+from k37.sim.run.jobfile import torque_params
 
 __all__ = ["ACCEL_BITS", "SHAPES", "circuit_outputs", "filter_machine", "recursion_35",
            "section", "specs"]

@@ -6,8 +6,8 @@ an L16(4^5) orthogonal array of feed, radius, inertia ratio, time constant and p
 compares each run's radius error with its eqs (9) and (10); a gain mismatch between the axes
 makes the error an ellipse with its extremes at 45 and 225 degrees (Fig. 8); a second-order
 response surface (eqs (14)-(20)) is fitted to the runs. Here each L16 run is an arc on the
-post-interpolation machine of :mod:`~sim.reproduce.seed000`, measured in its steady state
-against the formulas of :mod:`~sim.reproduce.circle_error`.
+post-interpolation machine of :mod:`~k37.sim.reproduce.seed000`, measured in its steady state
+against the formulas of :mod:`~k37.sim.reproduce.circle_error`.
 """
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from firmware_model.job import ServoConfig
-from sim.reproduce.circle_error import (
+from k37.firmware_model.job import ServoConfig
+from k37.sim.reproduce.circle_error import (
     LEVELS,
     LINEAR_A,
     SETTLE_S,
@@ -34,12 +34,12 @@ from sim.reproduce.circle_error import (
     run_key,
     steady,
 )
-from sim.reproduce.markdown import Section, pct, pyplot, save_figure
-from sim.reproduce.runs import QUICK, RunData, RunSpec, Scale, Specs
-from sim.reproduce.seed000 import SHAPES, filter_machine
-from sim.reproduce.theory import mismatch_amplitude
-from sim.run.ballbar import Ballbar, break_at_gaps, circle_figures
-from sim.study.analysis import Surface, response_surface
+from k37.sim.reproduce.markdown import Section, pct, pyplot, save_figure
+from k37.sim.reproduce.runs import QUICK, RunData, RunSpec, Scale, Specs
+from k37.sim.reproduce.seed000 import SHAPES, filter_machine
+from k37.sim.reproduce.theory import mismatch_amplitude
+from k37.sim.run.ballbar import Ballbar, break_at_gaps, circle_figures
+from k37.sim.study.analysis import Surface, response_surface
 
 __all__ = ["section", "specs"]
 
@@ -201,7 +201,7 @@ def _text(sec: Section, scale: Scale, fits: dict[str, Surface], ellipse: Ballbar
         "ms, position gain) with the linear and the exponential filter, and finds the "
         "measured radius error within +-2.3% (linear) and +-3.9% (exponential) of its eqs "
         "(9) and (10) (Figs. 11 and 12, plots lost in the text: only these two numbers "
-        "remain). The emulator runs the array (Rao's L16 over GF(4), `sim.study.design`: the "
+        "remain). The emulator runs the array (Rao's L16 over GF(4), `k37.sim.study.design`: the "
         "standard table up to its column order and level names) on the post-interpolation "
         "machine of section 8, one arc per run and filter, at the paper's feeds and radii: "
         f"{SETTLE_S} s to settle, then {measure} s of steady arc whose mean radial deviation "

@@ -22,12 +22,12 @@ from pathlib import Path
 import numpy as np
 from numpy.polynomial import Polynomial
 
-from firmware_model.gcode.parser import Line, parse
-from firmware_model.gcode.splines import Nurbs
-from firmware_model.job import ContourConfig, MachineConfig, ServoConfig
-from sim.reproduce.markdown import Section, pyplot, save_figure
-from sim.reproduce.runs import RunData, RunSpec, Scale, Specs, Trace
-from sim.reproduce.theory import servo
+from k37.firmware_model.gcode.parser import Line, parse
+from k37.firmware_model.gcode.splines import Nurbs
+from k37.firmware_model.job import ContourConfig, MachineConfig, ServoConfig
+from k37.sim.reproduce.markdown import Section, pyplot, save_figure
+from k37.sim.reproduce.runs import RunData, RunSpec, Scale, Specs, Trace
+from k37.sim.reproduce.theory import servo
 
 __all__ = ["BEZIER_MM", "CONTOUR_RUNS", "FIG6B", "TABLES", "Curve", "section", "specs"]
 

@@ -1,6 +1,6 @@
 """The profile-error paper (reducing the profile error of multi-axis control by tuning): the steady
 following error of its eq. (9), the ballbar error of unequal axes, and the natural frequencies
-of its two-mass feed drive (Table 1, eqs. (1)-(4); :mod:`sim.reproduce.resonance`), section 11
+of its two-mass feed drive (Table 1, eqs. (1)-(4); :mod:`k37.sim.reproduce.resonance`), section 11
 of ``k37 reproduce``.
 
 The paper's eq. (9): e_t = (Ka + Ts) F with Ka = (D / (Vg Kt) + 1 - Kf) / Kp; its tuning makes
@@ -19,13 +19,13 @@ from pathlib import Path
 
 import numpy as np
 
-from firmware_model.job import AxisAccelConfig, MachineConfig, ServoConfig
-from sim.reproduce import resonance
-from sim.reproduce.markdown import Section, pyplot, save_figure
-from sim.reproduce.runs import RateSpec, RunData, RunSpec, Scale, Specs, Trace
-from sim.reproduce.theory import following_error, hardware_tau, mismatch_amplitude
-from sim.run.ballbar import Ballbar, ballbar_of
-from sim.run.sampler import TRACE_COLUMNS
+from k37.firmware_model.job import AxisAccelConfig, MachineConfig, ServoConfig
+from k37.sim.reproduce import resonance
+from k37.sim.reproduce.markdown import Section, pyplot, save_figure
+from k37.sim.reproduce.runs import RateSpec, RunData, RunSpec, Scale, Specs, Trace
+from k37.sim.reproduce.theory import following_error, hardware_tau, mismatch_amplitude
+from k37.sim.run.ballbar import Ballbar, ballbar_of
+from k37.sim.run.sampler import TRACE_COLUMNS
 
 __all__ = ["AXES", "DBB_UM", "MACHINE", "d_ratio", "section", "specs"]
 

@@ -15,15 +15,15 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 
 import numpy as np
 
-from firmware_model.host import Host8085
-from firmware_model.job import AXES
-from hdl.feed.decel_control_map import DECEL_MAP
-from hdl.feed.feed_rate_map import FEED_MAP
-from hdl.k3701.map import block_registers
-from sim.reproduce.runs import RateSpec, RunData, RunSpec, Specs, minus_spec
-from sim.run.runner import RunOptions, design_key, reused_backend, run_job
-from sim.run.simulated_link import SimulatedLink
-from sim.study.sweep import end_with_parent, stop_workers
+from k37.firmware_model.host import Host8085
+from k37.firmware_model.job import AXES
+from k37.hdl.feed.decel_control_map import DECEL_MAP
+from k37.hdl.feed.feed_rate_map import FEED_MAP
+from k37.hdl.k3701.map import block_registers
+from k37.sim.reproduce.runs import RateSpec, RunData, RunSpec, Specs, minus_spec
+from k37.sim.run.runner import RunOptions, design_key, reused_backend, run_job
+from k37.sim.run.simulated_link import SimulatedLink
+from k37.sim.study.sweep import end_with_parent, stop_workers
 
 __all__ = ["run_all"]
 
@@ -107,7 +107,7 @@ def run_all(specs: Specs, jobs: int = 2,
             progress: Callable[[str], None] | None = None) -> dict[str, RunData]:
     """Run ``specs`` in ``jobs`` worker processes; results by key.
 
-    Each distinct machine (:func:`~sim.run.runner.design_key`) is built once first, the builds
+    Each distinct machine (:func:`~k37.sim.run.runner.design_key`) is built once first, the builds
     in parallel; a machine's runs are queued as soon as its model is in the cache, so no model
     is compiled twice. The budget-too-low run follows the exact one (:func:`minus_spec`).
     """

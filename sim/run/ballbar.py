@@ -35,14 +35,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from firmware_model.gcode.parser import Arc
-from sim.run.report import BALLBAR_FIGURES as FIGURES
+from k37.firmware_model.gcode.parser import Arc
+from k37.sim.run.report import BALLBAR_FIGURES as FIGURES
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from firmware_model.job import Job
-    from sim.run.runner import RunResult
+    from k37.firmware_model.job import Job
+    from k37.sim.run.runner import RunResult
 
 __all__ = ["FIGURES", "SPIKE_WINDOW_DEG", "STEADY_FRACTION", "Ballbar", "BallbarError",
            "arc_sweep", "ballbar", "ballbar_figure", "ballbar_of", "break_at_gaps",

@@ -1,7 +1,7 @@
 """Job files: what ``k37 run [JOB]`` runs, loaded and checked against the whole machine.
 
 A job is a TOML file (``.toml``) or a plain G-code file (any other extension), run on the
-default machine; no job at all is :func:`firmware_model.job.demo_job`, the paper's circle. A
+default machine; no job at all is :func:`k37.firmware_model.job.demo_job`, the paper's circle. A
 TOML job::
 
     name = "circle"                 # optional; default: the file's stem
@@ -30,11 +30,11 @@ TOML job::
     controller = "cec"              # "none" | "ccc" | "vgccc" | "cec"
 
 Every value is checked when the job is loaded, against the limit of the block that has it: a
-machine key against the chipset's or the host's (:class:`firmware_model.job.MachineConfig`),
+machine key against the chipset's or the host's (:class:`k37.firmware_model.job.MachineConfig`),
 a servo key (and each ``[servo.x]``/``[servo.y]`` override) against the simulated plant's
 fixed point on the job's clock and LSB (:func:`servo_limits`). An unknown key anywhere is an
 error naming its full path. All errors are :class:`JobError` (bad file or value, naming the
-key, its value and its range) or :class:`~firmware_model.gcode.parser.GcodeError` (bad program),
+key, its value and its range) or :class:`~k37.firmware_model.gcode.parser.GcodeError` (bad program),
 each one line of text.
 """
 
@@ -47,8 +47,8 @@ from os import PathLike
 from pathlib import Path
 from typing import Any, NoReturn
 
-from firmware_model.gcode.parser import ARC_TOLERANCE_LIMIT, ARC_TOLERANCE_MM, Program
-from firmware_model.job import (
+from k37.firmware_model.gcode.parser import ARC_TOLERANCE_LIMIT, ARC_TOLERANCE_MM, Program
+from k37.firmware_model.job import (
     AxisAccelConfig,
     ContourConfig,
     Job,
@@ -61,12 +61,12 @@ from firmware_model.job import (
     gcode_job,
     parse_for_machine,
 )
-from hdl.chipset.map import ALL_AXES
-from hdl.common.params import Limit
-from sim.files import STDIO, InputError, read_input_text
-from sim.machine.plant_model import PlantParams
-from sim.machine.torque_drive_model import TorqueParams
-from sim.machine.two_mass_model import TwoMassParams
+from k37.hdl.chipset.map import ALL_AXES
+from k37.hdl.common.params import Limit
+from k37.sim.files import STDIO, InputError, read_input_text
+from k37.sim.machine.plant_model import PlantParams
+from k37.sim.machine.torque_drive_model import TorqueParams
+from k37.sim.machine.two_mass_model import TwoMassParams
 
 __all__ = ["JobError", "job_from_data", "job_keys_markdown", "load_job", "load_step_fault",
            "plant_params", "read_toml", "servo_limits", "torque_params"]
@@ -85,7 +85,7 @@ class JobError(ValueError):
 
 def servo_limits(machine: MachineConfig) -> dict[str, Limit]:
     """The range of each servo key on ``machine``: the plant's
-    (:meth:`sim.machine.plant.PlantParams.limits`), in the job's units."""
+    (:meth:`k37.sim.machine.plant.PlantParams.limits`), in the job's units."""
     limits = PlantParams.limits(machine.clock_hz)
     speed = limits["max_speed"]
     return {**limits, "max_speed": speed.scaled(machine.mm_per_min(1.0), "mm/min",
@@ -114,7 +114,7 @@ def plant_params(machine: MachineConfig, servo: ServoConfig) -> PlantParams:
 
 def torque_params(machine: MachineConfig, servo: ServoConfig) -> TorqueParams:
     """The torque drive of one axis's ``servo`` on ``machine``, or its two-mass drive
-    (:class:`~sim.machine.two_mass_model.TwoMassParams`); ValueError naming a bad key."""
+    (:class:`~k37.sim.machine.two_mass_model.TwoMassParams`); ValueError naming a bad key."""
     if servo.drive == "two_mass":
         return TwoMassParams(clock_hz=machine.clock_hz,
                              **{name: getattr(servo, name) for name in TWO_MASS_KEYS})
@@ -148,8 +148,8 @@ def load_step_fault(job: Job, axis: str, torque: float, at_s: float) -> dict[str
 def load_job(path: str | PathLike[str] | None, *, frontend: str = "builtin",
              arc_tolerance: float | None = None) -> Job:
     """Load a TOML job, or a G-code file (``-``: stdin) run on the default machine; None: the
-    demo. A file must be a regular file of at most :data:`sim.files.MAX_INPUT_BYTES`.
-    ``frontend`` reads the program (:data:`firmware_model.gcode.canon.FRONTENDS`);
+    demo. A file must be a regular file of at most :data:`k37.sim.files.MAX_INPUT_BYTES`.
+    ``frontend`` reads the program (:data:`k37.firmware_model.gcode.canon.FRONTENDS`);
     ``arc_tolerance`` (LSB), if given, replaces the job's.
 
     Raises
@@ -172,7 +172,7 @@ def load_job(path: str | PathLike[str] | None, *, frontend: str = "builtin",
 
 def _read(path: Path, name: str) -> str:
     """The text of a job or program file (a regular file, or stdin for ``-``, of at most
-    :data:`sim.files.MAX_INPUT_BYTES`); a :class:`JobError` naming ``name`` otherwise."""
+    :data:`k37.sim.files.MAX_INPUT_BYTES`); a :class:`JobError` naming ``name`` otherwise."""
     try:
         # a UTF-8 byte-order mark is skipped
         return read_input_text(path, encoding="utf-8-sig")
@@ -297,7 +297,7 @@ class _TomlJob:
     def program(self, machine: MachineConfig, axes_given: bool
                 ) -> tuple[MachineConfig, Program]:
         """The program, and the machine it runs on (see
-        :func:`firmware_model.job.parse_for_machine` for ``axes_given``)."""
+        :func:`k37.firmware_model.job.parse_for_machine` for ``axes_given``)."""
         if "program" not in self.data:
             self.fail("missing [program] table (give gcode or file)")
         table = self.table(self.data, "program", ("gcode", "file", "arc_tolerance", "tools"))

@@ -1,6 +1,6 @@
 """What ``k37 run`` writes: the summary, JSON report and trace CSV (the plot is made by
-:mod:`sim.run.plot`, the GTKWave file by :mod:`sim.run.waveform`); and the check of every output
-path before a run starts."""
+:mod:`k37.sim.run.plot`, the GTKWave file by :mod:`k37.sim.run.waveform`); and the check of every
+output path before a run starts."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from sim.backends.contract import CLOCK_PERIOD
-from sim.files import (
+from k37.sim.backends.contract import CLOCK_PERIOD
+from k37.sim.files import (
     STDIO,
     OutputError,
     OutputFailure,
@@ -20,14 +20,14 @@ from sim.files import (
     atomic_path,
     why,
 )
-from sim.files import check_outputs as check_files
-from sim.machine.plant_model import DAC_VOLTS
-from sim.run.ballbar import BallbarError, ballbar, ballbar_figure
-from sim.run.plot import write_plot
-from sim.run.report import validate
-from sim.run.runner import RunResult
-from sim.run.sampler import SampleStore
-from sim.run.waveform import WAVE_FORMATS, wave_span, write_gtkw
+from k37.sim.files import check_outputs as check_files
+from k37.sim.machine.plant_model import DAC_VOLTS
+from k37.sim.run.ballbar import BallbarError, ballbar, ballbar_figure
+from k37.sim.run.plot import write_plot
+from k37.sim.run.report import validate
+from k37.sim.run.runner import RunResult
+from k37.sim.run.sampler import SampleStore
+from k37.sim.run.waveform import WAVE_FORMATS, wave_span, write_gtkw
 
 __all__ = ["OutputError", "add_ballbar", "check_outputs", "print_stdout", "summary",
            "write_outputs", "write_trace"]
@@ -43,7 +43,7 @@ def plot_formats() -> list[str]:
 def check_outputs(*, json_path: str | None, trace: Path | None, plot: Path | None,
                   vcd: Path | None, gtkw: Path | None, ballbar: Path | None = None,
                   inputs: Sequence[str | Path | None] = (), stdout: bool = False) -> None:
-    """Refuse, before a run, outputs it could not write (:func:`sim.files.check_outputs`: a
+    """Refuse, before a run, outputs it could not write (:func:`k37.sim.files.check_outputs`: a
     missing or unwritable folder, a folder where the file should be, an input or another
     output at the same path, a closed stdout), a plot format matplotlib does not write, a
     waveform that is neither VCD nor FST, ``--gtkw`` without ``--vcd``."""
@@ -120,9 +120,9 @@ def summary(result: RunResult) -> str:
 
 
 def write_trace(result: RunResult, path: Path) -> None:
-    """The samples as CSV, one row per sample, columns :func:`sim.run.sampler.trace_columns`
+    """The samples as CSV, one row per sample, columns :func:`k37.sim.run.sampler.trace_columns`
     of the machine's axes (read from the store a chunk at a time); written whole or not at
-    all (:func:`sim.files.atomic_open`)."""
+    all (:func:`k37.sim.files.atomic_open`)."""
     write_samples(result.store, path)
 
 

@@ -2,7 +2,7 @@
 
 Six panels: the programmed and the actual path (block starts dotted, some labelled with their
 G-code line); the contour error per block (largest and RMS); and, along the run's time, the
-contour error (the report's, :func:`sim.run.contour.contour_errors`), each axis's following
+contour error (the report's, :func:`k37.sim.run.contour.contour_errors`), each axis's following
 error (the K3702 error counter), the axis and path speeds (position differences over
 :data:`SPEED_WINDOW_S` windows, not per-sample encoder counts) against the programmed feed,
 and the D/A output. Built by :func:`figure` (a matplotlib ``Figure``, for tests and
@@ -32,11 +32,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from firmware_model.feeds import run_feed
-from firmware_model.gcode.parser import Arc, Line
-from firmware_model.gcode.program import Exponential, Move, Parabola
-from sim.run.plot_data import PlotData, plot_data
-from sim.run.runner import RunResult
+from k37.firmware_model.feeds import run_feed
+from k37.firmware_model.gcode.parser import Arc, Line
+from k37.firmware_model.gcode.program import Exponential, Move, Parabola
+from k37.sim.run.plot_data import PlotData, plot_data
+from k37.sim.run.runner import RunResult
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes

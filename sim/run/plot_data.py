@@ -16,9 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from firmware_model.job import Job
-from sim.run.contour import BlockStart, contour_errors
-from sim.run.sampler import CHUNK_ROWS, SampleStore
+from k37.firmware_model.job import Job
+from k37.sim.run.contour import BlockStart, contour_errors
+from k37.sim.run.sampler import CHUNK_ROWS, SampleStore
 
 __all__ = ["PLOT_BUCKETS", "BlockContour", "PlotData", "plot_data"]
 

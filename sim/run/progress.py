@@ -14,9 +14,9 @@ import sys
 from dataclasses import dataclass
 from typing import TextIO
 
-from firmware_model.feeds import planned_seconds
-from firmware_model.gcode.parser import Dwell, Item
-from firmware_model.job import Job
+from k37.firmware_model.feeds import planned_seconds
+from k37.firmware_model.gcode.parser import Dwell, Item
+from k37.firmware_model.job import Job
 
 __all__ = ["ProgramPlan", "Progress", "ProgressPrinter"]
 

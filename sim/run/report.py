@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from sim.backends.factory import BACKENDS
+from k37.sim.backends.factory import BACKENDS
 
 __all__ = ["BALLBAR_FIGURES", "RUN_SCHEMA", "SCHEMA_VERSION", "schema_markdown", "validate"]
 
@@ -19,7 +19,7 @@ SCHEMA_VERSION = 3
 HOW_FIELDS = ("wall_seconds", "cycles_per_second", "backend", "skipped_cycles")
 
 
-#: The figures of a ballbar test (:func:`sim.run.ballbar.ballbar`), with their meaning.
+#: The figures of a ballbar test (:func:`k37.sim.run.ballbar.ballbar`), with their meaning.
 BALLBAR_FIGURES = {
     "nominal_radius": "the programmed circle's radius (LSB)",
     "ballbar_samples": "samples analysed",

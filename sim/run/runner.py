@@ -1,14 +1,14 @@
 """Running a job: the simulated machine, the firmware, sampling and the report.
 
-:func:`run_job` builds :class:`sim.machine.system.System` for the job's machine on a backend, sets
-the plants, runs :class:`firmware_model.firmware.Firmware` over the program, samples the machine
-every ``sample_every`` cycles into a :class:`sim.run.sampler.SampleStore`, and returns a
-:class:`RunResult` whose ``report`` is the JSON document of :mod:`sim.run.report`.
+:func:`run_job` builds :class:`k37.sim.machine.system.System` for the job's machine on a backend,
+sets the plants, runs :class:`k37.firmware_model.firmware.Firmware` over the program, samples the
+machine every ``sample_every`` cycles into a :class:`k37.sim.run.sampler.SampleStore`, and returns a
+:class:`RunResult` whose ``report`` is the JSON document of :mod:`k37.sim.run.report`.
 
 A run ends at the program's end, an alarm or fault, or the first limit it reaches: the cycle
 limit ``max_cycles`` or the job's ``run.max_time_s`` of simulated time, whichever is fewer
 cycles (the firmware stops there, even inside a dwell), a stall
-(:class:`sim.run.stall.StallWatch`: no feed pulse and no axis motion while a block runs), or
+(:class:`k37.sim.run.stall.StallWatch`: no feed pulse and no axis motion while a block runs), or
 a stop request (``stop``, which Ctrl-C or SIGTERM sets with ``sigint``); stalls and stop
 requests are looked at on the sampler's ticks (every 10^6 cycles at most), so a run ends
 within a tick of them, and still reports.
@@ -32,31 +32,31 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-import hdl
-import sim.machine
-from firmware_model.feeds import check_program, clamped_feeds, program_seconds
-from firmware_model.firmware import BlockRecord, Firmware
-from firmware_model.gcode.parser import Dwell, Event
-from firmware_model.host import Host8085
-from firmware_model.job import Job
-from hdl.chipset.map import chip_register, port
-from sim.backends.contract import Backend
-from sim.backends.factory import BACKEND_NAMES, make_backend
-from sim.files import OutputFailure, discard_temporary, keep_temporary, temporary_beside, why
+import k37.hdl
+import k37.sim.machine
+from k37.firmware_model.feeds import check_program, clamped_feeds, program_seconds
+from k37.firmware_model.firmware import BlockRecord, Firmware
+from k37.firmware_model.gcode.parser import Dwell, Event
+from k37.firmware_model.host import Host8085
+from k37.firmware_model.job import Job
+from k37.hdl.chipset.map import chip_register, port
+from k37.sim.backends.contract import Backend
+from k37.sim.backends.factory import BACKEND_NAMES, make_backend
+from k37.sim.files import OutputFailure, discard_temporary, keep_temporary, temporary_beside, why
 
 if TYPE_CHECKING:
-    from sim.machine.system import System
-from sim.machine.plant_model import dac_zero
-from sim.machine.two_mass_model import TwoMassParams
-from sim.run.contour import contour_summary
-from sim.run.fst import convert_in_child
-from sim.run.jobfile import TORQUE_DRIVES, plant_params, torque_params
-from sim.run.progress import ProgramPlan, Progress
-from sim.run.report import SCHEMA_VERSION, validate
-from sim.run.sampler import Sampler, SampleStore
-from sim.run.simulated_link import BlockMeasure, BlockMeter, SimulatedLink
-from sim.run.stall import RunStopped, StallWatch
-from sim.run.waveform import is_fst
+    from k37.sim.machine.system import System
+from k37.sim.machine.plant_model import dac_zero
+from k37.sim.machine.two_mass_model import TwoMassParams
+from k37.sim.run.contour import contour_summary
+from k37.sim.run.fst import convert_in_child
+from k37.sim.run.jobfile import TORQUE_DRIVES, plant_params, torque_params
+from k37.sim.run.progress import ProgramPlan, Progress
+from k37.sim.run.report import SCHEMA_VERSION, validate
+from k37.sim.run.sampler import Sampler, SampleStore
+from k37.sim.run.simulated_link import BlockMeasure, BlockMeter, SimulatedLink
+from k37.sim.run.stall import RunStopped, StallWatch
+from k37.sim.run.waveform import is_fst
 
 __all__ = ["STOP_SIGNALS", "OptionError", "RunOptions", "RunResult", "RunStopped",
            "build_backend", "check_options", "configure_plants", "cycle_limit", "report_document",
@@ -67,7 +67,7 @@ __all__ = ["STOP_SIGNALS", "OptionError", "RunOptions", "RunResult", "RunStopped
 class RunOptions:
     """How to run a job (the command line's options)."""
 
-    #: One of :data:`sim.backends.factory.BACKEND_NAMES`.
+    #: One of :data:`k37.sim.backends.factory.BACKEND_NAMES`.
     backend: str = BACKEND_NAMES[0]
     #: The run's cycle limit; None: the program's (:func:`cycle_limit`).
     max_cycles: int | None = None
@@ -77,7 +77,7 @@ class RunOptions:
     vcd_stop: int | None = None
     #: Globs over the dotted signal paths below the top to dump (empty: every signal).
     signals: tuple[str, ...] = ()
-    #: Called with the run's :class:`sim.run.progress.Progress` at the sampler's ticks.
+    #: Called with the run's :class:`k37.sim.run.progress.Progress` at the sampler's ticks.
     progress: Callable[[Progress], None] | None = None
     faults: dict[str, dict[str, int]] = field(default_factory=dict)
     #: Added to every block's FP budget (the FP-budget hazard); 0 normally.
@@ -108,7 +108,7 @@ class RunResult:
     @cached_property
     def samples(self) -> np.ndarray:
         """Every sample, a row of the store's ``columns`` each (in memory; the two-axis
-        machine's are :data:`sim.run.sampler.TRACE_COLUMNS`)."""
+        machine's are :data:`k37.sim.run.sampler.TRACE_COLUMNS`)."""
         return self.store.array()
 
     @cached_property
@@ -144,7 +144,7 @@ def configure_plants(backend: Backend, job: Job,
                      faults: dict[str, dict[str, int]] | None = None) -> None:
     """Set the plants of a backend built for ``job`` to its servos, with ``faults`` (per axis:
     a plant input, ``stall``, ``break_a`` or a load step's ``load_step`` and ``load_after``
-    (:func:`sim.run.jobfile.load_step_fault`), and its value)."""
+    (:func:`k37.sim.run.jobfile.load_step_fault`), and its value)."""
     faults = faults or {}
     machine = job.machine
     for axis in machine.axis_names:
@@ -179,9 +179,9 @@ def system_params(job: Job) -> dict[str, Any]:
 @cache
 def _design_sources() -> str:
     """The hash of every source the simulated machine is elaborated from: the gateware
-    (``hdl``), the plants and the system (``sim.machine``), and Amaranth's version."""
+    (``hdl``), the plants and the system (``k37.sim.machine``), and Amaranth's version."""
     digest = hashlib.sha256(metadata.version("amaranth").encode())
-    for package in (hdl, sim.machine):
+    for package in (k37.hdl, k37.sim.machine):
         root = Path(package.__file__).parent
         for path in sorted(root.rglob("*.py")):
             digest.update(str(path.relative_to(root)).encode() + b"\0" + path.read_bytes())
@@ -198,7 +198,7 @@ def build_backend(job: Job, kind: str) -> Backend:
     """The simulated machine of ``job`` on backend ``kind`` (one of ``BACKEND_NAMES``); the
     machine (and Amaranth) is only made if the backend has no model of it yet."""
     def machine() -> System:
-        from sim.machine.system import System
+        from k37.sim.machine.system import System
 
         return System(**system_params(job))
 
@@ -289,7 +289,7 @@ def run_job(job: Job, options: RunOptions | None = None,
             backend: Backend | None = None) -> RunResult:
     """Run ``job`` to its end (or an alarm, a fault, a limit, a stop request) and report.
 
-    Raises :class:`OptionError` or :class:`firmware_model.feeds.FirmwareError` before
+    Raises :class:`OptionError` or :class:`k37.firmware_model.feeds.FirmwareError` before
     building anything if the options or the program cannot work. A ``backend`` passed in must
     be freshly built for the job's machine (:func:`build_backend`); it is left open, for the
     caller to look at afterwards.
@@ -399,7 +399,7 @@ def _finish_waveform(options: RunOptions, traced: Path, report: dict) -> OutputF
 
 
 #: The default cycle limit follows the program: this many times its planned machine time
-#: (:func:`firmware_model.feeds.program_seconds`), plus :data:`PLAN_MARGIN_SECONDS`.
+#: (:func:`k37.firmware_model.feeds.program_seconds`), plus :data:`PLAN_MARGIN_SECONDS`.
 PLAN_MARGIN_FACTOR = 2
 PLAN_MARGIN_SECONDS = 10.0
 
@@ -493,7 +493,7 @@ def _report(job: Job, backend: Backend, firmware: Firmware, meter: BlockMeter,
 def report_document(job: Job, firmware: Firmware, *, status: str, reason: str, backend: str,
                     cycles: int, wall: float, skipped: int, blocks: list[dict],
                     axes: dict[str, dict], path: dict) -> dict:
-    """The report of a run of ``job`` by ``firmware`` (:mod:`sim.run.report`), from what was
+    """The report of a run of ``job`` by ``firmware`` (:mod:`k37.sim.run.report`), from what was
     measured of it."""
     clock = job.machine.clock_hz
     return {

@@ -17,9 +17,9 @@ from collections.abc import Callable, Iterator, Sequence
 
 import numpy as np
 
-from hdl.chipset.map import AXES
-from sim.backends.contract import Backend
-from sim.machine.plant_model import DAC_VOLTS
+from k37.hdl.chipset.map import AXES
+from k37.sim.backends.contract import Backend
+from k37.sim.machine.plant_model import DAC_VOLTS
 
 __all__ = ["CHUNK_ROWS", "PROGRESS_CYCLES", "SAMPLED_PORTS", "TRACE_COLUMNS", "SampleStore",
            "Sampler", "sampled_ports", "trace_columns"]
@@ -30,7 +30,7 @@ _QUANTITIES = (("command", "command"), ("actual", "count"), ("error", "error"),
 
 
 def trace_columns(axes: tuple[str, ...] = AXES) -> tuple[str, ...]:
-    """Columns of the trace (CSV) and of :attr:`sim.run.runner.RunResult.samples` on a
+    """Columns of the trace (CSV) and of :attr:`k37.sim.run.runner.RunResult.samples` on a
     machine with ``axes``: the cycle, each quantity per axis, the FP total."""
     return ("cycle", *(f"{a}_{column}" for column, _ in _QUANTITIES for a in axes), "fp_total")
 
@@ -187,7 +187,7 @@ class Sampler:
     def wait_polling(self, max_cycles: int, period: int, ports: Sequence[int],
                      stops: Sequence[int], idles: Sequence[int],
                      due: bool) -> tuple[int, list[int] | None, int] | None:
-        """The backend's :meth:`~sim.backends.contract.Backend.wait_polling` on ``irq``, paused
+        """The backend's :meth:`~k37.sim.backends.contract.Backend.wait_polling` on ``irq``, paused
         at the sampler's next tick; None where samples are taken from Python (each must be
         taken at its cycle) or the backend cannot."""
         if not self.native:

@@ -1,29 +1,28 @@
 """The simulated machine as the 8085 sees it, and what the run measures at the firmware's
 trace points.
 
-:class:`SimulatedLink` implements :class:`firmware_model.link.ChipsetLink` over a
-:class:`sim.run.sampler.Sampler` (a backend sampled as it runs) or a bare backend: the bus, the two
-interrupt inputs and the clock, nothing else. :class:`BlockMeter` is the logic analyser: at each
-block's start and end (:class:`firmware_model.firmware.BlockObserver`) it reads the simulation's
-observation counters (feed pulses, K3701 step pulses), which no firmware sees.
-"""
+:class:`SimulatedLink` implements :class:`k37.firmware_model.link.ChipsetLink` over a
+:class:`k37.sim.run.sampler.Sampler` (a backend sampled as it runs) or a bare backend: the bus, the
+two interrupt inputs and the clock, nothing else. :class:`BlockMeter` is the logic analyser: at each
+block's start and end (:class:`k37.firmware_model.firmware.BlockObserver`) it reads the simulation's
+observation counters (feed pulses, K3701 step pulses), which no firmware sees. """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-from firmware_model.firmware import BlockRecord
-from firmware_model.link import Interrupts
-from hdl.chipset.map import AXES
-from sim.backends.contract import Backend
-from sim.run.sampler import Sampler
+from k37.firmware_model.firmware import BlockRecord
+from k37.firmware_model.link import Interrupts
+from k37.hdl.chipset.map import AXES
+from k37.sim.backends.contract import Backend
+from k37.sim.run.sampler import Sampler
 
 __all__ = ["BlockMeasure", "BlockMeter", "SimulatedLink"]
 
 
 class SimulatedLink:
-    """:class:`firmware_model.link.ChipsetLink` on the simulated machine's bus and IRQ ports."""
+    """:class:`k37.firmware_model.link.ChipsetLink` on the simulated machine's bus and IRQ ports."""
 
     def __init__(self, sampler: Sampler | Backend):
         self.sampler = sampler

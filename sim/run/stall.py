@@ -6,11 +6,11 @@ from __future__ import annotations
 
 import math
 
-from firmware_model.feeds import feed_word, run_feed, word_rate
-from firmware_model.firmware import Firmware
-from firmware_model.gcode.parser import Move
-from firmware_model.job import Job
-from sim.run.sampler import Sampler
+from k37.firmware_model.feeds import feed_word, run_feed, word_rate
+from k37.firmware_model.firmware import Firmware
+from k37.firmware_model.gcode.parser import Move
+from k37.firmware_model.job import Job
+from k37.sim.run.sampler import Sampler
 
 __all__ = ["STALL_SECONDS", "RunStopped", "StallWatch", "stall_seconds"]
 

@@ -8,8 +8,8 @@ import os
 import re
 from pathlib import Path
 
-from hdl.chipset.map import ALL_AXES
-from sim.run.fst import fst_signals, fst_span
+from k37.hdl.chipset.map import ALL_AXES
+from k37.sim.run.fst import fst_signals, fst_span
 
 __all__ = ["GTKW_GROUPS", "GTKW_WIDTH_PX", "WAVE_FORMATS", "gtkw_flags", "is_fst",
            "wave_signals", "wave_span", "write_gtkw"]

@@ -1,9 +1,9 @@
 """``k37 serve``: the simulated machine behind a TCP socket, speaking the host bridge's protocol.
 
 Each connection is a session on a freshly reset machine: the bytes received go through the
-bridge's reference model (:class:`hdl.bridge.model.BridgeModel`) onto the machine's bus,
-interrupt inputs and clock (:class:`sim.run.simulated_link.SimulatedLink` over a
-:class:`sim.run.sampler.Sampler`), and simulated time passes only as the host's commands say
+bridge's reference model (:class:`k37.hdl.bridge.model.BridgeModel`) onto the machine's bus,
+interrupt inputs and clock (:class:`k37.sim.run.simulated_link.SimulatedLink` over a
+:class:`k37.sim.run.sampler.Sampler`), and simulated time passes only as the host's commands say
 (and the line's, with a UART's line time), so a session is as deterministic as a run in
 process. The board answers :attr:`Op.PROBE` too: the observation counters a real board has no
 bus for. One session at a time; a host that connects while another is being served waits.
@@ -17,15 +17,15 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from firmware_model.bridge_link import job_identity
-from firmware_model.job import Job
-from hdl.bridge.model import BridgeModel, LineTimed
-from hdl.bridge.protocol import PROBE_AXES, PROBE_FIELDS, check_cycles_per_bit
-from sim.backends.contract import Backend
-from sim.run.output import write_samples
-from sim.run.runner import build_backend, configure_plants
-from sim.run.sampler import Sampler, SampleStore
-from sim.run.simulated_link import SimulatedLink
+from k37.firmware_model.bridge_link import job_identity
+from k37.firmware_model.job import Job
+from k37.hdl.bridge.model import BridgeModel, LineTimed
+from k37.hdl.bridge.protocol import PROBE_AXES, PROBE_FIELDS, check_cycles_per_bit
+from k37.sim.backends.contract import Backend
+from k37.sim.run.output import write_samples
+from k37.sim.run.runner import build_backend, configure_plants
+from k37.sim.run.sampler import Sampler, SampleStore
+from k37.sim.run.simulated_link import SimulatedLink
 
 __all__ = ["Session", "SimulatedBoard"]
 
@@ -44,7 +44,7 @@ class SimulatedBoard:
     port, :attr:`port` once bound).
 
     ``line``: (cycles per bit, host turnaround in cycles) to let the machine's time include a
-    UART's as on a real board (:class:`hdl.bridge.model.LineTimed`); None: time passes only as
+    UART's as on a real board (:class:`k37.hdl.bridge.model.LineTimed`); None: time passes only as
     the commands say. ``trace``: where each session's samples (one every ``sample_every``
     cycles) are written as CSV when it ends, replacing the previous session's. ``probes``:
     False to answer as a real board does, without :attr:`Op.PROBE`.

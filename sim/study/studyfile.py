@@ -18,7 +18,7 @@
 A factor with a dot is a job key (its value replaces the base job's, and is checked when
 each run's job loads, as in ``k37 run``); one without is a program parameter, written
 ``{name}`` in the base job's G-code (inline, or its ``program.file``) and replaced by the
-level's text. Errors are :class:`~sim.run.jobfile.JobError` naming the study file.
+level's text. Errors are :class:`~k37.sim.run.jobfile.JobError` naming the study file.
 """
 
 from __future__ import annotations
@@ -30,10 +30,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from firmware_model.job import Job
-from sim.files import read_input_text, why
-from sim.run.jobfile import JobError, job_from_data, read_toml
-from sim.study.design import DESIGNS, DesignError, design
+from k37.firmware_model.job import Job
+from k37.sim.files import read_input_text, why
+from k37.sim.run.jobfile import JobError, job_from_data, read_toml
+from k37.sim.study.design import DESIGNS, DesignError, design
 
 __all__ = ["Study", "StudyRun", "load_study"]
 

@@ -1,7 +1,7 @@
 """``k37 sweep``: a study's runs on a pool of workers, one results table.
 
 Each worker process keeps its compiled machines (one per set of
-:func:`~sim.run.runner.design_key`) and resets them between runs, so a study pays one
+:func:`~k37.sim.run.runner.design_key`) and resets them between runs, so a study pays one
 build per worker, not one per run. Runs go to local worker processes (``jobs`` of them) or,
 with a scheduler address, to a Dask distributed cluster (``dask scheduler`` and ``dask
 worker`` processes anywhere): the same function runs each, so the table is the same.
@@ -33,11 +33,11 @@ from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import Any
 
-from sim.files import atomic_open, atomic_path
-from sim.run.ballbar import FIGURES, BallbarError, ballbar
-from sim.run.jobfile import JobError
-from sim.run.runner import OptionError, RunOptions, reused_backend, run_job
-from sim.study.studyfile import Study, StudyRun
+from k37.sim.files import atomic_open, atomic_path
+from k37.sim.run.ballbar import FIGURES, BallbarError, ballbar
+from k37.sim.run.jobfile import JobError
+from k37.sim.run.runner import OptionError, RunOptions, reused_backend, run_job
+from k37.sim.study.studyfile import Study, StudyRun
 
 __all__ = ["METRICS", "WORKER_STOP_SECONDS", "SweepError", "check_study", "end_with_parent",
            "run_one", "stop_workers", "sweep"]
@@ -340,7 +340,7 @@ def sweep(study: Study, out: Path, *, jobs: int = 2, scheduler: str | None = Non
           report: Callable[[str], None] | None = None) -> Path:
     """Run every run of ``study`` not yet in ``out/results.csv``; return the CSV's path.
 
-    Raises :class:`~sim.run.jobfile.JobError` (:func:`check_study`) or :class:`SweepError`
+    Raises :class:`~k37.sim.run.jobfile.JobError` (:func:`check_study`) or :class:`SweepError`
     (a folder holding another table) before any run.
     """
     check_study(study)

@@ -1,13 +1,12 @@
 """The interface between the K3701's core and its interpolation datapaths.
 
-The core (:class:`hdl.k3701.chip.K3701`) runs a block: the host bus, START, BUSY, the feed intake
-and step credit, the step latency and the step pulses. A datapath (one per interpolation type:
-:class:`hdl.k3701.datapaths.linear.LinearDatapath`,
-:class:`hdl.k3701.datapaths.circular.CircularDatapath`,
-:class:`hdl.k3701.datapaths.parabolic.ParabolicDatapath`, which also runs exponentials)
-decides the steps: it loads the block, answers with the step to take next, and decides the
-one after when the core takes it. A new interpolation type is one more :class:`Datapath`.
-"""
+The core (:class:`k37.hdl.k3701.chip.K3701`) runs a block: the host bus, START, BUSY, the feed
+intake and step credit, the step latency and the step pulses. A datapath (one per interpolation
+type: :class:`k37.hdl.k3701.datapaths.linear.LinearDatapath`,
+:class:`k37.hdl.k3701.datapaths.circular.CircularDatapath`,
+:class:`k37.hdl.k3701.datapaths.parabolic.ParabolicDatapath`, which also runs exponentials) decides
+the steps: it loads the block, answers with the step to take next, and decides the one after when
+the core takes it. A new interpolation type is one more :class:`Datapath`. """
 
 from __future__ import annotations
 

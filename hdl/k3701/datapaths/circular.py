@@ -1,14 +1,14 @@
 """K3701 circular interpolation datapath: the sign-of-D method with a serial radius check.
 
-The reference model is :class:`hdl.k3701.datapaths.circular_model.CircularPath`.
+The reference model is :class:`k37.hdl.k3701.datapaths.circular_model.CircularPath`.
 """
 
 from __future__ import annotations
 
 from amaranth.hdl import Module, Mux, Signal, Value, signed
 
-from hdl.k3701.block import MAX_RADIUS_SQUARED
-from hdl.k3701.datapaths.base import Datapath, magnitude, moves, refused
+from k37.hdl.k3701.block import MAX_RADIUS_SQUARED
+from k37.hdl.k3701.datapaths.base import Datapath, magnitude, moves, refused
 
 __all__ = ["CircularDatapath"]
 
@@ -35,7 +35,7 @@ class CircularDatapath(Datapath):
     the arc ends on the end point's long-axis coordinate in the armed end quadrant, or with an
     error on leaving that quadrant.
 
-    Timing (the ports are those of :class:`hdl.k3701.datapaths.base.DatapathSignature`; S is the
+    Timing (the ports are those of :class:`k37.hdl.k3701.datapaths.base.DatapathSignature`; S is the
     start cycle, C the cycle a step's credit completes, L the latency):
 
     * setup, S+1 to S+25: a serial squarer checks I^2 + J^2 (24 cycles and the check), and

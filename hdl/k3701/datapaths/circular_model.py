@@ -1,9 +1,9 @@
-"""Reference model of :mod:`hdl.k3701.datapaths.circular`: an arc by sign-of-F stepping
+"""Reference model of :mod:`k37.hdl.k3701.datapaths.circular`: an arc by sign-of-F stepping
 (:class:`CircularPath`), and a helix's arc driving its third axis (:class:`HelicalPath`)."""
 
 from __future__ import annotations
 
-from hdl.k3701.block import (
+from k37.hdl.k3701.block import (
     MAX_RADIUS_SQUARED,
     QUADRANT_SIGNS,
     BlockError,
@@ -11,7 +11,7 @@ from hdl.k3701.block import (
     check_coord,
     quadrant_of,
 )
-from hdl.k3701.datapaths.helix_model import HelixPath
+from k37.hdl.k3701.datapaths.helix_model import HelixPath
 
 __all__ = ["CircularPath", "HelicalPath"]
 

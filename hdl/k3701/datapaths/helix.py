@@ -1,13 +1,13 @@
 """The three-axis K3701's helix axis: a DDA on an arc's steps that moves the plane's normal.
 
-The reference model is :class:`hdl.k3701.datapaths.helix_model.HelixPath`.
+The reference model is :class:`k37.hdl.k3701.datapaths.helix_model.HelixPath`.
 """
 
 from amaranth.hdl import Module, Mux, Signal, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from hdl.k3701.datapaths.base import magnitude
+from k37.hdl.k3701.datapaths.base import magnitude
 
 __all__ = ["HelixAxis"]
 
@@ -27,8 +27,8 @@ class HelixAxis(wiring.Component):
         The arc's step count N (the H register).
     advance : In(1)
         High in the cycle the core takes an arc step (see
-        :class:`hdl.k3701.datapaths.base.DatapathSignature`); ``move`` holds the next step's move
-        from the following cycle.
+        :class:`k37.hdl.k3701.datapaths.base.DatapathSignature`); ``move`` holds the next step's
+        move from the following cycle.
     move, neg : Out(1)
         The third axis moves with the next arc step, in the negative direction; from S+1.
     error : Out(1)

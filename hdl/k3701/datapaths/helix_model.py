@@ -1,10 +1,10 @@
-"""Reference model of :mod:`hdl.k3701.datapaths.helix`: a helix's third axis, a DDA on the arc's own
-steps (:class:`HelixPath`)."""
+"""Reference model of :mod:`k37.hdl.k3701.datapaths.helix`: a helix's third axis, a DDA on the arc's
+own steps (:class:`HelixPath`)."""
 
 from __future__ import annotations
 
-from hdl.k3701.block import BlockError, check_coord
-from hdl.k3701.datapaths.linear_model import Dda
+from k37.hdl.k3701.block import BlockError, check_coord
+from k37.hdl.k3701.datapaths.linear_model import Dda
 
 __all__ = ["HelixPath"]
 

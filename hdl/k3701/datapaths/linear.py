@@ -1,14 +1,14 @@
 """K3701 linear interpolation datapaths: DDA stepping on the long axis, for the two-axis chip
 and the three-axis one.
 
-The reference model is :class:`hdl.k3701.datapaths.linear_model.LinearPath`.
+The reference model is :class:`k37.hdl.k3701.datapaths.linear_model.LinearPath`.
 """
 
 from __future__ import annotations
 
 from amaranth.hdl import Module, Mux, Signal
 
-from hdl.k3701.datapaths.base import Datapath, magnitude, refused
+from k37.hdl.k3701.datapaths.base import Datapath, magnitude, refused
 
 __all__ = ["LinearDatapath", "LinearDatapath3"]
 
@@ -18,7 +18,7 @@ class LinearDatapath(Datapath):
     step, the short one too when the accumulator, started at half the long count, reaches
     the long count.
 
-    Timing (the ports are those of :class:`hdl.k3701.datapaths.base.DatapathSignature`; S is the
+    Timing (the ports are those of :class:`k37.hdl.k3701.datapaths.base.DatapathSignature`; S is the
     start cycle): no setup and no stages. ``end`` (with ``error`` when Xe or Ye is -2^23)
     is high in S for a refused or zero-length line; the first step is in ``step`` from S+1;
     each ``advance`` decides the next step at its edge, so that it is in ``step`` from the
@@ -27,7 +27,7 @@ class LinearDatapath(Datapath):
 
     def elaborate(self, platform) -> Module:
         # ``end`` and ``error`` each have an expression of their own, so that the compiled
-        # simulation evaluates each only where the core reads it (see hdl.k3701.chip.K3701).
+        # simulation evaluates each only where the core reads it (see k37.hdl.k3701.chip.K3701).
         m = Module()
         block = self.block
         long_x = Signal()       # the long axis is X

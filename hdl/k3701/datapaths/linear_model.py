@@ -1,9 +1,9 @@
-"""Reference model of :mod:`hdl.k3701.datapaths.linear`: a line by DDA long-axis stepping, on two or
-three axes (:class:`LinearPath`), and the DDA of one short axis (:class:`Dda`)."""
+"""Reference model of :mod:`k37.hdl.k3701.datapaths.linear`: a line by DDA long-axis stepping, on
+two or three axes (:class:`LinearPath`), and the DDA of one short axis (:class:`Dda`)."""
 
 from __future__ import annotations
 
-from hdl.k3701.block import Step, check_coord
+from k37.hdl.k3701.block import Step, check_coord
 
 __all__ = ["Dda", "LinearPath"]
 

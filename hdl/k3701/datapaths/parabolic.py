@@ -1,20 +1,20 @@
 """K3701 parabolic and exponential (logarithmic) interpolation datapath: the sign-of-F method
 on F = A v - B p^2 - C p, and on the height of an exponential above the point.
 
-The reference models are :class:`hdl.k3701.datapaths.parabolic_model.ParabolicPath` and
-:class:`hdl.k3701.datapaths.parabolic_model.ExponentialPath`.
+The reference models are :class:`k37.hdl.k3701.datapaths.parabolic_model.ParabolicPath` and
+:class:`k37.hdl.k3701.datapaths.parabolic_model.ExponentialPath`.
 """
 
 from __future__ import annotations
 
 from amaranth.hdl import Module, Mux, Signal, signed
 
-from hdl.k3701.block import (
+from k37.hdl.k3701.block import (
     EXPONENTIAL_R2_BITS,
     EXPONENTIAL_SETUP_CYCLES,
     PARABOLA_SETUP_CYCLES,
 )
-from hdl.k3701.datapaths.base import Datapath, frame_step, magnitude, refused, shorter
+from k37.hdl.k3701.datapaths.base import Datapath, frame_step, magnitude, refused, shorter
 
 __all__ = ["ParabolicDatapath"]
 
@@ -45,7 +45,7 @@ class ParabolicDatapath(Datapath):
     stage, move |k| between r2 and F (2 sign(k)) while r2 is outside 0..|k|-1. The block
     also ends with an error if v passes ve.
 
-    Timing (the ports are those of :class:`hdl.k3701.datapaths.base.DatapathSignature`; S is the
+    Timing (the ports are those of :class:`k37.hdl.k3701.datapaths.base.DatapathSignature`; S is the
     start cycle, C the cycle a step's credit completes, L the latency):
 
     * setup, S+1 to S+29: two serial multipliers form A = pe * pe and C = pe * (4 vp - ve)

@@ -1,10 +1,10 @@
-"""Reference model of :mod:`hdl.k3701.datapaths.parabolic`: a parabola by evaluation of its function
-(:class:`ParabolicPath`) and an exponential or logarithm by a self-fed DDA
+"""Reference model of :mod:`k37.hdl.k3701.datapaths.parabolic`: a parabola by evaluation of its
+function (:class:`ParabolicPath`) and an exponential or logarithm by a self-fed DDA
 (:class:`ExponentialPath`), both drawn in the curve's own frame (:class:`FramePath`)."""
 
 from __future__ import annotations
 
-from hdl.k3701.block import EXPONENTIAL_R2_BITS, BlockError, Step, check_coord, wrap
+from k37.hdl.k3701.block import EXPONENTIAL_R2_BITS, BlockError, Step, check_coord, wrap
 
 __all__ = ["ExponentialPath", "FramePath", "ParabolicPath"]
 

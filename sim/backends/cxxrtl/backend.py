@@ -1,7 +1,7 @@
 """The compiled simulation backend: a CXXRTL model (:mod:`.build`) driven through ctypes.
 
-:class:`CxxrtlBackend` implements :class:`sim.backends.contract.Backend` bit for bit like
-:class:`sim.backends.pysim.PysimBackend`. Hot paths (stepping, waiting for a port, host-bus
+:class:`CxxrtlBackend` implements :class:`k37.sim.backends.contract.Backend` bit for bit like
+:class:`k37.sim.backends.pysim.PysimBackend`. Hot paths (stepping, waiting for a port, host-bus
 cycles) are one C call each.
 """
 
@@ -22,8 +22,8 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from hdl.common.observation import FreeRunning
-from sim.backends.contract import (
+from k37.hdl.common.observation import FreeRunning
+from k37.sim.backends.contract import (
     CLOCK_PERIOD,
     Backend,
     Design,
@@ -33,8 +33,8 @@ from sim.backends.contract import (
     instantiate,
     select_signals,
 )
-from sim.backends.cxxrtl.build import build, find_design, remember_design
-from sim.backends.toolchain import Model
+from k37.sim.backends.cxxrtl.build import build, find_design, remember_design
+from k37.sim.backends.toolchain import Model
 
 if TYPE_CHECKING:
     from amaranth.lib import wiring
@@ -55,7 +55,7 @@ class WaitEnd(enum.IntEnum):
     PAUSED_DUE = 3
 
 
-#: What :meth:`sim.backends.contract.Backend.wait_polling` says of a wait that ended so: 1 it
+#: What :meth:`k37.sim.backends.contract.Backend.wait_polling` says of a wait that ended so: 1 it
 #: goes on, 2 it goes on with the routine of the tick reached due; 0 (any other end) it is over.
 _GOES_ON = {WaitEnd.PAUSED: 1, WaitEnd.PAUSED_DUE: 2}
 
@@ -127,21 +127,21 @@ def _load(path: Path) -> ctypes.CDLL:
 
 
 class CxxrtlBackend(Backend):
-    """:class:`sim.backends.contract.Backend` on a compiled CXXRTL model of ``component``.
+    """:class:`k37.sim.backends.contract.Backend` on a compiled CXXRTL model of ``component``.
 
     Construction converts and builds the design (or loads it from the cache; ``model`` tells
     which). ``step(n, skip_idle=True)`` and ``run_until(..., skip_idle=True)`` stop evaluating once
     a whole clock cycle changed no state but the component's declared
-    :class:`hdl.common.observation.FreeRunning` state, while its ``quiet`` probe reads 1: with the
-    inputs held, the rest is at a fixed point, so the cycles up to the next event of the
+    :class:`k37.hdl.common.observation.FreeRunning` state, while its ``quiet`` probe reads 1: with
+    the inputs held, the rest is at a fixed point, so the cycles up to the next event of the
     free-running state are only counted (``skipped_cycles``) and that state is advanced in closed
     form; the result is bit-identical to stepping. The commits tell after every cycle whether the
     rest changed (:func:`design_main`), so a skip starts at the first quiet cycle. An undeclared
-    free-running counter keeps skipping from firing; a declaration with no ``quiet`` (a part of
-    some parent's state, such as the FEED chip's) declares nothing to skip on.
+    free-running counter keeps skipping from firing; a declaration with no ``quiet`` (a part of some
+    parent's state, such as the FEED chip's) declares nothing to skip on.
 
     Probes are CXXRTL debug items; their names follow the Amaranth hierarchy, so they are the
-    same as :class:`sim.backends.pysim.PysimBackend`'s wherever Yosys kept the signal.
+    same as :class:`k37.sim.backends.pysim.PysimBackend`'s wherever Yosys kept the signal.
     """
 
     name = "cxxrtl"
@@ -187,12 +187,12 @@ class CxxrtlBackend(Backend):
         it has a clock to step, and build its model; with the facts the backend needs of the
         design itself, so that a design found by its key is never elaborated: its name, ports,
         signed signals and free-running state (pickled: plain data of
-        :mod:`hdl.common.observation`)."""
+        :mod:`k37.hdl.common.observation`)."""
         from amaranth.back import rtlil
         from amaranth.hdl import Fragment, Shape
         from amaranth.hdl._ir import PortDirection
 
-        from sim.backends.introspect import component_ports, signal_paths
+        from k37.sim.backends.introspect import component_ports, signal_paths
 
         free: FreeRunning | None = getattr(component, "free_running", None)
         if free is not None and free.quiet is None:

@@ -7,7 +7,7 @@ links it with a small C ABI harness (``harness.cc`` and the parts it includes,
 library is cached under ``~/.cache/k37/cxxrtl/<sha256>/`` (or ``$K37_CACHE_DIR/cxxrtl``), keyed
 by the RTLIL, every file of the harness, the compiler flags, the versions of g++, Amaranth and
 Yosys and the code that generates the design's translation unit
-(:mod:`sim.backends.cxxrtl.codegen`, and the header ``words.h`` it includes: CXXRTL's arithmetic
+(:mod:`k37.sim.backends.cxxrtl.codegen`, and the header ``words.h`` it includes: CXXRTL's arithmetic
 in machine words), so an unchanged design is built once; a build reports its phases on stderr.
 Nothing is ever evicted from the cache.
 """
@@ -27,9 +27,9 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from sim.backends.cxxrtl import codegen, evals, rise
-from sim.backends.cxxrtl.codegen import DESIGN_MAIN, design_main
-from sim.backends.toolchain import (
+from k37.sim.backends.cxxrtl import codegen, evals, rise
+from k37.sim.backends.cxxrtl.codegen import DESIGN_MAIN, design_main
+from k37.sim.backends.toolchain import (
     Model,
     build_dir,
     cache_root,
@@ -163,9 +163,9 @@ def build(rtlil_text: str, *, free: Sequence[str] = (), reads: Sequence[str] = (
     The harness is compiled once per toolchain (``runtime-<sha256>.o``, in parallel with the
     first design that needs it); each design then costs a Yosys run, one compile and a link.
     ``free``: probe paths of the registers of the design's free-running state
-    (:meth:`sim.backends.contract.FreeRunning.registers`), which the commits tell apart from
+    (:meth:`k37.sim.backends.contract.FreeRunning.registers`), which the commits tell apart from
     the rest (:func:`design_main`); ``reads``: probe paths of what the harness reads to decide
-    a skip (:meth:`~hdl.common.observation.FreeRunning.reads`), which the model computes alone.
+    a skip (:meth:`~k37.hdl.common.observation.FreeRunning.reads`), which the model computes alone.
     """
     tools = _toolchain(compiler)
     harness = _harness()

@@ -3,14 +3,14 @@
 Yosys's ``write_cxxrtl`` writes one ``eval()`` that computes every value of the design and
 one ``commit()`` of every register. :func:`design_main` wraps it in a translation unit with
 what the harness (``harness.cc``; ``model.h`` declares it) asks of the design, generated from
-that C++ (:mod:`sim.backends.cxxrtl.evals` reads it):
+that C++ (:mod:`k37.sim.backends.cxxrtl.evals` reads it):
 - commits per clock edge of only the registers that edge can change
-  (:func:`~sim.backends.cxxrtl.evals.edge_wires`);
+  (:func:`~k37.sim.backends.cxxrtl.evals.edge_wires`);
 - a rising edge that runs only the parts of the design whose inputs changed
-  (:func:`~sim.backends.cxxrtl.rise.rise_eval`), and a falling edge that runs only when what
-  its registers read changed (:func:`~sim.backends.cxxrtl.evals.fall_eval`);
-- the evaluation of one output port (:func:`~sim.backends.cxxrtl.evals.port_eval`) and of
-  what a skip decision reads (:func:`~sim.backends.cxxrtl.evals.skip_eval`), alone.
+  (:func:`~k37.sim.backends.cxxrtl.rise.rise_eval`), and a falling edge that runs only when what
+  its registers read changed (:func:`~k37.sim.backends.cxxrtl.evals.fall_eval`);
+- the evaluation of one output port (:func:`~k37.sim.backends.cxxrtl.evals.port_eval`) and of
+  what a skip decision reads (:func:`~k37.sim.backends.cxxrtl.evals.skip_eval`), alone.
 Anything the generators do not recognise falls back to CXXRTL's own ``eval()`` and
 ``commit()``.
 """
@@ -19,8 +19,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from sim.backends.cxxrtl.evals import edge_wires, fall_eval, member_paths, port_eval, skip_eval
-from sim.backends.cxxrtl.rise import FALL, rise_eval
+from k37.sim.backends.cxxrtl.evals import edge_wires, fall_eval, member_paths, port_eval, skip_eval
+from k37.sim.backends.cxxrtl.rise import FALL, rise_eval
 
 __all__ = ["DESIGN_MAIN", "SPLIT_COMMIT", "WHOLE_COMMIT", "design_main"]
 

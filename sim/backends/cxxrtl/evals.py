@@ -1,5 +1,5 @@
 """What K37 reads from the C++ that Yosys's ``write_cxxrtl`` writes of a design, and the partial
-evaluations it makes of it (:mod:`sim.backends.cxxrtl.codegen` puts them together).
+evaluations it makes of it (:mod:`k37.sim.backends.cxxrtl.codegen` puts them together).
 
 CXXRTL's ``eval()`` is read as units (:func:`eval_units`): its local declarations, its edge
 blocks and its one-line assignments, in dependency order. From them: a falling edge's

@@ -128,7 +128,7 @@ uint64_t k37_run_until(void *handle, size_t index, uint64_t limit, int skip_idle
 	return run_until(m, m.items[index], limit, skip_idle != 0);
 }
 
-// One host bus write cycle (sim.backends.contract.Backend.bus_write): the byte is taken at
+// One host bus write cycle (k37.sim.backends.contract.Backend.bus_write): the byte is taken at
 // the edge.
 void k37_bus_write(void *handle, size_t addr, size_t w_data, size_t w_stb, uint64_t address,
                    uint64_t data) {
@@ -139,7 +139,7 @@ void k37_bus_write(void *handle, size_t addr, size_t w_data, size_t w_stb, uint6
 	k37_set(handle, w_stb, 0);
 }
 
-// One host bus read cycle (sim.backends.contract.Backend.bus_read); returns the byte of the
+// One host bus read cycle (k37.sim.backends.contract.Backend.bus_read); returns the byte of the
 // next cycle.
 uint64_t k37_bus_read(void *handle, size_t addr, size_t r_stb, size_t r_data, uint64_t address) {
 	const size_t bus[] = {addr, r_stb, r_data};

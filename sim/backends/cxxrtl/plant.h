@@ -1,5 +1,5 @@
 // The servo plants that a skip steps natively (plant.cc), as the backend declares them
-// (sim/backends/cxxrtl/backend.py, from hdl.common.observation.FreeRunning). Part of the
+// (sim/backends/cxxrtl/backend.py, from k37.hdl.common.observation.FreeRunning). Part of the
 // harness's one translation unit (harness.cc).
 
 #pragma once

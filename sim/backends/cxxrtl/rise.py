@@ -1,12 +1,12 @@
 """The rising edge's evaluation of a CXXRTL design that runs only the parts whose inputs
-changed (:func:`rise_eval`), from the units :mod:`sim.backends.cxxrtl.evals` reads."""
+changed (:func:`rise_eval`), from the units :mod:`k37.sim.backends.cxxrtl.evals` reads."""
 
 from __future__ import annotations
 
 import re
 from typing import NamedTuple
 
-from sim.backends.cxxrtl.evals import (
+from k37.sim.backends.cxxrtl.evals import (
     CXX_NAME,
     HEAD_LINES,
     declared_members,

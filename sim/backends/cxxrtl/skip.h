@@ -1,6 +1,6 @@
 // Idle skipping: the free-running state that a skip advances in closed form (skip.cc), as the
 // backend declares it (sim/backends/cxxrtl/backend.py, from
-// hdl.common.observation.FreeRunning), and
+// k37.hdl.common.observation.FreeRunning), and
 // the rate multiplier's decoding that tells when its next pulse comes. Part of the harness's
 // one translation unit (harness.cc).
 

@@ -1,6 +1,6 @@
 // The firmware's polling wait, run natively (wait.h): the host's halted wait for an interrupt
-// with a timer routine that only reads, as firmware_model.host.Host8085.wait_polling's own loop
-// of waits, idle cycles and bus reads runs it (sim.backends.contract.Backend.wait_polling).
+// with a timer routine that only reads, as k37.firmware_model.host.Host8085.wait_polling's own loop
+// of waits, idle cycles and bus reads runs it (k37.sim.backends.contract.Backend.wait_polling).
 
 #include "model.h"
 #include "wait.h"

@@ -25,7 +25,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from sim.backends.toolchain import (
+from k37.sim.backends.toolchain import (
     Model,
     build_dir,
     cache_root,
