@@ -1,12 +1,13 @@
 """Pages of the K37 manual generated from the code when the site is built.
 
-Five MyST directives, each of which renders Markdown made from one source of truth:
+Six MyST directives, each of which renders Markdown made from one source of truth:
 
 * ``k37-registers MAP``: a chip's register map (:mod:`k37.hdl.bus.registers` tables);
 * ``k37-pins BLOCK``: the pins of an exported chip (:func:`k37.sim.fpga.export.pins`);
 * ``k37-board-pins AXES``: the ULX3S's pin map of the board top (:mod:`k37.hdl.board.pins`);
 * ``k37-cli``: every ``k37`` command and option (:func:`k37.sim.cli.build_parser`);
-* ``k37-architecture``: the packages and modules, with their docstrings' first sentences.
+* ``k37-architecture``: the packages and modules, with their docstrings' first sentences;
+* ``k37-layers``: the import contracts that ``lint-imports`` checks (``pyproject.toml``).
 
 The functions that make the Markdown are plain Python, so the tests call them too.
 """
@@ -16,6 +17,7 @@ from __future__ import annotations
 import argparse
 import ast
 import re
+import tomllib
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -134,6 +136,35 @@ def architecture() -> str:
     return "\n".join(out)
 
 
+def _names(modules: list[str]) -> str:
+    return ", ".join(f"`{m}`" for m in modules)
+
+
+def import_contracts() -> str:
+    """Every import contract of ``pyproject.toml`` as a Markdown list, in the file's order."""
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["importlinter"]
+    out = []
+    for contract in config["contracts"]:
+        kind = contract["type"]
+        if kind == "acyclic_siblings":
+            rule = (f"no import cycle between the sibling packages or modules of "
+                    f"{_names(contract['ancestors'])}, at any depth")
+        elif kind == "layers":
+            layers = " then ".join(" / ".join(f"`{name.strip()}`" for name in layer.split("|"))
+                                   for layer in contract["layers"])
+            rule = (f"in {_names(contract['containers'])}, from the top: {layers} (a layer "
+                    f"imports only from the layers below it; `a` / `b` import nothing of "
+                    f"each other)")
+        elif kind == "forbidden":
+            sources = contract["source_modules"]
+            verb = "import" if len(sources) > 1 else "imports"
+            rule = f"{_names(sources)} {verb} nothing of {_names(contract['forbidden_modules'])}"
+        else:
+            raise ValueError(f"pyproject.toml: import contract of unknown type {kind!r}")
+        out.append(f"- **{contract['name']}**: {rule}.")
+    return "\n".join(out)
+
+
 def _cc_comment(path: Path) -> str:
     """The leading comment block of a C++ file, as one paragraph."""
     lines = []
@@ -171,4 +202,5 @@ def setup(app):
     app.add_directive("k37-board-pins", directive(board_pin_table, 1))
     app.add_directive("k37-cli", directive(cli_reference, 0))
     app.add_directive("k37-architecture", directive(architecture, 0))
+    app.add_directive("k37-layers", directive(import_contracts, 0))
     return {"parallel_read_safe": True, "parallel_write_safe": True}

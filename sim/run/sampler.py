@@ -47,7 +47,7 @@ SAMPLED_PORTS = sampled_ports()
 CHUNK_ROWS = 1 << 16
 #: The longest a backend that records the samples itself runs between ticks (cycles).
 PROGRESS_CYCLES = 1_000_000
-#: The same for a backend sampled from Python (Amaranth's simulator: about 1e4 cycles/s).
+#: The same for a backend sampled from Python (Amaranth's simulator, thousands of times slower).
 SLOW_TICK_CYCLES = 10_000
 NEVER = 1 << 63
 
