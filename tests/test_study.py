@@ -8,6 +8,7 @@ import csv
 import itertools
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -113,6 +114,16 @@ def test_a_bad_level_is_a_row_with_status_error_naming_the_key(tmp_path):
 
     row = run_one(study, study.runs[0])
     assert row["status"] == "error" and "servo.kp" in row["reason"]
+
+
+def test_a_cluster_sweep_without_dask_names_the_extra_and_runs_nothing(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "distributed", None)  # as on the default install
+    study = load_study(write_study(tmp_path, '[factors]\nfeed = [600]\nradius = [5]\n'))
+    with pytest.raises(SweepError, match=r"--scheduler needs Dask's distributed package.*"
+                                         r"k37\[cluster\]"):
+        sweep(study, tmp_path / "out", scheduler="tcp://127.0.0.1:1")
+    table = tmp_path / "out" / "results.csv"
+    assert not table.exists() or len(table.read_text().splitlines()) <= 1
 
 
 def test_gain_mismatch_makes_the_2_theta_ellipse_of_the_theory(job_file):

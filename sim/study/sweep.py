@@ -304,8 +304,12 @@ def _executor(jobs: int, scheduler: str | None) -> Callable[[Study, list[StudyRu
             pool.close()
 
     def dask(study: Study, runs: list[StudyRun]) -> Iterator[dict[str, Any]]:
-        from distributed import Client
-        from distributed import as_completed as dask_completed
+        try:
+            from distributed import Client
+            from distributed import as_completed as dask_completed
+        except ImportError:
+            raise SweepError("--scheduler needs Dask's distributed package, which the default "
+                             "install leaves out: pip install 'k37[cluster]'") from None
 
         with Client(scheduler, timeout="20s") as client:
             futures = [client.submit(run_one, study, run, pure=False) for run in runs]
