@@ -23,7 +23,7 @@ _spec.loader.exec_module(k37_sphinx)
 @pytest.mark.parametrize("name", sorted(documents()))
 def test_generated_doc_is_up_to_date(name):
     assert (ROOT / "docs" / name).read_text() == documents()[name], (
-        f"docs/{name} is stale: run `k37 docs`")
+        f"docs/{name} is stale: run `k37 docs -o docs`")
 
 
 def test_every_register_of_every_chip_is_documented():

@@ -20,6 +20,7 @@ from pathlib import Path
 import pytest
 
 from k37.sim.cli import main
+from k37.sim.cli.shared import EXIT_OUTPUT
 from k37.sim.files import OutputError, atomic_open, check_outputs
 from k37.sim.run import runner
 from k37.sim.run.fst import convert_in_child
@@ -119,7 +120,7 @@ def test_a_full_stdout_is_an_error_naming_it_and_the_files_are_written(tmp_path)
         done = subprocess.run([sys.executable, "-m", "k37.sim.cli", "run", str(CIRCLE), "--json",
                                str(tmp_path / "r.json")], stdout=full, stderr=subprocess.PIPE,
                               text=True, env=ENV, timeout=600, check=False)
-    assert done.returncode == 1
+    assert done.returncode == EXIT_OUTPUT
     _one_error(done.stderr, "stdout: not written: No space left on device")
     assert json.loads((tmp_path / "r.json").read_text())["status"] == "ok"
 
@@ -150,7 +151,7 @@ def test_plan_to_a_closed_or_full_stdout_is_an_error_not_a_traceback(monkeypatch
         done = subprocess.run([sys.executable, "-m", "k37.sim.cli", "plan", str(CIRCLE)],
                               stdout=full, stderr=subprocess.PIPE, text=True, env=ENV,
                               timeout=120, check=False)
-    assert done.returncode == 1
+    assert done.returncode == EXIT_OUTPUT
     _one_error(done.stderr, "stdout: not written: No space left on device")
 
 
@@ -179,7 +180,7 @@ def test_a_full_disk_costs_only_the_outputs_on_it_each_reported_by_name(
         tmp_path, small_fs, capsys):
     trace, wave, report = small_fs / "t.csv", small_fs / "w.fst", tmp_path / "r.json"
     assert main(["run", str(CIRCLE), "-q", "--trace", str(trace), "--vcd", str(wave),
-                 "--vcd-stop", "2000", "--json", str(report)]) == 1
+                 "--vcd-stop", "2000", "--json", str(report)]) == EXIT_OUTPUT
     err = capsys.readouterr().err
     assert "Traceback" not in err
     assert f"k37: error: --trace {trace}: not written: No space left on device" in err
@@ -193,7 +194,7 @@ def test_a_full_disk_costs_only_the_outputs_on_it_each_reported_by_name(
 def test_a_waveform_that_fills_the_disk_is_reported_and_removed(tmp_path, small_fs, capsys):
     wave = small_fs / "w.vcd"
     assert main(["run", str(CIRCLE), "-q", "--vcd", str(wave), "--vcd-stop", "2000",
-                 "--json", str(tmp_path / "r.json")]) == 1
+                 "--json", str(tmp_path / "r.json")]) == EXIT_OUTPUT
     _one_error(capsys.readouterr().err, f"--vcd {wave}: not written: No space left on device")
     assert list(small_fs.iterdir()) == []
 

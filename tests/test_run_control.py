@@ -382,6 +382,50 @@ def test_trace_csv_is_written_from_the_store_chunk_by_chunk(tmp_path, monkeypatc
     assert lines[5].split(",")[:3] == [str(v) for v in raw[4, :3]]
 
 
+@pytest.mark.parametrize(("argv", "message"), [
+    (["run", "--max-cycles", "-5"],
+     "k37 run: error: argument --max-cycles: must be a positive integer, not -5 "
+     "(see k37 run --help)"),
+    (["run", "--no-such-option"],
+     "k37 run: error: unrecognized arguments: --no-such-option (see k37 run --help)"),
+    (["sweep", "study.toml", "--out", "o", "--extra"],
+     "k37 sweep: error: unrecognized arguments: --extra (see k37 sweep --help)"),
+    (["reproduce", "--quick"],
+     "k37 reproduce: error: the following arguments are required: --out"),
+    (["docs"], "k37 docs: error: the following arguments are required: -o/--output"),
+])
+def test_a_bad_argument_is_one_line_naming_the_command_and_the_option(
+        tmp_path, monkeypatch, capsys, argv, message):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(message), err
+    assert list(tmp_path.iterdir()) == []  # nothing written, docs/ least of all
+
+
+def test_k37_version_prints_the_installed_version(capsys):
+    from importlib import metadata
+
+    with pytest.raises(SystemExit) as stop:
+        main(["--version"])
+    assert stop.value.code == 0
+    assert capsys.readouterr().out == f"k37 {metadata.version('k37')}\n"
+
+
+@pytest.mark.parametrize(("exists", "what"), [
+    (False, "no such folder"), (True, "no results.csv in it")])
+def test_k37_effects_on_a_folder_without_a_study_says_so_first(tmp_path, capsys, exists, what):
+    folder = tmp_path / "study"
+    if exists:
+        folder.mkdir()
+    assert main(["effects", str(folder), "--metric", "circularity"]) == 2
+    err = capsys.readouterr().err
+    assert err == (f"k37: error: {folder}: not a study ({what}; `k37 sweep STUDY --out "
+                   f"{folder}` makes one)\n")
+
+
 @pytest.mark.parametrize(("before", "after"), [(None, "1"), ("3", "3")])
 def test_the_command_line_gives_numpys_blas_one_thread_unless_told_otherwise(
         monkeypatch, tmp_path, before, after):

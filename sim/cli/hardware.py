@@ -7,7 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from k37.sim.cli.shared import check, interrupted, stdout, stopped
+from k37.sim.cli.shared import EXIT_OUTPUT, check, interrupted, stdout, stopped
 
 __all__ = ["add_commands"]
 
@@ -27,7 +27,7 @@ def _cmd_export_verilog(args: argparse.Namespace) -> int:
     except OSError as e:
         print(f"k37: error: {e.filename or args.output}: not written: {why(e)}",
               file=sys.stderr)
-        return 1
+        return EXIT_OUTPUT
     return stdout(lambda: print("\n".join(f"k37 export-verilog: wrote {p}"
                                           for p in [*paths, core])))
 
@@ -48,7 +48,7 @@ def _cmd_synth(args: argparse.Namespace) -> int:
         print(f"k37 synth: {stopped()}", file=sys.stderr)
         return interrupted()
     if stdout(lambda: print(report.format_table())):
-        return 1
+        return EXIT_OUTPUT
     for failure in report.failures:
         print(f"k37 synth: {failure}", file=sys.stderr)
     return 0 if report.ok else 1
@@ -72,7 +72,7 @@ def _cmd_build(args: argparse.Namespace) -> int:
         return 2
     except OSError as e:
         print(f"k37: error: {e.filename or out}: not written: {why(e)}", file=sys.stderr)
-        return 2
+        return EXIT_OUTPUT
     except KeyboardInterrupt:
         print(f"k37 build: {stopped()}", file=sys.stderr)
         return interrupted()

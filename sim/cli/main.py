@@ -6,13 +6,14 @@ import argparse
 import os
 import sys
 from collections.abc import Sequence
+from importlib import metadata
 from pathlib import Path
 
 import k37.sim.cli.hardware
 import k37.sim.cli.running
 import k37.sim.cli.serving
 import k37.sim.cli.studies
-from k37.sim.cli.shared import check, interrupted, signals_interrupt, stopped
+from k37.sim.cli.shared import EXIT_OUTPUT, Parser, check, interrupted, signals_interrupt, stopped
 
 __all__ = ["build_parser", "main"]
 
@@ -31,17 +32,21 @@ def _cmd_docs(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="k37", description="Cycle-accurate emulator of the TOKO KM3701/KM3702 NC chipset.")
+    parser.add_argument("--version", action="version",
+                        version=f"k37 {metadata.version('k37')}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     k37.sim.cli.running.add_commands(sub)
     k37.sim.cli.hardware.add_commands(sub)
     k37.sim.cli.serving.add_commands(sub)
     p = sub.add_parser("docs", help="write the generated documentation (register maps, JSON "
                                     "schema, job keys)")
-    p.add_argument("-o", "--output", default="docs", help="folder (default: docs)")
+    p.add_argument("-o", "--output", required=True, metavar="DIR",
+                   help="folder to write them in (the manual's sources are in docs/)")
     p.set_defaults(func=_cmd_docs)
     k37.sim.cli.studies.add_commands(sub)
+    parser.commands = sub.choices
     return parser
 
 
@@ -50,7 +55,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     # though K37 has no matrix work worth a thread: one thread leaves the cores to the runs.
     # Set before NumPy's first import; study workers inherit it.
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:  # in the name of the command they were given to, not of k37
+        parser.commands[args.command].error(f"unrecognized arguments: {' '.join(unknown)}")
     try:
         with signals_interrupt():
             return args.func(args)
@@ -59,4 +67,4 @@ def main(argv: Sequence[str] | None = None) -> int:
         return interrupted()
     except BrokenPipeError:  # the reader of stdout went away (`k37 run | head`): no traceback
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 1
+        return EXIT_OUTPUT

@@ -7,7 +7,15 @@ import math
 import sys
 from pathlib import Path
 
-from k37.sim.cli.shared import check, interrupted, positive_int, print_error, stdout, stopped
+from k37.sim.cli.shared import (
+    EXIT_OUTPUT,
+    check,
+    interrupted,
+    positive_int,
+    print_error,
+    stdout,
+    stopped,
+)
 
 __all__ = ["add_commands"]
 
@@ -114,7 +122,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
             print(f"k37: {stopped(result.stopped_by)} at cycle {result.report['cycles']:,}; "
                   f"{written}", file=sys.stderr)
         return interrupted(result.stopped_by)
-    return 0 if result.ok and not failures else 1
+    if failures:
+        return EXIT_OUTPUT
+    return 0 if result.ok else 1
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:

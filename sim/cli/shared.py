@@ -9,14 +9,31 @@ import sys
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
+from typing import NoReturn
 
-__all__ = ["EXIT_INTERRUPTED", "check", "interrupted", "positive_int", "print_error",
-           "signals_interrupt", "stdout", "stopped"]
+__all__ = ["EXIT_INTERRUPTED", "EXIT_OUTPUT", "EXIT_USAGE", "Parser", "check", "interrupted",
+           "positive_int", "print_error", "signals_interrupt", "stdout", "stopped"]
 
 
+#: Exit code of a bad argument, job or input (one ``k37: error:`` line says which).
+EXIT_USAGE = 2
+#: Exit code of a command whose work is done but one of whose outputs (a file, stdout) could
+#: not be written: the others are written, and an error line names the one that is not.
+EXIT_OUTPUT = 3
 #: Exit code of a command stopped by Ctrl-C (128 + SIGINT, as a shell reports it); a
 #: command stopped by SIGTERM exits 128 + SIGTERM = 143.
 EXIT_INTERRUPTED = 130
+
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line naming the command (``k37 run: error:
+    argument --max-cycles: ...``), exit code :data:`EXIT_USAGE`, instead of the usage text.
+    The top level's :attr:`commands` are the parsers of its commands, by name."""
+
+    commands: dict[str, argparse.ArgumentParser]
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
 class Stop:
@@ -76,8 +93,8 @@ def check(files: Sequence[tuple[str, str | Path | None]] = (), *,
 
 
 def stdout(write: Callable[[], object]) -> int:
-    """Print to stdout with ``write``: 0, or 1 with one error line if stdout fails (full,
-    closed)."""
+    """Print to stdout with ``write``: 0, or :data:`EXIT_OUTPUT` with one error line if stdout
+    fails (full, closed)."""
     from k37.sim.files import why
 
     try:
@@ -86,7 +103,7 @@ def stdout(write: Callable[[], object]) -> int:
     except OSError as e:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         print(f"k37: error: stdout: not written: {why(e)}", file=sys.stderr)
-        return 1
+        return EXIT_OUTPUT
     return 0
 
 

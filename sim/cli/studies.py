@@ -8,7 +8,15 @@ import os
 import sys
 from pathlib import Path
 
-from k37.sim.cli.shared import check, interrupted, positive_int, print_error, stdout, stopped
+from k37.sim.cli.shared import (
+    EXIT_OUTPUT,
+    check,
+    interrupted,
+    positive_int,
+    print_error,
+    stdout,
+    stopped,
+)
 
 __all__ = ["add_commands"]
 
@@ -32,7 +40,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         from k37.sim.files import why
 
         print(f"k37: error: {e.filename or out}: not written: {why(e)}", file=sys.stderr)
-        return 1
+        return EXIT_OUTPUT
     failed = [row for row in result.rows if not row.passed]
 
     def lines() -> None:
@@ -73,7 +81,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         from k37.sim.files import why
 
         print(f"k37: error: {e.filename or out}: {why(e)}", file=sys.stderr)
-        return 1
+        return EXIT_OUTPUT
     except KeyboardInterrupt:
         print(f"k37 sweep: {stopped()}; the workers are stopped and the finished runs are in "
               f"{out / 'results.csv'} (run the same command to go on)", file=sys.stderr)
@@ -97,6 +105,11 @@ def _cmd_effects(args: argparse.Namespace) -> int:
 
     table = Path(args.dir) / "results.csv"
     figure = Path(args.dir) / f"effects_{args.metric}.png"
+    if not table.is_file():
+        what = "no such folder" if not Path(args.dir).is_dir() else "no results.csv in it"
+        print(f"k37: error: {args.dir}: not a study ({what}; `k37 sweep STUDY --out "
+              f"{args.dir}` makes one)", file=sys.stderr)
+        return 2
     if not check([("", figure)], inputs=[table]):
         return 2
     try:
@@ -147,14 +160,14 @@ def _cmd_effects(args: argparse.Namespace) -> int:
                                                   strict=True)))
 
     if stdout(lines):
-        return 1
+        return EXIT_OUTPUT
     try:
         with atomic_path(figure) as tmp:
             effects_figure(effects, args.metric, f"{table}: main effects").savefig(tmp,
                                                                                    dpi=110)
     except OSError as e:
         print(f"k37: error: {figure}: not written: {why(e)}", file=sys.stderr)
-        return 1
+        return EXIT_OUTPUT
     return stdout(lambda: print(f"k37 effects: wrote {figure}"))
 
 
@@ -180,8 +193,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_effects)
     p = sub.add_parser("reproduce", help="run the paper's experiments; write figures and "
                                          "report.md (paper vs emulator, pass/fail per row)")
-    p.add_argument("--out", default="docs/reproduce", metavar="DIR",
-                   help="folder for report.md and the PNG figures (default: docs/reproduce)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="folder for report.md and the PNG figures (the manual's are in "
+                        "docs/reproduce)")
     p.add_argument("--quick", action="store_true",
                    help="smaller runs (the scale CI checks); the report says what shrank")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
