@@ -13,7 +13,7 @@ from amaranth.lib.wiring import In, Out
 from k37.hdl.bus.hostbus import HostBus
 from k37.hdl.common.observation import Countdown, FreeRunning, Observed
 from k37.hdl.k3701.block import CIRCLE_SETUP_CYCLES, LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
-from k37.hdl.k3701.core import build
+from k37.hdl.k3701.core import K3701Core
 from k37.hdl.k3701.map import k3701_map
 from k37.hdl.k3701.three_axis import ThreeAxes
 from k37.hdl.k3701.two_axis import DATAPATHS, TwoAxes
@@ -129,4 +129,4 @@ class K3701(Observed, wiring.Component):
         return FreeRunning(countdowns=(Countdown("latency.count", stop=1),), quiet="quiet")
 
     def elaborate(self, platform) -> Module:
-        return build(self, ThreeAxes() if self.axes == 3 else TwoAxes())
+        return K3701Core(self, ThreeAxes() if self.axes == 3 else TwoAxes()).elaborate()
