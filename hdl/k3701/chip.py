@@ -38,15 +38,15 @@ class K3701(Observed, wiring.Component):
       one FP arriving meanwhile is held, a further one sets OVERRUN and is lost;
     * BUSY falls and ``irq`` rises in the cycle of the final step's pulses.
 
-    Inside, the core (:mod:`k37.hdl.k3701.core`) runs the block (registers, commands and status,
-    FP intake and credit, the pulses), its step latency count times the steps and the
-    datapaths' stages (:mod:`k37.hdl.k3701.latency`), and one datapath per interpolation type
-    decides its steps (:mod:`k37.hdl.k3701.datapaths`, through the interface of
+    Inside, the core (:class:`k37.hdl.k3701.core.K3701Core`) runs the block (registers, commands
+    and status, FP intake and credit, the pulses), its step latency count times the steps and
+    the datapaths' stages (:mod:`k37.hdl.k3701.latency`), and one datapath per interpolation
+    type decides its steps (:mod:`k37.hdl.k3701.datapaths`, through the interface of
     :mod:`k37.hdl.k3701.datapaths.base`). Each step is decided before its FP can come: a line's
     next step in the cycle the current one is output, a circle's first step during the radius
-    check and each following one in four pipelined cycles of the current step's latency.
-    The logic thus works only when there is something to decide, which keeps compiled
-    simulation fast; it needs a circular latency of at least 6 cycles.
+    check and each following one in four pipelined cycles of the current step's latency. The
+    logic thus works only when there is something to decide, which keeps compiled simulation
+    fast; it needs a circular latency of at least 6 cycles.
 
     Parameters
     ----------

@@ -160,6 +160,13 @@ class K3701Core:
 
     regs: RegisterBank
     datapaths: list[Datapath]
+    phase: Signal
+    kind: Signal
+    sqrt2: Signal
+    xm: Signal
+    ym: Signal
+    held: Signal
+    credit: Signal
     step_latency: StepLatency
     word: Value
     new_kind: Value
