@@ -13,7 +13,7 @@ from amaranth.lib.wiring import In, Out
 from k37.hdl.bus.hostbus import HostBus
 from k37.hdl.common.observation import Countdown, FreeRunning, Observed
 from k37.hdl.k3701.block import CIRCLE_SETUP_CYCLES, LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
-from k37.hdl.k3701.core import build
+from k37.hdl.k3701.core import K3701Core
 from k37.hdl.k3701.map import k3701_map
 from k37.hdl.k3701.three_axis import ThreeAxes
 from k37.hdl.k3701.two_axis import DATAPATHS, TwoAxes
@@ -38,15 +38,15 @@ class K3701(Observed, wiring.Component):
       one FP arriving meanwhile is held, a further one sets OVERRUN and is lost;
     * BUSY falls and ``irq`` rises in the cycle of the final step's pulses.
 
-    Inside, the core (:mod:`k37.hdl.k3701.core`) runs the block (registers, commands and status,
-    FP intake and credit, the pulses), its step latency count times the steps and the
-    datapaths' stages (:mod:`k37.hdl.k3701.latency`), and one datapath per interpolation type
-    decides its steps (:mod:`k37.hdl.k3701.datapaths`, through the interface of
+    Inside, the core (:class:`k37.hdl.k3701.core.K3701Core`) runs the block (registers, commands
+    and status, FP intake and credit, the pulses), its step latency count times the steps and
+    the datapaths' stages (:mod:`k37.hdl.k3701.latency`), and one datapath per interpolation
+    type decides its steps (:mod:`k37.hdl.k3701.datapaths`, through the interface of
     :mod:`k37.hdl.k3701.datapaths.base`). Each step is decided before its FP can come: a line's
     next step in the cycle the current one is output, a circle's first step during the radius
-    check and each following one in four pipelined cycles of the current step's latency.
-    The logic thus works only when there is something to decide, which keeps compiled
-    simulation fast; it needs a circular latency of at least 6 cycles.
+    check and each following one in four pipelined cycles of the current step's latency. The
+    logic thus works only when there is something to decide, which keeps compiled simulation
+    fast; it needs a circular latency of at least 6 cycles.
 
     Parameters
     ----------
@@ -129,4 +129,4 @@ class K3701(Observed, wiring.Component):
         return FreeRunning(countdowns=(Countdown("latency.count", stop=1),), quiet="quiet")
 
     def elaborate(self, platform) -> Module:
-        return build(self, ThreeAxes() if self.axes == 3 else TwoAxes())
+        return K3701Core(self, ThreeAxes() if self.axes == 3 else TwoAxes()).elaborate()

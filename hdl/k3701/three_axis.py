@@ -15,7 +15,6 @@ moving 1, 2 or 3 axes costs 4, 6 or 7 with sqrt(2) control.
 from __future__ import annotations
 
 from collections.abc import Callable
-from types import SimpleNamespace
 
 from amaranth.hdl import Module, Mux, Signal, Value, signed
 from amaranth.lib import wiring
@@ -23,8 +22,8 @@ from amaranth.lib import wiring
 from k37.hdl.bus.hostbus import RegisterBank
 from k37.hdl.bus.registers import Register
 from k37.hdl.k3701.block import PLANES, Kind
-from k37.hdl.k3701.core import Axes, field_of
-from k37.hdl.k3701.datapaths.base import Datapath, StepSignature, moves
+from k37.hdl.k3701.core import Assignments, Axes, Step, Step3, field_of
+from k37.hdl.k3701.datapaths.base import Datapath, moves
 from k37.hdl.k3701.datapaths.circular import CircularDatapath
 from k37.hdl.k3701.datapaths.helix import HelixAxis
 from k37.hdl.k3701.datapaths.linear import LinearDatapath3
@@ -42,6 +41,14 @@ class ThreeAxes(Axes):
 
     KINDS = (Kind.LINEAR, Kind.CIRCULAR, Kind.PARABOLIC)
     CREDIT_WIDTH = 4
+    STEP = Step3
+
+    # the block's third axis (made by connect): its remaining distance, its plane, whether
+    # it is a parabola or an exponential, and an arc's helix
+    zm: Signal
+    plane: Signal
+    curve: Signal
+    helix: HelixAxis
 
     def datapaths(self) -> list[Datapath]:
         return [LinearDatapath3(), CircularDatapath(axes=3), ParabolicDatapath(axes=3)]
@@ -50,7 +57,6 @@ class ThreeAxes(Axes):
         return curve_kind(regs.mode.w_data, _MODE, word, ctrl)
 
     def connect(self, m: Module, regs: RegisterBank, datapaths: list[Datapath]) -> None:
-        # the block's third axis: its remaining distance, its plane and an arc's helix
         self.zm = Signal(signed(24))
         zm = self.zm
         self.plane = Signal(2)
@@ -63,19 +69,10 @@ class ThreeAxes(Axes):
                      helix.start.eq(arc.start), helix.advance.eq(arc.advance)]
 
     def block_inputs(self, block: wiring.PureInterface, regs: RegisterBank, word: Value,
-                     ctrl: Register) -> list:
+                     ctrl: Register) -> Assignments:
         return [block.ze.eq(regs.z.w_data), *curve_inputs(block, regs, regs.mode.w_data, _MODE)]
 
-    def running_step(self, steps: list) -> list:
-        # an arc's third axis is the helix's; an arc step moves one plane axis or two
-        circular = steps[Kind.CIRCULAR]
-        arc = SimpleNamespace(**{n: getattr(circular, n) for n in StepSignature(2).members},
-                              z=self.helix.move, z_neg=self.helix.neg,
-                              diag3=circular.diag & self.helix.move)
-        arc.diag = arc.diag | self.helix.move
-        return [*steps[:Kind.CIRCULAR], arc, *steps[Kind.CIRCULAR + 1:]]
-
-    def latch(self, regs: RegisterBank, word: Value, ctrl: Register) -> list:
+    def latch(self, regs: RegisterBank, word: Value, ctrl: Register) -> Assignments:
         return [self.zm.eq(regs.z.w_data), self.plane.eq(field_of(word, ctrl.field("plane"))),
                 self.curve.eq(self.new_kind(regs, word, ctrl) == Kind.PARABOLIC)]
 
@@ -84,18 +81,26 @@ class ThreeAxes(Axes):
         return ready & Mux(self.curve, self.zm != 0, self.helix.error)
 
     def credit(self, credit: Value, sqrt2: Value,
-               step: Callable[[], SimpleNamespace]) -> tuple[Value, Value]:
+               step: Callable[[], Step]) -> tuple[Value, Value]:
         running = step()
         return credit + 4, Mux(sqrt2 & running.diag, Mux(running.diag3, 7, 6), 4)
 
-    def output(self, m: Module, chip: wiring.Component, step: SimpleNamespace,
+    def running_steps(self, ports: list[wiring.PureInterface]) -> list[Step]:
+        # an arc's third axis is the helix's; an arc step moves one plane axis or two
+        helix = self.helix
+        arc = ports[Kind.CIRCULAR]
+        return [Step3.of(arc, z=helix.move, z_neg=helix.neg, diag=arc.diag | helix.move,
+                         diag3=arc.diag & helix.move) if k == Kind.CIRCULAR else Step3.of(port)
+                for k, port in zip(self.KINDS, ports, strict=True)]
+
+    def output(self, m: Module, chip: wiring.Component, step: Step,
                position: tuple[Signal, Signal]) -> None:
         xm, ym = position
         self._route(m, chip, step)
         dx, dy, dz = moves(step, "xyz")
         m.d.sync += [xm.eq(xm - dx), ym.eq(ym - dy), self.zm.eq(self.zm - dz)]
 
-    def _route(self, m: Module, chip: wiring.Component, step: SimpleNamespace) -> None:
+    def _route(self, m: Module, chip: wiring.Component, step: Step) -> None:
         """The step pulses: the block's axes to the machine's, by CTRL.plane (code 3 routes
         as 0)."""
         for code, axes in enumerate((*PLANES, PLANES[0])):

@@ -9,7 +9,6 @@ credit is in half-FP units: a step costs 2, a diagonal one 3 with sqrt(2) contro
 from __future__ import annotations
 
 from collections.abc import Callable
-from types import SimpleNamespace
 
 from amaranth.hdl import Module, Mux, Signal, Value
 from amaranth.lib import wiring
@@ -17,7 +16,7 @@ from amaranth.lib import wiring
 from k37.hdl.bus.hostbus import RegisterBank
 from k37.hdl.bus.registers import Register
 from k37.hdl.k3701.block import Kind
-from k37.hdl.k3701.core import Axes
+from k37.hdl.k3701.core import Assignments, Axes, Step
 from k37.hdl.k3701.datapaths.base import Datapath, moves
 from k37.hdl.k3701.datapaths.circular import CircularDatapath
 from k37.hdl.k3701.datapaths.linear import LinearDatapath
@@ -41,7 +40,7 @@ def curve_kind(modes: Value, where: Register, word: Value, ctrl: Register) -> Va
 
 
 def curve_inputs(block: wiring.PureInterface, regs: RegisterBank, modes: Value,
-                 where: Register) -> list:
+                 where: Register) -> Assignments:
     """The parabolic datapath's block inputs beyond the common ones, from the curve modes
     ``modes`` (the register ``where`` describes) and E."""
     return [block.swap.eq(modes[where.field("swap").offset]), block.e.eq(regs.e.w_data),
@@ -53,6 +52,7 @@ class TwoAxes(Axes):
 
     KINDS = tuple(DATAPATHS)
     CREDIT_WIDTH = 3
+    STEP = Step
 
     def datapaths(self) -> list[Datapath]:
         return [DATAPATHS[k]() for k in self.KINDS]
@@ -61,14 +61,14 @@ class TwoAxes(Axes):
         return curve_kind(word, ctrl, word, ctrl)
 
     def block_inputs(self, block: wiring.PureInterface, regs: RegisterBank, word: Value,
-                     ctrl: Register) -> list:
+                     ctrl: Register) -> Assignments:
         return curve_inputs(block, regs, word, ctrl)
 
     def credit(self, credit: Value, sqrt2: Value,
-               step: Callable[[], SimpleNamespace]) -> tuple[Value, Value]:
+               step: Callable[[], Step]) -> tuple[Value, Value]:
         return credit + 2, Mux(sqrt2 & step().diag, 3, 2)
 
-    def output(self, m: Module, chip: wiring.Component, step: SimpleNamespace,
+    def output(self, m: Module, chip: wiring.Component, step: Step,
                position: tuple[Signal, Signal]) -> None:
         xm, ym = position
         dx, dy = moves(step)
