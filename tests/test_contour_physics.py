@@ -16,7 +16,7 @@ from test_backend_equivalence import same_on_both_backends
 from test_idle_skip import skipped_equals_stepped
 
 from k37.firmware_model.job import ContourConfig, Job, MachineConfig, ServoConfig, parse_for_machine
-from k37.sim.reproduce.seed002 import BEZIER_MM, Curve
+from k37.sim.reproduce.contour_error import BEZIER_MM, Curve
 from k37.sim.run.contour import contour_errors
 from k37.sim.run.runner import RunOptions, run_job
 

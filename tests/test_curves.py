@@ -16,7 +16,7 @@ from k37.hdl.k3701.model import plan
 from k37.sim.run.report import HOW_FIELDS
 from k37.sim.run.runner import RunOptions, run_job
 
-SEED_002 = "G21 G90 F1000\nG06 X30 Y0 I15 J-15\nM30"
+PAPER_PARABOLA = "G21 G90 F1000\nG06 X30 Y0 I15 J-15\nM30"
 
 
 def error_of(text: str) -> str:
@@ -25,8 +25,8 @@ def error_of(text: str) -> str:
     return str(info.value)
 
 
-def test_g06_loads_seed_002_parabola_as_one_block_ending_exactly():
-    (item,) = parse(SEED_002).items
+def test_g06_loads_the_contour_error_papers_parabola_as_one_block_ending_exactly():
+    (item,) = parse(PAPER_PARABOLA).items
     assert isinstance(item, Parabola)
     assert item.block == Block.parabola(30_000, 0, 15_000, -15_000, sqrt2=True)
     assert item.block.kind is Kind.PARABOLIC and not item.block.swap
@@ -74,7 +74,7 @@ def test_sharpest_accepted_parabola_has_the_minimum_vertex_radius():
 
 
 def test_parabola_distances_measure_the_true_curve_between_its_ends():
-    (item,) = parse(SEED_002).items
+    (item,) = parse(PAPER_PARABOLA).items
     curve = item.polyline(301)
     assert np.abs(item.distances(curve)).max() < 1e-6
     # The vertex (15, -15) mm, 5 LSB below it, and a point beyond the end.
@@ -83,7 +83,7 @@ def test_parabola_distances_measure_the_true_curve_between_its_ends():
 
 
 def test_on_three_axes_curve_distances_count_the_height_off_the_curves_plane():
-    line, parabola = parse("G91 F100 G01 Z0.007\n" + SEED_002.split("\n", 1)[1],
+    line, parabola = parse("G91 F100 G01 Z0.007\n" + PAPER_PARABOLA.split("\n", 1)[1],
                            source="t.ngc", axes=3).items[:2]
     points = np.array([[15_000, -15_005, 7], [15_000, -15_000, 19]], dtype=float)
     assert parabola.start[2] == 7 and line.end[2] == 7

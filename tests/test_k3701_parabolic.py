@@ -70,7 +70,7 @@ def test_many_parabolas_visit_points_within_half_an_lsb_and_end_exactly(block):
     check_points_and_end(block)
 
 
-def test_seed_002_parabola_stays_within_half_an_lsb():
+def test_the_contour_error_papers_parabola_stays_within_half_an_lsb():
     # y = (x - 15)^2 / 15 - 15 mm at 1 um per LSB, from x = 0 to 15 mm (vertex) and on to 30.
     for xe, ye, vp in ((15000, -15000, -11250), (15000, 15000, 3750)):
         path, points, error = visited(Block.parabola(xe, ye, xe // 2, vp))

@@ -139,7 +139,7 @@ def test_time_constants_of_26_and_28_ms_give_the_ballbar_ellipse_of_their_differ
     ('"none"', "kf = 0.5\ntm = 0.005", 0.5, 0.0, 0.0),
     ('"post"\naccel_fa_hz = 436906.6666666667', 'drive = "torque"\nkf = 0.8\nd = 0.025', 0.8,
      0.25, 0.075)])
-def test_steady_following_error_is_seed_003_eq_9(tmp_path, accel, servo, kf, d_ratio, ts):
+def test_steady_following_error_is_the_profile_papers_eq_9(tmp_path, accel, servo, kf, d_ratio, ts):
     # An X line at F1200 (20,000 LSB/s), Kp 30/s; D/(Vg Kt) with Vg Kt = 0.1 N m s/rad.
     result = run_toml(tmp_path, f"[machine]\naccel = {accel}\n[servo]\nkp = 30.0\n{servo}\n"
                                 f'[program]\ngcode = "G21 G91 F1200\\nG01 X40\\nM30"\n')

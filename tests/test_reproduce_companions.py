@@ -22,7 +22,7 @@ from k37.sim.reproduce.circle_error import (
     mismatch_ellipse,
     paper_loss,
 )
-from k37.sim.reproduce.seed000 import circuit_outputs, recursion_35
+from k37.sim.reproduce.filters import circuit_outputs, recursion_35
 from k37.sim.reproduce.theory import accel_filter, mismatch_amplitude, moving_average, servo
 from k37.sim.study.analysis import response_surface
 

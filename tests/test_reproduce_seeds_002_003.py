@@ -10,7 +10,7 @@ import pytest
 
 from k37.firmware_model.feeds import feed_word, word_rate
 from k37.firmware_model.gcode.parser import Line
-from k37.sim.reproduce import resonance, seed002, seed003
+from k37.sim.reproduce import contour_error, profile_error, resonance
 from k37.sim.reproduce.runs import RunSpec
 from k37.sim.reproduce.theory import following_error
 from k37.sim.run.ballbar import ballbar_of
@@ -18,18 +18,19 @@ from k37.sim.run.sampler import TRACE_COLUMNS
 
 
 def test_fig_6b_contour_error_vector_is_0_043_where_the_osculating_circle_says_0_377():
-    curve = seed002.Curve.parabola()
-    reference, tool = np.array([seed002.FIG6B["reference"]]), np.array([seed002.FIG6B["tool"]])
+    curve = contour_error.Curve.parabola()
+    reference = np.array([contour_error.FIG6B["reference"]])
+    tool = np.array([contour_error.FIG6B["tool"]])
     u, on_curve = curve.nearest(reference)
     assert on_curve[0] < 1e-3  # the printed reference point is on the parabola
     estimate, (radius, *_) = curve.osculating_estimate(u[0], tool[0])
-    assert radius == pytest.approx(seed002.FIG6B["radius"], abs=1e-3)
-    assert estimate == pytest.approx(seed002.FIG6B["estimate"], abs=2e-3)
-    assert curve.nearest(tool)[1][0] == pytest.approx(seed002.FIG6B["error"], abs=1e-3)
+    assert radius == pytest.approx(contour_error.FIG6B["radius"], abs=1e-3)
+    assert estimate == pytest.approx(contour_error.FIG6B["estimate"], abs=2e-3)
+    assert curve.nearest(tool)[1][0] == pytest.approx(contour_error.FIG6B["error"], abs=1e-3)
 
 
 def test_contour_error_vector_is_normal_to_the_curve_and_as_long_as_the_offset():
-    curve = seed002.Curve.bezier(seed002.BEZIER_MM)
+    curve = contour_error.Curve.bezier(contour_error.BEZIER_MM)
     u = np.linspace(0.05, 0.95, 37)
     tangent = curve.at(u, 1)
     normal = np.column_stack([-tangent[:, 1], tangent[:, 0]]) / np.hypot(*tangent.T)[:, None]
@@ -40,17 +41,18 @@ def test_contour_error_vector_is_normal_to_the_curve_and_as_long_as_the_offset()
 
 
 def test_bezier_curve_starts_and_ends_at_its_end_points_with_the_polygon_tangents():
-    curve = seed002.Curve.bezier(seed002.BEZIER_MM)
+    curve = contour_error.Curve.bezier(contour_error.BEZIER_MM)
     ends = curve.at(np.array([0.0, 1.0]))
-    assert np.allclose(ends, [seed002.BEZIER_MM[0], seed002.BEZIER_MM[-1]])
-    assert np.allclose(curve.at(np.array([0.0]), 1)[0], 3 * np.subtract(*seed002.BEZIER_MM[1::-1]))
+    assert np.allclose(ends, [contour_error.BEZIER_MM[0], contour_error.BEZIER_MM[-1]])
+    assert np.allclose(curve.at(np.array([0.0]), 1)[0],
+                       3 * np.subtract(*contour_error.BEZIER_MM[1::-1]))
 
 
 def test_chords_run_at_60_mm_s_along_their_length_despite_sqrt2_control():
-    gcode = seed002.chords_gcode(seed002.Curve.bezier(seed002.BEZIER_MM), 40)
-    items = RunSpec("chords", "none", gcode, 1, machine=seed002.MACHINE).job().program.items
-    machine = seed002.MACHINE
-    speed = machine.lsb_per_s(60 * seed002.SPEED_MM_S)
+    gcode = contour_error.chords_gcode(contour_error.Curve.bezier(contour_error.BEZIER_MM), 40)
+    items = RunSpec("chords", "none", gcode, 1, machine=contour_error.MACHINE).job().program.items
+    machine = contour_error.MACHINE
+    speed = machine.lsb_per_s(60 * contour_error.SPEED_MM_S)
     lines = [item for item in items if isinstance(item, Line)]
     assert len(lines) == 40 and lines[-1].end[:2] == (0, 0)
     for line in lines:
@@ -61,13 +63,13 @@ def test_chords_run_at_60_mm_s_along_their_length_despite_sqrt2_control():
 
 def test_p_controller_on_the_bezier_curve_averages_table_3s_contour_error():
     # Table 1's linear plant on an exact 60 mm/s reference: Table 3's 0.119 mm.
-    curve = seed002.Curve.bezier(seed002.BEZIER_MM)
-    assert seed002.ideal_mean_error(curve, dt=2e-3) == pytest.approx(seed002.TABLE3_MEAN,
-                                                                     rel=0.05)
+    curve = contour_error.Curve.bezier(contour_error.BEZIER_MM)
+    assert contour_error.ideal_mean_error(curve, dt=2e-3) == pytest.approx(
+        contour_error.TABLE3_MEAN, rel=0.05)
 
 
 def test_eq_9_kf_of_eq_10_leaves_only_the_accel_decel_lag():
-    d = seed003.d_ratio("x")
+    d = profile_error.d_ratio("x")
     assert d == pytest.approx(0.168 / (189 * 0.5))
     assert following_error(16_000, 63.0, kf=1 + d, d_ratio=d, ts=0.028) == pytest.approx(
         0.028 * 16_000)

@@ -6,7 +6,7 @@ an L16(4^5) orthogonal array of feed, radius, inertia ratio, time constant and p
 compares each run's radius error with its eqs (9) and (10); a gain mismatch between the axes
 makes the error an ellipse with its extremes at 45 and 225 degrees (Fig. 8); a second-order
 response surface (eqs (14)-(20)) is fitted to the runs. Here each L16 run is an arc on the
-post-interpolation machine of :mod:`~k37.sim.reproduce.seed000`, measured in its steady state
+post-interpolation machine of :mod:`~k37.sim.reproduce.filters`, measured in its steady state
 against the formulas of :mod:`~k37.sim.reproduce.circle_error`.
 """
 
@@ -36,7 +36,7 @@ from k37.sim.reproduce.circle_error import (
 )
 from k37.sim.reproduce.markdown import Section, pct, pyplot, save_figure
 from k37.sim.reproduce.runs import QUICK, RunData, RunSpec, Scale, Specs
-from k37.sim.reproduce.seed000 import SHAPES, filter_machine
+from k37.sim.reproduce.filters import SHAPES, filter_machine
 from k37.sim.reproduce.theory import mismatch_amplitude
 from k37.sim.run.ballbar import Ballbar, break_at_gaps, circle_figures
 from k37.sim.study.analysis import Surface, response_surface
@@ -131,7 +131,7 @@ def _l16_rows(sec: Section, shape: str, arcs: list[ArcLoss]) -> None:
 
 
 def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> Section:
-    """Section 9's rows, text and figure ``seed001.png``."""
+    """Section 9's rows, text and figure ``motion_errors.png``."""
     keys = tuple(key for key in specs if key.startswith("s001_"))
     sec = Section(9, "The motion-errors paper: radius error by accel/decel type over the L16 "
                      "array, the mismatch ellipse (Fig. 8) and the response surface", keys)
@@ -266,4 +266,4 @@ def _figure(sec: Section, out: Path, arcs: dict[str, list[ArcLoss]], measured: B
     b.set(title="Fig. 8: gain mismatch, radial deviation", xlabel="angle (deg, CCW)",
           ylabel="LSB")
     b.legend(fontsize=8)
-    sec.figure = save_figure(fig, out, "seed001.png")
+    sec.figure = save_figure(fig, out, "motion_errors.png")

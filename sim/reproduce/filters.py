@@ -191,7 +191,7 @@ def _peak(run: RunData, less: RunData | None = None) -> float:
 
 
 def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> Section:
-    """Section 8's rows, text and figure ``seed000.png``."""
+    """Section 8's rows, text and figure ``filters.png``."""
     del scale
     corners = {key: _corner(runs[key], spec) for key, spec in specs.items()
                if key.startswith("s000_corner")}
@@ -299,5 +299,5 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
     b.set(title="Fig. 12: X following error (dashed: model)",
           xlabel="time (s)", ylabel="LSB (um)")
     b.legend(fontsize=8)
-    sec.figure = save_figure(fig, out, "seed000.png")
+    sec.figure = save_figure(fig, out, "filters.png")
     return sec

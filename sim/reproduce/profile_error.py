@@ -119,7 +119,7 @@ def _lag(axis: str, kp: float, ts: float) -> float:
 
 
 def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> Section:
-    """Section 11's rows, text and figure ``seed003.png``."""
+    """Section 11's rows, text and figure ``profile_error.png``."""
     sec = Section(11, "The profile-error paper: the steady following error of eq. (9), "
                       "equal Kp and Ts across the axes shrinking the ballbar error, and the "
                       "natural frequencies of its two-mass feed drive",
@@ -234,4 +234,4 @@ def _figure(lines: dict[str, tuple], circles: dict[str, Ballbar], jk: resonance.
                      "radial deviation", xlabel="angle (deg)", ylabel="LSB (um)",
                xticks=range(0, 361, 45))
         ax.legend(fontsize=8)
-    return save_figure(fig, out, "seed003.png")
+    return save_figure(fig, out, "profile_error.png")

@@ -225,7 +225,7 @@ def ideal_mean_error(curve: Curve, dt: float = 1e-3) -> float:
 
 
 def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> Section:
-    """Section 10's rows, text and figure ``seed002.png``."""
+    """Section 10's rows, text and figure ``contour_error.png``."""
     sec = Section(10, "The contour-error paper: uncompensated contouring of a parabola and a "
                       "Bezier curve, and the contour error vector",
                   ("s002_bezier", "s002_parabola", *CONTOUR_RUNS))
@@ -448,4 +448,4 @@ def _figure(got: dict[str, _Contour], controlled: dict[str, _Contour],
     c.set(title="Fig. 6(b) from its printed points", xlabel="x (mm)", ylabel="y (mm)",
           xlim=(5, 17), ylim=(-16, -6), aspect="equal")
     c.legend(fontsize=7)
-    return save_figure(fig, out, "seed002.png")
+    return save_figure(fig, out, "contour_error.png")
