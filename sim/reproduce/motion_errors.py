@@ -34,9 +34,9 @@ from k37.sim.reproduce.circle_error import (
     run_key,
     steady,
 )
+from k37.sim.reproduce.filters import SHAPES, filter_machine
 from k37.sim.reproduce.markdown import Section, pct, pyplot, save_figure
 from k37.sim.reproduce.runs import QUICK, RunData, RunSpec, Scale, Specs
-from k37.sim.reproduce.filters import SHAPES, filter_machine
 from k37.sim.reproduce.theory import mismatch_amplitude
 from k37.sim.run.ballbar import Ballbar, break_at_gaps, circle_figures
 from k37.sim.study.analysis import Surface, response_surface
