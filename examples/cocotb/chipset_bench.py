@@ -2,7 +2,7 @@
 as an 8085 would, in Icarus Verilog.
 
 Export the chipset (``k37 export-verilog --block chipset -o build/``), then run these tests
-with cocotb's runner (``tests/test_cocotb.py`` shows how) on ``build/chipset.v`` and
+with cocotb's runner (``tests/sim/fpga/test_cocotb.py`` shows how) on ``build/chipset.v`` and
 ``chipset_tb.v``. Every bus access is one cycle of the 1 MHz clock with /CS and /RD or /WR
 low; a read's byte is on D in the next cycle. Port addresses come from the chipset's map
 (:func:`k37.hdl.chipset.map.port`), as the firmware's do.

@@ -16,7 +16,7 @@ and its end check cannot change inside such a stretch (the jump stops short of a
 the diagonal and of the end point's coordinate); the few steps around those go through the
 reference :class:`~k37.hdl.k3701.datapaths.circular_model.CircularPath` itself. Same for Y long,
 with the axes swapped. Tested against :func:`k37.hdl.k3701.model.plan` step for step
-(``tests/test_arc_plan.py``).
+(``tests/firmware_model/gcode/test_arc_plan.py``).
 
 A helix spreads its third axis over the arc's N steps with a DDA (its k-th move at the step
 where floor((N // 2 + s |Ze|) / N) grows), and its FP count needs B, the steps where that move

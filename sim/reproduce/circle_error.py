@@ -6,7 +6,7 @@ accel/decel circuit and the servo is R (1 - |G_acc(jw)| |G(jw)|), w = V / R
 (:func:`exact_loss`); the motion-errors paper's eqs (9)/(10) are its second-order terms
 (:func:`paper_loss`);
 two axes of different gains turn the circle into an ellipse (:func:`mismatch_ellipse`).
-:func:`arc_losses` measures the L16 runs of :mod:`~k37.sim.reproduce.seed001`.
+:func:`arc_losses` measures the L16 runs of :mod:`~k37.sim.reproduce.motion_errors`.
 """
 
 from __future__ import annotations

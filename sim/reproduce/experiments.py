@@ -13,10 +13,13 @@ them into the seven sections, one module each: :mod:`~k37.sim.reproduce.accel`,
 :mod:`~k37.sim.reproduce.path_error`, :mod:`~k37.sim.reproduce.fp_control`,
 :mod:`~k37.sim.reproduce.budget` and :mod:`~k37.sim.reproduce.parabola` (the K3701's parabolic mode
 on the contour-error paper's parabola), then one section per companion paper (:data:`COMPANIONS`):
-:mod:`~k37.sim.reproduce.seed000` (the accel/decel filters) and :mod:`~k37.sim.reproduce.seed001`
-(radius error by accel/decel type). :data:`~k37.sim.reproduce.runs.FULL` is the scale of the
-committed figures; :data:`~k37.sim.reproduce.runs.QUICK` shrinks the long runs for CI, and the
-report says what each scale shrank. """
+:mod:`~k37.sim.reproduce.filters` (the accel/decel filters),
+:mod:`~k37.sim.reproduce.motion_errors` (radius error by accel/decel type),
+:mod:`~k37.sim.reproduce.contour_error` (the contour error vector) and
+:mod:`~k37.sim.reproduce.profile_error` (the profile error of multi-axis control).
+:data:`~k37.sim.reproduce.runs.FULL` is the scale of the committed figures;
+:data:`~k37.sim.reproduce.runs.QUICK` shrinks the long runs for CI, and the report says what
+each scale shrank. """
 
 from __future__ import annotations
 
@@ -28,15 +31,15 @@ from types import ModuleType
 from k37.sim.reproduce import (
     accel,
     budget,
+    contour_error,
+    filters,
     fp_control,
     fp_counts,
+    motion_errors,
     parabola,
     path_error,
+    profile_error,
     rates,
-    seed000,
-    seed001,
-    seed002,
-    seed003,
 )
 from k37.sim.reproduce.markdown import Reproduction, report_markdown
 from k37.sim.reproduce.runs import FULL, QUICK, RunData, Scale, Specs, run_specs
@@ -47,7 +50,7 @@ __all__ = ["COMPANIONS", "all_specs", "analyse", "reproduce"]
 
 #: The companion papers' sections, numbered from 8 on: modules with ``specs(scale)`` (their
 #: runs, keys unique across the reproduction) and ``section(runs, specs, scale, out)``.
-COMPANIONS: tuple[ModuleType, ...] = (seed000, seed001, seed002, seed003)
+COMPANIONS: tuple[ModuleType, ...] = (filters, motion_errors, contour_error, profile_error)
 
 
 def all_specs(scale: Scale) -> Specs:

@@ -73,9 +73,9 @@ def section(runs: dict[str, RunData], out: Path) -> Section:
         "here against the exact count of the K3701 reference model (N_long, plus "
         "ceil(N_diag / 2) with sqrt(2) control) at every step of a quarter circle. The "
         "reference model is proven equal to the gateware cycle by cycle in "
-        "`tests/test_k3701.py`; the last row checks the gateware directly: under FP control "
-        "the block ends only when the K3701 has received the count the firmware computed, "
-        "so the full circle and the line of the closed-loop runs (experiments 4 and 5) "
+        "`tests/hdl/k3701/test_k3701.py`; the last row checks the gateware directly: under "
+        "FP control the block ends only when the K3701 has received the count the firmware "
+        "computed, so the full circle and the line of the closed-loop runs (experiments 4 and 5) "
         "ending with the budget exactly spent is the count confirmed on the chip.",
     ]
     return sec

@@ -7,7 +7,8 @@
 // of operands zero- or sign-extended to the wider's width) arithmetic as CXXRTL's; wider
 // values fall back to CXXRTL's own. The design's translation unit includes this before the
 // design, whose calls the macros at the end rename (the runtime itself is compiled first,
-// untouched). tests/test_cxxrtl.py compares every op with CXXRTL's over random operands.
+// untouched). tests/sim/backends/test_cxxrtl.py compares every op with CXXRTL's over random
+// operands.
 #include <cxxrtl/cxxrtl.h>
 
 namespace cxxrtl_yosys {

@@ -1,0 +1,315 @@
+"""Conformance of the built-in G-code front end with LinuxCNC's interpreter, ``rs274``.
+
+Every program of ``tests/gcode_corpus`` (small programs written in the styles of LinuxCNC's
+examples, grbl and UGS test files, Fusion 360 and CamBam posts, and RS-274/NGC programs of
+parameters, expressions, subroutines, loops and polar coordinates) and LinuxCNC's own example
+programs read from the installed package (:data:`LINUXCNC_EXAMPLES`) are parsed by the
+built-in front end (on a three-axis machine) and by ``rs274`` (``--frontend linuxcnc``); the
+motion end points of K37's plan (where the K3701 really stops) must equal ``rs274``'s
+canonical end points within 1 LSB on every axis (in G20 programs, 1 LSB plus ``rs274``'s
+rounding of its output to 0.0001 in). Where ``rs274`` is not installed the comparison is
+skipped, saying so. A slow test does the same on random programs (moves, I/J and R arcs,
+drilling, mode changes). ``python -m tests.firmware_model.gcode.test_conformance`` prints the
+corpus table.
+"""
+
+from __future__ import annotations
+
+import random
+import re
+import shutil
+import sys
+from pathlib import Path
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from k37.firmware_model.gcode.canon import RS274, parse_linuxcnc
+from k37.firmware_model.gcode.parser import Arc, GcodeError, Program, parse
+from tests.paths import ROOT
+
+CORPUS = ROOT / "tests" / "gcode_corpus"
+FILES = sorted(p for p in CORPUS.iterdir() if p.is_file())
+#: LinuxCNC's example programs (Debian's linuxcnc-uspace installs them in one of these).
+LINUXCNC_NCFILES = next((p for p in (Path("/usr/share/linuxcnc/ncfiles"),
+                                     Path("/usr/share/doc/linuxcnc/examples/nc_files"))
+                         if p.is_dir()), Path("/usr/share/linuxcnc/ncfiles"))
+_COMP = "cutter radius compensation is unsupported"
+_M70 = "saving and restoring modal state (M70-M73) is unsupported"
+_POLAR = "polar coordinates (@, ^) are for G00 and G01 moves"
+_SET = "is the interpreter's: setting it (offsets, tool data) is unsupported"
+#: Every example program ``rs274`` accepts, and what the built-in front end does with it:
+#: None, it runs it as ``rs274`` does; else the unsupported feature its error names.
+LINUXCNC_EXAMPLES: dict[str, str | None] = {
+    # programs that move
+    "3D_Chips.ngc": None, "3dtest.ngc": None, "arcspiral.ngc": None, "cds.ngc": None,
+    "flowsnake.ngc": None, "plasmatest.ngc": None, "skeleton.ngc": None, "spiral.ngc": None,
+    "tort.ngc": None,
+    # subroutine and remap files: parameters, messages and calls, no motion
+    "factorial.ngc": None, "g20sub.ngc": None, "g881.ngc": None, "g881min.ngc": None,
+    "g882.ngc": None, "m250.ngc": None, "m61demo.ngc": None, "m6demo.ngc": None,
+    "m6remap.ngc": None, "m75.ngc": None, "m76.ngc": None, "retval.ngc": None,
+    "roparams.ngc": None, "testm6fail.ngc": None, "touchoff.ngc": None,
+    # refused, naming what K37 does not have
+    "b-index.ngc": "unsupported word B0 (K37's axes are X, Y and Z)",
+    "daisy.ngc": "unsupported word A0 (K37's axes are X, Y and Z)",
+    "comp.ngc": _COMP, "comp-g1.ngc": _COMP, "comp311.ngc": _COMP, "comp311_2.ngc": _COMP,
+    "g76.ngc": _COMP, "lathe-g76.ngc": _COMP, "lathecomp.ngc": _COMP,
+    "useful-subroutines.ngc": _COMP,
+    "gmoccapy_2_tools_with_cutter_radius_compensation.ngc": _COMP,
+    "gridprobe.ngc": "probing is unsupported", "smartprobe.ngc": f"#5070 {_SET}",
+    "offsets.ngc": f"#5599 {_SET}", "hole-circle.ngc": _POLAR, "polar.ngc": _POLAR,
+    "m70m72-demo.ngc": _M70, "m73-demo.ngc": _M70, "toplevel.ngc": _M70,
+    "lathe_g70_71_demo.ngc": "G71.1 is unsupported", "lathe_g7x_face_boring.ngc":
+    "G72 is unsupported", "lathe_g7x_quadrants.ngc": "G70 is unsupported",
+    "lathe_pawn.ngc": "G8 is unsupported", "threading.ngc": "G33 is unsupported",
+}
+#: The example programs not compared, and why: ``rs274`` refuses them (with the tool table
+#: :data:`TOOLS`, an INI file's settings absent), or its output has a command K37's reader
+#: of it does not take.
+LINUXCNC_NOT_COMPARED: dict[str, str] = {
+    "cone.ngc": "Bad character 'w' used", "increment.ngc": "File ended with no percent sign",
+    "probe-hole.ngc": "File ended with no percent sign", "mmount.ngc": "Requested tool 15",
+    "nestedcall.ngc": "Unexpected character after O-word",
+    "tool-length-probe.ngc": "Start point too close to probe point",
+    "x-trim.ngc": "seeking o-word: o<touchoff>",
+    "systems.ngc": "NURBS_FEED: canonical command NURBS_FEED is unsupported",
+}
+#: rs274 writes coordinates with four decimals: in G20, up to 0.00005 in from the value.
+RS274_INCH_ROUNDING_LSB = 0.00005 * 25.4 / 0.001
+HAVE_RS274 = shutil.which(RS274) is not None
+NEEDS_RS274 = pytest.mark.skipif(not HAVE_RS274, reason="LinuxCNC's rs274 is not installed "
+                                 "(Debian: apt-get install linuxcnc-uspace): no comparison")
+#: The tool table both front ends get (mm; whole hundredths of an inch, as rs274 reads them).
+TOOLS = {1: 12.7, 2: 25.4, 3: 5.08, 4: 7.62, 5: 3.81, 7: 2.54, 9: 6.35, 10: 10.16}
+
+
+def programmed_ends(program: Program, *, targets: bool = False) -> list[tuple[int, ...]]:
+    """The machine position after each programmed move (an arc's correction line counted
+    with its arc), consecutive repeats (zero-length moves) merged; ``targets``: the
+    programmed end points instead (rs274's canonical ones, for a program read from them)."""
+    start = (0,) * program.axes
+    points: list[tuple[tuple[int, ...], tuple[int, ...]]] = [(start, start)]  # (target, end)
+    for move in program.moves:
+        target = move.end
+        if isinstance(move, Arc):
+            target = tuple(s + d for s, d in zip(move.start, (move.xe, move.ye, move.ze),
+                                                 strict=False))
+        if getattr(move, "correction", False):
+            points[-1] = points[-1][0], move.end
+        elif points[-1][0] != target:  # repeats merge by their targets
+            points.append((target, move.end))
+    return [target if targets else end for target, end in points[1:]]
+
+
+def largest_difference(a: list[tuple[int, ...]], b: list[tuple[int, ...]]) -> int | None:
+    """The largest per-axis difference between two lists of end points (None: they differ in
+    length)."""
+    if len(a) != len(b):
+        return None
+    return max((abs(p - q) for ea, eb in zip(a, b, strict=True)
+                for p, q in zip(ea, eb, strict=True)), default=0)
+
+
+def corpus_row(path: Path) -> tuple[str, str, int | None]:
+    """(file, outcome, largest end-point difference to rs274 in LSB)."""
+    text = path.read_text()
+    try:
+        ours = parse(text, source=path.name, axes=3, tools=TOOLS)
+        outcome = "ok"
+    except GcodeError as e:
+        return path.name, f"clear error ({e.message})", None
+    if not HAVE_RS274:
+        return path.name, outcome, None
+    try:
+        theirs = parse_linuxcnc(text, source=path.name, axes=3, tools=TOOLS)
+    except GcodeError as e:
+        return path.name, f"{outcome}; rs274 front end: {e}", None
+    return path.name, outcome, largest_difference(programmed_ends(ours),
+                                                  programmed_ends(theirs, targets=True))
+
+
+def tolerance_lsb(text: str) -> int:
+    """1 LSB; in a program that uses G20, plus rs274's rounding of its inch output."""
+    inch = re.search(r"g\s*0*20(?![.0-9])", text, re.IGNORECASE) is not None
+    return 1 + int(RS274_INCH_ROUNDING_LSB) if inch else 1
+
+
+@pytest.mark.parametrize("path", FILES, ids=[p.name for p in FILES])
+def test_the_builtin_front_end_runs_the_corpus_as_published(path):
+    assert parse(path.read_text(), source=path.name, axes=3, tools=TOOLS).moves
+
+
+@pytest.mark.parametrize(("program", "z"), [
+    ("G43 H1\nG0 X1", 5000),                 # without a tool change Z keeps still
+    ("T1 M6\nG43 H1\nG0 X1", 5000),          # the change, then the offset: the same
+    ("T1 M6 G43 H1\nG0 X1", 17700),          # the offset on the change's line: Z moves
+    ("G43 H1\nT1 M6\nG0 X1", 17700),         # ... or set before the change
+    ("G43 H1\nT1 M6\nG49\nG0 X1", 17700),     # ... then cancelled: Z keeps still there
+])
+def test_after_a_tool_change_the_position_is_reread_as_rs274_does(program, z):
+    # rs274's ends for each (K37's ends are compared with rs274's where it is installed)
+    ends = programmed_ends(parse(f"G21 G90\nG0 Z5\n{program}\nM2", axes=3, tools=TOOLS))
+    assert ends[-1] == (1000, 0, z)
+
+
+@NEEDS_RS274
+@pytest.mark.parametrize("path", FILES, ids=[p.name for p in FILES])
+def test_every_end_point_equals_rs274s_within_one_lsb(path):
+    text = path.read_text()
+    theirs = programmed_ends(parse_linuxcnc(text, source=path.name, axes=3, tools=TOOLS),
+                             targets=True)
+    ours = programmed_ends(parse(text, source=path.name, axes=3, tools=TOOLS))
+    assert largest_difference(ours, theirs) is not None, (ours, theirs)
+    assert largest_difference(ours, theirs) <= tolerance_lsb(text)
+
+
+@pytest.mark.parametrize("name", LINUXCNC_EXAMPLES)
+def test_linuxcncs_examples_run_as_rs274_runs_them_or_name_what_is_unsupported(name):
+    path = LINUXCNC_NCFILES / name
+    if not path.is_file():
+        pytest.skip(f"{path} is not installed (Debian: apt-get install linuxcnc-uspace)")
+    text = path.read_text(errors="replace")
+    refused = LINUXCNC_EXAMPLES[name]
+    if refused is not None:
+        with pytest.raises(GcodeError) as info:
+            parse(text, source=name, axes=3, tools=TOOLS)
+        assert refused in info.value.message
+        return
+    ours = programmed_ends(parse(text, source=name, axes=3, tools=TOOLS))
+    if not HAVE_RS274:
+        return
+    theirs = programmed_ends(parse_linuxcnc(text, source=name, axes=3, tools=TOOLS),
+                             targets=True)
+    assert largest_difference(ours, theirs) is not None, (len(ours), len(theirs))
+    assert largest_difference(ours, theirs) <= tolerance_lsb(text)
+
+
+@NEEDS_RS274
+@pytest.mark.parametrize("name", LINUXCNC_NOT_COMPARED)
+def test_the_examples_not_compared_are_those_rs274_or_its_reader_refuses(name):
+    path = LINUXCNC_NCFILES / name
+    if not path.is_file():
+        pytest.skip(f"{path} is not installed (Debian: apt-get install linuxcnc-uspace)")
+    with pytest.raises(GcodeError, match=re.escape(LINUXCNC_NOT_COMPARED[name])):
+        parse_linuxcnc(path.read_text(errors="replace"), source=name, axes=3, tools=TOOLS)
+
+
+def test_every_installed_example_is_classified():
+    if not LINUXCNC_NCFILES.is_dir():
+        pytest.skip(f"{LINUXCNC_NCFILES} is not installed (Debian: apt-get install "
+                    f"linuxcnc-uspace)")
+    installed = {p.name for p in LINUXCNC_NCFILES.glob("*.ngc")}
+    assert installed == LINUXCNC_EXAMPLES.keys() | LINUXCNC_NOT_COMPARED.keys()
+
+
+def assert_ends_as_rs274s(text: str, theirs: list[tuple[int, ...]], tolerance: int) -> None:
+    """The built-in front end's end points of ``text`` are ``theirs`` (``rs274``'s) within
+    ``tolerance`` LSB on every axis."""
+    ours = programmed_ends(parse(text, axes=3, tools=TOOLS))
+    difference = largest_difference(ours, theirs)
+    assert difference is not None and difference <= tolerance, (text, ours, theirs)
+
+
+def random_program(rng: random.Random) -> str:
+    """A random program of moves, arcs (I/J and R), drilling and mode changes."""
+    inch = rng.random() < 0.5
+    scale = 0.05 if inch else 1.0
+    lines = [f"{'G20' if inch else 'G21'} F50"]
+
+    def num() -> str:
+        return f"{rng.uniform(-20, 20) * scale:.{rng.choice([0, 1, 2, 3])}f}"
+
+    for _ in range(rng.randint(3, 12)):
+        k = rng.random()
+        if k < 0.1:
+            lines.append(rng.choice(["G90", "G91", "G92 X0 Y0", "G92.1", "G98", "G99", "G17",
+                                     "G18", "G19", "G90.1", "G91.1", "G54", "G55", "G59.1",
+                                     f"G10 L2 P{rng.randint(0, 2)} X{num()} Z{num()}",
+                                     f"G10 L20 P{rng.choice([0, 2, 7])} Y{num()}",
+                                     f"G52 X{num()} Y{num()}"]))
+        elif k < 0.4:
+            z = f" Z{num()}" if rng.random() < 0.3 else ""
+            lines.append(f"G{rng.choice('01')} X{num()} Y{num()}{z}")
+        elif k < 0.6:
+            lines.append(f"G{rng.choice('23')} X{num()} Y{num()} R{num()}")
+        elif k < 0.8:
+            lines.append(f"G{rng.choice('23')} I{num()} J{num()}")
+        elif k < 0.9:
+            lines += [f"G17 G81 X{num()} Y{num()} Z{num()} R{num()}", "G80"]
+        elif k < 0.95:
+            lines.append(rng.choice(["T1 M6 G43 H1", "G43 H2", "T2 M6", "G49", "M6"]))
+        else:
+            lines.append(f"G28 X{num()}")
+    return "\n".join([*lines, "M2"])
+
+
+@pytest.mark.slow
+@NEEDS_RS274
+@settings(max_examples=150, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**32))
+def test_random_programs_run_as_rs274_runs_them(seed):
+    text = random_program(random.Random(seed))
+    try:
+        theirs = programmed_ends(parse_linuxcnc(text, axes=3, tools=TOOLS), targets=True)
+    except GcodeError:
+        return  # rs274 refuses it (an R arc too short for its chord...): so do we, or more
+    assert_ends_as_rs274s(text, theirs, 1)
+
+
+def random_offsets_program(rng: random.Random) -> str:
+    """A random program of moves between work offsets: G10 L2/L20, G52, G92, G54-G59.3."""
+    def num() -> str:
+        return f"{rng.uniform(-20, 20):.{rng.choice([0, 1, 3])}f}"
+
+    lines = [f"{rng.choice(['G20', 'G21'])} G90"]
+    for _ in range(rng.randint(4, 14)):
+        axes = " ".join(f"{a}{num()}" for a in rng.sample("XYZ", rng.randint(1, 3)))
+        lines.append(rng.choice([
+            f"G10 L2 P{rng.randint(0, 9)} {axes}", f"G10 L20 P{rng.randint(0, 9)} {axes}",
+            f"G52 {axes}", f"G92 {axes}", "G92.1", rng.choice(["G54", "G55", "G59", "G59.3"]),
+            f"G0 {axes}", f"G1 {axes} F100", rng.choice(["G90", "G91"])]))
+    return "\n".join([*lines, "M2"])
+
+
+@pytest.mark.slow
+@NEEDS_RS274
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**32))
+def test_random_work_offsets_move_as_rs274_moves(seed):
+    text = random_offsets_program(random.Random(seed))
+    theirs = programmed_ends(parse_linuxcnc(text, axes=3, tools=TOOLS), targets=True)
+    assert_ends_as_rs274s(text, theirs, tolerance_lsb(text))
+
+
+def example_row(name: str) -> tuple[str, str, int | None]:
+    """(file, outcome, largest end-point difference to rs274 in LSB) of a LinuxCNC example."""
+    if name in LINUXCNC_NOT_COMPARED:
+        return name, f"not compared: {LINUXCNC_NOT_COMPARED[name]}", None
+    return corpus_row(LINUXCNC_NCFILES / name)
+
+
+def _cause(outcome: str) -> str:
+    """An outcome's cause, for the summary: ok, or what refused the program."""
+    if outcome == "ok" or outcome.startswith("not compared"):
+        return outcome.split(":")[0]
+    message = outcome.removeprefix("clear error (").removesuffix(")")
+    return message.split(":", 1)[-1].strip() if message[:1] in "GM#" else message
+
+
+if __name__ == "__main__":
+    rows = [*map(corpus_row, FILES), *map(example_row, sorted(LINUXCNC_EXAMPLES.keys()
+                                                              | LINUXCNC_NOT_COMPARED.keys()))]
+    print("| file | built-in front end | largest difference to rs274 (LSB) |")
+    print("|---|---|---|")
+    for name, outcome, diff in rows:
+        print(f"| {name} | {outcome} | {'-' if diff is None else diff} |")
+    causes: dict[str, int] = {}
+    for _, outcome, _ in rows:
+        causes[_cause(outcome)] = causes.get(_cause(outcome), 0) + 1
+    print(f"\n{len(rows)} files:")
+    for cause, count in sorted(causes.items(), key=lambda item: -item[1]):
+        print(f"- {count} {cause}")
+    sys.exit(0)
+

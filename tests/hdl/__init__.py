@@ -1,0 +1,1 @@
+"""Tests of the gateware and its reference models, one folder per chip."""

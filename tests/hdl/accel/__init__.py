@@ -1,0 +1,1 @@
+"""Tests of the accel/decel circuits (exponential, linear, bell)."""

@@ -1,0 +1,1 @@
+"""Tests of what the blocks share: the simulation-only state they declare."""

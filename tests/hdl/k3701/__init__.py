@@ -1,0 +1,1 @@
+"""Tests of the K3701 interpolator."""

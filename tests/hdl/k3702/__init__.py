@@ -1,0 +1,1 @@
+"""Tests of the KM3702 position controller."""

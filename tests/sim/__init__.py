@@ -1,0 +1,1 @@
+"""Tests of the simulation: its library API and generated documentation."""

@@ -1,0 +1,1 @@
+"""Tests of the simulation backends (Amaranth's simulator, compiled CXXRTL)."""

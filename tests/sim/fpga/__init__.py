@@ -1,0 +1,1 @@
+"""Tests of the FPGA flow: Verilog export, co-simulation, netlists, synthesis."""

@@ -1,0 +1,1 @@
+"""Tests of the simulated machine's plants and drives."""

@@ -1,0 +1,1 @@
+"""Tests of ``k37 reproduce``: the papers' experiments on the emulator."""

@@ -1,0 +1,1 @@
+"""Tests of a run: job files, plans, reports, plots, waveforms, run control."""

@@ -1,0 +1,1 @@
+"""Tests of ``k37 serve`` and the host link's transports."""

@@ -1,0 +1,1 @@
+"""Tests of studies: designs, study files, sweeps, analysis."""

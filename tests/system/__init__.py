@@ -1,0 +1,1 @@
+"""Whole-machine tests: closed loops, the papers' physics, three axes, the command line."""
