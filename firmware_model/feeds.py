@@ -17,9 +17,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from k37.firmware_model.gcode.parser import Dwell, Event, Item, Line, Program
-from k37.firmware_model.gcode.program import Move
 from k37.firmware_model.job import Job, MachineConfig
+from k37.firmware_model.motion.program import Dwell, Event, Item, Line, Move, Program
 from k37.hdl.feed.decel_control_model import BUDGET_WIDTH
 from k37.hdl.feed.feed_rate_map import FEED_BITS
 from k37.hdl.k3701.block import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind

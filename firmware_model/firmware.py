@@ -37,10 +37,9 @@ from k37.firmware_model.feeds import (
     rm_clock_hz,
     run_feed,
 )
-from k37.firmware_model.gcode.parser import Dwell, Event, Item
-from k37.firmware_model.gcode.program import Move
 from k37.firmware_model.host import Host8085
 from k37.firmware_model.job import Job
+from k37.firmware_model.motion.program import Dwell, Event, Item, Move
 from k37.hdl.chipset.map import chip_register, port
 from k37.hdl.feed.divider_model import increment_for
 from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH, fa_register

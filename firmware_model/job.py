@@ -20,7 +20,9 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any, Protocol
 
 from k37.firmware_model.gcode.canon import FRONTENDS
-from k37.firmware_model.gcode.parser import LSB_MM_LIMIT, GcodeError, Program, names_third_axis
+from k37.firmware_model.gcode.parser import GcodeError, names_third_axis
+from k37.firmware_model.gcode.units import LSB_MM_LIMIT
+from k37.firmware_model.motion.program import Program
 from k37.hdl.chipset.map import ACCEL_BITS, AXES, MACHINE_AXES, Accel, AccelShape, axis_names
 from k37.hdl.common.params import Limit
 from k37.hdl.encoder.map import ENCODER_MAP

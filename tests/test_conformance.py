@@ -25,7 +25,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from k37.firmware_model.gcode.canon import RS274, parse_linuxcnc
-from k37.firmware_model.gcode.parser import Arc, GcodeError, Program, parse
+from k37.firmware_model.gcode.parser import GcodeError, parse
+from k37.firmware_model.motion.program import Arc, Program
 
 CORPUS = Path(__file__).parent / "gcode_corpus"
 FILES = sorted(p for p in CORPUS.iterdir() if p.is_file())

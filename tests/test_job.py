@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from k37.firmware_model.gcode.parser import Arc, GcodeError, Line, parse
+from k37.firmware_model.gcode.parser import GcodeError, parse
 from k37.firmware_model.job import (
     AXES,
     DEMO_GCODE,
@@ -21,6 +21,7 @@ from k37.firmware_model.job import (
     ServoConfig,
     demo_job,
 )
+from k37.firmware_model.motion.program import Arc, Line
 from k37.hdl.chipset.chip import Chipset
 from k37.hdl.common.params import Limit
 from k37.hdl.encoder.map import ENCODER_MAP

@@ -490,7 +490,7 @@ def test_arcs_end_within_one_lsb_of_an_end_point_off_the_path(r, a0, a1, cw):
     radius = math.hypot(i, j)
     # Below a radius of 4 the end rule can stop 2 LSB short of a rounded end point (radii
     # sqrt(5) and sqrt(13), checked exhaustively below); the planner moves such ends and adds
-    # the correction line (firmware_model/gcode/program.py, REPAIR_REACH).
+    # the correction line (firmware_model/motion/program.py, REPAIR_REACH).
     if radius < 4:
         return
     ex, ey = round(radius * math.cos(a1)), round(radius * math.sin(a1))

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from test_k3701 import check_clean_end_on_gateware, compare_with_model, fp_kinds, fp_source
 from test_k3701_parabolic import visited
 
-from k37.firmware_model.gcode.curves import (
+from k37.firmware_model.motion.curves import (
     MAX_GROWTH,
     MIN_CONSTANT,
     CurveError,

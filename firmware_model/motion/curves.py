@@ -1,7 +1,7 @@
 """The K3701's curves on the host side: the checks the host makes before loading a parabola
 (G06) or an exponential (G06.1, G06.2), and the distance to their true curves (the program
-items are :class:`k37.firmware_model.gcode.program.Parabola` and
-:class:`k37.firmware_model.gcode.program.Exponential`).
+items are :class:`k37.firmware_model.motion.program.Parabola` and
+:class:`k37.firmware_model.motion.program.Exponential`).
 
 A G06 block gives the end point and the point P of the parabola whose tangent is parallel to
 the chord from the start to the end (DIN 66025). The K3701 draws parabolas whose axis is
