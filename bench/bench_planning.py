@@ -2,7 +2,7 @@
 
 Run with ``pytest bench/bench_planning.py --benchmark-only -s``. The host plans an arc's
 FP count and end from its geometry (:func:`k37.firmware_model.motion.arcs.plan_block`) instead of
-walking every step as the reference model does (:func:`k37.hdl.k3701.model.plan`), helices
+walking every step as the reference model does (:func:`k37.hdl.k3701.model.chip.plan`), helices
 included; ``k37 plan`` of a thousand-line program is timed as a whole command, and the
 planning of a ten-thousand-line one (:func:`tests.programs.mixed_program`, shared with the
 tests) on its own.
@@ -16,7 +16,7 @@ from pathlib import Path
 from k37.firmware_model.job import MachineConfig, parse_for_machine
 from k37.firmware_model.motion.arcs import plan_block
 from k37.hdl.k3701.block import Block
-from k37.hdl.k3701.model import plan
+from k37.hdl.k3701.model.chip import plan
 from k37.sim.cli import main
 from tests.programs import mixed_program
 

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from k37.firmware_model.motion.arcs import plan_block
 from k37.hdl.k3701.block import Block, BlockError
-from k37.hdl.k3701.model import plan
+from k37.hdl.k3701.model.chip import plan
 
 
 def _both(xe, ye, i, j, cw, sqrt2):

@@ -8,12 +8,8 @@ from hypothesis import strategies as st
 from testbench import simulate
 
 from k37.hdl.feed.divider import PhaseDivider
-from k37.hdl.feed.divider_model import (
-    FA_INCREMENT,
-    PhaseDividerModel,
-    frequency_of,
-    increment_for,
-)
+from k37.hdl.feed.model.divider import PhaseDividerModel
+from k37.hdl.feed.rates import FA_INCREMENT, frequency_of, increment_for
 
 
 def run_gateware(width: int, increments: list[int]) -> list[bool]:

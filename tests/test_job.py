@@ -25,8 +25,8 @@ from k37.firmware_model.motion.program import Arc, Line
 from k37.hdl.chipset.chip import Chipset
 from k37.hdl.common.params import Limit
 from k37.hdl.encoder.map import ENCODER_MAP
-from k37.hdl.feed.divider_model import increment_for
-from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH
+from k37.hdl.feed.map.feed_rate import DIVIDER_WIDTH
+from k37.hdl.feed.rates import increment_for
 from k37.hdl.k3702.map import K3702_MAP
 from k37.sim.cli import main
 from k37.sim.machine.plant_model import ALPHA_BITS, GAIN_BITS, VMAX_BITS, PlantParams

@@ -25,7 +25,7 @@ from k37.hdl.k3701.chip import K3701
 from k37.hdl.k3701.datapaths.circular import CircularDatapath
 from k37.hdl.k3701.datapaths.linear import LinearDatapath
 from k37.hdl.k3701.map import K3701_MAP, block_registers
-from k37.hdl.k3701.model import K3701Model, make_path, plan, walk
+from k37.hdl.k3701.model.chip import K3701Model, make_path, plan, walk
 from k37.sim.reproduce.paper import table1
 
 OUTPUTS = ("x_pos", "x_neg", "y_pos", "y_neg", "busy", "irq", "error", "overrun")

@@ -16,7 +16,7 @@ from test_k3701_parabolic import parabolas
 
 from k37.hdl.k3701.block import PLANES, Block, BlockError, Kind, route
 from k37.hdl.k3701.map import K3701_MAP_3, block_registers
-from k37.hdl.k3701.model import plan, walk
+from k37.hdl.k3701.model.chip import plan, walk
 
 planes = st.integers(0, 2)
 

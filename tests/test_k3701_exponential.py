@@ -21,8 +21,8 @@ from k37.firmware_model.motion.curves import (
     exponential_frame,
 )
 from k37.hdl.k3701.block import COORD_MAX, Block, BlockError
-from k37.hdl.k3701.datapaths.parabolic_model import ExponentialPath
-from k37.hdl.k3701.model import make_path, walk
+from k37.hdl.k3701.datapaths.model.parabolic import ExponentialPath
+from k37.hdl.k3701.model.chip import make_path, walk
 
 
 @st.composite

@@ -11,7 +11,7 @@ from k37.hdl.k3701.block import LATENCY_CIRCULAR, LATENCY_LINEAR
 from k37.hdl.k3701.datapaths.circular import CircularDatapath
 from k37.hdl.k3701.datapaths.parabolic import ParabolicDatapath
 from k37.hdl.k3701.latency import StepLatency
-from k37.hdl.k3701.latency_model import StepLatencyModel
+from k37.hdl.k3701.model.latency import StepLatencyModel
 
 #: The chip's datapaths at the paper's latencies: linear (no stages), circular, parabolic.
 LATENCIES = (LATENCY_LINEAR, LATENCY_CIRCULAR, LATENCY_CIRCULAR)

@@ -11,8 +11,8 @@ from test_k3701 import check_clean_end_on_gateware, compare_with_model, fp_kinds
 
 from k37.firmware_model.motion.curves import frame_distances
 from k37.hdl.k3701.block import COORD_MAX, Block, BlockError
-from k37.hdl.k3701.datapaths.parabolic_model import FramePath, ParabolicPath
-from k37.hdl.k3701.model import make_path, plan
+from k37.hdl.k3701.datapaths.model.parabolic import FramePath, ParabolicPath
+from k37.hdl.k3701.model.chip import make_path, plan
 
 
 def curve_distances(path: ParabolicPath, points: np.ndarray) -> np.ndarray:

@@ -15,14 +15,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from testbench import simulate
 
+from k37.hdl.feed.model.rate_multiplier import RateMultiplierModel, gate, selected_bit, stage_gate
 from k37.hdl.feed.rate_multiplier import RateMultiplier
-from k37.hdl.feed.rate_multiplier_model import (
-    STAGE_BITS,
-    RateMultiplierModel,
-    gate,
-    selected_bit,
-    stage_gate,
-)
+from k37.hdl.feed.rates import STAGE_BITS
 from k37.sim.backends.cxxrtl.backend import CxxrtlBackend
 
 #: The 7497's decoding gates as the datasheet's logic diagram wires them: rate bit b passes

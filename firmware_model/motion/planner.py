@@ -40,7 +40,7 @@ from k37.firmware_model.motion.program import (
 )
 from k37.firmware_model.motion.splines import Nurbs, SplineSpan, chords
 from k37.hdl.k3701.block import COORD_MAX, MAX_RADIUS_SQUARED, Block, BlockError
-from k37.hdl.k3701.model import Plan
+from k37.hdl.k3701.model.chip import Plan
 
 __all__ = ["CORRECTION_MAX", "MAX_CHORDS", "REPAIR_REACH", "PlanError", "Planner"]
 

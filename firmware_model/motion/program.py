@@ -23,8 +23,8 @@ from k37.firmware_model.motion.curves import (
 )
 from k37.firmware_model.motion.splines import SplineSpan
 from k37.hdl.k3701.block import Block
-from k37.hdl.k3701.datapaths.parabolic_model import ExponentialPath, ParabolicPath
-from k37.hdl.k3701.model import Plan, make_path
+from k37.hdl.k3701.datapaths.model.parabolic import ExponentialPath, ParabolicPath
+from k37.hdl.k3701.model.chip import Plan, make_path
 
 __all__ = ["PLANE_AXES", "Arc", "Dwell", "Event", "Exponential", "Item", "Line", "Move",
            "Parabola", "Program", "chip_end"]
@@ -153,8 +153,8 @@ def _sweep(i: int, j: int, end: tuple[int, int], cw: bool) -> tuple[float, float
 
 class _Curve(_Move):
     """A move along one of the K3701's curves, drawn in the curve's own frame (abscissa p,
-    ordinate v: :class:`k37.hdl.k3701.datapaths.parabolic_model.ParabolicPath`,
-    :class:`k37.hdl.k3701.datapaths.parabolic_model.ExponentialPath`).
+    ordinate v: :class:`k37.hdl.k3701.datapaths.model.parabolic.ParabolicPath`,
+    :class:`k37.hdl.k3701.datapaths.model.parabolic.ExponentialPath`).
     ``code``: its G code. The programmed curve is the chip's, through the start and the end."""
 
     code = ""
