@@ -1,8 +1,8 @@
 """What planning costs, each figure against another measured in the same run.
 
 Run with ``pytest bench/bench_planning.py --benchmark-only -s``. The host plans an arc's
-FP count and end from its geometry (:func:`k37.firmware_model.gcode.arcs.plan_block`) instead of
-walking every step as the reference model does (:func:`k37.hdl.k3701.model.plan`), helices
+FP count and end from its geometry (:func:`k37.firmware_model.motion.arcs.plan_block`) instead of
+walking every step as the reference model does (:func:`k37.hdl.k3701.model.chip.plan`), helices
 included; ``k37 plan`` of a thousand-line program is timed as a whole command, and the
 planning of a ten-thousand-line one (:func:`tests.programs.mixed_program`, shared with the
 tests) on its own.
@@ -13,10 +13,10 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from k37.firmware_model.gcode.arcs import plan_block
 from k37.firmware_model.job import MachineConfig, parse_for_machine
+from k37.firmware_model.motion.arcs import plan_block
 from k37.hdl.k3701.block import Block
-from k37.hdl.k3701.model import plan
+from k37.hdl.k3701.model.chip import plan
 from k37.sim.cli import main
 from tests.programs import mixed_program
 

@@ -17,11 +17,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from k37.firmware_model.gcode.parser import Dwell, Event, Item, Line, Program
-from k37.firmware_model.gcode.program import Move
 from k37.firmware_model.job import Job, MachineConfig
-from k37.hdl.feed.decel_control_model import BUDGET_WIDTH
-from k37.hdl.feed.feed_rate_map import FEED_BITS
+from k37.firmware_model.motion.program import Dwell, Event, Item, Line, Move, Program
+from k37.hdl.feed.map.feed_rate import FEED_BITS
+from k37.hdl.feed.rates import BUDGET_WIDTH
 from k37.hdl.k3701.block import LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
 
 __all__ = ["BLOCK_HOST_SECONDS", "CYCLE_COUNTER_BITS", "RM_CLOCK_DIVISOR", "SETTLE_SECONDS",

@@ -37,13 +37,12 @@ from k37.firmware_model.feeds import (
     rm_clock_hz,
     run_feed,
 )
-from k37.firmware_model.gcode.parser import Dwell, Event, Item
-from k37.firmware_model.gcode.program import Move
 from k37.firmware_model.host import Host8085
 from k37.firmware_model.job import Job
+from k37.firmware_model.motion.program import Dwell, Event, Item, Move
 from k37.hdl.chipset.map import chip_register, port
-from k37.hdl.feed.divider_model import increment_for
-from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH, fa_register
+from k37.hdl.feed.map.feed_rate import DIVIDER_WIDTH, fa_register
+from k37.hdl.feed.rates import increment_for
 from k37.hdl.k3701.map import block_registers
 from k37.hdl.k3702.map import K3702_MAP
 
@@ -89,7 +88,7 @@ class AlarmEvent:
 
 @dataclass
 class EventRecord:
-    """A word with no hardware here (:class:`k37.firmware_model.gcode.parser.Event`) and the cycle
+    """A word with no hardware here (:class:`k37.firmware_model.motion.program.Event`) and the cycle
     the firmware reached it at."""
 
     event: Event

@@ -6,7 +6,7 @@ program on the default machine).
 
 Every :class:`MachineConfig` value is checked when it is built, against the limit of the block
 that has it: the chipset's accel/decel widths and placements (:mod:`k37.hdl.chipset.chip`), the
-feed-rate generator's divider (:func:`k37.hdl.feed.divider_model.rate_limit`), the chips' register
+feed-rate generator's divider (:func:`k37.hdl.feed.rates.rate_limit`), the chips' register
 ranges (their register maps), the G-code front end's LSB length. A :class:`ServoConfig` holds
 the simulated plants' settings, which the firmware never sees: here only their type is
 checked; their ranges are the plant's fixed point on the machine's clock and LSB, which the
@@ -20,12 +20,14 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any, Protocol
 
 from k37.firmware_model.gcode.canon import FRONTENDS
-from k37.firmware_model.gcode.parser import LSB_MM_LIMIT, GcodeError, Program, names_third_axis
+from k37.firmware_model.gcode.parser import GcodeError, names_third_axis
+from k37.firmware_model.gcode.units import LSB_MM_LIMIT
+from k37.firmware_model.motion.program import Program
 from k37.hdl.chipset.map import ACCEL_BITS, AXES, MACHINE_AXES, Accel, AccelShape, axis_names
 from k37.hdl.common.params import Limit
 from k37.hdl.encoder.map import ENCODER_MAP
-from k37.hdl.feed.divider_model import rate_limit
-from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH
+from k37.hdl.feed.map.feed_rate import DIVIDER_WIDTH
+from k37.hdl.feed.rates import rate_limit
 from k37.hdl.k3702.map import K3702_MAP
 
 __all__ = ["AXES", "CONTOUR_CONTROLLERS", "DEMO_GCODE", "AxisAccelConfig", "Boolean",

@@ -6,7 +6,7 @@ from k37.firmware_model.gcode.words import markdown as gcode_markdown
 from k37.hdl.bridge.protocol import markdown as bridge_markdown
 from k37.hdl.bus.registers import RegisterMap, registers_markdown
 from k37.hdl.chipset.map import CHIP_SELECTS, REG_BITS, SUB_WINDOWS, chip_selects, port
-from k37.hdl.feed.feed_rate_map import FEED_MAP, FEED_MAP_AXIS_FA
+from k37.hdl.feed.map.feed_rate import FEED_MAP, FEED_MAP_AXIS_FA
 
 __all__ = ["REGISTER_MAPS", "documents", "registers_document"]
 

@@ -26,8 +26,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from k37.firmware_model.contour.geometry import Piece, piece
-from k37.firmware_model.gcode.program import Move
 from k37.firmware_model.job import ContourConfig
+from k37.firmware_model.motion.program import Move
 
 __all__ = ["ContourController", "error_vector", "nearest_on"]
 

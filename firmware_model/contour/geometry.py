@@ -15,8 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from k37.firmware_model.gcode.parser import Arc, Line
-from k37.firmware_model.gcode.program import Move
+from k37.firmware_model.motion.program import Arc, Line, Move
 
 __all__ = ["GRID", "Piece", "piece"]
 

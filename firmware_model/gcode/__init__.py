@@ -1,5 +1,5 @@
-"""The G-code front ends and the planner: the built-in parser
-(:mod:`k37.firmware_model.gcode.parser`, its lexer and word table), LinuxCNC's ``rs274``
-(:mod:`k37.firmware_model.gcode.canon`), and the planning of lines, arcs and curves into K3701
-blocks (:mod:`k37.firmware_model.gcode.program`).
+"""The G-code language: the built-in front end (:mod:`k37.firmware_model.gcode.parser`, its
+lexer, expressions, RS-274/NGC parameters and O-words, word table and modal interpreter) and
+LinuxCNC's ``rs274`` (:mod:`k37.firmware_model.gcode.canon`). Both drive the motion planner of
+:mod:`k37.firmware_model.motion`, which plans the moves into K3701 blocks.
 """

@@ -3,8 +3,8 @@
 ``rs274 -g FILE OUT`` (Debian's ``linuxcnc-uspace``) resolves parameters, expressions, O-word
 subroutines and loops, offsets and canned cycles, and writes the canonical machine commands
 one per line (``   12 N..... STRAIGHT_FEED(1.0000, 2.0000, 0.0000, ...)``). :func:`parse_canon`
-turns that text into the same :class:`~k37.firmware_model.gcode.program.Program` the built-in front
-end builds, through the same :class:`~k37.firmware_model.gcode.planner.Planner` (exact ends,
+turns that text into the same :class:`~k37.firmware_model.motion.program.Program` the built-in front
+end builds, through the same :class:`~k37.firmware_model.motion.planner.Planner` (exact ends,
 correction lines, events); :func:`parse_linuxcnc` runs ``rs274`` on a program first.
 
 Canonical positions are in the program's coordinate system and length units: the machine
@@ -27,17 +27,16 @@ from collections.abc import Mapping
 from decimal import ROUND_HALF_UP, Decimal
 from pathlib import Path
 
-from k37.firmware_model.gcode.parser import (
+from k37.firmware_model.gcode.parser import GcodeError, parse
+from k37.firmware_model.gcode.units import (
     ARC_TOLERANCE_LIMIT,
     ARC_TOLERANCE_MM,
     AXES_LIMIT,
     INCH_MM,
     LSB_MM_LIMIT,
-    GcodeError,
-    parse,
 )
-from k37.firmware_model.gcode.planner import Planner
-from k37.firmware_model.gcode.program import Program
+from k37.firmware_model.motion.planner import Planner
+from k37.firmware_model.motion.program import Program
 
 __all__ = ["FRONTENDS", "RS274", "parse_canon", "parse_linuxcnc", "rs274_canon"]
 

@@ -13,8 +13,6 @@ from k37.firmware_model.gcode.block_words import BlockError, BlockWords, g_name
 from k37.firmware_model.gcode.cycles import CannedCycles
 from k37.firmware_model.gcode.lex import Word
 from k37.firmware_model.gcode.offsets import SYSTEMS, Offsets
-from k37.firmware_model.gcode.planner import PlanError, Planner
-from k37.firmware_model.gcode.program import PLANE_AXES
 from k37.firmware_model.gcode.spline_motions import SplineMotions
 from k37.firmware_model.gcode.units import (
     ARC_TOLERANCE_MM,
@@ -24,6 +22,8 @@ from k37.firmware_model.gcode.units import (
     USES,
 )
 from k37.firmware_model.gcode.words import M_CODES
+from k37.firmware_model.motion.planner import PlanError, Planner
+from k37.firmware_model.motion.program import PLANE_AXES
 from k37.hdl.k3701.block import COORD_MAX
 
 __all__ = ["Interpreter"]

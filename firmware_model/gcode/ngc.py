@@ -19,42 +19,34 @@ words, evaluated, to a :class:`Host` (the modal interpreter of
 
 Bounds: at most :data:`MAX_BLOCKS` lines executed in one program and :data:`MAX_CALL_DEPTH`
 nested calls; beyond, a clear error at the line. Errors in a line's values are reported
-and the line skipped; an error in the program's structure or its control flow stops it.
+and the line skipped; an error in the program's structure or its control flow stops it. The
+structure (subroutines, loops, conditionals) is read before the program runs, by
+:mod:`k37.firmware_model.gcode.ngc_structure`.
 """
 
 from __future__ import annotations
 
 import contextlib
 import re
-from dataclasses import dataclass, field
 from decimal import Decimal
 from typing import Protocol
 
 from k37.firmware_model.gcode.expr import ExprError, Named, Node, Numbered, finite
 from k37.firmware_model.gcode.lex import LexError, NgcLine, OStatement, Word, WordValue, read_line
+from k37.firmware_model.gcode.ngc_structure import Builder, NgcError, Structure, Sub, o_name
 
-__all__ = ["MAX_BLOCKS", "MAX_CALL_DEPTH", "MAX_PARAMETER", "Host", "NgcError", "run"]
+__all__ = ["MAX_BLOCKS", "MAX_CALL_DEPTH", "MAX_PARAMETER", "Host", "run"]
 
 #: Most lines executed in one program (loops and calls counted each time).
 MAX_BLOCKS = 1_000_000
 #: Most nested subroutine calls.
 MAX_CALL_DEPTH = 64
-#: Most nested O-word structures in the source.
-MAX_STRUCTURE_DEPTH = 64
 #: Most nested calls and structures being executed at once.
 MAX_NESTING = 200
 #: Highest numbered parameter a program sets (#5001 up are the interpreter's).
 MAX_PARAMETER = 5000
 #: Lines that are a controller's own command, not G-code (grbl's ``$`` and ``?``).
 CONTROLLER_LINES = ("$", "?")
-
-
-class NgcError(Exception):
-    """An error that stops the program: (line, col, message)."""
-
-    def __init__(self, line: int, col: int, message: str):
-        super().__init__(message)
-        self.line, self.col, self.message = line, col, message
 
 
 class Host(Protocol):
@@ -75,138 +67,6 @@ class Host(Protocol):
     def predefined(self, key: int | str, col: int) -> float | None:
         """A predefined parameter's value; None: not predefined; raises
         :class:`~k37.firmware_model.gcode.expr.ExprError` for one that is unsupported."""
-
-
-# -- the program's structure ------------------------------------------------------------------
-
-@dataclass
-class _Node:
-    line: int  # index into the lines
-    kind: str  # "line", a control keyword (call, return, break, continue) or a structure
-    label: str = ""
-    body: list[_Node] = field(default_factory=list)
-    branches: list[tuple[int, list[_Node]]] = field(default_factory=list)  # if/elseif
-    end: int = 0  # the closing line (do: its while)
-
-
-@dataclass
-class _Sub:
-    line: int
-    body: list[_Node]
-    end: int
-
-
-_OPENERS = {"while": "endwhile", "repeat": "endrepeat", "if": "endif", "else": "endif",
-            "do": "while", "sub": "endsub"}
-_CLOSERS = {"endwhile", "endrepeat", "endif", "endsub", "elseif", "else"}
-
-
-def _name(label: str) -> str:
-    return f"o{label}"
-
-
-class _Builder:
-    def __init__(self, lines: list[NgcLine | LexError], texts: list[str]):
-        self.lines = lines
-        self.texts = texts
-        self.subs: dict[str, _Sub] = {}
-        self.i = 0
-
-    def o(self, i: int) -> OStatement | None:
-        line = self.lines[i]
-        return line.o if isinstance(line, NgcLine) else None
-
-    def fail(self, i: int, message: str, col: int = 1) -> NgcError:
-        return NgcError(i + 1, col, message)
-
-    def body(self, opener: OStatement | None, depth: int, loops: tuple[str, ...],
-             in_sub: bool, opened: int = 0) -> list[_Node]:
-        """Nodes up to the statement closing ``opener`` (left at self.i) or the end."""
-        if depth > MAX_STRUCTURE_DEPTH:
-            raise self.fail(self.i, f"O-word structures nested more than "
-                                    f"{MAX_STRUCTURE_DEPTH} deep")
-        nodes: list[_Node] = []
-        while self.i < len(self.lines):
-            o = self.o(self.i)
-            line = self.lines[self.i]
-            if isinstance(line, LexError) and _O_LINE.match(self.texts[self.i]):
-                raise self.fail(self.i, line.message, line.col)
-            if o is None:
-                nodes.append(_Node(self.i, "line"))
-                self.i += 1
-                continue
-            k = o.keyword
-            if k in _CLOSERS or (k == "while" and opener is not None
-                                 and opener.keyword == "do" and o.label == opener.label):
-                if opener is None or o.label != opener.label or not self.closes(opener, k):
-                    what = (f"does not close {_name(opener.label)} {opener.keyword}"
-                            if opener is not None else "has no opening statement")
-                    raise self.fail(self.i, f"{_name(o.label)} {k} {what}", o.col)
-                return nodes
-            nodes.append(self.statement(o, depth, loops, in_sub))
-        if opener is not None:
-            raise self.fail(opened, f"{_name(opener.label)} {opener.keyword} is not "
-                                        f"closed: {_name(opener.label)} {_OPENERS[opener.keyword]}"
-                                        f" missing")
-        return nodes
-
-    @staticmethod
-    def closes(opener: OStatement, keyword: str) -> bool:
-        if opener.keyword == "if":
-            return keyword in ("elseif", "else", "endif")
-        return _OPENERS[opener.keyword] == keyword
-
-    def statement(self, o: OStatement, depth: int, loops: tuple[str, ...],
-                  in_sub: bool) -> _Node:
-        start = self.i
-        self.i += 1
-        k = o.keyword
-        if k in ("call", "return", "break", "continue"):
-            if k in ("break", "continue") and o.label not in loops:
-                raise self.fail(start, f"{_name(o.label)} {k} is not inside an "
-                                       f"{_name(o.label)} loop", o.col)
-            if k == "return" and not in_sub:
-                raise self.fail(start, f"{_name(o.label)} return outside a subroutine", o.col)
-            return _Node(start, k, o.label)
-        if k == "sub":
-            if depth > 0 or in_sub:
-                raise self.fail(start, f"{_name(o.label)} sub inside another structure: "
-                                       f"subroutines are defined at the top level", o.col)
-            body = self.body(o, depth + 1, (), True, start)
-            if o.label in self.subs:
-                raise self.fail(start, f"{_name(o.label)} sub is defined twice (first at "
-                                       f"line {self.subs[o.label].line + 1})", o.col)
-            self.subs[o.label] = _Sub(start, body, self.i)
-            self.i += 1
-            return _Node(start, "sub", o.label)
-        inner = (*loops, o.label) if k in ("while", "do", "repeat") else loops
-        node = _Node(start, k, o.label)
-        if k == "if":
-            cond = start
-            while True:
-                branch = self.body(o, depth + 1, inner, in_sub, start)
-                closing = self.o(self.i)
-                assert closing is not None
-                node.branches.append((cond, branch))
-                cond = self.i
-                self.i += 1
-                if closing.keyword == "endif":
-                    break
-                if closing.keyword == "else":
-                    node.body = self.body(OStatement(o.label, "else", (), o.col), depth + 1,
-                                          inner, in_sub, start)
-                    closing = self.o(self.i)
-                    if closing is None or closing.keyword != "endif":
-                        raise self.fail(self.i, f"{_name(o.label)} if: only endif may follow "
-                                                f"its else")
-                    self.i += 1
-                    break
-            node.end = self.i - 1
-            return node
-        node.body = self.body(o, depth + 1, inner, in_sub, start)
-        node.end = self.i
-        self.i += 1
-        return node
 
 
 # -- parameters --------------------------------------------------------------------------------
@@ -298,7 +158,6 @@ class _End(Exception):  # noqa: N818 - the program's end (M02/M30)
     pass
 
 
-_O_LINE = re.compile(r"[ \t]*(/[ \t]*)?[oO]")
 _DEBUG_PARAMETER = re.compile(r"#<([^>]*)>|#([0-9]+)")
 
 
@@ -315,7 +174,7 @@ class _Runner:
         self.params = _Parameters(host)
         self.blocks = 0
         self.nesting = 0
-        self.subs: dict[str, _Sub] = {}
+        self.subs: dict[str, Sub] = {}
 
     @staticmethod
     def is_gcode(text: str) -> bool:
@@ -323,7 +182,7 @@ class _Runner:
         return stripped != "%" and not stripped.startswith(CONTROLLER_LINES)
 
     def run(self) -> None:
-        builder = _Builder(self.lines, self.texts)
+        builder = Builder(self.lines, self.texts)
         body = builder.body(None, 0, (), False)
         self.subs = builder.subs
         with contextlib.suppress(_End):
@@ -347,7 +206,7 @@ class _Runner:
         assert isinstance(line, NgcLine) and line.o is not None
         return self.value(i, line.o.args[0]) != 0
 
-    def body(self, nodes: list[_Node]) -> None:
+    def body(self, nodes: list[Structure]) -> None:
         self.nesting += 1
         try:
             for node in nodes:
@@ -355,7 +214,7 @@ class _Runner:
         finally:
             self.nesting -= 1
 
-    def node(self, node: _Node) -> None:
+    def node(self, node: Structure) -> None:
         if self.nesting > MAX_NESTING:
             raise NgcError(node.line + 1, 1, f"calls and O-word structures nested more than "
                                              f"{MAX_NESTING} deep")
@@ -387,7 +246,7 @@ class _Runner:
         assert isinstance(line, NgcLine) and line.o is not None
         return line.o
 
-    def loop(self, node: _Node) -> None:
+    def loop(self, node: Structure) -> None:
         times = 0
         if node.kind == "repeat":
             times = int(self.value(node.line, self.statement(node.line).args[0]))
@@ -413,11 +272,11 @@ class _Runner:
         o = self.statement(i)
         sub = self.subs.get(o.label)
         if sub is None:
-            raise NgcError(i + 1, o.col, f"{_name(o.label)} call: the program has no "
-                                         f"{_name(o.label)} sub (subroutine files are not "
+            raise NgcError(i + 1, o.col, f"{o_name(o.label)} call: the program has no "
+                                         f"{o_name(o.label)} sub (subroutine files are not "
                                          f"searched)")
         if self.params.depth >= MAX_CALL_DEPTH:
-            raise NgcError(i + 1, o.col, f"{_name(o.label)} call: more than {MAX_CALL_DEPTH} "
+            raise NgcError(i + 1, o.col, f"{o_name(o.label)} call: more than {MAX_CALL_DEPTH} "
                                          f"nested calls (a recursion that never ends?)")
         args = [self.value(i, a) for a in o.args]
         saved = {n: self.params.numbers.pop(n) for n in range(1, 31) if n in self.params.numbers}
@@ -518,6 +377,7 @@ def _shown(value: float) -> str:
 
 def run(texts: list[str], host: Host) -> None:
     """Execute a program's lines (``texts``, line 1 first) on ``host``. Raises
-    :class:`NgcError` for an error that stops the program; other errors go to
-    ``host.error``. ``$``/``?`` lines are notes, ``%`` lines are skipped."""
+    :class:`~k37.firmware_model.gcode.ngc_structure.NgcError` for an error that stops the
+    program; other errors go to ``host.error``. ``$``/``?`` lines are notes, ``%`` lines are
+    skipped."""
     _Runner(texts, host).run()

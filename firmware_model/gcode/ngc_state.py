@@ -39,8 +39,8 @@ from typing import Protocol
 from k37.firmware_model.gcode.expr import ExprError
 from k37.firmware_model.gcode.lex import Word
 from k37.firmware_model.gcode.offsets import SYSTEMS, system_number
-from k37.firmware_model.gcode.planner import Planner
 from k37.firmware_model.gcode.words import G_CODES, code_key
+from k37.firmware_model.motion.planner import Planner
 
 __all__ = ["InterpreterHost", "Modal", "PolarError", "State", "TooManyErrors"]
 

@@ -1,8 +1,12 @@
 """The built-in G-code front end: RS-274 text to K3701 blocks in machine LSB units.
 
-:func:`parse` reads a program and returns a :class:`~k37.firmware_model.gcode.program.Program`: its
-:class:`Line`, :class:`Arc`, :class:`Dwell` and :class:`Event` items, each ready for the
-firmware model. The words it takes, their modal groups and meanings are the tables of
+:func:`parse` reads a program and returns a
+:class:`~k37.firmware_model.motion.program.Program`: its
+:class:`~k37.firmware_model.motion.program.Line`,
+:class:`~k37.firmware_model.motion.program.Arc`,
+:class:`~k37.firmware_model.motion.program.Dwell` and
+:class:`~k37.firmware_model.motion.program.Event` items, each ready for the firmware model. The
+words it takes, their modal groups and meanings are the tables of
 :mod:`k37.firmware_model.gcode.words` (``docs/gcode.md``); the lexer
 (:mod:`k37.firmware_model.gcode.lex`) says how a line is read. In short, what CAM post-processors
 emit: G00-G03 (I/J/K or R arcs, helices on three axes), G04, G17-G19, G20/G21, G28/G30, G40,
@@ -18,7 +22,7 @@ Semantics (RS-274/NGC's, as LinuxCNC's ``rs274``; the decisions are in the READM
 * Coordinates are rounded to the nearest LSB (halves away from zero) with decimal
   arithmetic, each absolute coordinate on its own, so rounding never accumulates. Every
   block ends exactly on its programmed point (an arc's chip end an LSB or two off is followed
-  by the host's correction line, :mod:`k37.firmware_model.gcode.program`).
+  by the host's correction line, :mod:`k37.firmware_model.motion.program`).
 * The machine position is the program's start (the origin). G54-G59 offsets are zero; G92
   offsets, the tool length (Z) and G53 act as in RS-274/NGC. G28/G30 go to the origin.
 * Canned cycles are expanded into moves as LinuxCNC does (G83 rapids back down to 0.254 mm,
@@ -48,21 +52,12 @@ from k37.firmware_model.gcode.block_words import BlockError
 from k37.firmware_model.gcode.interpreter import Interpreter
 from k37.firmware_model.gcode.lex import LexError, Word, read_line
 from k37.firmware_model.gcode.ngc_state import InterpreterHost, TooManyErrors
-from k37.firmware_model.gcode.planner import Planner
-from k37.firmware_model.gcode.program import Arc, Dwell, Event, Item, Line, Move, Parabola, Program
-from k37.firmware_model.gcode.units import (
-    ARC_TOLERANCE_LIMIT,
-    ARC_TOLERANCE_MM,
-    AXES_LIMIT,
-    INCH_MM,
-    LSB_MM_LIMIT,
-    MAX_ERRORS,
-    MAX_PECKS,
-)
+from k37.firmware_model.gcode.ngc_structure import NgcError
+from k37.firmware_model.gcode.units import ARC_TOLERANCE_LIMIT, AXES_LIMIT, LSB_MM_LIMIT, MAX_ERRORS
+from k37.firmware_model.motion.planner import Planner
+from k37.firmware_model.motion.program import Program
 
-__all__ = ["ARC_TOLERANCE_LIMIT", "ARC_TOLERANCE_MM", "AXES_LIMIT", "INCH_MM", "LSB_MM_LIMIT",
-           "MAX_ERRORS", "MAX_PECKS", "Arc", "Dwell", "Event", "GcodeError", "Item", "Line", "Move",
-           "Parabola", "Program", "names_third_axis", "parse"]
+__all__ = ["GcodeError", "names_third_axis", "parse"]
 
 
 class GcodeError(ValueError):
@@ -126,7 +121,8 @@ def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: b
         The machine's sqrt(2) control setting: it decides the FP counts of the plans.
     arc_tolerance : float or None
         Largest difference (LSB) between the start's and the end's distances from an arc's
-        centre, in :data:`ARC_TOLERANCE_LIMIT`; None: LinuxCNC's (:data:`ARC_TOLERANCE_MM`).
+        centre, in :data:`ARC_TOLERANCE_LIMIT`; None: LinuxCNC's
+        (:data:`~k37.firmware_model.gcode.units.ARC_TOLERANCE_MM`).
     axes : int
         The machine's axes: 2 (X, Y) or 3 (X, Y, Z).
     tools : mapping or None
@@ -153,7 +149,7 @@ def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: b
     try:
         with _collector_paused():
             ngc.run(text.removeprefix("\ufeff").split("\n"), host)
-    except ngc.NgcError as e:
+    except NgcError as e:
         host.errors.append((e.line, e.col, e.message))
     except TooManyErrors:
         pass

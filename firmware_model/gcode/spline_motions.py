@@ -1,13 +1,13 @@
 """G05, G05.1 and G05.2/G05.3 as the interpreter reads them (a mixin of
 :class:`k37.firmware_model.gcode.interpreter.Interpreter`); the curves themselves are
-:mod:`k37.firmware_model.gcode.splines`."""
+:mod:`k37.firmware_model.motion.splines`."""
 
 from __future__ import annotations
 
 from k37.firmware_model.gcode.block_words import BlockError, BlockWords
 from k37.firmware_model.gcode.lex import Word
-from k37.firmware_model.gcode.splines import Nurbs, bezier
 from k37.firmware_model.gcode.units import INCH_MM
+from k37.firmware_model.motion.splines import Nurbs, bezier
 
 __all__ = ["SplineMotions"]
 

@@ -1,3 +1,3 @@
 """The accel/decel circuits: exponential (up/down counter + accumulator), linear and
-bell-shaped, each beside its reference model.
+bell-shaped; their reference models are in :mod:`k37.hdl.accel.model`.
 """

@@ -1,6 +1,6 @@
 """Bell-shaped accel/decel circuit: the linear circuit, then the exponential one.
 
-The reference model is :class:`k37.hdl.accel.bell_model.AccelBellModel`.
+The reference model is :class:`k37.hdl.accel.model.bell.AccelBellModel`.
 """
 
 from __future__ import annotations
@@ -8,9 +8,9 @@ from __future__ import annotations
 from amaranth.hdl import Module, Signal
 
 from k37.hdl.accel.exponential import AccelCircuit, AccelDecel, accel_members
-from k37.hdl.accel.exponential_model import check_params
 from k37.hdl.accel.linear import AccelLinear
-from k37.hdl.accel.linear_model import check_bins
+from k37.hdl.accel.model.exponential import check_params
+from k37.hdl.accel.model.linear import check_bins
 from k37.hdl.common.observation import FreeRunning
 
 __all__ = ["AccelBell"]

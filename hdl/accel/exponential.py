@@ -1,6 +1,6 @@
 """Exponential accel/decel circuit: up/down counter plus accumulator (``docs/chips/accel.md``).
 
-The reference model is :class:`k37.hdl.accel.exponential_model.AccelDecelModel`.
+The reference model is :class:`k37.hdl.accel.model.exponential.AccelDecelModel`.
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from amaranth.hdl import Module, Mux, Signal, signed, unsigned
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from k37.hdl.accel.exponential_model import check_params
+from k37.hdl.accel.model.exponential import check_params
 from k37.hdl.common.observation import CarryAccumulator, FreeRunning, Observed
 
 __all__ = ["AccelCircuit", "AccelDecel", "accel_members", "carry_and_pulses"]
@@ -81,7 +81,7 @@ class AccelDecel(AccelCircuit):
     output count equals the input count exactly.
 
     The addition clock fa comes from outside (a :class:`k37.hdl.feed.divider.PhaseDivider` with
-    ``k37.hdl.feed.divider_model.FA_INCREMENT`` gives the paper's 109.227 kHz, tau = 300 ms at n =
+    ``k37.hdl.feed.rates.FA_INCREMENT`` gives the paper's 109.227 kHz, tau = 300 ms at n =
     15), so one divider can serve several circuits and tests can drive ``add`` freely.
 
     Cycle timing: the addition of cycle *t* uses ``x`` and ``y`` of cycle *t* (an input

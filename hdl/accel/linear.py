@@ -1,6 +1,6 @@
 """Linear accel/decel circuit: a moving average of the pulse rate over T = 2**n / fa.
 
-The reference model is :class:`k37.hdl.accel.linear_model.AccelLinearModel` (which explains the
+The reference model is :class:`k37.hdl.accel.model.linear.AccelLinearModel` (which explains the
 circuit and why no pulse is lost).
 """
 
@@ -9,8 +9,8 @@ from __future__ import annotations
 from amaranth.hdl import Cat, Module, Mux, Signal
 
 from k37.hdl.accel.exponential import AccelCircuit, accel_members, carry_and_pulses
-from k37.hdl.accel.exponential_model import check_params
-from k37.hdl.accel.linear_model import check_bins
+from k37.hdl.accel.model.exponential import check_params
+from k37.hdl.accel.model.linear import check_bins
 from k37.hdl.common.observation import FreeRunning
 
 __all__ = ["AccelLinear"]

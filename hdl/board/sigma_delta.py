@@ -1,6 +1,6 @@
 """First-order sigma-delta D/A: a 16-bit D/A word as a one-bit stream on one pin.
 
-The reference model is :class:`k37.hdl.board.sigma_delta_model.SigmaDeltaModel`.
+The reference model is :class:`k37.hdl.board.model.sigma_delta.SigmaDeltaModel`.
 """
 
 from __future__ import annotations

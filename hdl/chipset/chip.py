@@ -11,7 +11,7 @@ Signal flow, with the accel/decel circuit in one of three places::
 
 where ACCEL is the accel/decel circuit of the chosen :class:`~k37.hdl.chipset.map.AccelShape` (per
 axis in post). Every circuit adds at the FEED chip's addition clock fa, or, in post, at an axis's
-own (``axis_fa``: the FEED chip's per-axis fa build, :func:`k37.hdl.feed.feed_rate_map.feed_map`).
+own (``axis_fa``: the FEED chip's per-axis fa build, :func:`k37.hdl.feed.map.feed_rate.feed_map`).
 
 Host bus: an 8085 I/O port address is ``chip select << 5 | register address``; the chip
 selects are :data:`k37.hdl.chipset.map.CHIP_SELECTS`, the registers each chip's own map. The
@@ -52,7 +52,7 @@ from k37.hdl.common.observation import FreeRunning, Observed
 from k37.hdl.encoder.chip import EncoderInterface
 from k37.hdl.feed.decel_control import DecelControl
 from k37.hdl.feed.feed_rate import FeedRate
-from k37.hdl.feed.feed_rate_map import feed_map
+from k37.hdl.feed.map.feed_rate import feed_map
 from k37.hdl.k3701.chip import K3701
 from k37.hdl.k3702.chip import K3702
 from k37.hdl.k3702.map import COUNTER_WIDTH

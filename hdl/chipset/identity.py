@@ -15,7 +15,7 @@ from collections.abc import Iterable, Mapping
 
 from k37.hdl.bridge.protocol import Identity, map_fingerprint
 from k37.hdl.chipset.map import axis_names, chip_selects
-from k37.hdl.feed.feed_rate_map import feed_map
+from k37.hdl.feed.map.feed_rate import feed_map
 
 __all__ = ["chipset_identity"]
 

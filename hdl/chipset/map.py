@@ -8,8 +8,8 @@ import enum
 from k37.hdl.bus.registers import Register, RegisterMap
 from k37.hdl.common.params import Limit
 from k37.hdl.encoder.map import ENCODER_MAP
-from k37.hdl.feed.decel_control_map import DECEL_MAP
-from k37.hdl.feed.feed_rate_map import FEED_MAP, FEED_MAP_AXIS_FA
+from k37.hdl.feed.map.decel_control import DECEL_MAP
+from k37.hdl.feed.map.feed_rate import FEED_MAP, FEED_MAP_AXIS_FA
 from k37.hdl.k3701.map import K3701_MAP, K3701_MAP_3
 from k37.hdl.k3702.map import K3702_MAP
 

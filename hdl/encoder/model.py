@@ -6,7 +6,7 @@ that ends it. The gateware :class:`k37.hdl.encoder.chip.EncoderInterface` matche
 
 from __future__ import annotations
 
-from k37.hdl.bus.hostbus_model import RegisterBankModel
+from k37.hdl.bus.model.hostbus import RegisterBankModel
 from k37.hdl.encoder.map import ENCODER_MAP, Decode
 
 __all__ = ["EncoderModel"]
@@ -59,7 +59,7 @@ class EncoderModel:
     """One encoder interface, one sample per :meth:`step`.
 
     Host writes go through :meth:`write` with the bus timing (see
-    :class:`~k37.hdl.bus.hostbus_model.RegisterBankModel`): a write issued before step *t* acts from
+    :class:`~k37.hdl.bus.model.hostbus.RegisterBankModel`): a write issued before step *t* acts from
     step *t* + 1 on.
     """
 

@@ -1,7 +1,7 @@
 """Decel control: the host-loaded FP budget gate before the accel/decel circuit
 (``docs/chips/decel.md``).
 
-The reference model is :class:`k37.hdl.feed.decel_control_model.DecelControlModel`.
+The reference model is :class:`k37.hdl.feed.model.decel_control.DecelControlModel`.
 """
 
 from amaranth.hdl import Module, Mux, Signal
@@ -10,8 +10,8 @@ from amaranth.lib.wiring import In, Out, connect, flipped
 
 from k37.hdl.bus.hostbus import HostBus, RegisterBank
 from k37.hdl.common.observation import Observed
-from k37.hdl.feed.decel_control_map import DECEL_MAP
-from k37.hdl.feed.decel_control_model import BUDGET_WIDTH
+from k37.hdl.feed.map.decel_control import DECEL_MAP
+from k37.hdl.feed.rates import BUDGET_WIDTH
 
 __all__ = ["DecelControl"]
 

@@ -1,6 +1,6 @@
 """Phase-accumulator clock-enable divider (``docs/chips/feed.md``).
 
-The reference model is :class:`k37.hdl.feed.divider_model.PhaseDividerModel`.
+The reference model is :class:`k37.hdl.feed.model.divider.PhaseDividerModel`.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ class PhaseDivider(wiring.Component):
     that addition is registered as ``stb``. Over cycles 1..T exactly
     ``floor(T * increment / 2**width)`` strobes occur (accumulator cleared at reset), so the
     rate has no long-term error and its jitter is under one cycle. It drives the accel/decel
-    addition clock fa (``k37.hdl.feed.divider_model.FA_INCREMENT`` gives the paper's 109.227 kHz
+    addition clock fa (``k37.hdl.feed.rates.FA_INCREMENT`` gives the paper's 109.227 kHz
     from 1 MHz) and the rate multiplier's input clock.
 
     Parameters

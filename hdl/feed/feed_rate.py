@@ -1,9 +1,9 @@
 """Feed-rate generator: the rate multiplier, its input-clock divider and the fa divider(s).
 
-The host sets the feed word and the dividers through :func:`~k37.hdl.feed.feed_rate_map.feed_map`;
+The host sets the feed word and the dividers through :func:`~k37.hdl.feed.map.feed_rate.feed_map`;
 the blocks inside are :class:`k37.hdl.feed.rate_multiplier.RateMultiplier` and
 :class:`k37.hdl.feed.divider.PhaseDivider`, each tested against its own reference model, and the
-chip against :class:`k37.hdl.feed.feed_rate_model.FeedRateModel`.
+chip against :class:`k37.hdl.feed.model.feed_rate.FeedRateModel`.
 """
 
 from collections.abc import Iterable
@@ -15,7 +15,7 @@ from amaranth.lib.wiring import In, Out, connect, flipped
 from k37.hdl.bus.hostbus import HostBus, RegisterBank
 from k37.hdl.common.observation import FreeRunning, Observed, PhaseAccumulator, StrobeCounter
 from k37.hdl.feed.divider import PhaseDivider
-from k37.hdl.feed.feed_rate_map import (
+from k37.hdl.feed.map.feed_rate import (
     DIVIDER_WIDTH,
     FA_AXES,
     FEED_BITS,

@@ -1,6 +1,6 @@
 """Cascaded SN7497-style binary rate multiplier: the feedrate generator (``docs/chips/feed.md``).
 
-The reference model (and the 7497's decoding table) is :mod:`k37.hdl.feed.rate_multiplier_model`.
+The reference model (and the 7497's decoding table) is :mod:`k37.hdl.feed.model.rate_multiplier`.
 """
 
 from __future__ import annotations
@@ -11,7 +11,8 @@ from amaranth.lib.wiring import In, Out
 
 from k37.hdl.common.observation import Observed
 from k37.hdl.common.params import positive_int
-from k37.hdl.feed.rate_multiplier_model import STAGE_BITS, selected_bit
+from k37.hdl.feed.model.rate_multiplier import selected_bit
+from k37.hdl.feed.rates import STAGE_BITS
 
 __all__ = ["RateMultiplier"]
 
@@ -68,7 +69,7 @@ class RateMultiplier(Observed, wiring.Component):
         m = Module()
         bits = STAGE_BITS * self.stages
         # The gates pass the clock in state k iff the word bit they select is set
-        # (:func:`k37.hdl.feed.rate_multiplier_model.selected_bit`): bit (bits - 1 - t) where t is
+        # (:func:`k37.hdl.feed.model.rate_multiplier.selected_bit`): bit (bits - 1 - t) where t is
         # the number of trailing ones of k (stage s = t // 6 is the first one not in state 63, and
         # its gate for rate bit 5 - t % 6 is open); no bit when k is all ones. ``select`` holds that
         # bit index for the state the next input clock reaches (the sentinel ``bits`` for none),
@@ -83,7 +84,7 @@ class RateMultiplier(Observed, wiring.Component):
 
 
 def _select_expr(state, bits: int):
-    """:func:`k37.hdl.feed.rate_multiplier_model.selected_bit` of the Amaranth value ``state``
+    """:func:`k37.hdl.feed.model.rate_multiplier.selected_bit` of the Amaranth value ``state``
     (taken modulo ``2**bits``), as a chain of multiplexers on its trailing ones."""
     result = bits
     for t in reversed(range(bits)):

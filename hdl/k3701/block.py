@@ -1,5 +1,5 @@
-"""What every path of the K3701's reference model shares (:mod:`k37.hdl.k3701.model`): the block
-the host loads (:class:`Block`, its :class:`Kind`), a decided :class:`Step` and its FP cost,
+"""What every path of the K3701's reference model shares (:mod:`k37.hdl.k3701.model.chip`): the
+block the host loads (:class:`Block`, its :class:`Kind`), a decided :class:`Step` and its FP cost,
 the routing of a three-axis chip's steps by plane, and the chip's constants. It is the model's
 side of :mod:`k37.hdl.k3701.datapaths.base`, the interface between the chip's core and its
 datapaths. """

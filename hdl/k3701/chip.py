@@ -3,7 +3,7 @@
 The chip's ports, parameters and timing; its logic is the shared core
 (:mod:`k37.hdl.k3701.core`) composed with the two-axis (:mod:`k37.hdl.k3701.two_axis`) or the
 three-axis (:mod:`k37.hdl.k3701.three_axis`) datapaths. The reference model is
-:mod:`k37.hdl.k3701.model`; this chip is tested against it cycle by cycle.
+:mod:`k37.hdl.k3701.model.chip`; this chip is tested against it cycle by cycle.
 """
 
 from amaranth.hdl import Module, Signal
@@ -26,8 +26,8 @@ class K3701(Observed, wiring.Component):
 
     The host loads a block through :data:`K3701_MAP` and writes ``CMD.start``; each feed pulse
     earns step credit and each step emits one-cycle pulses on the axes it moves. Timing is
-    that of :class:`k37.hdl.k3701.model.K3701Model` (S is the cycle after the host's write of the
-    start command):
+    that of :class:`k37.hdl.k3701.model.chip.K3701Model` (S is the cycle after the host's write of
+    the start command):
 
     * linear: BUSY and FP intake from S+1; circular: BUSY from S+1, a serial radius check
       until S+``circle_setup``, FP intake from S+1+``circle_setup``; parabolic: the same

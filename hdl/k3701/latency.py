@@ -1,6 +1,6 @@
 """The K3701's step latency count and the strobes it times (``docs/chips/k3701.md``).
 
-The reference model is :class:`k37.hdl.k3701.latency_model.StepLatencyModel`.
+The reference model is :class:`k37.hdl.k3701.model.latency.StepLatencyModel`.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from amaranth.hdl import Const, Module, Mux
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
-from k37.hdl.k3701.latency_model import check_params
+from k37.hdl.k3701.model.latency import check_params
 
 __all__ = ["StepLatency"]
 

@@ -1,5 +1,5 @@
 """The KM3701's registers as the host sees them, and the register values that load a block
-(:class:`k37.hdl.k3701.chip.K3701` implements them; :mod:`k37.hdl.k3701.model` states the
+(:class:`k37.hdl.k3701.chip.K3701` implements them; :mod:`k37.hdl.k3701.model.chip` states the
 behaviour)."""
 
 from __future__ import annotations

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from k37.hdl.bus.hostbus_model import RegisterBankModel
+from k37.hdl.bus.model.hostbus import RegisterBankModel
 from k37.hdl.k3702.map import COUNTER_WIDTH, K3702_MAP
 
 __all__ = ["K3702Model", "K3702Outputs", "wrap"]
@@ -45,7 +45,7 @@ class K3702Model:
     """One KM3702, one clock cycle per :meth:`step`.
 
     Host writes go through :meth:`write` with the same timing as the bus (see
-    :class:`~k37.hdl.bus.hostbus_model.RegisterBankModel`): a write issued before step *t* acts in
+    :class:`~k37.hdl.bus.model.hostbus.RegisterBankModel`): a write issued before step *t* acts in
     step *t* + 1.
     """
 

@@ -165,7 +165,7 @@ def _program_options(p: argparse.ArgumentParser) -> None:
 
 
 def _tolerance(text: str) -> float:
-    from k37.firmware_model.gcode.parser import ARC_TOLERANCE_LIMIT
+    from k37.firmware_model.gcode.units import ARC_TOLERANCE_LIMIT
 
     try:
         return ARC_TOLERANCE_LIMIT.check("arc tolerance", float(text))

@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from k37.firmware_model.feeds import word_feed
-from k37.firmware_model.gcode.parser import Line
 from k37.firmware_model.job import AXES
+from k37.firmware_model.motion.program import Line
 from k37.sim.machine.plant_model import DAC_VOLTS
 from k37.sim.reproduce.markdown import Section, pct, pyplot, save_figure
 from k37.sim.reproduce.paper import FEED_HIGH, PAPER_TAU_S

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from k37.firmware_model.gcode.parser import Line
+from k37.firmware_model.motion.program import Line
 from k37.sim.reproduce.markdown import Section, pyplot, save_figure
 from k37.sim.reproduce.runs import MACHINE, RunData, Scale, Specs, Trace
 from k37.sim.reproduce.theory import fp_rate, hardware_tau

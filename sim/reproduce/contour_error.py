@@ -22,9 +22,10 @@ from pathlib import Path
 import numpy as np
 from numpy.polynomial import Polynomial
 
-from k37.firmware_model.gcode.parser import Line, parse
-from k37.firmware_model.gcode.splines import Nurbs
+from k37.firmware_model.gcode.parser import parse
 from k37.firmware_model.job import ContourConfig, MachineConfig, ServoConfig
+from k37.firmware_model.motion.program import Line
+from k37.firmware_model.motion.splines import Nurbs
 from k37.sim.reproduce.markdown import Section, pyplot, save_figure
 from k37.sim.reproduce.runs import RunData, RunSpec, Scale, Specs, Trace
 from k37.sim.reproduce.theory import servo

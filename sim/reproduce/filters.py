@@ -18,9 +18,10 @@ from pathlib import Path
 import numpy as np
 
 from k37.firmware_model.job import MachineConfig, ServoConfig
-from k37.hdl.accel.exponential_model import AccelDecelModel
-from k37.hdl.feed.divider_model import PhaseDividerModel, increment_for
-from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH
+from k37.hdl.accel.model.exponential import AccelDecelModel
+from k37.hdl.feed.map.feed_rate import DIVIDER_WIDTH
+from k37.hdl.feed.model.divider import PhaseDividerModel
+from k37.hdl.feed.rates import increment_for
 from k37.sim.machine.two_mass_model import TwoMassParams
 from k37.sim.reproduce.markdown import Section, pyplot, save_figure
 from k37.sim.reproduce.paper import FEED_HIGH

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from k37.firmware_model.gcode.parser import Line
 from k37.firmware_model.job import AXES
+from k37.firmware_model.motion.program import Line
 from k37.sim.reproduce.markdown import Section, pyplot, save_figure
 from k37.sim.reproduce.path_error import Circle
 from k37.sim.reproduce.runs import MACHINE, RunData, Specs, Trace

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from k37.firmware_model.gcode.parser import Arc, Line
+from k37.firmware_model.motion.program import Arc, Line
 from k37.sim.reproduce.paper import FEED_HIGH, FEED_LOW, PAPER_TAU_S
 from k37.sim.reproduce.runs import MACHINE, QUICK, SERVO, RunData, Scale, run_specs
 from k37.sim.reproduce.theory import fp_rate

@@ -15,8 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from k37.firmware_model.gcode.parser import Line
-from k37.firmware_model.gcode.program import Parabola
+from k37.firmware_model.motion.program import Line, Parabola
 from k37.sim.reproduce.markdown import Section, pyplot, save_figure
 from k37.sim.reproduce.runs import MACHINE, PARABOLA_FEED, RunData, Specs, Trace
 

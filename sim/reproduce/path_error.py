@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from k37.firmware_model.gcode.parser import Arc
 from k37.firmware_model.job import MachineConfig
+from k37.firmware_model.motion.program import Arc
 from k37.sim.reproduce.markdown import Section, pct, pyplot, save_figure
 from k37.sim.reproduce.paper import FEED_HIGH, FEED_LOW
 from k37.sim.reproduce.runs import MACHINE, SERVO, RunData, RunSpec, Scale, Specs, Trace

@@ -16,10 +16,10 @@ from typing import TypeVar
 import numpy as np
 
 from k37.firmware_model.feeds import word_feed
-from k37.firmware_model.gcode.parser import Arc, Line, Program, parse
-from k37.firmware_model.gcode.program import Parabola
-from k37.firmware_model.gcode.splines import Nurbs, SplineSpan
+from k37.firmware_model.gcode.parser import parse
 from k37.firmware_model.job import AxisAccelConfig, ContourConfig, Job, MachineConfig, ServoConfig
+from k37.firmware_model.motion.program import Arc, Line, Parabola, Program
+from k37.firmware_model.motion.splines import Nurbs, SplineSpan
 from k37.hdl.k3701.block import Block
 from k37.sim.reproduce.paper import FEED_HIGH, FEED_LOW
 from k37.sim.reproduce.theory import hardware_tau

@@ -15,10 +15,10 @@ import numpy as np
 
 from k37.firmware_model.feeds import rm_clock_hz
 from k37.firmware_model.job import MachineConfig
-from k37.hdl.feed.divider_model import frequency_of, increment_for
-from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH, FEED_BITS
+from k37.hdl.feed.map.feed_rate import DIVIDER_WIDTH, FEED_BITS
+from k37.hdl.feed.rates import frequency_of, increment_for
 from k37.hdl.k3701.block import Block
-from k37.hdl.k3701.model import make_path, walk
+from k37.hdl.k3701.model.chip import make_path, walk
 
 __all__ = ["E63", "accel_filter", "accel_gain", "following_error", "fp_rate", "hardware_tau",
            "ideal_command", "lag", "mismatch_amplitude", "moving_average", "quarter_counts",

@@ -17,8 +17,8 @@ import numpy as np
 
 from k37.firmware_model.host import Host8085
 from k37.firmware_model.job import AXES
-from k37.hdl.feed.decel_control_map import DECEL_MAP
-from k37.hdl.feed.feed_rate_map import FEED_MAP
+from k37.hdl.feed.map.decel_control import DECEL_MAP
+from k37.hdl.feed.map.feed_rate import FEED_MAP
 from k37.hdl.k3701.map import block_registers
 from k37.sim.reproduce.runs import RateSpec, RunData, RunSpec, Specs, minus_spec
 from k37.sim.run.runner import RunOptions, design_key, reused_backend, run_job

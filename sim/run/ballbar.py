@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from k37.firmware_model.gcode.parser import Arc
+from k37.firmware_model.motion.program import Arc
 from k37.sim.run.report import BALLBAR_FIGURES as FIGURES
 
 if TYPE_CHECKING:

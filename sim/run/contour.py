@@ -10,8 +10,8 @@ from functools import reduce
 
 import numpy as np
 
-from k37.firmware_model.gcode.parser import Arc, Line
 from k37.firmware_model.job import Job
+from k37.firmware_model.motion.program import Arc, Line
 from k37.sim.run.sampler import CHUNK_ROWS, SampleStore
 
 __all__ = ["BlockStart", "contour_errors", "contour_summary"]

@@ -47,7 +47,7 @@ from os import PathLike
 from pathlib import Path
 from typing import Any, NoReturn
 
-from k37.firmware_model.gcode.parser import ARC_TOLERANCE_LIMIT, ARC_TOLERANCE_MM, Program
+from k37.firmware_model.gcode.units import ARC_TOLERANCE_LIMIT, ARC_TOLERANCE_MM
 from k37.firmware_model.job import (
     AxisAccelConfig,
     ContourConfig,
@@ -61,6 +61,7 @@ from k37.firmware_model.job import (
     gcode_job,
     parse_for_machine,
 )
+from k37.firmware_model.motion.program import Program
 from k37.hdl.chipset.map import ALL_AXES
 from k37.hdl.common.params import Limit
 from k37.sim.files import STDIO, InputError, read_input_text

@@ -11,8 +11,8 @@ from __future__ import annotations
 from typing import Any
 
 from k37.firmware_model.feeds import SETTLE_SECONDS, planned_seconds, program_time
-from k37.firmware_model.gcode.parser import Arc, Dwell, Event, Item, Line
 from k37.firmware_model.job import Job
+from k37.firmware_model.motion.program import Arc, Dwell, Event, Item, Line
 
 __all__ = ["MANY_BLOCKS", "machine_time", "plan_rows", "plan_table"]
 

@@ -33,8 +33,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from k37.firmware_model.feeds import run_feed
-from k37.firmware_model.gcode.parser import Arc, Line
-from k37.firmware_model.gcode.program import Exponential, Move, Parabola
+from k37.firmware_model.motion.program import Arc, Exponential, Line, Move, Parabola
 from k37.sim.run.plot_data import PlotData, plot_data
 from k37.sim.run.runner import RunResult
 

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 from typing import TextIO
 
 from k37.firmware_model.feeds import planned_seconds
-from k37.firmware_model.gcode.parser import Dwell, Item
 from k37.firmware_model.job import Job
+from k37.firmware_model.motion.program import Dwell, Item
 
 __all__ = ["ProgramPlan", "Progress", "ProgressPrinter"]
 

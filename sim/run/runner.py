@@ -36,9 +36,9 @@ import k37.hdl
 import k37.sim.machine
 from k37.firmware_model.feeds import check_program, clamped_feeds, program_seconds
 from k37.firmware_model.firmware import BlockRecord, Firmware
-from k37.firmware_model.gcode.parser import Dwell, Event
 from k37.firmware_model.host import Host8085
 from k37.firmware_model.job import Job
+from k37.firmware_model.motion.program import Dwell, Event
 from k37.hdl.chipset.map import chip_register, port
 from k37.sim.backends.contract import Backend
 from k37.sim.backends.factory import BACKEND_NAMES, make_backend

@@ -8,8 +8,8 @@ import math
 
 from k37.firmware_model.feeds import feed_word, run_feed, word_rate
 from k37.firmware_model.firmware import Firmware
-from k37.firmware_model.gcode.parser import Move
 from k37.firmware_model.job import Job
+from k37.firmware_model.motion.program import Move
 from k37.sim.run.sampler import Sampler
 
 __all__ = ["STALL_SECONDS", "RunStopped", "StallWatch", "stall_seconds"]

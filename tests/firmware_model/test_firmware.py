@@ -22,7 +22,7 @@ from k37.firmware_model.feeds import (
 from k37.firmware_model.host import T_STATES, Host8085
 from k37.firmware_model.job import MachineConfig, RunConfig
 from k37.hdl.chipset.map import port
-from k37.hdl.feed.feed_rate_map import FEED_BITS
+from k37.hdl.feed.map.feed_rate import FEED_BITS
 from k37.hdl.k3701.block import Kind
 
 

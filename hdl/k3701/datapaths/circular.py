@@ -1,6 +1,6 @@
 """K3701 circular interpolation datapath: the sign-of-D method with a serial radius check.
 
-The reference model is :class:`k37.hdl.k3701.datapaths.circular_model.CircularPath`.
+The reference model is :class:`k37.hdl.k3701.datapaths.model.circular.CircularPath`.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """The three-axis K3701's helix axis: a DDA on an arc's steps that moves the plane's normal.
 
-The reference model is :class:`k37.hdl.k3701.datapaths.helix_model.HelixPath`.
+The reference model is :class:`k37.hdl.k3701.datapaths.model.helix.HelixPath`.
 """
 
 from amaranth.hdl import Module, Mux, Signal, signed

@@ -1,7 +1,7 @@
 """K3701 linear interpolation datapaths: DDA stepping on the long axis, for the two-axis chip
 and the three-axis one.
 
-The reference model is :class:`k37.hdl.k3701.datapaths.linear_model.LinearPath`.
+The reference model is :class:`k37.hdl.k3701.datapaths.model.linear.LinearPath`.
 """
 
 from __future__ import annotations

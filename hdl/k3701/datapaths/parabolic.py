@@ -1,8 +1,8 @@
 """K3701 parabolic and exponential (logarithmic) interpolation datapath: the sign-of-F method
 on F = A v - B p^2 - C p, and on the height of an exponential above the point.
 
-The reference models are :class:`k37.hdl.k3701.datapaths.parabolic_model.ParabolicPath` and
-:class:`k37.hdl.k3701.datapaths.parabolic_model.ExponentialPath`.
+The reference models are :class:`k37.hdl.k3701.datapaths.model.parabolic.ParabolicPath` and
+:class:`k37.hdl.k3701.datapaths.model.parabolic.ExponentialPath`.
 """
 
 from __future__ import annotations

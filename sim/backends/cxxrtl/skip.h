@@ -12,7 +12,7 @@
 extern "C" {
 
 // The rate multiplier's decoding (hdl/feed/rate_multiplier.py), as its reference model defines it
-// (hdl/feed/rate_multiplier_model.py; tests/hdl/feed/test_rate_multiplier.py pins these to it):
+// (hdl/feed/model/rate_multiplier.py; tests/hdl/feed/test_rate_multiplier.py pins these to it):
 // counter state `state` of a `width`-bit cascade passes the input clock for word bit
 // width - 1 - t, t its trailing ones, and for none (width) when it is all ones. The states
 // with t trailing ones are those equal to 2^t - 1 modulo 2^(t + 1).

@@ -9,9 +9,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from k37.firmware_model.gcode.arcs import plan_block
+from k37.firmware_model.motion.arcs import plan_block
 from k37.hdl.k3701.block import Block, BlockError
-from k37.hdl.k3701.model import plan
+from k37.hdl.k3701.model.chip import plan
 
 
 def _both(xe, ye, i, j, cw, sqrt2):

@@ -26,7 +26,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from k37.firmware_model.gcode.canon import RS274, parse_linuxcnc
-from k37.firmware_model.gcode.parser import Arc, GcodeError, Program, parse
+from k37.firmware_model.gcode.parser import GcodeError, parse
+from k37.firmware_model.motion.program import Arc, Program
 from tests.paths import ROOT
 
 CORPUS = ROOT / "tests" / "gcode_corpus"

@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 
 from k37.firmware_model.feeds import FirmwareError, check_program
-from k37.firmware_model.gcode.curves import MIN_VERTEX_RADIUS
 from k37.firmware_model.gcode.parser import GcodeError, parse
-from k37.firmware_model.gcode.program import Exponential, Parabola
 from k37.firmware_model.job import Job, MachineConfig, RunConfig, ServoConfig
+from k37.firmware_model.motion.curves import MIN_VERTEX_RADIUS
+from k37.firmware_model.motion.program import Exponential, Parabola
 from k37.hdl.k3701.block import Block, Kind
-from k37.hdl.k3701.model import plan
+from k37.hdl.k3701.model.chip import plan
 from k37.sim.run.report import HOW_FIELDS
 from k37.sim.run.runner import RunOptions, run_job
 

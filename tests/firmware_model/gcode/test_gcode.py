@@ -7,10 +7,11 @@ from itertools import pairwise
 
 import pytest
 
-from k37.firmware_model.gcode.parser import Arc, Dwell, GcodeError, Line, parse
+from k37.firmware_model.gcode.parser import GcodeError, parse
 from k37.firmware_model.job import gcode_job
+from k37.firmware_model.motion.program import Arc, Dwell, Line
 from k37.hdl.k3701.block import COORD_MAX, Block, Kind, quadrant_of
-from k37.hdl.k3701.model import plan
+from k37.hdl.k3701.model.chip import plan
 
 
 def moves(text: str, **kwargs) -> list[tuple[int, int]]:

@@ -7,9 +7,11 @@ import math
 
 import pytest
 
-from k37.firmware_model.gcode.parser import MAX_ERRORS, Arc, Dwell, Event, GcodeError, Line, parse
+from k37.firmware_model.gcode.parser import GcodeError, parse
+from k37.firmware_model.gcode.units import MAX_ERRORS
 from k37.firmware_model.gcode.words import G_CODES, M_CODES, markdown
 from k37.firmware_model.job import gcode_job
+from k37.firmware_model.motion.program import Arc, Dwell, Event, Line
 from k37.sim.run.jobfile import load_job
 from k37.sim.run.report import validate
 from k37.sim.run.runner import RunOptions, run_job

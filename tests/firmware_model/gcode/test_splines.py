@@ -11,8 +11,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from k37.firmware_model.gcode.parser import GcodeError, Line, parse
-from k37.firmware_model.gcode.splines import Nurbs, bezier
+from k37.firmware_model.gcode.parser import GcodeError, parse
+from k37.firmware_model.motion.program import Line
+from k37.firmware_model.motion.splines import Nurbs, bezier
 
 TOLERANCE = 28  # LinuxCNC's arc tolerance, 0.028 mm, in 1 um LSB
 

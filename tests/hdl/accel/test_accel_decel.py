@@ -10,8 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from k37.hdl.accel.exponential import AccelDecel
-from k37.hdl.accel.exponential_model import AccelDecelModel
-from k37.hdl.feed.divider_model import FA_INCREMENT, PhaseDividerModel, frequency_of, increment_for
+from k37.hdl.accel.model.exponential import AccelDecelModel
+from k37.hdl.feed.model.divider import PhaseDividerModel
+from k37.hdl.feed.rates import FA_INCREMENT, frequency_of, increment_for
 from k37.sim.backends.contract import CLOCK_PERIOD
 from tests.testbench import simulate
 

@@ -10,9 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from k37.hdl.accel.bell import AccelBell
-from k37.hdl.accel.bell_model import AccelBellModel
 from k37.hdl.accel.linear import AccelLinear
-from k37.hdl.accel.linear_model import AccelLinearModel
+from k37.hdl.accel.model.bell import AccelBellModel
+from k37.hdl.accel.model.linear import AccelLinearModel
 from tests.hdl.accel.test_accel_decel import drain, random_stimulus, run_gateware
 
 SHAPES = {"linear": (AccelLinear, AccelLinearModel), "bell": (AccelBell, AccelBellModel)}

@@ -16,9 +16,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from k37.hdl.board.core import CHIP_HZ, BoardCore
+from k37.hdl.board.model.sigma_delta import SigmaDeltaModel
 from k37.hdl.board.pins import ulx3s_pins
 from k37.hdl.board.sigma_delta import SigmaDelta
-from k37.hdl.board.sigma_delta_model import SigmaDeltaModel
 from k37.hdl.board.top import BoardTop
 from k37.hdl.bridge.protocol import OK, Identity, Op, encode
 from k37.hdl.chipset.identity import chipset_identity

@@ -19,8 +19,9 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from k37.hdl.feed.decel_control import DecelControl
-from k37.hdl.feed.decel_control_map import DECEL_MAP
-from k37.hdl.feed.decel_control_model import BUDGET_WIDTH, DecelControlModel
+from k37.hdl.feed.map.decel_control import DECEL_MAP
+from k37.hdl.feed.model.decel_control import DecelControlModel
+from k37.hdl.feed.rates import BUDGET_WIDTH
 from tests.testbench import read_reg, simulate, write_reg
 
 BUDGET, REMAINING, CTRL, STATUS = (DECEL_MAP[name] for name in

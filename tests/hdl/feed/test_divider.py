@@ -7,12 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from k37.hdl.feed.divider import PhaseDivider
-from k37.hdl.feed.divider_model import (
-    FA_INCREMENT,
-    PhaseDividerModel,
-    frequency_of,
-    increment_for,
-)
+from k37.hdl.feed.model.divider import PhaseDividerModel
+from k37.hdl.feed.rates import FA_INCREMENT, frequency_of, increment_for
 from tests.testbench import simulate
 
 

@@ -8,10 +8,10 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from k37.hdl.feed.divider_model import FA_INCREMENT
 from k37.hdl.feed.feed_rate import FeedRate
-from k37.hdl.feed.feed_rate_map import FA_AXES, FEED_MAP, FEED_MAP_AXIS_FA, feed_map
-from k37.hdl.feed.feed_rate_model import FeedRateModel
+from k37.hdl.feed.map.feed_rate import FA_AXES, FEED_MAP, FEED_MAP_AXIS_FA, feed_map
+from k37.hdl.feed.model.feed_rate import FeedRateModel
+from k37.hdl.feed.rates import FA_INCREMENT
 from tests.testbench import drive_bus, read_reg, simulate, write_ops
 
 #: A host's writes: (register, value, idle cycles after the write).

@@ -14,14 +14,9 @@ from amaranth.hdl import Elaboratable, Module, Signal
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from k37.hdl.feed.model.rate_multiplier import RateMultiplierModel, gate, selected_bit, stage_gate
 from k37.hdl.feed.rate_multiplier import RateMultiplier
-from k37.hdl.feed.rate_multiplier_model import (
-    STAGE_BITS,
-    RateMultiplierModel,
-    gate,
-    selected_bit,
-    stage_gate,
-)
+from k37.hdl.feed.rates import STAGE_BITS
 from k37.sim.backends.cxxrtl.backend import CxxrtlBackend
 from tests.testbench import simulate
 

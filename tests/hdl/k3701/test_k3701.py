@@ -24,7 +24,7 @@ from k37.hdl.k3701.chip import K3701
 from k37.hdl.k3701.datapaths.circular import CircularDatapath
 from k37.hdl.k3701.datapaths.linear import LinearDatapath
 from k37.hdl.k3701.map import K3701_MAP, block_registers
-from k37.hdl.k3701.model import K3701Model, make_path, plan, walk
+from k37.hdl.k3701.model.chip import K3701Model, make_path, plan, walk
 from k37.sim.reproduce.paper import table1
 from tests.testbench import bus_write, read_reg, simulate, write_reg
 
@@ -490,7 +490,7 @@ def test_arcs_end_within_one_lsb_of_an_end_point_off_the_path(r, a0, a1, cw):
     radius = math.hypot(i, j)
     # Below a radius of 4 the end rule can stop 2 LSB short of a rounded end point (radii
     # sqrt(5) and sqrt(13), checked exhaustively below); the planner moves such ends and adds
-    # the correction line (firmware_model/gcode/program.py, REPAIR_REACH).
+    # the correction line (firmware_model/motion/program.py, REPAIR_REACH).
     if radius < 4:
         return
     ex, ey = round(radius * math.cos(a1)), round(radius * math.sin(a1))

@@ -10,9 +10,9 @@ from hypothesis import strategies as st
 
 from k37.hdl.k3701.block import Block, BlockError, route, step_cost
 from k37.hdl.k3701.chip import K3701
-from k37.hdl.k3701.datapaths.linear_model import LinearPath
+from k37.hdl.k3701.datapaths.model.linear import LinearPath
 from k37.hdl.k3701.map import K3701_MAP_3, block_registers
-from k37.hdl.k3701.model import K3701Model, plan, walk
+from k37.hdl.k3701.model.chip import K3701Model, plan, walk
 from tests.hdl.k3701.test_k3701 import fp_source
 from tests.testbench import bus_write, read_reg, simulate, write_reg
 

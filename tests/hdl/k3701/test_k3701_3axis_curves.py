@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from k37.hdl.k3701.block import PLANES, Block, BlockError, Kind, route
 from k37.hdl.k3701.map import K3701_MAP_3, block_registers
-from k37.hdl.k3701.model import plan, walk
+from k37.hdl.k3701.model.chip import plan, walk
 from tests.hdl.k3701.test_k3701 import fp_kinds, fp_source
 from tests.hdl.k3701.test_k3701_3axis import compare3
 from tests.hdl.k3701.test_k3701_exponential import exponentials

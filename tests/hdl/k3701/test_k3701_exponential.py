@@ -10,7 +10,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from k37.firmware_model.gcode.curves import (
+from k37.firmware_model.motion.curves import (
     MAX_GROWTH,
     MIN_CONSTANT,
     CurveError,
@@ -19,8 +19,8 @@ from k37.firmware_model.gcode.curves import (
     exponential_frame,
 )
 from k37.hdl.k3701.block import COORD_MAX, Block, BlockError
-from k37.hdl.k3701.datapaths.parabolic_model import ExponentialPath
-from k37.hdl.k3701.model import make_path, walk
+from k37.hdl.k3701.datapaths.model.parabolic import ExponentialPath
+from k37.hdl.k3701.model.chip import make_path, walk
 from tests.hdl.k3701.test_k3701 import (
     check_clean_end_on_gateware,
     compare_with_model,

@@ -10,7 +10,7 @@ from k37.hdl.k3701.block import LATENCY_CIRCULAR, LATENCY_LINEAR
 from k37.hdl.k3701.datapaths.circular import CircularDatapath
 from k37.hdl.k3701.datapaths.parabolic import ParabolicDatapath
 from k37.hdl.k3701.latency import StepLatency
-from k37.hdl.k3701.latency_model import StepLatencyModel
+from k37.hdl.k3701.model.latency import StepLatencyModel
 from tests.testbench import simulate
 
 #: The chip's datapaths at the paper's latencies: linear (no stages), circular, parabolic.

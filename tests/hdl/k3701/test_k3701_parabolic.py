@@ -8,10 +8,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from k37.firmware_model.gcode.curves import frame_distances
+from k37.firmware_model.motion.curves import frame_distances
 from k37.hdl.k3701.block import COORD_MAX, Block, BlockError
-from k37.hdl.k3701.datapaths.parabolic_model import FramePath, ParabolicPath
-from k37.hdl.k3701.model import make_path, plan
+from k37.hdl.k3701.datapaths.model.parabolic import FramePath, ParabolicPath
+from k37.hdl.k3701.model.chip import make_path, plan
 from tests.hdl.k3701.test_k3701 import (
     check_clean_end_on_gateware,
     compare_with_model,

@@ -24,23 +24,23 @@ import pytest
 from amaranth.hdl import ClockDomain, Module
 from amaranth.sim import Simulator
 
-from k37.hdl.accel.bell_model import AccelBellModel
-from k37.hdl.accel.exponential_model import AccelDecelModel
-from k37.hdl.accel.linear_model import AccelLinearModel
-from k37.hdl.bus.hostbus_model import RegisterBankModel
+from k37.hdl.accel.model.bell import AccelBellModel
+from k37.hdl.accel.model.exponential import AccelDecelModel
+from k37.hdl.accel.model.linear import AccelLinearModel
+from k37.hdl.bus.model.hostbus import RegisterBankModel
 from k37.hdl.bus.registers import Register, RegisterMap
 from k37.hdl.chipset.map import CHIP_SELECTS, REG_BITS
 from k37.hdl.encoder.map import ENCODER_MAP
 from k37.hdl.encoder.model import EncoderModel
-from k37.hdl.feed.decel_control_map import DECEL_MAP
-from k37.hdl.feed.decel_control_model import DecelControlModel
-from k37.hdl.feed.divider_model import PhaseDividerModel
-from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH, FA_AXES, FEED_MAP, FEED_MAP_AXIS_FA
-from k37.hdl.feed.feed_rate_model import FeedRateModel
-from k37.hdl.feed.rate_multiplier_model import RateMultiplierModel
+from k37.hdl.feed.map.decel_control import DECEL_MAP
+from k37.hdl.feed.map.feed_rate import DIVIDER_WIDTH, FA_AXES, FEED_MAP, FEED_MAP_AXIS_FA
+from k37.hdl.feed.model.decel_control import DecelControlModel
+from k37.hdl.feed.model.divider import PhaseDividerModel
+from k37.hdl.feed.model.feed_rate import FeedRateModel
+from k37.hdl.feed.model.rate_multiplier import RateMultiplierModel
 from k37.hdl.k3701.block import Block, Kind
 from k37.hdl.k3701.map import K3701_MAP, K3701_MAP_3
-from k37.hdl.k3701.model import K3701Model
+from k37.hdl.k3701.model.chip import K3701Model
 from k37.hdl.k3702.map import K3702_MAP
 from k37.hdl.k3702.model import K3702Model
 from k37.sim.backends.verilator.model import Model, VerilatedModel, build

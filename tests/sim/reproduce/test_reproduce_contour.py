@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from k37.firmware_model.gcode.parser import Line
+from k37.firmware_model.motion.program import Line
 from k37.sim.reproduce import contour_error
 from k37.sim.reproduce.runs import QUICK, RunSpec
 

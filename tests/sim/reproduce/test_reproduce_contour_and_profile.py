@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from k37.firmware_model.feeds import feed_word, word_rate
-from k37.firmware_model.gcode.parser import Line
+from k37.firmware_model.motion.program import Line
 from k37.sim.reproduce import contour_error, profile_error, resonance
 from k37.sim.reproduce.runs import RunSpec
 from k37.sim.reproduce.theory import following_error

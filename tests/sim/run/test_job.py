@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from k37.firmware_model.gcode.parser import Arc, GcodeError, Line, parse
+from k37.firmware_model.gcode.parser import GcodeError, parse
 from k37.firmware_model.job import (
     AXES,
     DEMO_GCODE,
@@ -21,11 +21,12 @@ from k37.firmware_model.job import (
     ServoConfig,
     demo_job,
 )
+from k37.firmware_model.motion.program import Arc, Line
 from k37.hdl.chipset.chip import Chipset
 from k37.hdl.common.params import Limit
 from k37.hdl.encoder.map import ENCODER_MAP
-from k37.hdl.feed.divider_model import increment_for
-from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH
+from k37.hdl.feed.map.feed_rate import DIVIDER_WIDTH
+from k37.hdl.feed.rates import increment_for
 from k37.hdl.k3702.map import K3702_MAP
 from k37.sim.cli import main
 from k37.sim.machine.plant_model import ALPHA_BITS, GAIN_BITS, VMAX_BITS, PlantParams

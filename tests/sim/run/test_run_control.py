@@ -22,8 +22,8 @@ import pytest
 
 from k37.firmware_model.feeds import FirmwareError, check_program
 from k37.firmware_model.firmware import TIMER_TICK_SECONDS
-from k37.firmware_model.gcode.parser import Arc
 from k37.firmware_model.job import MachineConfig, RunConfig, demo_job
+from k37.firmware_model.motion.program import Arc
 from k37.sim.cli import main
 from k37.sim.run import runner
 from k37.sim.run.contour import contour_errors, contour_summary

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from k37.hdl.bus.hostbus_model import RegisterBankModel
-from k37.hdl.feed.divider_model import PhaseDividerModel
-from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH, FA_AXES, FEED_STAGES, fa_register, feed_map
-from k37.hdl.feed.rate_multiplier_model import RateMultiplierModel
+from k37.hdl.bus.model.hostbus import RegisterBankModel
+from k37.hdl.feed.map.feed_rate import DIVIDER_WIDTH, FA_AXES, FEED_STAGES, fa_register, feed_map
+from k37.hdl.feed.model.divider import PhaseDividerModel
+from k37.hdl.feed.model.rate_multiplier import RateMultiplierModel
 
 __all__ = ["FeedRateModel"]
 

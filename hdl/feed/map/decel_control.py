@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from k37.hdl.bus.registers import Access, Field, Register, RegisterMap
-from k37.hdl.feed.decel_control_model import BUDGET_WIDTH
+from k37.hdl.feed.rates import BUDGET_WIDTH
 
 __all__ = ["DECEL_MAP"]
 

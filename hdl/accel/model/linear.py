@@ -25,7 +25,7 @@ Bidirectional (post-interpolation) use: counts are signed; the carry is the floo
 
 from __future__ import annotations
 
-from k37.hdl.accel.exponential_model import check_inp, check_params, sign, wrap
+from k37.hdl.accel.model.exponential import check_inp, check_params, sign, wrap
 from k37.hdl.common.params import positive_int
 
 __all__ = ["AccelLinearModel", "check_bins"]

@@ -11,10 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["BUDGET_WIDTH", "DecelControlModel"]
+from k37.hdl.feed.rates import BUDGET_WIDTH
 
-#: Width of the budget and remaining-count registers.
-BUDGET_WIDTH = 24
+__all__ = ["DecelControlModel"]
 
 
 class DecelControlModel:

@@ -5,7 +5,7 @@ A :class:`Program` is a tuple of items: :class:`Line`, :class:`Arc`, :class:`Par
 :class:`Event` (words with no hardware here: spindle, coolant, tool change, stops; the
 firmware records the cycle they are reached at). Positions are absolute machine LSB, one int
 per machine axis (X, Y, and Z on a three-axis machine); the program starts at the origin.
-Both G-code front ends build them with :class:`k37.firmware_model.gcode.planner.Planner`.
+Both G-code front ends build them with :class:`k37.firmware_model.motion.planner.Planner`.
 """
 
 from __future__ import annotations
@@ -17,14 +17,14 @@ from functools import cache
 
 import numpy as np
 
-from k37.firmware_model.gcode.curves import (
+from k37.firmware_model.motion.curves import (
     curve_distances,
     exponential_frame,
 )
-from k37.firmware_model.gcode.splines import SplineSpan
+from k37.firmware_model.motion.splines import SplineSpan
 from k37.hdl.k3701.block import Block
-from k37.hdl.k3701.datapaths.parabolic_model import ExponentialPath, ParabolicPath
-from k37.hdl.k3701.model import Plan, make_path
+from k37.hdl.k3701.datapaths.model.parabolic import ExponentialPath, ParabolicPath
+from k37.hdl.k3701.model.chip import Plan, make_path
 
 __all__ = ["PLANE_AXES", "Arc", "Dwell", "Event", "Exponential", "Item", "Line", "Move",
            "Parabola", "Program", "chip_end"]
@@ -153,8 +153,8 @@ def _sweep(i: int, j: int, end: tuple[int, int], cw: bool) -> tuple[float, float
 
 class _Curve(_Move):
     """A move along one of the K3701's curves, drawn in the curve's own frame (abscissa p,
-    ordinate v: :class:`k37.hdl.k3701.datapaths.parabolic_model.ParabolicPath`,
-    :class:`k37.hdl.k3701.datapaths.parabolic_model.ExponentialPath`).
+    ordinate v: :class:`k37.hdl.k3701.datapaths.model.parabolic.ParabolicPath`,
+    :class:`k37.hdl.k3701.datapaths.model.parabolic.ExponentialPath`).
     ``code``: its G code. The programmed curve is the chip's, through the start and the end."""
 
     code = ""
@@ -215,7 +215,7 @@ class Parabola(_Curve):
 
     ``xe, ye``: end relative to the start (LSB); ``i, j``: the tangent point P (the point
     whose tangent is parallel to the chord) relative to the start (LSB, as programmed).
-    ``block`` and ``plan`` are the chip's (:func:`k37.firmware_model.gcode.curves.parabola_block`):
+    ``block`` and ``plan`` are the chip's (:func:`k37.firmware_model.motion.curves.parabola_block`):
     it ends exactly on the end point. Other fields as in :class:`Line`. """
 
     i: int
@@ -237,7 +237,7 @@ class Exponential(_Curve):
 
     ``xe, ye``: end relative to the start (LSB); ``constant``: the curve's constant as
     programmed (LSB along its abscissa, X or with ``log`` Y). ``block`` and ``plan`` are the
-    chip's (:func:`k37.firmware_model.gcode.curves.exponential_block`): it ends exactly on the end
+    chip's (:func:`k37.firmware_model.motion.curves.exponential_block`): it ends exactly on the end
     point. Other fields as in :class:`Line`.
     """
 

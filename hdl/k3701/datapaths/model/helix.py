@@ -4,7 +4,7 @@ own steps (:class:`HelixPath`)."""
 from __future__ import annotations
 
 from k37.hdl.k3701.block import BlockError, check_coord
-from k37.hdl.k3701.datapaths.linear_model import Dda
+from k37.hdl.k3701.datapaths.model.linear import Dda
 
 __all__ = ["HelixPath"]
 

@@ -1,8 +1,8 @@
 """The exact plan of a circular block without walking every step: the host's FP count.
 
-:func:`k37.hdl.k3701.model.plan` runs a block through the reference algorithm one step at a time
-(a circle of radius R takes about 5.7 R steps: minutes of Python for a large circle).
-:func:`plan_block` gives the same :class:`~k37.hdl.k3701.model.Plan`, exactly, in time
+:func:`k37.hdl.k3701.model.chip.plan` runs a block through the reference algorithm one step at
+a time (a circle of radius R takes about 5.7 R steps: minutes of Python for a large circle).
+:func:`plan_block` gives the same :class:`~k37.hdl.k3701.model.chip.Plan`, exactly, in time
 independent of the radius for all but a few steps per octant.
 
 Why the jumps are exact: where X is the long axis (|y| >= |x|), each step moves X one LSB and
@@ -14,8 +14,8 @@ the walk picks it: from an argmin point the walk *is* the argmin curve, and its 
 steps is computed with one integer square root. The walk's long/short choice, its quadrant
 and its end check cannot change inside such a stretch (the jump stops short of an axis, of
 the diagonal and of the end point's coordinate); the few steps around those go through the
-reference :class:`~k37.hdl.k3701.datapaths.circular_model.CircularPath` itself. Same for Y long,
-with the axes swapped. Tested against :func:`k37.hdl.k3701.model.plan` step for step
+reference :class:`~k37.hdl.k3701.datapaths.model.circular.CircularPath` itself. Same for Y long,
+with the axes swapped. Tested against :func:`k37.hdl.k3701.model.chip.plan` step for step
 (``tests/firmware_model/gcode/test_arc_plan.py``).
 
 A helix spreads its third axis over the arc's N steps with a DDA (its k-th move at the step
@@ -34,9 +34,9 @@ from math import isqrt
 import numpy as np
 
 from k37.hdl.k3701.block import QUADRANT_SIGNS, Block, Kind
-from k37.hdl.k3701.datapaths.circular_model import CircularPath
-from k37.hdl.k3701.datapaths.helix_model import HelixPath
-from k37.hdl.k3701.model import Plan, fp_of_steps, make_path, plan
+from k37.hdl.k3701.datapaths.model.circular import CircularPath
+from k37.hdl.k3701.datapaths.model.helix import HelixPath
+from k37.hdl.k3701.model.chip import Plan, fp_of_steps, make_path, plan
 
 __all__ = ["plan_block"]
 
@@ -193,7 +193,7 @@ def _helix_coincidences(block: Block, total: int, singles: list[int],
 
 
 def plan_block(block: Block) -> Plan:
-    """:func:`k37.hdl.k3701.model.plan` of ``block``, exactly, without walking every step of an
+    """:func:`k37.hdl.k3701.model.chip.plan` of ``block``, exactly, without walking every step of an
     arc or a helix. Raises :class:`~k37.hdl.k3701.block.BlockError` for data the chip refuses."""
     if block.kind is Kind.LINEAR:
         return plan(block)  # a line is in closed form there

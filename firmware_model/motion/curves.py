@@ -1,11 +1,11 @@
 """The K3701's curves on the host side: the checks the host makes before loading a parabola
 (G06) or an exponential (G06.1, G06.2), and the distance to their true curves (the program
-items are :class:`k37.firmware_model.gcode.program.Parabola` and
-:class:`k37.firmware_model.gcode.program.Exponential`).
+items are :class:`k37.firmware_model.motion.program.Parabola` and
+:class:`k37.firmware_model.motion.program.Exponential`).
 
 A G06 block gives the end point and the point P of the parabola whose tangent is parallel to
 the chord from the start to the end (DIN 66025). The K3701 draws parabolas whose axis is
-parallel to X or to Y (:class:`k37.hdl.k3701.datapaths.parabolic_model.ParabolicPath`): P must then
+parallel to X or to Y (:class:`k37.hdl.k3701.datapaths.model.parabolic.ParabolicPath`): P must then
 lie half way along the chord on the abscissa (within the LSB rounding of an odd extent), and the
 chip takes from P only its ordinate. The programmed curve is the chip's parabola: through the start,
 the end and (the chord's middle abscissa, P's ordinate).
@@ -13,7 +13,7 @@ the end and (the chord's middle abscissa, P's ordinate).
 An exponential block gives the end point and the curve's constant K along its abscissa (X; Y
 for the logarithm, which is an exponential of Y): the curve through the start and the end,
 v = ve (e^(p / K) - 1) / (e^(pe / K) - 1). The chip draws c (r^p - 1) with r = 1 + 1/k, k an
-integer (:class:`k37.hdl.k3701.datapaths.parabolic_model.ExponentialPath`): the host takes the k
+integer (:class:`k37.hdl.k3701.datapaths.model.parabolic.ExponentialPath`): the host takes the k
 whose r is nearest e^(1 / K), and the offset c the model shows to end on the end point. The
 programmed curve is the chip's exponential: through the start and the end, of constant 1 / ln(1 +
 1/k). """
@@ -26,8 +26,8 @@ from collections.abc import Callable
 import numpy as np
 
 from k37.hdl.k3701.block import COORD_MAX, Block, BlockError
-from k37.hdl.k3701.datapaths.parabolic_model import ExponentialPath, ParabolicPath
-from k37.hdl.k3701.model import Plan, make_path, plan
+from k37.hdl.k3701.datapaths.model.parabolic import ExponentialPath, ParabolicPath
+from k37.hdl.k3701.model.chip import Plan, make_path, plan
 
 __all__ = ["MAX_GROWTH", "MIN_CONSTANT", "MIN_VERTEX_RADIUS", "CurveError", "curve_distances",
            "exponential_block", "exponential_frame", "frame_distances", "parabola_block"]

@@ -6,8 +6,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from k37.hdl.bus.registers import Access, Register, RegisterMap
-from k37.hdl.feed.divider_model import FA_INCREMENT
-from k37.hdl.feed.rate_multiplier_model import STAGE_BITS
+from k37.hdl.feed.rates import FA_INCREMENT, STAGE_BITS
 
 __all__ = ["DIVIDER_WIDTH", "FA_AXES", "FEED_BITS", "FEED_MAP", "FEED_MAP_AXIS_FA", "FEED_STAGES",
            "fa_register", "feed_map"]

@@ -10,8 +10,8 @@ and falls without a jump. Each stage conserves pulses, so the cascade does:
 
 from __future__ import annotations
 
-from k37.hdl.accel.exponential_model import AccelDecelModel
-from k37.hdl.accel.linear_model import AccelLinearModel
+from k37.hdl.accel.model.exponential import AccelDecelModel
+from k37.hdl.accel.model.linear import AccelLinearModel
 
 __all__ = ["AccelBellModel"]
 

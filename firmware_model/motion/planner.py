@@ -22,9 +22,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from k37.firmware_model.gcode.arcs import plan_block
-from k37.firmware_model.gcode.curves import CurveError, exponential_block, parabola_block
-from k37.firmware_model.gcode.program import (
+from k37.firmware_model.motion.arcs import plan_block
+from k37.firmware_model.motion.curves import CurveError, exponential_block, parabola_block
+from k37.firmware_model.motion.program import (
     _AXIS_NAMES,
     PLANE_AXES,
     Arc,
@@ -38,9 +38,9 @@ from k37.firmware_model.gcode.program import (
     _sweep,
     chip_end,
 )
-from k37.firmware_model.gcode.splines import Nurbs, SplineSpan, chords
+from k37.firmware_model.motion.splines import Nurbs, SplineSpan, chords
 from k37.hdl.k3701.block import COORD_MAX, MAX_RADIUS_SQUARED, Block, BlockError
-from k37.hdl.k3701.model import Plan
+from k37.hdl.k3701.model.chip import Plan
 
 __all__ = ["CORRECTION_MAX", "MAX_CHORDS", "REPAIR_REACH", "PlanError", "Planner"]
 
@@ -79,7 +79,7 @@ class Planner:
         self._plans: dict[Block, Plan] = {}
 
     def _plan(self, block: Block) -> Plan:
-        """:func:`~k37.firmware_model.gcode.arcs.plan_block` of ``block``, made once."""
+        """:func:`~k37.firmware_model.motion.arcs.plan_block` of ``block``, made once."""
         result = self._plans.get(block)
         if result is None:
             result = self._plans[block] = plan_block(block)
@@ -126,7 +126,7 @@ class Planner:
                tolerance: float, feed_source: tuple[int, int, str] | None = None) -> None:
         """A spline in the XY plane from the position to ``target`` (its last control point,
         rounded), run as lines within ``tolerance`` (LSB) of ``curve`` (see
-        :mod:`k37.firmware_model.gcode.splines`), the last ending exactly on ``target``."""
+        :mod:`k37.firmware_model.motion.splines`), the last ending exactly on ``target``."""
         try:
             spans = chords(curve, max(tolerance - 0.5, 0.25))
         except ValueError as e:

@@ -3,11 +3,11 @@
 Two layers:
 
 * the paths state the interpolation algorithms step by step, with no notion of time, one
-  module beside each datapath: :class:`~k37.hdl.k3701.datapaths.linear_model.LinearPath`,
-  :class:`~k37.hdl.k3701.datapaths.circular_model.CircularPath` (and a helix's
-  :class:`~k37.hdl.k3701.datapaths.helix_model.HelixPath`),
-  :class:`~k37.hdl.k3701.datapaths.parabolic_model.ParabolicPath` and
-  :class:`~k37.hdl.k3701.datapaths.parabolic_model.ExponentialPath`, on the block, step and
+  module beside each datapath: :class:`~k37.hdl.k3701.datapaths.model.linear.LinearPath`,
+  :class:`~k37.hdl.k3701.datapaths.model.circular.CircularPath` (and a helix's
+  :class:`~k37.hdl.k3701.datapaths.model.helix.HelixPath`),
+  :class:`~k37.hdl.k3701.datapaths.model.parabolic.ParabolicPath` and
+  :class:`~k37.hdl.k3701.datapaths.model.parabolic.ExponentialPath`, on the block, step and
   constants of :mod:`k37.hdl.k3701.block`. :func:`make_path` picks a block's path and :func:`plan`
   runs a whole block through it: the exact FP-count calculator the firmware model uses.
 * :class:`K3701Model` adds the chip's timing, cycle by cycle: BUSY, the step latency, the FP
@@ -41,10 +41,10 @@ from k37.hdl.k3701.block import (
     route,
     step_cost,
 )
-from k37.hdl.k3701.datapaths.circular_model import CircularPath, HelicalPath
-from k37.hdl.k3701.datapaths.helix_model import HelixPath
-from k37.hdl.k3701.datapaths.linear_model import Dda, LinearPath
-from k37.hdl.k3701.datapaths.parabolic_model import ExponentialPath, ParabolicPath
+from k37.hdl.k3701.datapaths.model.circular import CircularPath, HelicalPath
+from k37.hdl.k3701.datapaths.model.helix import HelixPath
+from k37.hdl.k3701.datapaths.model.linear import Dda, LinearPath
+from k37.hdl.k3701.datapaths.model.parabolic import ExponentialPath, ParabolicPath
 
 __all__ = ["K3701Model", "K3701Outputs", "Path", "Plan", "fp_of_steps", "make_path", "plan",
            "walk"]

@@ -1,4 +1,5 @@
-"""Reference model of :class:`k37.hdl.feed.divider.PhaseDivider`, and its frequency arithmetic.
+"""Reference model of :class:`k37.hdl.feed.divider.PhaseDivider` (its frequency arithmetic is
+:mod:`k37.hdl.feed.rates`).
 
 A phase accumulator of ``width`` bits adds ``increment`` every cycle; each carry out is one
 strobe, one cycle later. Over cycles 1..T there are exactly ``floor(T * increment / 2**width)``
@@ -9,40 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from k37.hdl.common.params import Limit, positive_int
+from k37.hdl.common.params import positive_int
 
-__all__ = ["FA_INCREMENT", "PhaseDividerModel", "frequency_of", "increment_for", "rate_limit"]
-
-#: The system clock of the paper (Hz).
-F_CLK = 1_000_000
-
-
-def rate_limit(*, width: int = 24, f_clk: float = F_CLK) -> Limit:
-    """The strobe rates (Hz) a running divider makes: from increment 1, ``f_clk / 2**width``,
-    up to (not including) ``f_clk``."""
-    positive_int("width", width)
-    return Limit(f_clk / (1 << width), f_clk, high_open=True, unit="Hz",
-                 note=f"{width}-bit divider at clock_hz")
-
-
-def increment_for(freq: float, *, width: int = 24, f_clk: float = F_CLK) -> int:
-    """The increment whose strobe rate is nearest to ``freq`` (Hz) at ``f_clk``: 0 stops the
-    strobe, any other rate must be in :func:`rate_limit` (so that it never rounds to 0)."""
-    limit = rate_limit(width=width, f_clk=f_clk)
-    if freq != 0:
-        limit.check("frequency", freq)
-    return min(round(freq / f_clk * (1 << width)), (1 << width) - 1)
-
-
-def frequency_of(increment: int, *, width: int = 24, f_clk: float = F_CLK) -> float:
-    """The mean strobe rate (Hz) that ``increment`` gives at ``f_clk``."""
-    positive_int("width", width)
-    return f_clk * increment / (1 << width)
-
-
-#: The paper's addition clock: tau = 2**15 / fa = 300 ms, i.e. fa = 109226.67 Hz; with a 24-bit
-#: divider at 1 MHz this is 1832519, fa = 109226.644 Hz and tau = 300.00006 ms.
-FA_INCREMENT = increment_for(2**15 / 0.3)
+__all__ = ["PhaseDividerModel"]
 
 
 class PhaseDividerModel:

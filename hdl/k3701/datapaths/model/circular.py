@@ -11,7 +11,7 @@ from k37.hdl.k3701.block import (
     check_coord,
     quadrant_of,
 )
-from k37.hdl.k3701.datapaths.helix_model import HelixPath
+from k37.hdl.k3701.datapaths.model.helix import HelixPath
 
 __all__ = ["CircularPath", "HelicalPath"]
 

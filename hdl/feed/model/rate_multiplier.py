@@ -34,11 +34,10 @@ bit ``6 * stages - 1 - t``) are tested against it.
 from __future__ import annotations
 
 from k37.hdl.common.params import positive_int
+from k37.hdl.feed.rates import STAGE_BITS
 
-__all__ = ["STAGE_BITS", "RateMultiplierModel", "gate", "selected_bit", "stage_gate"]
+__all__ = ["RateMultiplierModel", "gate", "selected_bit", "stage_gate"]
 
-#: Counter and rate-input width of one 7497.
-STAGE_BITS = 6
 
 
 def stage_gate(state, rate):

@@ -1,0 +1,1 @@
+"""The reference models of the board's blocks in plain Python (the sigma-delta D/A)."""
