@@ -29,7 +29,8 @@ from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH
 from k37.hdl.k3702.map import K3702_MAP
 from k37.sim.cli import main
 from k37.sim.machine.plant_model import ALPHA_BITS, GAIN_BITS, VMAX_BITS, PlantParams
-from k37.sim.run.jobfile import JobError, job_keys_markdown, load_job, plant_params, servo_limits
+from k37.sim.machine.servo import plant_params, servo_limits
+from k37.sim.run.jobfile import JobError, job_keys_markdown, load_job
 from k37.sim.run.runner import system_params
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"

@@ -22,6 +22,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 from k37.hdl.bus.registers import RegisterMap
+from k37.hdl.common.constants import ALL_AXES
 
 __all__ = ["COMMANDS", "COUNTER_BITS", "COUNT_BITS", "ERROR", "IRQ_ALARM", "IRQ_INTERP",
            "MAX_CYCLES_PER_BIT", "MIN_CYCLES_PER_BIT", "OK", "PROBE_AXES", "PROBE_BYTES",
@@ -125,7 +126,7 @@ REPLY_MAX = max(c.reply_bytes for c in COMMANDS.values())
 #: the simulated machine (its ports ``<axis>__<name>``), which no bus reaches.
 PROBE_FIELDS = ("pulses_pos", "pulses_neg", "command", "error", "count", "max_abs_error")
 #: Axes :attr:`Op.PROBE` always reports (zeros for an axis a machine lacks).
-PROBE_AXES = ("x", "y", "z")
+PROBE_AXES = ALL_AXES
 #: Bytes of each value :attr:`Op.PROBE` reads (signed, two's complement).
 PROBE_BYTES = 8
 

@@ -25,6 +25,7 @@ from amaranth.lib.wiring import connect, flipped
 
 from k37.hdl.bus.hostbus import RegisterBank
 from k37.hdl.bus.registers import Field, Register
+from k37.hdl.common.constants import ALL_AXES
 from k37.hdl.k3701.block import Kind
 from k37.hdl.k3701.datapaths.base import Datapath, StepSignature
 from k37.hdl.k3701.latency import StepLatency
@@ -174,7 +175,7 @@ def build(chip: wiring.Component, axes: Axes) -> Module:
     # --- feed intake: hold one FP while the engine is busy, lose (and flag) a second ---
     engine_busy = (phase == _Phase.SETUP) | ((phase == _Phase.RUN) & ~step_latency.zero)
 
-    pulses = [getattr(chip, f"{a}_{d}") for a in "xyz"[:chip.axes] for d in ("pos", "neg")]
+    pulses = [getattr(chip, f"{a}_{d}") for a in ALL_AXES[:chip.axes] for d in ("pos", "neg")]
     m.d.sync += [p.eq(0) for p in pulses]
     with m.If(regs.cmd.w_stb & regs.cmd.w_data[cmd.field("ack").offset]):
         m.d.sync += chip.irq.eq(0)

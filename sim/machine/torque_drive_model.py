@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from k37.hdl.common.constants import CHIP_HZ
 from k37.hdl.common.params import Limit
 from k37.sim.machine.plant_model import (
     ALPHA_BITS,
@@ -44,7 +45,7 @@ class TorqueParams:
     fc: float = 0.0
     load: float = 0.0
     counts_per_rev: float = 10_000.0
-    clock_hz: float = 1e6
+    clock_hz: float = CHIP_HZ
 
     @staticmethod
     def limits() -> dict[str, Limit]:
@@ -99,6 +100,12 @@ class TorqueParams:
     @property
     def fc_word(self) -> int:
         return self.disturbance_word(self.fc)
+
+    def ports(self) -> dict[str, int]:
+        """The drive's parameter inputs, by port name
+        (:class:`k37.sim.machine.torque_drive.TorqueDrive`; ``alpha`` is the plant's port)."""
+        return {"alpha": self.alpha, "beta": self.beta, "ki": self.ki, "fc": self.fc_word,
+                "load": self.disturbance_word(self.load)}
 
 
 @dataclass

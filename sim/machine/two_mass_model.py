@@ -125,9 +125,10 @@ class TwoMassParams(TorqueParams):
         return round(per_s2 / self.clock_hz ** 2 * (1 << FRAC_BITS))
 
     def ports(self) -> dict[str, int]:
-        """The drive's own input ports (beyond the plant's and the torque drive's)."""
-        return {"ks_m": self.ks_m, "ks_t": self.ks_t, "cs_m": self.cs_m, "cs_t": self.cs_t,
-                "scale": int(self.scale)}
+        """The drive's parameter inputs, by port name: the torque drive's and the spring's
+        (:class:`k37.sim.machine.two_mass.TwoMassDrive`)."""
+        return {**super().ports(), "ks_m": self.ks_m, "ks_t": self.ks_t, "cs_m": self.cs_m,
+                "cs_t": self.cs_t, "scale": int(self.scale)}
 
 
 @dataclass

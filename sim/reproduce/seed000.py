@@ -21,12 +21,12 @@ from k37.firmware_model.job import MachineConfig, ServoConfig
 from k37.hdl.accel.exponential_model import AccelDecelModel
 from k37.hdl.feed.divider_model import PhaseDividerModel, increment_for
 from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH
+from k37.sim.machine.servo import torque_params
 from k37.sim.machine.two_mass_model import TwoMassParams
 from k37.sim.reproduce.markdown import Section, pyplot, save_figure
 from k37.sim.reproduce.paper import FEED_HIGH
 from k37.sim.reproduce.runs import MACHINE, RunData, RunSpec, Scale, Specs, Trace
 from k37.sim.reproduce.theory import accel_filter, fp_rate, hardware_tau, servo
-from k37.sim.run.jobfile import torque_params
 
 __all__ = ["ACCEL_BITS", "SHAPES", "circuit_outputs", "filter_machine", "recursion_35",
            "section", "specs"]
