@@ -17,13 +17,14 @@ from hypothesis import strategies as st
 from test_export_cosim import SEEDS, _core_port, amaranth_chipset, chipset_stimulus
 from testbench import simulate
 
-from k37.hdl.board.core import CHIP_HZ, BoardCore
+from k37.hdl.board.core import BoardCore
 from k37.hdl.board.pins import ulx3s_pins
 from k37.hdl.board.sigma_delta import SigmaDelta
 from k37.hdl.board.sigma_delta_model import SigmaDeltaModel
 from k37.hdl.board.top import BoardTop
 from k37.hdl.bridge.protocol import OK, Identity, Op, encode
 from k37.hdl.chipset.identity import chipset_identity
+from k37.hdl.common.constants import CHIP_HZ
 from k37.sim.fpga.export import pins as export_pins
 from k37.sim.fpga.icarus import HOST_DRIVES
 

@@ -23,7 +23,7 @@ from k37.hdl.chipset.map import axis_names
 from k37.hdl.common.constants import CHIP_HZ
 from k37.hdl.common.params import positive_int
 
-__all__ = ["CHIP_HZ", "BoardCore"]
+__all__ = ["BoardCore"]
 
 
 class BoardCore(wiring.Component):

@@ -12,10 +12,11 @@ from amaranth.hdl import EnableInserter, Module
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out, connect
 
-from k37.hdl.board.core import CHIP_HZ, BoardCore
+from k37.hdl.board.core import BoardCore
 from k37.hdl.board.pins import BoardPin
 from k37.hdl.bridge import UartBridge
 from k37.hdl.chipset.identity import chipset_identity
+from k37.hdl.common.constants import CHIP_HZ
 
 __all__ = ["DEFAULT_BAUD", "BoardTop"]
 
