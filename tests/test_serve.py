@@ -15,11 +15,10 @@ from contextlib import contextmanager
 import pytest
 
 from k37.firmware_model.job import Job, MachineConfig
-from k37.hdl.bridge.protocol import Identity
+from k37.hdl.bridge.protocol import DEFAULT_BAUD, Identity
 from k37.hdl.chipset.identity import chipset_identity
 from k37.hdl.chipset.map import Accel
 from k37.sim.link.bridge import (
-    DEFAULT_BAUD,
     BridgeLink,
     LinkError,
     job_identity,
