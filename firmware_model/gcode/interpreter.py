@@ -14,7 +14,6 @@ from k37.firmware_model.gcode.cycles import CannedCycles
 from k37.firmware_model.gcode.lex import Word
 from k37.firmware_model.gcode.offsets import SYSTEMS, Offsets
 from k37.firmware_model.gcode.planner import PlanError, Planner
-from k37.firmware_model.gcode.program import PLANE_AXES
 from k37.firmware_model.gcode.spline_motions import SplineMotions
 from k37.firmware_model.gcode.units import (
     ARC_TOLERANCE_MM,
@@ -24,6 +23,7 @@ from k37.firmware_model.gcode.units import (
     USES,
 )
 from k37.firmware_model.gcode.words import M_CODES
+from k37.hdl.common.constants import PLANE_AXES
 from k37.hdl.k3701.block import COORD_MAX
 
 __all__ = ["Interpreter"]

@@ -25,7 +25,6 @@ import numpy as np
 from k37.firmware_model.gcode.arcs import plan_block
 from k37.firmware_model.gcode.curves import CurveError, exponential_block, parabola_block
 from k37.firmware_model.gcode.program import (
-    PLANE_AXES,
     Arc,
     Dwell,
     Event,
@@ -39,6 +38,7 @@ from k37.firmware_model.gcode.program import (
 )
 from k37.firmware_model.gcode.splines import Nurbs, SplineSpan, chords
 from k37.firmware_model.gcode.units import AXIS_LETTERS
+from k37.hdl.common.constants import PLANE_AXES
 from k37.hdl.k3701.block import COORD_MAX, MAX_RADIUS_SQUARED, Block, BlockError
 from k37.hdl.k3701.model import Plan
 

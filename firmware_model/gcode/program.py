@@ -27,9 +27,8 @@ from k37.hdl.k3701.block import Block
 from k37.hdl.k3701.datapaths.parabolic_model import ExponentialPath, ParabolicPath
 from k37.hdl.k3701.model import Plan, make_path
 
-__all__ = ["PLANE_AXES", "Arc", "Dwell", "Event", "Exponential", "Item", "Line", "Move",
+__all__ = ["Arc", "Dwell", "Event", "Exponential", "Item", "Line", "Move",
            "Parabola", "Program", "chip_end"]
-
 
 
 def chip_end(start: tuple[int, ...], axes: tuple[int, int, int], plane_end: tuple[int, int],
