@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 from k37.firmware_model.link import ChipsetLink, Interrupts
 from k37.hdl.chipset.map import chip_register, port
+from k37.hdl.common.constants import CHIP_HZ
 
 __all__ = ["T_STATES", "Host8085", "HostTiming"]
 
@@ -49,7 +50,7 @@ class Host8085:
     and an I/O instruction's bus cycle is the last system cycle of the instruction.
     """
 
-    def __init__(self, link: ChipsetLink, *, host_hz: float = 3.072e6, clock_hz: float = 1e6,
+    def __init__(self, link: ChipsetLink, *, host_hz: float = 3.072e6, clock_hz: float = CHIP_HZ,
                  timing: HostTiming = T_STATES):
         if not host_hz > 0:
             raise ValueError(f"host clock must be > 0 Hz, not {host_hz!r}")

@@ -8,9 +8,10 @@ Every :class:`MachineConfig` value is checked when it is built, against the limi
 that has it: the chipset's accel/decel widths and placements (:mod:`k37.hdl.chipset.chip`), the
 feed-rate generator's divider (:func:`k37.hdl.feed.rates.rate_limit`), the chips' register
 ranges (their register maps), the G-code front end's LSB length. A :class:`ServoConfig` holds
-the simulated plants' settings, which the firmware never sees: here only their type is
-checked; their ranges are the plant's fixed point on the machine's clock and LSB, which the
-job loader and the plant check.
+the simulated plants' settings, which the firmware never sees: the job holds them, so their
+keys are declared here and only their types checked; their ranges, the plant's fixed point on
+the machine's clock and LSB, and their conversion into the plant's ports are the simulated
+machine's (:mod:`k37.sim.machine.servo`).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from k37.firmware_model.gcode.parser import GcodeError, names_third_axis
 from k37.firmware_model.gcode.units import LSB_MM_LIMIT
 from k37.firmware_model.motion.program import Program
 from k37.hdl.chipset.map import ACCEL_BITS, AXES, MACHINE_AXES, Accel, AccelShape, axis_names
+from k37.hdl.common.constants import CHIP_HZ
 from k37.hdl.common.params import Limit
 from k37.hdl.encoder.map import ENCODER_MAP
 from k37.hdl.feed.map.feed_rate import DIVIDER_WIDTH
@@ -128,7 +130,7 @@ class _Checked:
 class MachineConfig(_Checked):
     """The chipset and its host-set values. Defaults are the paper's where it gives them."""
 
-    clock_hz: int = _key(1_000_000, Limit(1, 10**9, integer=True, unit="Hz"),
+    clock_hz: int = _key(CHIP_HZ, Limit(1, 10**9, integer=True, unit="Hz"),
                          "system clock CP (Hz); paper: 1 MHz")
     lsb_mm: float = _key(0.001, LSB_MM_LIMIT, "axis travel of one LSB = one pulse (mm)")
     accel: str = _key(Accel.PRE.value, OneOf(tuple(a.value for a in Accel)),
@@ -217,7 +219,7 @@ class ServoConfig(_Checked):
     """One axis's servo drive and motor (the simulation plant).
 
     Only the values' types are checked here: their ranges are the plant's fixed point on the
-    machine's clock and LSB (``k37.sim.run.jobfile.servo_limits``).
+    machine's clock and LSB (``k37.sim.machine.servo.servo_limits``).
     """
 
     kp: float = _key(30.0, Limit(), "position loop gain Kp (1/s)")

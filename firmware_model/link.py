@@ -5,8 +5,8 @@ drives (Glasgow's split of an abstract interface and its implementations): a bus
 read at an 8-bit port address, time passing with no bus activity, waiting for an interrupt,
 and the levels of the interrupt inputs (what the 8085's RIM instruction reads). Time is
 counted in system clock cycles. The firmware model uses nothing else, so it runs unchanged
-on any implementation: the simulated machine (:class:`k37.sim.run.simulated_link.SimulatedLink`) or
-a test double. """
+on any implementation: the simulated machine (:class:`k37.sim.link.simulated.SimulatedLink`),
+a board behind the host bridge (:class:`k37.sim.link.bridge.BridgeLink`) or a test double. """
 
 from __future__ import annotations
 

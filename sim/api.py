@@ -30,9 +30,9 @@ from k37.firmware_model.job import Job, gcode_job
 from k37.hdl.chipset.map import CHIP_SELECTS
 from k37.sim.backends.contract import Backend
 from k37.sim.backends.factory import BACKEND_NAMES
+from k37.sim.link.simulated import SimulatedLink
 from k37.sim.run.jobfile import load_job
 from k37.sim.run.runner import RunOptions, RunResult, build_backend, configure_plants, run_job
-from k37.sim.run.simulated_link import SimulatedLink
 
 __all__ = ["Machine", "load", "run"]
 

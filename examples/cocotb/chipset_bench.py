@@ -14,7 +14,7 @@ import cocotb
 from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, RisingEdge
 
-from k37.hdl.chipset.map import port
+from k37.hdl.chipset.map import AXES, port
 
 
 async def start(dut) -> None:
@@ -22,7 +22,7 @@ async def start(dut) -> None:
     cocotb.start_soon(Clock(dut.clk, 1, unit="us").start(start_high=False))
     dut.cs_n.value, dut.rd_n.value, dut.wr_n.value = 1, 1, 1
     dut.addr.value, dut.host_d.value, dut.host_drives.value = 0, 0, 0
-    for axis in ("x", "y"):
+    for axis in AXES:
         for line, level in (("a", 0), ("a_n", 1), ("b", 0), ("b_n", 1)):
             getattr(dut, f"{axis}_{line}").value = level
     dut.rst.value = 1

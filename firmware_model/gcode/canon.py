@@ -37,6 +37,7 @@ from k37.firmware_model.gcode.units import (
 )
 from k37.firmware_model.motion.planner import Planner
 from k37.firmware_model.motion.program import Program
+from k37.hdl.common.constants import PLANE_AXES
 
 __all__ = ["FRONTENDS", "RS274", "parse_canon", "parse_linuxcnc", "rs274_canon"]
 
@@ -145,7 +146,7 @@ class _Canon:
 
     def arc(self, line: int, v: list[Decimal]) -> None:
         first_end, second_end, first_c, second_c, rotation, normal_end = v[:6]
-        first, second, normal = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}[self.plane]
+        first, second, normal = PLANE_AXES[self.plane]
         if abs(rotation) != 1:
             raise _CanonError(f"an arc of {abs(rotation)} turns is unsupported")
         target = [0, 0, 0]

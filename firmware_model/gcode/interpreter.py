@@ -23,7 +23,7 @@ from k37.firmware_model.gcode.units import (
 )
 from k37.firmware_model.gcode.words import M_CODES
 from k37.firmware_model.motion.planner import PlanError, Planner
-from k37.firmware_model.motion.program import PLANE_AXES
+from k37.hdl.common.constants import PLANE_AXES
 from k37.hdl.k3701.block import COORD_MAX
 
 __all__ = ["Interpreter"]

@@ -39,13 +39,14 @@ from typing import Protocol
 from k37.firmware_model.gcode.expr import ExprError
 from k37.firmware_model.gcode.lex import Word
 from k37.firmware_model.gcode.offsets import SYSTEMS, system_number
+from k37.firmware_model.gcode.units import AXIS_LETTERS
 from k37.firmware_model.gcode.words import G_CODES, code_key
 from k37.firmware_model.motion.planner import Planner
+from k37.hdl.common.constants import ALL_AXES
 
 __all__ = ["InterpreterHost", "Modal", "PolarError", "State", "TooManyErrors"]
 
 _INCH_MM = Decimal("25.4")
-_AXES = "XYZ"
 _MOTION = {k for k, c in G_CODES.items() if c.group == "motion"}
 #: The last numbered parameter LinuxCNC's interpreter has.
 _LAST_PREDEFINED = 5602
@@ -182,8 +183,9 @@ class State:
                 value = value / _INCH_MM if self.modal.inch else value
             else:
                 value = Decimal(repr(target))
-            out.append(Word(_AXES[axis], f"{_AXES[axis]}{float(value):.6f}".rstrip("0")
-                            .rstrip("."), value, first.col))
+            letter = AXIS_LETTERS[axis]
+            out.append(Word(letter, f"{letter}{float(value):.6f}".rstrip("0").rstrip("."),
+                            value, first.col))
         return out
 
     # -- predefined parameters ----------------------------------------------------------------
@@ -222,7 +224,7 @@ class State:
     def named(self, name: str, col: int) -> float | None:
         m = self.modal
         if name in ("_x", "_y", "_z"):
-            return self.position()["xyz".index(name[1])]
+            return self.position()[ALL_AXES.index(name[1])]
         values = {
             "_a": 0.0, "_b": 0.0, "_c": 0.0, "_u": 0.0, "_v": 0.0, "_w": 0.0,
             "_metric": float(not m.inch), "_imperial": float(m.inch),

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from decimal import Decimal
 
+from k37.hdl.common.constants import AXIS_LETTERS
 from k37.hdl.common.params import Limit
 
 __all__ = ["ARC_TOLERANCE_LIMIT", "ARC_TOLERANCE_MM", "AXES_LIMIT", "AXIS_LETTERS",
@@ -36,4 +37,3 @@ HINTS = {**dict.fromkeys("ABC", " (K37's axes are X, Y and Z)"),
 #: What R and Q are for (in the error for one used elsewhere).
 USES = {"R": "arcs and canned cycles", "Q": "G83 (peck depth) and G64"}
 OFFSET_LETTERS = "IJK"
-AXIS_LETTERS = "XYZ"

@@ -25,8 +25,6 @@ import numpy as np
 from k37.firmware_model.motion.arcs import plan_block
 from k37.firmware_model.motion.curves import CurveError, exponential_block, parabola_block
 from k37.firmware_model.motion.program import (
-    _AXIS_NAMES,
-    PLANE_AXES,
     Arc,
     Dwell,
     Event,
@@ -39,6 +37,7 @@ from k37.firmware_model.motion.program import (
     chip_end,
 )
 from k37.firmware_model.motion.splines import Nurbs, SplineSpan, chords
+from k37.hdl.common.constants import AXIS_LETTERS, PLANE_AXES
 from k37.hdl.k3701.block import COORD_MAX, MAX_RADIUS_SQUARED, Block, BlockError
 from k37.hdl.k3701.model.chip import Plan
 
@@ -105,7 +104,7 @@ class Planner:
             for value, what in ((target[axis], "position"),
                                 (target[axis] - self.position[axis], "move")):
                 if abs(value) > COORD_MAX:
-                    raise PlanError(f"{_AXIS_NAMES[axis]}: the {what} {value} LSB is outside "
+                    raise PlanError(f"{AXIS_LETTERS[axis]}: the {what} {value} LSB is outside "
                                     f"-(2^23-1)..2^23-1 LSB (+-{self.mm(COORD_MAX)})")
         if self.axes == 2 and target[2] != self.position[2]:
             raise PlanError("this move moves Z: the machine has two axes (machine.axes = 3 "
@@ -227,7 +226,7 @@ class Planner:
         if rel[normal] and abs(rel[normal]) > _arc_steps_bound(i, j, end, cw):
             self._chords(line_no, target, (i, j), plane, cw, feed, tolerance=tolerance,
                          feed_source=feed_source,
-                         why=f"it moves its axis {_AXIS_NAMES[normal]} {abs(rel[normal])} LSB, "
+                         why=f"it moves its axis {AXIS_LETTERS[normal]} {abs(rel[normal])} LSB, "
                              f"more than one LSB per arc step (the K3701's helix)")
             return
         block, result = self._arc_block(end, i, j, cw)
@@ -357,5 +356,5 @@ class Planner:
             crossed = offset <= sweep + 1e-9 or offset >= math.tau - 1e-9
             if crossed and math.ceil(abs(limit) - 1e-9) > COORD_MAX:
                 raise PlanError(f"the arc leaves the coordinate range on "
-                                f"{_AXIS_NAMES[axes[axis]]}: it reaches {limit:.0f} LSB, "
+                                f"{AXIS_LETTERS[axes[axis]]}: it reaches {limit:.0f} LSB, "
                                 f"beyond +-(2^23-1) LSB (+-{self.mm(COORD_MAX)})")

@@ -22,16 +22,13 @@ from k37.firmware_model.motion.curves import (
     exponential_frame,
 )
 from k37.firmware_model.motion.splines import SplineSpan
+from k37.hdl.common.constants import PLANE_AXES
 from k37.hdl.k3701.block import Block
 from k37.hdl.k3701.datapaths.model.parabolic import ExponentialPath, ParabolicPath
 from k37.hdl.k3701.model.chip import Plan, make_path
 
-__all__ = ["PLANE_AXES", "Arc", "Dwell", "Event", "Exponential", "Item", "Line", "Move",
+__all__ = ["Arc", "Dwell", "Event", "Exponential", "Item", "Line", "Move",
            "Parabola", "Program", "chip_end"]
-
-#: Machine-axis indices of a plane's first, second and normal axes (as LinuxCNC's canon).
-PLANE_AXES = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
-_AXIS_NAMES = "XYZ"
 
 
 def chip_end(start: tuple[int, ...], axes: tuple[int, int, int], plane_end: tuple[int, int],

@@ -20,12 +20,10 @@ from k37.hdl.board.sigma_delta import SigmaDelta
 from k37.hdl.bus.hostbus import HostBus
 from k37.hdl.chipset.chip import Chipset
 from k37.hdl.chipset.map import axis_names
+from k37.hdl.common.constants import CHIP_HZ
 from k37.hdl.common.params import positive_int
 
-__all__ = ["CHIP_HZ", "BoardCore"]
-
-#: The chipset's system clock, the paper's CP (Hz).
-CHIP_HZ = 1_000_000
+__all__ = ["BoardCore"]
 
 
 class BoardCore(wiring.Component):

@@ -12,16 +12,14 @@ from amaranth.hdl import EnableInserter, Module
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out, connect
 
-from k37.hdl.board.core import CHIP_HZ, BoardCore
+from k37.hdl.board.core import BoardCore
 from k37.hdl.board.pins import BoardPin
 from k37.hdl.bridge import UartBridge
+from k37.hdl.bridge.protocol import DEFAULT_BAUD
 from k37.hdl.chipset.identity import chipset_identity
+from k37.hdl.common.constants import CHIP_HZ
 
-__all__ = ["DEFAULT_BAUD", "BoardTop"]
-
-#: The host link's default rate: 8 chipset cycles per bit (125 kBd), which a USB serial
-#: adapter makes exactly (3 MHz / 24).
-DEFAULT_BAUD = 125_000
+__all__ = ["BoardTop"]
 
 
 class BoardTop(wiring.Component):

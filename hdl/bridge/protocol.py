@@ -22,15 +22,19 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 from k37.hdl.bus.registers import RegisterMap
+from k37.hdl.common.constants import ALL_AXES
 
-__all__ = ["COMMANDS", "COUNTER_BITS", "COUNT_BITS", "ERROR", "IRQ_ALARM", "IRQ_INTERP",
-           "MAX_CYCLES_PER_BIT", "MIN_CYCLES_PER_BIT", "OK", "PROBE_AXES", "PROBE_BYTES",
-           "PROBE_FIELDS", "PROTOCOL_VERSION", "REPLY_MAX", "RX_FIFO_DEPTH",
+__all__ = ["COMMANDS", "COUNTER_BITS", "COUNT_BITS", "DEFAULT_BAUD", "ERROR", "IRQ_ALARM",
+           "IRQ_INTERP", "MAX_CYCLES_PER_BIT", "MIN_CYCLES_PER_BIT", "OK", "PROBE_AXES",
+           "PROBE_BYTES", "PROBE_FIELDS", "PROTOCOL_VERSION", "REPLY_MAX", "RX_FIFO_DEPTH",
            "SIMULATED_COMMANDS", "Command", "Error", "Identity", "Op", "check_cycles_per_bit",
            "command_start", "encode", "map_fingerprint", "markdown", "reply_end"]
 
 #: The protocol's version, the first byte of :attr:`Op.IDENT`'s reply.
 PROTOCOL_VERSION = 1
+#: The serial line's default rate, a board's and a host's: 8 chipset cycles per bit at 1 MHz
+#: (125 kBd), which a USB serial adapter makes exactly (3 MHz / 24).
+DEFAULT_BAUD = 125_000
 
 #: Width of :attr:`Op.IDLE`'s and :attr:`Op.WAIT`'s cycle counts.
 COUNT_BITS = 32
@@ -125,7 +129,7 @@ REPLY_MAX = max(c.reply_bytes for c in COMMANDS.values())
 #: the simulated machine (its ports ``<axis>__<name>``), which no bus reaches.
 PROBE_FIELDS = ("pulses_pos", "pulses_neg", "command", "error", "count", "max_abs_error")
 #: Axes :attr:`Op.PROBE` always reports (zeros for an axis a machine lacks).
-PROBE_AXES = ("x", "y", "z")
+PROBE_AXES = ALL_AXES
 #: Bytes of each value :attr:`Op.PROBE` reads (signed, two's complement).
 PROBE_BYTES = 8
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import enum
 
 from k37.hdl.bus.registers import Register, RegisterMap
+from k37.hdl.common.constants import ALL_AXES
 from k37.hdl.common.params import Limit
 from k37.hdl.encoder.map import ENCODER_MAP
 from k37.hdl.feed.map.decel_control import DECEL_MAP
@@ -19,8 +20,6 @@ __all__ = ["ACCEL_BITS", "ALL_AXES", "AXES", "CHIP_SELECTS", "MACHINE_AXES", "RE
 
 #: Address bits of a register inside a chip; the chip select is above them.
 REG_BITS = 5
-#: Every axis a chipset can have, in order: a chipset of n axes has the first n.
-ALL_AXES = ("x", "y", "z")
 #: The axis counts a chipset is built with (the job key ``machine.axes``).
 MACHINE_AXES = Limit(2, 3, integer=True)
 

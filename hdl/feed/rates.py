@@ -6,9 +6,10 @@ control's FP budget.
 
 from __future__ import annotations
 
+from k37.hdl.common.constants import CHIP_HZ
 from k37.hdl.common.params import Limit, positive_int
 
-__all__ = ["BUDGET_WIDTH", "FA_INCREMENT", "F_CLK", "STAGE_BITS", "frequency_of", "increment_for",
+__all__ = ["BUDGET_WIDTH", "FA_INCREMENT", "STAGE_BITS", "frequency_of", "increment_for",
            "rate_limit"]
 
 #: Width of the decel control's budget and remaining-count registers.
@@ -17,11 +18,8 @@ BUDGET_WIDTH = 24
 #: Counter and rate-input width of one 7497.
 STAGE_BITS = 6
 
-#: The system clock of the paper (Hz).
-F_CLK = 1_000_000
 
-
-def rate_limit(*, width: int = 24, f_clk: float = F_CLK) -> Limit:
+def rate_limit(*, width: int = 24, f_clk: float = CHIP_HZ) -> Limit:
     """The strobe rates (Hz) a running divider makes: from increment 1, ``f_clk / 2**width``,
     up to (not including) ``f_clk``."""
     positive_int("width", width)
@@ -29,7 +27,7 @@ def rate_limit(*, width: int = 24, f_clk: float = F_CLK) -> Limit:
                  note=f"{width}-bit divider at clock_hz")
 
 
-def increment_for(freq: float, *, width: int = 24, f_clk: float = F_CLK) -> int:
+def increment_for(freq: float, *, width: int = 24, f_clk: float = CHIP_HZ) -> int:
     """The increment whose strobe rate is nearest to ``freq`` (Hz) at ``f_clk``: 0 stops the
     strobe, any other rate must be in :func:`rate_limit` (so that it never rounds to 0)."""
     limit = rate_limit(width=width, f_clk=f_clk)
@@ -38,7 +36,7 @@ def increment_for(freq: float, *, width: int = 24, f_clk: float = F_CLK) -> int:
     return min(round(freq / f_clk * (1 << width)), (1 << width) - 1)
 
 
-def frequency_of(increment: int, *, width: int = 24, f_clk: float = F_CLK) -> float:
+def frequency_of(increment: int, *, width: int = 24, f_clk: float = CHIP_HZ) -> float:
     """The mean strobe rate (Hz) that ``increment`` gives at ``f_clk``."""
     positive_int("width", width)
     return f_clk * increment / (1 << width)

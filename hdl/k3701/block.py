@@ -9,23 +9,28 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
-__all__ = ["CIRCLE_SETUP_CYCLES", "COORD_MAX", "EXPONENTIAL_R2_BITS", "EXPONENTIAL_SETUP_CYCLES",
+from k37.hdl.common.constants import PLANE_AXES
+
+__all__ = ["CIRCLE_SETUP_CYCLES", "COORD_INVALID", "COORD_MAX", "EXPONENTIAL_R2_BITS",
+           "EXPONENTIAL_SETUP_CYCLES",
            "LATENCY_CIRCULAR", "LATENCY_LINEAR", "MAX_RADIUS_SQUARED", "PARABOLA_SETUP_CYCLES",
            "PLANES", "QUADRANT_SIGNS", "Block", "BlockError", "Kind", "Step", "check_coord",
            "quadrant_of", "route", "step_cost", "wrap"]
 
-#: Largest coordinate magnitude: 2^23 - 1 LSB (-2^23 is invalid).
+#: Largest coordinate magnitude: 2^23 - 1 LSB, a 24-bit register's.
 COORD_MAX = (1 << 23) - 1
+#: The one 24-bit word no coordinate takes, -2^23 (a block with it is refused).
+COORD_INVALID = -(COORD_MAX + 1)
 #: Cycles from the FP that completes a step's credit to the step's output pulses.
 LATENCY_LINEAR = 11
 LATENCY_CIRCULAR = 21
 #: Cycles a circular block spends checking its radius (a serial squarer) before it takes FP.
 CIRCLE_SETUP_CYCLES = 25
 #: Largest valid I^2 + J^2: the digital circle then stays within +-(2^23 - 1).
-MAX_RADIUS_SQUARED = (1 << 46) - (1 << 23)
+MAX_RADIUS_SQUARED = (COORD_MAX + 1) * COORD_MAX
 #: CTRL.plane code -> the machine axes (0 X, 1 Y, 2 Z) of a block's first, second and third
-#: coordinates: G17 (X, Y, Z), G18 (Z, X, Y), G19 (Y, Z, X), as LinuxCNC's canon orders them.
-PLANES = ((0, 1, 2), (2, 0, 1), (1, 2, 0))
+#: coordinates: G17, G18, G19 (:data:`k37.hdl.common.constants.PLANE_AXES`).
+PLANES = tuple(PLANE_AXES.values())
 #: Step cost in quarter-FP units on the three-axis chip with sqrt(2) control, by the number of
 #: axes a step moves: 1, 1.5 (sqrt 2 = 1.41) and 1.75 (sqrt 3 = 1.73) FP.
 _COST_3 = {1: 4, 2: 6, 3: 7}

@@ -11,6 +11,7 @@ from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
 from k37.hdl.bus.hostbus import HostBus
+from k37.hdl.common.constants import ALL_AXES
 from k37.hdl.common.observation import Countdown, FreeRunning, Observed
 from k37.hdl.k3701.block import CIRCLE_SETUP_CYCLES, LATENCY_CIRCULAR, LATENCY_LINEAR, Kind
 from k37.hdl.k3701.core import K3701Core
@@ -112,7 +113,7 @@ class K3701(Observed, wiring.Component):
         self.regmap = k3701_map(axes)
         super().__init__({
             "bus": In(HostBus(self.regmap.addr_width)), "fp": In(1),
-            **{f"{a}_{d}": Out(1) for a in "xyz"[:axes] for d in ("pos", "neg")},
+            **{f"{a}_{d}": Out(1) for a in ALL_AXES[:axes] for d in ("pos", "neg")},
             "busy": Out(1), "irq": Out(1), "error": Out(1), "overrun": Out(1),
         })
         self.quiet = Signal()

@@ -27,6 +27,7 @@ from amaranth.lib.wiring import connect, flipped
 
 from k37.hdl.bus.hostbus import RegisterBank
 from k37.hdl.bus.registers import Field, Register
+from k37.hdl.common.constants import ALL_AXES
 from k37.hdl.k3701.block import Kind
 from k37.hdl.k3701.datapaths.base import Datapath
 from k37.hdl.k3701.latency import StepLatency
@@ -275,7 +276,7 @@ class K3701Core:
         """The step pulses' default (low: a pulse lasts one cycle) and CMD.ack and CMD.clear,
         which take effect in the cycle after the host's write."""
         m, chip, cmd, regs = self.m, self.chip, self.cmd, self.regs
-        pulses = [getattr(chip, f"{a}_{d}") for a in "xyz"[:chip.axes] for d in ("pos", "neg")]
+        pulses = [getattr(chip, f"{a}_{d}") for a in ALL_AXES[:chip.axes] for d in ("pos", "neg")]
         m.d.sync += [p.eq(0) for p in pulses]
         with m.If(regs.cmd.w_stb & regs.cmd.w_data[cmd.field("ack").offset]):
             m.d.sync += chip.irq.eq(0)

@@ -21,6 +21,7 @@ from amaranth.lib import wiring
 
 from k37.hdl.bus.hostbus import RegisterBank
 from k37.hdl.bus.registers import Register
+from k37.hdl.common.constants import ALL_AXES
 from k37.hdl.k3701.block import PLANES, Kind
 from k37.hdl.k3701.core import Assignments, Axes, Step, Step3, field_of
 from k37.hdl.k3701.datapaths.base import Datapath, moves
@@ -97,7 +98,7 @@ class ThreeAxes(Axes):
                position: tuple[Signal, Signal]) -> None:
         xm, ym = position
         self._route(m, chip, step)
-        dx, dy, dz = moves(step, "xyz")
+        dx, dy, dz = moves(step, ALL_AXES)
         m.d.sync += [xm.eq(xm - dx), ym.eq(ym - dy), self.zm.eq(self.zm - dz)]
 
     def _route(self, m: Module, chip: wiring.Component, step: Step) -> None:
@@ -105,9 +106,9 @@ class ThreeAxes(Axes):
         as 0)."""
         for code, axes in enumerate((*PLANES, PLANES[0])):
             with m.If(self.plane == code):
-                for block_axis, machine_axis in zip("xyz", axes, strict=True):
+                for block_axis, machine_axis in zip(ALL_AXES, axes, strict=True):
                     move = getattr(step, block_axis)
                     neg = getattr(step, f"{block_axis}_neg")
-                    out = "xyz"[machine_axis]
+                    out = ALL_AXES[machine_axis]
                     m.d.sync += [getattr(chip, f"{out}_pos").eq(move & ~neg),
                                  getattr(chip, f"{out}_neg").eq(move & neg)]

@@ -33,6 +33,8 @@ from typing import TYPE_CHECKING, TypeAlias
 
 import numpy as np
 
+from k37.hdl.common.constants import CHIP_HZ
+
 if TYPE_CHECKING:
     from amaranth.lib import wiring
 
@@ -40,7 +42,7 @@ __all__ = ["CLOCK_PERIOD", "Backend", "Design", "Port", "instantiate", "select_s
            "sign_extend"]
 
 #: The paper's system clock period, 1 us (1 MHz): the time base of waveforms.
-CLOCK_PERIOD = 1e-6
+CLOCK_PERIOD = 1 / CHIP_HZ
 
 #: What a backend simulates: an Amaranth ``wiring.Component``, or a function that makes one
 #: (a compiled backend that finds the design's model by its key never calls it, so a run of a

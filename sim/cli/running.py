@@ -50,8 +50,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from k37.firmware_model.feeds import FirmwareError
     from k37.firmware_model.gcode.parser import GcodeError
     from k37.sim.files import STDIO
+    from k37.sim.machine.servo import load_step_fault
     from k37.sim.run.ballbar import BallbarError, check_settle
-    from k37.sim.run.jobfile import JobError, load_job, load_step_fault
+    from k37.sim.run.jobfile import JobError, load_job
     from k37.sim.run.linked import LinkError, run_linked
     from k37.sim.run.output import OutputError, add_ballbar, check_outputs, write_outputs
     from k37.sim.run.progress import ProgressPrinter

@@ -16,6 +16,7 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 from k37.hdl.bus.registers import RegisterMap
+from k37.hdl.common.constants import ALL_AXES
 
 if TYPE_CHECKING:
     from amaranth.lib import wiring
@@ -121,7 +122,7 @@ BLOCKS: tuple[Exportable, ...] = (
                "feed-rate generator (rate multiplier and its two dividers on the host bus)"),
     Exportable("feed_rate_axis_fa", "k37.hdl.feed.feed_rate:FeedRate",
                "feed-rate generator, per-axis fa build (an addition clock for each axis)",
-               params=_params(axis_fa=("x", "y", "z"))),
+               params=_params(axis_fa=ALL_AXES)),
     Exportable("chipset", "k37.hdl.chipset.chip:Chipset", "two-axis chipset top", top=True),
     Exportable("k3701_3axis", "k37.hdl.k3701.chip:K3701",
                "KM3701 three-axis build (3-D lines, planes, helices, parabolas, exponentials)",

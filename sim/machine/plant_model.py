@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from k37.hdl.common.constants import CHIP_HZ
 from k37.hdl.common.params import Limit
 
 __all__ = ["ALPHA_BITS", "COUNT_BITS", "DAC_VOLTS", "FRAC_BITS", "GAIN_BITS", "KF_BITS", "KF_LIMIT",
@@ -61,7 +62,7 @@ class PlantParams:
     kp: float
     tm: float
     max_speed: float | None = None
-    clock_hz: float = 1e6
+    clock_hz: float = CHIP_HZ
     kf: float = 0.0
 
     def __post_init__(self) -> None:
@@ -117,6 +118,11 @@ class PlantParams:
         if self.max_speed is None:
             return 0
         return max(1, _saturate(self.max_speed / self.clock_hz * (1 << FRAC_BITS), VMAX_BITS))
+
+    def ports(self) -> dict[str, int]:
+        """The plant's parameter inputs, by port name
+        (:class:`k37.sim.machine.plant.ServoPlant`)."""
+        return {"gain": self.gain, "alpha": self.alpha, "vmax": self.vmax, "kf": self.kf_word}
 
     def kv(self, dac_bits: int) -> float:
         """The amplifier's velocity gain, counts/s per volt."""

@@ -6,6 +6,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from k37.firmware_model.job import ServoConfig
+from k37.hdl.common.constants import CHIP_HZ
 from k37.hdl.common.params import Limit
 from k37.sim.machine.plant_model import (
     ALPHA_BITS,
@@ -16,9 +18,11 @@ from k37.sim.machine.plant_model import (
     wrap,
 )
 
-__all__ = ["ACCEL_BITS", "AFTER_BITS", "INTEGRAL_BITS", "KI_BITS", "KI_FRAC", "TorqueDriveModel",
-           "TorqueParams", "coulomb"]
+__all__ = ["ACCEL_BITS", "AFTER_BITS", "DEFAULT_SERVO", "INTEGRAL_BITS", "KI_BITS", "KI_FRAC",
+           "TorqueDriveModel", "TorqueParams", "coulomb"]
 
+#: The default servo: a job's, and the defaults of the drives' values.
+DEFAULT_SERVO = ServoConfig()
 #: Fraction bits of ki (a velocity-loop integral gain per cycle^2 is tiny: 1e-8 and below).
 KI_FRAC = 40
 KI_BITS = 32
@@ -34,17 +38,18 @@ INTEGRAL_BITS = VC_BITS + 2 + KI_FRAC + 8
 class TorqueParams:
     """The drive's physical values (see the module) and their fixed point at ``clock_hz``;
     ``counts_per_rev``: encoder counts (LSB) per motor revolution, which turns torques into
-    accelerations in counts."""
+    accelerations in counts. The defaults are the default servo's
+    (:class:`k37.firmware_model.job.ServoConfig`)."""
 
-    kt: float = 0.5
-    ja: float = 1e-3
-    vg: float = 0.2
-    ti: float = 0.0
-    d: float = 0.0
-    fc: float = 0.0
-    load: float = 0.0
-    counts_per_rev: float = 10_000.0
-    clock_hz: float = 1e6
+    kt: float = DEFAULT_SERVO.kt
+    ja: float = DEFAULT_SERVO.ja
+    vg: float = DEFAULT_SERVO.vg
+    ti: float = DEFAULT_SERVO.ti
+    d: float = DEFAULT_SERVO.d
+    fc: float = DEFAULT_SERVO.fc
+    load: float = DEFAULT_SERVO.load
+    counts_per_rev: float = DEFAULT_SERVO.counts_per_rev
+    clock_hz: float = CHIP_HZ
 
     @staticmethod
     def limits() -> dict[str, Limit]:
@@ -99,6 +104,12 @@ class TorqueParams:
     @property
     def fc_word(self) -> int:
         return self.disturbance_word(self.fc)
+
+    def ports(self) -> dict[str, int]:
+        """The drive's parameter inputs, by port name
+        (:class:`k37.sim.machine.torque_drive.TorqueDrive`; ``alpha`` is the plant's port)."""
+        return {"alpha": self.alpha, "beta": self.beta, "ki": self.ki, "fc": self.fc_word,
+                "load": self.disturbance_word(self.load)}
 
 
 @dataclass

@@ -33,7 +33,12 @@ from dataclasses import dataclass
 
 from k37.hdl.common.params import Limit
 from k37.sim.machine.plant_model import COUNT_BITS, FRAC_BITS, POSITION_BITS, VC_BITS, wrap
-from k37.sim.machine.torque_drive_model import TorqueDriveModel, TorqueParams, coulomb
+from k37.sim.machine.torque_drive_model import (
+    DEFAULT_SERVO,
+    TorqueDriveModel,
+    TorqueParams,
+    coulomb,
+)
 
 __all__ = ["SPRING_BITS", "SPRING_FRAC", "TwoMassDriveModel", "TwoMassParams"]
 
@@ -51,11 +56,11 @@ class TwoMassParams(TorqueParams):
     and ``mass`` (the table M, kg), ``ks`` (axial stiffness, N/m), ``cs`` (its damping, N s/m),
     ``lead`` (m per revolution) and ``scale`` (the encoder reads the table)."""
 
-    mass: float = 200.0
-    ks: float = 1e8
-    cs: float = 0.0
-    lead: float = 0.01
-    scale: bool = False
+    mass: float = DEFAULT_SERVO.mass
+    ks: float = DEFAULT_SERVO.ks
+    cs: float = DEFAULT_SERVO.cs
+    lead: float = DEFAULT_SERVO.lead
+    scale: bool = DEFAULT_SERVO.scale
 
     @staticmethod
     def limits() -> dict[str, Limit]:
@@ -125,9 +130,10 @@ class TwoMassParams(TorqueParams):
         return round(per_s2 / self.clock_hz ** 2 * (1 << FRAC_BITS))
 
     def ports(self) -> dict[str, int]:
-        """The drive's own input ports (beyond the plant's and the torque drive's)."""
-        return {"ks_m": self.ks_m, "ks_t": self.ks_t, "cs_m": self.cs_m, "cs_t": self.cs_t,
-                "scale": int(self.scale)}
+        """The drive's parameter inputs, by port name: the torque drive's and the spring's
+        (:class:`k37.sim.machine.two_mass.TwoMassDrive`)."""
+        return {**super().ports(), "ks_m": self.ks_m, "ks_t": self.ks_t, "cs_m": self.cs_m,
+                "cs_t": self.cs_t, "scale": int(self.scale)}
 
 
 @dataclass

@@ -26,6 +26,7 @@ from k37.firmware_model.gcode.parser import parse
 from k37.firmware_model.job import ContourConfig, MachineConfig, ServoConfig
 from k37.firmware_model.motion.program import Line
 from k37.firmware_model.motion.splines import Nurbs
+from k37.hdl.chipset.map import AXES
 from k37.sim.reproduce.markdown import Section, pyplot, save_figure
 from k37.sim.reproduce.runs import RunData, RunSpec, Scale, Specs, Trace
 from k37.sim.reproduce.theory import servo
@@ -202,7 +203,7 @@ def _contour(run: RunData, curve: Curve) -> _Contour:
     actual = np.column_stack([trace["x_actual"], trace["y_actual"]])[moving] * mm
     t = trace.t[moving]
     model = np.column_stack([servo(t, command[:, k], *PLANT[axis], substeps=2)
-                             for k, axis in enumerate(("x", "y"))])
+                             for k, axis in enumerate(AXES)])
     return _Contour(t, command, actual, curve.nearest(actual)[1], curve.nearest(model)[1])
 
 
@@ -221,7 +222,7 @@ def ideal_mean_error(curve: Curve, dt: float = 1e-3) -> float:
     t = np.arange(0.0, s[-1] / SPEED_MM_S, dt)
     reference = curve.at(np.interp(t * SPEED_MM_S, s, u))
     tool = np.column_stack([servo(t, reference[:, k], *PLANT[axis], substeps=2)
-                            for k, axis in enumerate(("x", "y"))])
+                            for k, axis in enumerate(AXES)])
     return float(curve.nearest(tool)[1].mean())
 
 

@@ -22,12 +22,12 @@ from k37.hdl.accel.model.exponential import AccelDecelModel
 from k37.hdl.feed.map.feed_rate import DIVIDER_WIDTH
 from k37.hdl.feed.model.divider import PhaseDividerModel
 from k37.hdl.feed.rates import increment_for
+from k37.sim.machine.servo import torque_params
 from k37.sim.machine.two_mass_model import TwoMassParams
 from k37.sim.reproduce.markdown import Section, pyplot, save_figure
 from k37.sim.reproduce.paper import FEED_HIGH
 from k37.sim.reproduce.runs import MACHINE, RunData, RunSpec, Scale, Specs, Trace
 from k37.sim.reproduce.theory import accel_filter, fp_rate, hardware_tau, servo
-from k37.sim.run.jobfile import torque_params
 
 __all__ = ["ACCEL_BITS", "SHAPES", "circuit_outputs", "filter_machine", "recursion_35",
            "section", "specs"]

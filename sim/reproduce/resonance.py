@@ -65,8 +65,7 @@ def ring_hz(drive: TwoMassParams, periods: int = 6) -> float:
     """The frequency (Hz) the drive's reference model rings at after a deflection of 1000
     counts at rest, the position loop open (the D/A at 0 V): from the upward zero crossings
     of the deflection over ``periods`` periods of its free mode."""
-    model = TwoMassDriveModel(PlantParams(kp=1.0, tm=0.0).gain, drive.alpha, beta=drive.beta,
-                              **drive.ports())
+    model = TwoMassDriveModel(PlantParams(kp=1.0, tm=0.0).gain, **drive.ports())
     model.deflection = 1000 << FRAC_BITS
     cycles = round(periods * drive.clock_hz / drive.held_hz)
     s = np.empty(cycles)

@@ -20,9 +20,9 @@ from k37.firmware_model.job import AXES
 from k37.hdl.feed.map.decel_control import DECEL_MAP
 from k37.hdl.feed.map.feed_rate import FEED_MAP
 from k37.hdl.k3701.map import block_registers
+from k37.sim.link.simulated import SimulatedLink
 from k37.sim.reproduce.runs import RateSpec, RunData, RunSpec, Specs, minus_spec
 from k37.sim.run.runner import RunOptions, design_key, reused_backend, run_job
-from k37.sim.run.simulated_link import SimulatedLink
 from k37.sim.study.sweep import end_with_parent, stop_workers
 
 __all__ = ["run_all"]

@@ -1,1 +1,2 @@
-"""Running a job: the 8085 link, sampling, the report and its outputs."""
+"""Running a job: the firmware on the simulated machine or over a link, sampling, measuring,
+the report and its outputs."""

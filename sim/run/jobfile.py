@@ -32,10 +32,10 @@ TOML job::
 Every value is checked when the job is loaded, against the limit of the block that has it: a
 machine key against the chipset's or the host's (:class:`k37.firmware_model.job.MachineConfig`),
 a servo key (and each ``[servo.x]``/``[servo.y]`` override) against the simulated plant's
-fixed point on the job's clock and LSB (:func:`servo_limits`). An unknown key anywhere is an
-error naming its full path. All errors are :class:`JobError` (bad file or value, naming the
-key, its value and its range) or :class:`~k37.firmware_model.gcode.parser.GcodeError` (bad program),
-each one line of text.
+fixed point on the job's clock and LSB (:func:`k37.sim.machine.servo.servo_limits`). An
+unknown key anywhere is an error naming its full path. All errors are :class:`JobError` (bad
+file or value, naming the key, its value and its range) or
+:class:`~k37.firmware_model.gcode.parser.GcodeError` (bad program), each one line of text.
 """
 
 from __future__ import annotations
@@ -65,85 +65,12 @@ from k37.firmware_model.motion.program import Program
 from k37.hdl.chipset.map import ALL_AXES
 from k37.hdl.common.params import Limit
 from k37.sim.files import STDIO, InputError, read_input_text
-from k37.sim.machine.plant_model import PlantParams
-from k37.sim.machine.torque_drive_model import TorqueParams
-from k37.sim.machine.two_mass_model import TwoMassParams
+from k37.sim.machine.servo import check_servo, servo_limits
 
-__all__ = ["JobError", "job_from_data", "job_keys_markdown", "load_job", "load_step_fault",
-           "plant_params", "read_toml", "servo_limits", "torque_params"]
-
-#: The torque drive's keys (used only with ``drive = "torque"`` or ``"two_mass"``).
-TORQUE_KEYS = tuple(TorqueParams.limits())
-#: The two-mass drive's keys (used only with ``drive = "two_mass"``).
-TWO_MASS_KEYS = (*TwoMassParams.limits(), "scale")
-#: The drives with the torque drive's velocity loop.
-TORQUE_DRIVES = ("torque", "two_mass")
-
+__all__ = ["JobError", "job_from_data", "job_keys_markdown", "load_job", "read_toml"]
 
 class JobError(ValueError):
     """A job file the loader refuses; ``str()`` is one line naming the file."""
-
-
-def servo_limits(machine: MachineConfig) -> dict[str, Limit]:
-    """The range of each servo key on ``machine``: the plant's
-    (:meth:`k37.sim.machine.plant.PlantParams.limits`), in the job's units."""
-    limits = PlantParams.limits(machine.clock_hz)
-    speed = limits["max_speed"]
-    return {**limits, "max_speed": speed.scaled(machine.mm_per_min(1.0), "mm/min",
-                                                f"{speed.note} and lsb_mm"),
-            **TwoMassParams.limits()}
-
-
-def plant_params(machine: MachineConfig, servo: ServoConfig) -> PlantParams:
-    """The plant of one axis's ``servo`` on ``machine``.
-
-    Raises
-    ------
-    ValueError
-        A servo key is out of the plant's range (checked in the plant's units), naming the
-        key, its value and its range in the job's units (:func:`servo_limits`).
-    """
-    values = {"kp": servo.kp, "tm": servo.tm, "kf": servo.kf,
-              "max_speed": None if servo.max_speed is None else machine.lsb_per_s(servo.max_speed)}
-    limits = PlantParams.limits(machine.clock_hz)
-    for name, value in values.items():
-        if value is not None and value not in limits[name]:
-            raise ValueError(f"{name} must be {servo_limits(machine)[name].describe()}, "
-                             f"not {getattr(servo, name)!r}")
-    return PlantParams(clock_hz=machine.clock_hz, **values)
-
-
-def torque_params(machine: MachineConfig, servo: ServoConfig) -> TorqueParams:
-    """The torque drive of one axis's ``servo`` on ``machine``, or its two-mass drive
-    (:class:`~k37.sim.machine.two_mass_model.TwoMassParams`); ValueError naming a bad key."""
-    if servo.drive == "two_mass":
-        return TwoMassParams(clock_hz=machine.clock_hz,
-                             **{name: getattr(servo, name) for name in TWO_MASS_KEYS})
-    return TorqueParams(clock_hz=machine.clock_hz,
-                        **{name: getattr(servo, name) for name in TORQUE_KEYS})
-
-
-def load_step_fault(job: Job, axis: str, torque: float, at_s: float) -> dict[str, int]:
-    """The plant inputs of a load step of ``torque`` (N m) on ``axis`` at ``at_s`` seconds
-    (the axis must have the torque drive); ValueError naming what is wrong."""
-    names = job.machine.axis_names
-    if axis not in names:
-        raise ValueError(f"no axis {axis!r}; the machine's axes are {', '.join(names)}")
-    servo = job.servo[axis]
-    if servo.drive not in TORQUE_DRIVES:
-        raise ValueError(f"a load step needs servo.{axis}.drive = \"torque\" or "
-                         f"\"two_mass\", not {servo.drive!r}")
-    Limit(unit="N m").check("load step torque", torque)
-    # the time must be a cycle the simulated clock can count (2^64 cycles)
-    Limit(0, ((1 << 64) - 1) / job.machine.clock_hz, unit="s").check("load step time", at_s)
-    params = torque_params(job.machine, servo)
-    try:
-        word = params.disturbance_word(torque)
-    except OverflowError:  # beyond any float: beyond the range below too
-        word = 1 << 39
-    if word == 0 or abs(word) + abs(params.disturbance_word(params.load)) >= 1 << 39:
-        raise ValueError(f"load step {torque!r} N m is 0 or beyond the drive's torque range")
-    return {"load_step": word, "load_after": round(at_s * job.machine.clock_hz)}
 
 
 def load_job(path: str | PathLike[str] | None, *, frontend: str = "builtin",
@@ -286,11 +213,7 @@ class _TomlJob:
     def plant(self, machine: MachineConfig, values: dict, prefix: str) -> ServoConfig:
         servo = self.build(ServoConfig, values, prefix)
         try:
-            plant_params(machine, servo)
-            for name, limit in TwoMassParams.limits().items():
-                limit.check(name, getattr(servo, name))
-            if servo.drive in TORQUE_DRIVES:  # its fixed point (the keys are unused otherwise)
-                torque_params(machine, servo)
+            check_servo(machine, servo)
         except (TypeError, ValueError) as e:
             self.fail(f"{prefix}{e}")
         return servo

@@ -1,7 +1,7 @@
 """Running a job's firmware over a link: a simulated board (``k37 serve``) or the real one.
 
 :func:`run_linked` runs :class:`k37.firmware_model.firmware.Firmware` on a
-:class:`k37.firmware_model.bridge_link.BridgeLink` and reports as :func:`k37.sim.run.runner.run_job`
+:class:`k37.sim.link.bridge.BridgeLink` and reports as :func:`k37.sim.run.runner.run_job`
 does, with what a host can know:
 
 * every block's cycles, FP budget and feed word, the alarms and events: the firmware's own;
@@ -19,12 +19,13 @@ from __future__ import annotations
 
 import time
 
-from k37.firmware_model.bridge_link import BridgeLink, LinkError, Probe, job_identity, open_link
 from k37.firmware_model.feeds import check_program
 from k37.firmware_model.firmware import BlockRecord, Firmware
 from k37.firmware_model.host import Host8085
 from k37.firmware_model.job import Job
 from k37.hdl.chipset.map import chip_register, port
+from k37.sim.link.bridge import BridgeLink, LinkError, Probe, job_identity, open_link
+from k37.sim.run.meter import BlockMeasure
 from k37.sim.run.report import validate
 from k37.sim.run.runner import (
     OptionError,
@@ -35,7 +36,6 @@ from k37.sim.run.runner import (
     run_status,
 )
 from k37.sim.run.sampler import SampleStore
-from k37.sim.run.simulated_link import BlockMeasure
 
 __all__ = ["LinkError", "check_linked_options", "run_linked"]
 

@@ -46,15 +46,14 @@ from k37.sim.files import OutputFailure, discard_temporary, keep_temporary, temp
 
 if TYPE_CHECKING:
     from k37.sim.machine.system import System
-from k37.sim.machine.plant_model import dac_zero
-from k37.sim.machine.two_mass_model import TwoMassParams
+from k37.sim.link.simulated import SimulatedLink
+from k37.sim.machine.servo import axis_port, servo_ports
 from k37.sim.run.contour import contour_summary
 from k37.sim.run.fst import convert_in_child
-from k37.sim.run.jobfile import TORQUE_DRIVES, plant_params, torque_params
+from k37.sim.run.meter import BlockMeasure, BlockMeter
 from k37.sim.run.progress import ProgramPlan, Progress
 from k37.sim.run.report import SCHEMA_VERSION, validate
 from k37.sim.run.sampler import Sampler, SampleStore
-from k37.sim.run.simulated_link import BlockMeasure, BlockMeter, SimulatedLink
 from k37.sim.run.stall import RunStopped, StallWatch
 from k37.sim.run.waveform import is_fst
 
@@ -144,27 +143,13 @@ def configure_plants(backend: Backend, job: Job,
                      faults: dict[str, dict[str, int]] | None = None) -> None:
     """Set the plants of a backend built for ``job`` to its servos, with ``faults`` (per axis:
     a plant input, ``stall``, ``break_a`` or a load step's ``load_step`` and ``load_after``
-    (:func:`k37.sim.run.jobfile.load_step_fault`), and its value)."""
+    (:func:`k37.sim.machine.servo.load_step_fault`), and its value)."""
     faults = faults or {}
     machine = job.machine
     for axis in machine.axis_names:
-        params = plant_params(machine, job.servo[axis])
-        backend.set(f"{axis}__gain", params.gain)
-        backend.set(f"{axis}__alpha", params.alpha)
-        backend.set(f"{axis}__vmax", params.vmax)
-        backend.set(f"{axis}__kf", params.kf_word)
-        if job.servo[axis].drive in TORQUE_DRIVES:
-            torque = torque_params(machine, job.servo[axis])
-            for name, value in (("alpha", torque.alpha), ("beta", torque.beta),
-                                ("ki", torque.ki), ("fc", torque.fc_word),
-                                ("load", torque.disturbance_word(torque.load))):
-                backend.set(f"{axis}__{name}", value)
-            if isinstance(torque, TwoMassParams):
-                for name, value in torque.ports().items():
-                    backend.set(f"{axis}__{name}", value)
-        backend.set(f"{axis}__dac_zero", dac_zero(machine.dac_bits))
-        for name, value in faults.get(axis, {}).items():
-            backend.set(f"{axis}__{name}", value)
+        for name, value in {**servo_ports(machine, job.servo[axis]),
+                            **faults.get(axis, {})}.items():
+            backend.set(axis_port(axis, name), value)
 
 
 def system_params(job: Job) -> dict[str, Any]:

@@ -2,7 +2,7 @@
 
 Each connection is a session on a freshly reset machine: the bytes received go through the
 bridge's reference model (:class:`k37.hdl.bridge.model.BridgeModel`) onto the machine's bus,
-interrupt inputs and clock (:class:`k37.sim.run.simulated_link.SimulatedLink` over a
+interrupt inputs and clock (:class:`k37.sim.link.simulated.SimulatedLink` over a
 :class:`k37.sim.run.sampler.Sampler`), and simulated time passes only as the host's commands say
 (and the line's, with a UART's line time), so a session is as deterministic as a run in
 process. The board answers :attr:`Op.PROBE` too: the observation counters a real board has no
@@ -17,15 +17,15 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from k37.firmware_model.bridge_link import job_identity
 from k37.firmware_model.job import Job
 from k37.hdl.bridge.model import BridgeModel, LineTimed
 from k37.hdl.bridge.protocol import PROBE_AXES, PROBE_FIELDS, check_cycles_per_bit
 from k37.sim.backends.contract import Backend
+from k37.sim.link.bridge import job_identity
+from k37.sim.link.simulated import SimulatedLink
 from k37.sim.run.output import write_samples
 from k37.sim.run.runner import build_backend, configure_plants
 from k37.sim.run.sampler import Sampler, SampleStore
-from k37.sim.run.simulated_link import SimulatedLink
 
 __all__ = ["Session", "SimulatedBoard"]
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from k37.sim.machine.servo import load_step_fault, torque_params
 from k37.sim.reproduce.theory import (
     accel_gain,
     following_error,
@@ -19,7 +20,7 @@ from k37.sim.reproduce.theory import (
     servo_gain,
 )
 from k37.sim.run.ballbar import ballbar
-from k37.sim.run.jobfile import load_job, load_step_fault, torque_params
+from k37.sim.run.jobfile import load_job
 from k37.sim.run.runner import RunOptions, run_job
 from k37.sim.run.sampler import TRACE_COLUMNS
 

@@ -11,6 +11,7 @@ the core takes it. A new interpolation type is one more :class:`Datapath`. """
 from __future__ import annotations
 
 import operator
+from collections.abc import Iterable
 from functools import reduce
 from typing import Any, ClassVar
 
@@ -18,11 +19,11 @@ from amaranth.hdl import Mux, Value, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
+from k37.hdl.common.constants import ALL_AXES
+from k37.hdl.k3701.block import COORD_INVALID
+
 __all__ = ["BlockSignature", "Datapath", "DatapathSignature", "StepSignature", "frame_step",
            "magnitude", "moves", "refused", "shorter"]
-
-#: The one 24-bit two's complement value the chip refuses (its coordinates are symmetric).
-_MIN_COORD = -(1 << 23)
 
 
 def magnitude(v: Value) -> Value:
@@ -33,10 +34,10 @@ def magnitude(v: Value) -> Value:
 def refused(block: wiring.PureInterface, *names: str) -> Value:
     """Any of the coordinates ``names`` of ``block`` (a :class:`BlockSignature`) is -2^23,
     outside the chip's range."""
-    return reduce(operator.or_, (getattr(block, name) == _MIN_COORD for name in names))
+    return reduce(operator.or_, (getattr(block, name) == COORD_INVALID for name in names))
 
 
-def moves(step: Any, axes: str = "xy") -> tuple[Value, ...]:
+def moves(step: Any, axes: Iterable[str] = ALL_AXES[:2]) -> tuple[Value, ...]:
     """The moves (-1, 0 or +1) of ``step`` (with the members of a :class:`StepSignature`) on
     its ``axes``."""
     return tuple(Mux(getattr(step, a), Mux(getattr(step, f"{a}_neg"), -1, 1), 0) for a in axes)

@@ -7,6 +7,7 @@ from amaranth.hdl import Module, Mux, Signal, signed
 from amaranth.lib import wiring
 from amaranth.lib.wiring import In, Out
 
+from k37.hdl.k3701.block import COORD_INVALID
 from k37.hdl.k3701.datapaths.base import magnitude
 
 __all__ = ["HelixAxis"]
@@ -55,7 +56,7 @@ class HelixAxis(wiring.Component):
             m.d.sync += [
                 nz.eq(mag), total.eq(self.n), acc.eq(half), self.neg.eq(self.ze < 0),
                 self.move.eq((mag != 0) & (half + mag >= self.n)),
-                self.error.eq((mag > self.n) | (self.ze == -(1 << 23))),
+                self.error.eq((mag > self.n) | (self.ze == COORD_INVALID)),
             ]
         with m.If(self.advance):
             acc_next = Mux(self.move, acc + nz - total, acc + nz)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from amaranth.hdl import Module, Mux, Signal
 
+from k37.hdl.common.constants import ALL_AXES
 from k37.hdl.k3701.datapaths.base import Datapath, magnitude, refused
 
 __all__ = ["LinearDatapath", "LinearDatapath3"]
@@ -96,7 +97,7 @@ class LinearDatapath3(Datapath):
         nl = Mux((mags[0] >= mags[1]) & (mags[0] >= mags[2]), mags[0],
                  Mux(mags[1] >= mags[2], mags[1], mags[2]))
         moving = []
-        for axis, name, mag in zip("xyz", names, mags, strict=True):
+        for axis, name, mag in zip(ALL_AXES, names, mags, strict=True):
             n = Signal(24, name=f"n_{axis}")
             acc = Signal(25, name=f"acc_{axis}")
             move = getattr(self.step, axis)

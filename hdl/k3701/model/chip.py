@@ -29,6 +29,7 @@ from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 
+from k37.hdl.common.constants import ALL_AXES
 from k37.hdl.k3701.block import (
     CIRCLE_SETUP_CYCLES,
     LATENCY_CIRCULAR,
@@ -157,7 +158,7 @@ def plan(block: Block) -> Plan:
     counts = Counter(s.moved for s in steps)
     pulses = {f"{axis}{sign}": sum(getattr(s, f"d{axis}") == (1 if sign == "+" else -1)
                                    for s in steps)
-              for axis in "xyz" for sign in "+-"}
+              for axis in ALL_AXES for sign in "+-"}
     end = (pulses["x+"] - pulses["x-"], pulses["y+"] - pulses["y-"])
     return Plan(len(steps), counts[2] + counts[3],
                 fp_of_steps(len(steps), counts[2], counts[3], block.sqrt2), end, error, pulses,

@@ -15,13 +15,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from k37.hdl.board.core import CHIP_HZ, BoardCore
+from k37.hdl.board.core import BoardCore
 from k37.hdl.board.model.sigma_delta import SigmaDeltaModel
 from k37.hdl.board.pins import ulx3s_pins
 from k37.hdl.board.sigma_delta import SigmaDelta
 from k37.hdl.board.top import BoardTop
 from k37.hdl.bridge.protocol import OK, Identity, Op, encode
 from k37.hdl.chipset.identity import chipset_identity
+from k37.hdl.common.constants import CHIP_HZ
 from k37.sim.fpga.export import pins as export_pins
 from k37.sim.fpga.icarus import HOST_DRIVES
 from tests.sim.fpga.test_export_cosim import SEEDS, _core_port, amaranth_chipset, chipset_stimulus

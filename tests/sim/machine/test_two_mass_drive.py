@@ -21,14 +21,12 @@ FAST = {"kt": 0.5, "ja": 1e-5, "vg": 2.0, "mass": 1.0, "ks": 1e9, "lead": 0.01}
 
 
 def drive_model(plant: PlantParams, drive: TwoMassParams, **faults: int) -> TwoMassDriveModel:
-    return TwoMassDriveModel(plant.gain, drive.alpha, plant.vmax, 12, plant.kf_word,
-                             beta=drive.beta, ki=drive.ki, fc=drive.fc_word,
-                             load=drive.disturbance_word(drive.load), **drive.ports(), **faults)
+    return TwoMassDriveModel(plant.gain, vmax=plant.vmax, dac_bits=12, kf=plant.kf_word,
+                             **drive.ports(), **faults)
 
 
 def ports(drive: TwoMassParams, **faults: int) -> dict[str, int]:
-    return {"alpha": drive.alpha, "beta": drive.beta, "ki": drive.ki, "fc": drive.fc_word,
-            "load": drive.disturbance_word(drive.load), **drive.ports(), **faults}
+    return {**drive.ports(), **faults}
 
 
 def run_both(plant: PlantParams, drive: TwoMassParams, stimulus: list[tuple], **faults: int):

@@ -30,7 +30,8 @@ from k37.hdl.feed.rates import increment_for
 from k37.hdl.k3702.map import K3702_MAP
 from k37.sim.cli import main
 from k37.sim.machine.plant_model import ALPHA_BITS, GAIN_BITS, VMAX_BITS, PlantParams
-from k37.sim.run.jobfile import JobError, job_keys_markdown, load_job, plant_params, servo_limits
+from k37.sim.machine.servo import plant_params, servo_limits
+from k37.sim.run.jobfile import JobError, job_keys_markdown, load_job
 from k37.sim.run.runner import system_params
 from tests.paths import ROOT
 

@@ -25,6 +25,7 @@ from k37.firmware_model.firmware import TIMER_TICK_SECONDS
 from k37.firmware_model.job import MachineConfig, RunConfig, demo_job
 from k37.firmware_model.motion.program import Arc
 from k37.sim.cli import main
+from k37.sim.link.simulated import SimulatedLink
 from k37.sim.run import runner
 from k37.sim.run.contour import contour_errors, contour_summary
 from k37.sim.run.jobfile import load_job
@@ -33,7 +34,6 @@ from k37.sim.run.progress import Progress, ProgressPrinter
 from k37.sim.run.report import HOW_FIELDS, validate
 from k37.sim.run.runner import RunOptions, RunResult, run_job
 from k37.sim.run.sampler import CHUNK_ROWS, PROGRESS_CYCLES, TRACE_COLUMNS, SampleStore
-from k37.sim.run.simulated_link import SimulatedLink
 from tests.paths import ROOT
 
 

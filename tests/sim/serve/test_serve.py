@@ -14,17 +14,16 @@ from contextlib import contextmanager
 
 import pytest
 
-from k37.firmware_model.bridge_link import (
-    DEFAULT_BAUD,
+from k37.firmware_model.job import Job, MachineConfig
+from k37.hdl.bridge.protocol import DEFAULT_BAUD, Identity
+from k37.hdl.chipset.identity import chipset_identity
+from k37.hdl.chipset.map import Accel
+from k37.sim.link.bridge import (
     BridgeLink,
     LinkError,
     job_identity,
     open_link,
 )
-from k37.firmware_model.job import Job, MachineConfig
-from k37.hdl.bridge.protocol import Identity
-from k37.hdl.chipset.identity import chipset_identity
-from k37.hdl.chipset.map import Accel
 from k37.sim.run.linked import run_linked
 from k37.sim.run.output import summary, write_trace
 from k37.sim.run.runner import RunOptions, run_job, system_params

@@ -1,59 +1,19 @@
-"""The simulated machine as the 8085 sees it, and what the run measures at the firmware's
-trace points.
+"""What a run measures at the firmware's trace points: :class:`BlockMeter`, the logic analyser.
 
-:class:`SimulatedLink` implements :class:`k37.firmware_model.link.ChipsetLink` over a
-:class:`k37.sim.run.sampler.Sampler` (a backend sampled as it runs) or a bare backend: the bus, the
-two interrupt inputs and the clock, nothing else. :class:`BlockMeter` is the logic analyser: at each
-block's start and end (:class:`k37.firmware_model.firmware.BlockObserver`) it reads the simulation's
-observation counters (feed pulses, K3701 step pulses), which no firmware sees. """
+At each block's start and end (:class:`k37.firmware_model.firmware.BlockObserver`) the meter
+reads the simulation's observation counters (feed pulses, K3701 step pulses), which no firmware
+sees, into a :class:`BlockMeasure` per block.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from k37.firmware_model.firmware import BlockRecord
-from k37.firmware_model.link import Interrupts
 from k37.hdl.chipset.map import AXES
-from k37.sim.backends.contract import Backend
 from k37.sim.run.sampler import Sampler
 
-__all__ = ["BlockMeasure", "BlockMeter", "SimulatedLink"]
-
-
-class SimulatedLink:
-    """:class:`k37.firmware_model.link.ChipsetLink` on the simulated machine's bus and IRQ ports."""
-
-    def __init__(self, sampler: Sampler | Backend):
-        self.sampler = sampler
-
-    @property
-    def cycle(self) -> int:
-        return self.sampler.cycle
-
-    def idle(self, cycles: int) -> None:
-        self.sampler.step(cycles)
-
-    def write(self, address: int, data: int) -> None:
-        self.sampler.bus_write(address, data)
-
-    def read(self, address: int) -> int:
-        return self.sampler.bus_read(address)
-
-    def wait_interrupt(self, max_cycles: int) -> int:
-        return self.sampler.run_until("irq", max_cycles)
-
-    def wait_polling(self, max_cycles: int, period: int, ports: Sequence[int],
-                     stops: Sequence[int], idles: Sequence[int],
-                     due: bool) -> tuple[int, list[int] | None, int] | None:
-        if isinstance(self.sampler, Sampler):
-            return self.sampler.wait_polling(max_cycles, period, ports, stops, idles, due)
-        return self.sampler.wait_polling("irq", max_cycles, max_cycles, period, ports, stops,
-                                         idles, due=due)
-
-    def interrupts(self) -> Interrupts:
-        return Interrupts(bool(self.sampler.get("irq_interp")),
-                          bool(self.sampler.get("irq_alarm")))
+__all__ = ["BlockMeasure", "BlockMeter"]
 
 
 def _pulses(axes: tuple[str, ...]) -> dict[str, str]:

@@ -3,9 +3,10 @@
 
 One link, three transports, opened from a URL by :func:`open_link` with pyserial's
 ``serial_for_url``: ``tcp://HOST:PORT`` (a simulated board, ``k37 serve``), a serial port
-(``serial:///dev/ttyUSB0`` or a bare device path, at :data:`DEFAULT_BAUD` unless the URL says
-``?baud=N``) for the real board, and ``loop://`` for tests. Each command waits for its reply
-before the next is sent (:mod:`k37.hdl.bridge.protocol`).
+(``serial:///dev/ttyUSB0`` or a bare device path, at
+:data:`k37.hdl.bridge.protocol.DEFAULT_BAUD` unless the URL says ``?baud=N``) for the real
+board, and ``loop://`` for tests. Each command waits for its reply before the next is sent
+(:mod:`k37.hdl.bridge.protocol`).
 
 The link's :attr:`BridgeLink.cycle` is the host's account of time: the cycles its commands
 took (a bus cycle each, an idle's, a wait's). On a simulated board that is the machine's clock
@@ -23,6 +24,7 @@ from k37.firmware_model.job import Job
 from k37.firmware_model.link import Interrupts
 from k37.hdl.bridge.protocol import (
     COUNT_BITS,
+    DEFAULT_BAUD,
     ERROR,
     IRQ_ALARM,
     IRQ_INTERP,
@@ -37,10 +39,8 @@ from k37.hdl.bridge.protocol import (
 )
 from k37.hdl.chipset.identity import chipset_identity
 
-__all__ = ["DEFAULT_BAUD", "BridgeLink", "LinkError", "Probe", "job_identity", "open_link"]
+__all__ = ["BridgeLink", "LinkError", "Probe", "job_identity", "open_link"]
 
-#: A serial link's baud rate unless its URL gives one: 8 cycles per bit at the 1 MHz clock.
-DEFAULT_BAUD = 125_000
 #: Longest IDLE or WAIT sent at once, about 1 s at 1 MHz, so that every reply comes well within
 #: the link's timeout; longer ones are sent in parts (the same cycles on a simulated board).
 MAX_COUNT = 1 << 20
