@@ -86,7 +86,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 def _cmd_effects(args: argparse.Namespace) -> int:
     import csv
 
-    from k37.sim.files import atomic_path, why
+    from k37.sim.files import atomic_open, atomic_path, why
     from k37.sim.study.analysis import (
         AnalysisError,
         effects_figure,
@@ -97,13 +97,15 @@ def _cmd_effects(args: argparse.Namespace) -> int:
 
     table = Path(args.dir) / "results.csv"
     figure = Path(args.dir) / f"effects_{args.metric}.png"
-    if not check([("", figure)], inputs=[table]):
+    page = Path(args.dir) / f"effects_{args.metric}.html"
+    if not check([("", figure), ("--html", page if args.html else None)], inputs=[table]):
         return 2
     try:
         with open(table, newline="") as f:
             reader = csv.DictReader(f)
             header = list(reader.fieldnames or [])
-            rows = [r for r in reader if r.get("status") == "ok"]
+            every = list(reader)
+            rows = [r for r in every if r.get("status") == "ok"]
         if "status" not in header or header[:1] != ["run"]:
             raise ValueError("no run and status columns")
     except (OSError, ValueError, csv.Error) as e:
@@ -155,7 +157,20 @@ def _cmd_effects(args: argparse.Namespace) -> int:
     except OSError as e:
         print(f"k37: error: {figure}: not written: {why(e)}", file=sys.stderr)
         return 1
-    return stdout(lambda: print(f"k37 effects: wrote {figure}"))
+    written = [figure]
+    if args.html:
+        from k37.sim.study.html_report import study_page
+
+        try:
+            text = study_page(Path(args.dir), header, every, args.metric, effects, surface,
+                              needs)
+            with atomic_open(page, "w", encoding="utf-8") as f:
+                f.write(text)
+        except OSError as e:
+            print(f"k37: error: {page}: not written: {why(e)}", file=sys.stderr)
+            return 1
+        written.append(page)
+    return stdout(lambda: print(f"k37 effects: wrote {' and '.join(map(str, written))}"))
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
@@ -177,6 +192,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("dir", help="a sweep's folder (its results.csv)")
     p.add_argument("--metric", required=True, help="a column of results.csv")
     p.add_argument("--factors", help="comma-separated factors (default: all of the study's)")
+    p.add_argument("--html", action="store_true",
+                   help="also write DIR/effects_METRIC.html: the runs (linked to DIR/runs/"
+                        "RUN.html where it exists), the main effects and the response surface, "
+                        "interactive, in one self-contained page")
     p.set_defaults(func=_cmd_effects)
     p = sub.add_parser("reproduce", help="run the paper's experiments; write figures and "
                                          "report.md (paper vs emulator, pass/fail per row)")

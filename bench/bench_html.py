@@ -1,0 +1,81 @@
+"""What ``--html`` costs on a 3-D CAM program of about 3,000 blocks, against the run, and how
+large the page of a five-million-sample run is.
+
+Run with ``pytest bench/bench_html.py --benchmark-only -s`` (or ``python bench/bench_html.py
+[FOLDER]``, which keeps the pages in FOLDER). The program is a surface-finishing pass in the
+style of CAM output: 30 zigzag rows of 100 moves of 0.25 mm at F2400, each moving X, Y and Z
+over a wavy surface (3,035 blocks, about 19 s of machine time), on per-axis accel/decel with
+a 9 ms time constant. Timed in one process, after a warm-up run (the compiled machine built,
+plotly.js read): the run (simulation and report) and the page (the samples read back with
+their contour error, the levels, the page written); at the default sampling (every 1000
+cycles) and every 4 cycles (4.7 million samples). The goals: the page costs at most half of
+the run, and a five-million-sample run's page is at most 25 MB.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from pathlib import Path
+
+from k37.sim.run.jobfile import load_job
+from k37.sim.run.output import write_html
+from k37.sim.run.runner import RunOptions, RunResult, run_job
+
+#: The bound on a page's size (bytes).
+PAGE_BOUND = 25_000_000
+
+
+def surface_gcode(rows: int = 30, per_row: int = 100) -> str:
+    """A wavy surface finished in zigzag rows of ``per_row`` 0.25 mm moves, Z following it."""
+    lines = ["G17 G21 G90 F2400", "G00 Z1", "G00 X0 Y0", "G01 Z0"]
+    for row in range(rows):
+        xs = [k * 0.25 for k in range(per_row + 1)]
+        for k, x in enumerate(xs[::-1] if row % 2 else xs):
+            z = 0.2 * math.sin(x / 3) * math.cos(row / 4)
+            lines.append(f"G01 X{x:.3f} Y{row * 0.5 + 0.05 * math.sin(k):.3f} Z{z:.3f}")
+    return "\n".join([*lines, "G00 Z1", "M30"])
+
+
+def surface_job(folder: Path) -> Path:
+    (folder / "surface.ngc").write_text(surface_gcode() + "\n")
+    job = folder / "surface.toml"
+    job.write_text('name = "3-D surface finish"\n[machine]\naxes = 3\naccel = "post"\n'
+                   'accel_bits = 10\n[program]\nfile = "surface.ngc"\n')
+    return job
+
+
+def _timed(job: Path, sample_every: int, page: Path) -> dict[str, float]:
+    start = time.perf_counter()
+    result: RunResult = run_job(load_job(job), RunOptions(sample_every=sample_every))
+    ran = time.perf_counter()
+    write_html(result, page)
+    done = time.perf_counter()
+    return {"blocks": len(result.report["blocks"]), "samples": result.report["path"]["samples"],
+            "run": ran - start, "page": done - ran, "mb": page.stat().st_size / 1e6}
+
+
+def measure(folder: Path) -> list[str]:
+    job = surface_job(folder)
+    _timed(job, 100_000, folder / "warm.html")  # build the machine, read plotly.js
+    lines = []
+    for every in (1000, 4):
+        t = _timed(job, every, folder / f"surface_every{every}.html")
+        lines.append(
+            f"3-D surface, {t['blocks']:,} blocks, {t['samples']:,} samples: run "
+            f"{t['run']:.2f} s; page {t['page']:.2f} s = {100 * t['page'] / t['run']:.0f}% of "
+            f"the run; {t['mb']:.1f} MB (bound {PAGE_BOUND / 1e6:.0f} MB)")
+        assert t["mb"] * 1e6 <= PAGE_BOUND
+    return lines
+
+
+def test_html_of_a_3d_cam_program_costs_a_fraction_of_its_run(benchmark, tmp_path: Path):
+    lines = benchmark.pedantic(measure, args=(tmp_path,), rounds=1, iterations=1)
+    print("\n" + "\n".join(lines))
+
+
+if __name__ == "__main__":
+    out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path.cwd()
+    out.mkdir(parents=True, exist_ok=True)
+    print("\n".join(measure(out)))
