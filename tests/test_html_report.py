@@ -28,8 +28,7 @@ CHROMIUM = Path("/usr/bin/chromium")
 #: Chromium's switches for a test: headless, no sandbox (root in CI), nothing fetched.
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
                  "--no-first-run", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync",
-                 "--enable-unsafe-swiftshader"]
+                 "--disable-component-update", "--disable-sync"]
 SQUARE = Path(__file__).resolve().parent.parent / "examples" / "square.ngc"
 
 

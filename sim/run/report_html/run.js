@@ -6,7 +6,7 @@
   const B = D.blocks;
   const BLOCKS = B.line.length;
   const COLORS = {x: "#1f77b4", y: "#ff7f0e", z: "#2ca02c", path: "#111"};
-  const SCALE = "Turbo";
+  const SCALE = "Viridis";
   // The time-series buckets drawn across the plot's width, at most (twice: least, largest).
   const SERIES_POINTS = 3000;
 
@@ -33,11 +33,8 @@
   const part = document.getElementById("part");
   const threeD = D.three_d;
   const errorText = Array.from(actual.error, (e) => e.toFixed(2));
-  const coords = (source, pick) => {
-    const out = {x: pick ? pick(source.x) : source.x, y: pick ? pick(source.y) : source.y};
-    if (threeD) out.z = pick ? pick(source.z) : source.z;
-    return out;
-  };
+  const coords = (source) => (threeD ? {x: source.x, y: source.y, z: source.z}
+    : {x: source.x, y: source.y});
   const kind = threeD ? "scatter3d" : "scattergl";
   const partTraces = [
     Object.assign({type: kind, mode: "lines", name: "programmed",
@@ -47,7 +44,7 @@
       hovertemplate: BLOCK_HOVER + "<br>here: %{text} LSB<extra>actual</extra>"},
     coords(actual), threeD ? {mode: "lines", line: {color: actual.error, colorscale: SCALE,
       width: 5, showscale: true, cmin: 0, colorbar: {title: {text: "contour error (LSB)"}}}}
-      : {mode: "markers", marker: {color: actual.error, colorscale: SCALE, size: 3, cmin: 0,
+      : {mode: "markers", marker: {color: actual.error, colorscale: SCALE, size: 4, cmin: 0,
         showscale: true, colorbar: {title: {text: "contour error (LSB)"}}}}),
     Object.assign({type: kind, mode: "lines", name: "selected block", hoverinfo: "skip",
       line: {color: "#d62728", width: 6}}, coords({x: [], y: [], z: []})),
@@ -56,8 +53,24 @@
     coords({x: [], y: [], z: []})),
   ];
   const mmAxis = (name) => ({title: {text: `${name} (mm)`}});
+  // The part's extent per axis (mm): in 3-D, true proportions, but Z stretched to at least
+  // MIN_Z_ASPECT of the longest side (a few tenths of a millimetre on a part of centimetres).
+  const MIN_Z_ASPECT = 0.25;
+  const extent = (values) => {
+    let lo = Infinity, hi = -Infinity;
+    values.forEach((v) => { if (v < lo) lo = v; if (v > hi) hi = v; });
+    return hi > lo ? hi - lo : 0;
+  };
+  function aspect() {
+    const sides = ["x", "y", "z"].map((a) => extent(program[a]));
+    const longest = Math.max(...sides, 1e-9);
+    return {x: Math.max(sides[0] / longest, 0.05), y: Math.max(sides[1] / longest, 0.05),
+      z: Math.max(sides[2] / longest, MIN_Z_ASPECT)};
+  }
   const partLayout = threeD
-    ? {scene: {xaxis: mmAxis("x"), yaxis: mmAxis("y"), zaxis: mmAxis("z"), aspectmode: "data"}}
+    ? {scene: {xaxis: mmAxis("x"), yaxis: mmAxis("y"), zaxis: mmAxis("z"),
+      aspectmode: "manual", aspectratio: aspect(),
+      camera: {eye: {x: 0.7, y: -1.1, z: 0.6}}, domain: {x: [0, 0.92], y: [0, 1]}}}
     : {xaxis: mmAxis("x"), yaxis: Object.assign(mmAxis("y"), {scaleanchor: "x"})};
   Object.assign(partLayout, {margin: {l: 60, r: 20, t: 30, b: 50}, hovermode: "closest",
     legend: {orientation: "h"}, uirevision: "part"});
@@ -68,9 +81,9 @@
   const S = D.series;
   const LEVELS = S.low[S.panels[0].columns[0]].length;
   const low = {}, high = {};
-  for (const column of Object.keys(S.low)) {
-    low[column] = S.low[column].map(unpack);
+  for (const column of Object.keys(S.high)) {
     high[column] = S.high[column].map(unpack);
+    low[column] = S.low[column].map((packed, k) => (packed ? unpack(packed) : high[column][k]));
   }
   const last = TIME.length ? TIME[TIME.length - 1] : 1;
   const panels = S.panels.length;
@@ -107,7 +120,7 @@
     const step = S.merge ** v.level;
     const j0 = Math.floor(v.i0 / step), j1 = Math.ceil(v.i1 / step);
     const lo = low[column][v.level], hi = high[column][v.level];
-    const exact = step * S.samples_per_bucket === 1 || column.endsWith("_speed");
+    const exact = lo === hi;
     const n = Math.max(0, j1 - j0) * (exact ? 1 : 2);
     const x = new Float32Array(n), y = new Float32Array(n);
     for (let j = j0, m = 0; j < j1; j++) {

@@ -113,8 +113,12 @@ def run_page(result: RunResult, summary: str, ballbar: Ballbar | None = None) ->
         "series": {"time": packed(series.time), "merge": MERGE,
                    "samples_per_bucket": series.samples_per_bucket,
                    "panels": [{"title": t, "unit": u, "columns": c} for t, u, c in panels],
-                   "low": {c: [packed(v) for v in lv] for c, lv in series.low.items()},
-                   "high": {c: [packed(v) for v in lv] for c, lv in series.high.items()}},
+                   "high": {c: [packed(v) for v in lv] for c, lv in series.high.items()},
+                   # a level whose least values are its largest (single samples, the
+                   # speeds) carries them once
+                   "low": {c: [None if np.array_equal(lo, hi) else packed(lo)
+                               for lo, hi in zip(lv, series.high[c], strict=True)]
+                           for c, lv in series.low.items()}},
         "ballbar": None if ballbar is None else _ballbar(ballbar),
     }
     body = "\n".join([
@@ -122,7 +126,9 @@ def run_page(result: RunResult, summary: str, ballbar: Ballbar | None = None) ->
         f"{html.escape(report['reason'])}</p>",
         '<section><h2>The part</h2><div id="part" class="figure"></div>'
         '<p class="hint">Colour: the contour error (LSB) of the actual path. Hover a point '
-        "for its block; the cursor on the time series marks the tool here.</p></section>",
+        "for its block; the cursor on the time series marks the tool here."
+        + (" Z is drawn at least a quarter of the longest side." if moves_z else "")
+        + "</p></section>",
         '<section><h2>Along the run</h2><div id="series" class="figure tall"></div>'
         '<p class="hint">Each line runs through every bucket\'s least and largest value: '
         "no peak is lost; zoom in for finer buckets (down to "
@@ -133,7 +139,7 @@ def run_page(result: RunResult, summary: str, ballbar: Ballbar | None = None) ->
         '<section id="ballbar-section" hidden><h2>Ballbar</h2>'
         '<div id="ballbar" class="figure"></div></section>',
         f"<section><h2>Summary</h2><pre id=\"summary\">{html.escape(summary)}</pre></section>",
-        "<section><h2>Job</h2><pre id=\"job\">"
-        f"{html.escape(json.dumps(report['job'], indent=2))}</pre></section>",
+        "<section><h2>Job</h2><details><summary>the job as run</summary><pre id=\"job\">"
+        f"{html.escape(json.dumps(report['job'], indent=2))}</pre></details></section>",
     ])
     return page(f"k37 run {job.name}", body, payload, "run.js")
