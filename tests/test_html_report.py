@@ -23,6 +23,7 @@ from k37.sim.run.report_html.page import packed
 from k37.sim.run.report_html.run_page import run_page
 from k37.sim.run.report_html.series import COARSEST, MERGE, levels
 from k37.sim.run.runner import RunOptions, run_job
+from tests.programs import surface_finish
 
 CHROMIUM = Path("/usr/bin/chromium")
 #: Chromium's switches for a test: headless, no sandbox (root in CI), nothing fetched.
@@ -204,3 +205,42 @@ def test_the_page_carries_every_blocks_line_and_the_reports_max(make_job):
     assert data["blocks"]["label"] == ["line 2", "N30"]
     assert max(data["blocks"]["max"]) == pytest.approx(
         result.report["path"]["max_contour_error"], rel=1e-6)
+
+
+@pytest.mark.slow
+def test_a_3d_cam_program_of_3000_blocks_opens_with_every_line_and_the_max(browser, tmp_path):
+    program = tmp_path / "surface.ngc"
+    program.write_text(surface_finish() + "\n")
+    job = tmp_path / "surface.toml"
+    job.write_text('name = "surface"\n[machine]\naxes = 3\naccel = "post"\naccel_bits = 10\n'
+                   '[program]\nfile = "surface.ngc"\n')
+    page, report = tmp_path / "surface.html", tmp_path / "surface.json"
+    assert main(["run", str(job), "--html", str(page), "--json", str(report), "-q"]) == 0
+    report = json.loads(report.read_text())
+    assert len(report["blocks"]) > 3000
+    opened = Opened(browser, page)
+    opened.page.wait_for_selector("#part .gl-container canvas")
+    opened.page.wait_for_selector("#series .main-svg")
+    assert opened.value("document.getElementById('part').data[1].type") == "scatter3d"
+    lines = opened.value("K37.blocks.line")
+    assert lines == [b["line"] for b in report["blocks"]]
+    assert opened.page.locator("#blocks tbody tr").count() == len(lines)
+    assert max(opened.value("K37.blocks.max")) == pytest.approx(
+        report["path"]["max_contour_error"], rel=1e-6)
+    assert f"{report['path']['max_contour_error']:.2f} LSB" in opened.page.locator(
+        "#summary").inner_text()
+    assert not opened.errors and not opened.elsewhere
+
+
+def test_a_ballbar_run_shows_its_polar_plot(browser, tmp_path):
+    circle = Path(__file__).resolve().parent.parent / "examples" / "circle.toml"
+    page = tmp_path / "circle.html"
+    assert main(["run", str(circle), "--ballbar", str(tmp_path / "bb.png"), "--html",
+                 str(page), "-q"]) == 0
+    opened = Opened(browser, page)
+    opened.page.wait_for_selector("#ballbar .main-svg")
+    assert opened.page.locator("#ballbar-section").is_visible()
+    measured = opened.value("document.getElementById('ballbar').data[1].r.length")
+    assert measured > 100
+    assert "circularity" in opened.page.locator("#ballbar .gtitle").text_content()
+    assert not opened.errors

@@ -63,9 +63,9 @@ def _blocks(result: RunResult, stats: list[tuple[float, float]]) -> dict[str, li
     return rows
 
 
-def _program(result: RunResult) -> dict[str, Any]:
+def _program(result: RunResult) -> tuple[dict[str, Any], bool]:
     """The programmed path in mm, moves separated by NaN, and each vertex's block (its row
-    in the table; -1: a move that did not run)."""
+    in the table; -1: a move that did not run); and whether it moves Z."""
     job = result.job
     row_of = {b["index"]: k for k, b in enumerate(result.report["blocks"])}
     pieces = programmed_path(result)
@@ -75,8 +75,10 @@ def _program(result: RunResult) -> dict[str, Any]:
         points += [piece, np.full((1, axes), np.nan)]
         owner += [np.full(len(piece) + 1, row_of.get(move.index, -1), dtype=np.int32)]
     xyz = np.vstack(points) * job.machine.lsb_mm
-    return {**{a: packed(xyz[:, k]) for k, a in enumerate(job.machine.axis_names)},
-            "block": packed(np.concatenate(owner), "<i4")}
+    moves_z = axes == 3 and bool(np.nanmax(xyz[:, 2]) > np.nanmin(xyz[:, 2])
+                                 if len(xyz) > 1 else False)
+    return ({**{a: packed(xyz[:, k]) for k, a in enumerate(job.machine.axis_names)},
+             "block": packed(np.concatenate(owner), "<i4")}, moves_z)
 
 
 def _ballbar(b: Ballbar) -> dict[str, Any]:
@@ -101,13 +103,11 @@ def run_page(result: RunResult, summary: str, ballbar: Ballbar | None = None) ->
     owner = np.searchsorted([b["start_cycle"] for b in blocks], data.rows[:, 0],
                             side="right") - 1
     contour = data.envelope("contour_error")[1]
-    moves_z = "z" in names and bool(np.ptp(actual[:, 2]) if len(actual) else False)
+    program, moves_z = _program(result)
     payload = {
-        "name": job.name, "status": report["status"], "reason": report["reason"],
-        "lsb_mm": machine.lsb_mm, "axes": list(names), "three_d": moves_z,
-        "path": report.get("path"),
+        "axes": list(names), "three_d": moves_z,
         "blocks": _blocks(result, data.blocks),
-        "program": _program(result),
+        "program": program,
         "actual": {**{a: packed(actual[:, k]) for k, a in enumerate(names)},
                    "error": packed(contour), "block": packed(owner, "<i4")},
         "series": {"time": packed(series.time), "merge": MERGE,

@@ -4,10 +4,10 @@ A run's samples are read once into :data:`FINEST` buckets at most (:func:`k37.si
 plot_data.plot_data`: each bucket's least and largest value, the contour error included).
 Level 0 is those buckets; each next level merges :data:`MERGE` buckets of the one before
 (least of the least, largest of the largest) until a level has at most :data:`COARSEST`
-buckets. The page draws, for the visible time range, the coarsest level that still has
-enough buckets in it for the plot's width, as a line through each bucket's least and largest
-value: no peak is lost at any zoom, and zooming in reaches level 0 (single samples while a
-run has at most :data:`FINEST` samples).
+buckets. The page draws, for the visible time range, the finest level with at most 3,000
+buckets in it (a few per pixel of the plot's width), as a line through each bucket's least
+and largest value: no peak is lost at any zoom, and zooming in reaches level 0 (single
+samples while a run has at most :data:`FINEST` samples).
 """
 
 from __future__ import annotations
