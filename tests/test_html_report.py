@@ -130,6 +130,9 @@ def test_a_click_on_a_row_zooms_both_views_to_its_block(browser, square):
     page = opened.page
     page.wait_for_selector("#series .main-svg")
     whole = opened.value("document.getElementById('series').layout.xaxis.range")
+    # 18,528 samples: the whole run drawn from a coarser level, a block from a finer one
+    level = opened.value("window.k37Report.view().level")
+    assert level > 0
     page.locator("#blocks tbody tr", has_text="N50").click()
     page.wait_for_function("document.getElementById('part').layout.xaxis.range !== undefined"
                            " && !document.getElementById('part').layout.xaxis.autorange")
@@ -144,6 +147,7 @@ def test_a_click_on_a_row_zooms_both_views_to_its_block(browser, square):
     assert x0 < 2 and x1 > 12 and (x0 + x1) / 2 == pytest.approx(7, abs=0.1)
     assert (y0 + y1) / 2 == pytest.approx(12, abs=0.1) and 10 < y1 - y0 < 13
     assert page.locator("#blocks tbody tr.selected").inner_text().startswith("N50")
+    assert opened.value("window.k37Report.view().level") < level
     assert not opened.errors
 
 
