@@ -248,3 +248,25 @@ def test_a_ballbar_run_shows_its_polar_plot(browser, tmp_path):
     assert measured > 100
     assert "circularity" in opened.page.locator("#ballbar .gtitle").text_content()
     assert not opened.errors
+
+
+@pytest.mark.slow
+def test_a_sweep_writes_each_runs_report_and_the_study_page_links_them(browser, tmp_path):
+    (tmp_path / "base.toml").write_text(
+        '[machine]\naccel = "none"\n[program]\ngcode = """\nG21 G90 F{feed}\n'
+        'G03 X0 Y0 I-{radius} J0\nM30\n"""\n')
+    (tmp_path / "study.toml").write_text(
+        'base = "base.toml"\ndesign = "grid"\n[factors]\nfeed = [600, 1200]\nradius = [1]\n')
+    out = tmp_path / "out"
+    assert main(["sweep", str(tmp_path / "study.toml"), "--out", str(out), "--html", "-j", "1",
+                 "-q"]) == 0
+    assert sorted(p.name for p in (out / "runs").iterdir()) == ["0.html", "1.html"]
+    assert main(["effects", str(out), "--metric", "max_contour_error", "--html"]) == 0
+    opened = Opened(browser, out / "effects_max_contour_error.html")
+    links = opened.page.locator("#runs a")
+    assert [links.nth(k).get_attribute("href") for k in range(links.count())] == [
+        "runs/0.html", "runs/1.html"]
+    links.nth(1).click()
+    opened.page.wait_for_selector("#ballbar .main-svg")  # a circle: its ballbar too
+    assert opened.page.url.endswith("runs/1.html")
+    assert not opened.errors and not opened.elsewhere

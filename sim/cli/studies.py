@@ -65,7 +65,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
                   inputs=[args.study, study.base_path, *study.inputs]):
         return 2
     try:
-        path = sweep(study, out, jobs=args.jobs, scheduler=args.scheduler, report=progress)
+        path = sweep(study, out, jobs=args.jobs, scheduler=args.scheduler, report=progress,
+                     html=args.html)
     except (JobError, SweepError) as e:
         print_error(e)
         return 2
@@ -185,6 +186,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                    help="local worker processes (default: one per core)")
     p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                    help="run on this Dask distributed scheduler instead of local processes")
+    p.add_argument("--html", action="store_true",
+                   help="also write each run's interactive report, DIR/runs/RUN.html (`k37 "
+                        "effects DIR --html` links them)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=_cmd_sweep)
     p = sub.add_parser("effects", help="main effects and a second-order response surface of "

@@ -1,8 +1,8 @@
 """The ``k37 effects DIR --html`` page: the study's runs (a sortable table, each run linked to
-its own ``k37 run --html`` report where ``DIR/runs/RUN.html`` exists), the main effects of the
-metric and its second-order response surface (the coefficients, and the fitted metric over
-the first two factors, the others at their centre), in one self-contained page
-(:mod:`k37.sim.run.report_html.page`)."""
+its own report where ``DIR/runs/RUN.html`` exists, as ``k37 sweep --html`` writes them), the
+main effects of the metric and its second-order response surface (the coefficients, and the
+fitted metric over the first two factors, the others at their centre), in one
+self-contained page (:mod:`k37.sim.run.report_html.page`)."""
 
 from __future__ import annotations
 
