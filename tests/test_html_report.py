@@ -270,3 +270,11 @@ def test_a_sweep_writes_each_runs_report_and_the_study_page_links_them(browser, 
     opened.page.wait_for_selector("#ballbar .main-svg")  # a circle: its ballbar too
     assert opened.page.url.endswith("runs/1.html")
     assert not opened.errors and not opened.elsewhere
+
+
+def test_a_job_name_with_markup_stays_text(make_job):
+    result = run_job(make_job("G21 G90 F1200\nG01 X1\nM30", name="</script><b>x&y"),
+                     RunOptions(sample_every=500))
+    text = run_page(result, summary(result))
+    assert text.count("</script>") == text.count("<script") == 4
+    assert "<b>x" not in text and "&lt;/script&gt;&lt;b&gt;x&amp;y" in text
