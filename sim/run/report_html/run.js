@@ -132,9 +132,12 @@
       }
     }
     const axis = column.split("_")[0];
+    const name = column === "contour_error" ? "contour error"
+      : column.replace(/_error$/, " following error").replace(/_speed$/, " speed")
+        .replace(/_dac_volts$/, " D/A");
     return {type: "scatter", mode: "lines", x, y, yaxis: panel ? `y${panel + 1}` : "y",
-      name: column, line: {width: 1, color: COLORS[axis] || "#d62728"},
-      hovertemplate: `%{y:.3f}<extra>${column}</extra>`};
+      name, line: {width: 1, color: COLORS[axis] || "#d62728"},
+      hovertemplate: `%{y:.3f}<extra>${name}</extra>`};
   }
   function feedTrace() {
     const x = [], y = [];
