@@ -125,6 +125,28 @@ def test_hovering_the_part_names_the_blocks_line(browser, square):
     assert not opened.errors
 
 
+def test_hovering_a_time_marks_the_tools_place_on_the_part(browser, square):
+    opened = Opened(browser, square)
+    page = opened.page
+    page.wait_for_selector("#series .main-svg")
+    page.locator("#series").scroll_into_view_if_needed()
+    box = page.locator("#series").bounding_box()
+    page.mouse.move(box["x"] + box["width"] / 2, box["y"] + 200)
+    page.locator("#series .hoverlayer .hovertext").first.wait_for()
+    page.wait_for_function("document.getElementById('part').data[3].x.length === 1")
+    # the marker is the actual position at the first sample from the time hovered
+    marker, sample = opened.value("""(() => {
+        const t = document.getElementById('series')._hoverdata[0].x;
+        const time = unpack(K37.series.time);
+        let i = 0;
+        while (i < time.length - 1 && time[i] < t) i++;
+        const part = document.getElementById('part').data[3];
+        return [[part.x[0], part.y[0]], [unpack(K37.actual.x)[i], unpack(K37.actual.y)[i]]];
+    })()""")
+    assert marker == sample and sample != [0, 0]
+    assert not opened.errors
+
+
 def test_a_click_on_a_row_zooms_both_views_to_its_block(browser, square):
     opened = Opened(browser, square)
     page = opened.page
