@@ -174,12 +174,15 @@ def parse_canon(canon: str, *, source: str = "<canon>", lsb_mm: float = 0.001,
     planner = Planner(axes=axes, sqrt2=bool(sqrt2), lsb_mm=lsb_mm)
     canon_state = _Canon(planner, lsb_mm, arc_tolerance)
     errors = []
+    sequence = {}
     for number, text in enumerate(canon.splitlines(), start=1):
         m = _COMMAND.match(text)
         if m is None:
             continue
         n_word = m.group(2)[1:]
         line = int(n_word) if n_word.isdigit() else int(m.group(1))
+        if n_word.isdigit():  # the block's line is its N-word: labelled so
+            sequence[line] = line
         try:
             canon_state.command(line, m.group(3), m.group(4))
         except (ArithmeticError, LookupError, ValueError) as e:  # PlanError, _CanonError too
@@ -188,7 +191,7 @@ def parse_canon(canon: str, *, source: str = "<canon>", lsb_mm: float = 0.001,
     if errors:
         raise GcodeError(f"{name} (rs274 output)", errors[:20])
     return Program(tuple(planner.items), canon_state.end, source, lsb_mm, bool(sqrt2),
-                   arc_tolerance, axes, origin)
+                   arc_tolerance, axes, origin, sequence=sequence)
 
 
 def rs274_canon(text: str, *, source: str = "<gcode>", origin: tuple[str, int] | None = None,

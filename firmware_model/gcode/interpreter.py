@@ -59,6 +59,8 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
         self.cycle: dict[str, Decimal] = {}
         self.cycle_planes: tuple[int, int, int] | None = None
         self.line_no = 0
+        #: The N-word of each line that has one (the program's own block numbers), by line.
+        self.sequence: dict[int, int] = {}
         #: The G05.2 NURBS being read: control points (LSB), weights, order, its G05.2 word
         #: and line.
         self.nurbs: tuple[list[tuple[float, float]], list[float], int, Word, int] | None = None
@@ -164,6 +166,8 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
         n = b.word("N")
         if n is not None and (n.value < 0 or n.value != n.value.to_integral_value()):
             raise BlockError(n.col, f"{n.text}: N must be a non-negative integer")
+        if n is not None:
+            self.sequence[self.line_no] = int(n.value)
         units = b.code("units")
         if units is not None:
             self.inch = units == 200

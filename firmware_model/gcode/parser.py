@@ -162,4 +162,5 @@ def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: b
     notes = sorted([*planner.notes, *notes], key=lambda note: note[0])
     return Program(tuple(planner.items), interp.end, source, lsb_mm, bool(sqrt2),
                    arc_tolerance, axes, origin,
-                   notes=tuple(f"{name}:{line + first - 1}: {text}" for line, text in notes))
+                   notes=tuple(f"{name}:{line + first - 1}: {text}" for line, text in notes),
+                   sequence=interp.sequence)

@@ -122,7 +122,7 @@ M_CODES: dict[int, Code] = {
 LETTERS: dict[str, str] = {
     "G": "preparatory code (table above)",
     "M": "miscellaneous code (table above); several per block in different groups",
-    "N": "sequence number (ignored)",
+    "N": "sequence number (names the block in plots and reports)",
     "X": "X coordinate", "Y": "Y coordinate", "Z": "Z coordinate (moving Z needs "
                                                    "machine.axes = 3)",
     "I": "arc centre offset along X; G05/G05.1: first control point along X",

@@ -11,7 +11,7 @@ Both G-code front ends build them with :class:`k37.firmware_model.motion.planner
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from functools import cache
 
@@ -295,6 +295,14 @@ class Program:
     #: What the front end left out and why, each ``file:line: text`` (blocks after the program
     #: end, a controller's own command lines): reported as warnings, never errors.
     notes: tuple[str, ...] = field(default=(), compare=False)
+    #: The program's own block numbers: the N-word of each line that has one, by line.
+    sequence: Mapping[int, int] = field(default_factory=dict, compare=False)
+
+    def label(self, line: int) -> str:
+        """How a person names the block on ``line``: its N-word (``N30``) where it has one,
+        else ``line 5``."""
+        number = self.sequence.get(line)
+        return f"N{number}" if number is not None else f"line {line}"
 
     def locate(self, line: int, col: int | None = None) -> str:
         """``file:line[:col]`` of a program line, in the file it is written in."""

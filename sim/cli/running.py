@@ -62,7 +62,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     try:
         job = load_job(args.job, frontend=args.frontend, arc_tolerance=args.arc_tolerance)
         check_outputs(json_path=args.json, trace=args.trace, plot=args.plot, vcd=args.vcd,
-                      gtkw=args.gtkw, ballbar=args.ballbar,
+                      gtkw=args.gtkw, ballbar=args.ballbar, html=args.html,
                       inputs=[args.job, job.program.source],
                       stdout=args.json == STDIO or not args.quiet)
         if args.ballbar:
@@ -84,9 +84,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
                              signals=tuple(g for g in args.signals.split(",") if g),
                              progress=progress, faults=faults, skip_idle=not args.no_skip_idle,
                              sigint=True)
-        if args.link is not None and (args.trace or args.plot or args.ballbar or args.gtkw):
-            raise OptionError("--trace, --plot, --ballbar, --gtkw: not with --link: the "
-                              "samples are the served machine's")
+        if args.link is not None and (args.trace or args.plot or args.ballbar or args.gtkw
+                                      or args.html):
+            raise OptionError("--trace, --plot, --ballbar, --gtkw, --html: not with --link: "
+                              "the samples are the served machine's")
         result = run_linked(job, options, args.link) if args.link else run_job(job, options)
     except (OutputError, OptionError, JobError, GcodeError, FirmwareError, LinkError) as e:
         print_error(e)
@@ -97,20 +98,21 @@ def _cmd_run(args: argparse.Namespace) -> int:
     finally:
         if progress is not None:
             progress.finish()
-    outputs = [str(path) for path in (args.ballbar, args.trace, args.plot, args.gtkw)
+    outputs = [str(path) for path in (args.ballbar, args.trace, args.plot, args.html, args.gtkw)
                if path is not None] + ([args.json] if args.json not in (None, STDIO) else [])
     was_stopped = result.report["status"] == "interrupted"
-    announced = bool(outputs) and not args.quiet and bool(args.plot or args.ballbar
+    announced = bool(outputs) and not args.quiet and bool(args.plot or args.ballbar or args.html
                                                           or args.trace or was_stopped)
     if announced:
         head = f"{stopped(result.stopped_by)} at cycle {result.report['cycles']:,}; " \
             if was_stopped else ""
         print(f"k37: {head}writing {', '.join(outputs)} ...", file=sys.stderr, flush=True)
     try:
-        failures = add_ballbar(result, args.ballbar, args.ballbar_settle) if args.ballbar else []
+        circle, failures = (add_ballbar(result, args.ballbar, args.ballbar_settle)
+                            if args.ballbar else (None, []))
         failures += write_outputs(result, json_path=args.json, trace=args.trace, plot=args.plot,
                                   gtkw=args.gtkw, vcd=args.vcd, vcd_start=args.vcd_start,
-                                  quiet=args.quiet)
+                                  quiet=args.quiet, html=args.html, ballbar=circle)
     except KeyboardInterrupt:
         print(f"k37: {stopped()} while writing the outputs; those not yet written are not "
               f"written (no partial files)", file=sys.stderr)
@@ -195,6 +197,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--trace", metavar="PATH.csv", type=Path, help="write the samples as CSV")
     p.add_argument("--plot", metavar="PATH.png", type=Path,
                    help="plot path, contour error, following error, speeds and DAC volts")
+    p.add_argument("--html", metavar="PATH.html", type=Path,
+                   help="write an interactive report: one self-contained page (no network "
+                        "needed) with the part coloured by contour error, the time series, "
+                        "the sortable per-block table, the summary, the job and the ballbar")
     p.add_argument("--vcd", metavar="PATH", type=Path,
                    help="write a waveform: VCD, or FST when PATH ends in .fst (GTKWave's "
                         "compressed format, about a tenth of the size)")

@@ -73,7 +73,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
                   inputs=[args.study, study.base_path, *study.inputs]):
         return 2
     try:
-        path = sweep(study, out, jobs=args.jobs, scheduler=args.scheduler, report=progress)
+        path = sweep(study, out, jobs=args.jobs, scheduler=args.scheduler, report=progress,
+                     html=args.html)
     except (JobError, SweepError) as e:
         print_error(e)
         return 2
@@ -94,7 +95,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 def _cmd_effects(args: argparse.Namespace) -> int:
     import csv
 
-    from k37.sim.files import atomic_path, why
+    from k37.sim.files import atomic_open, atomic_path, why
     from k37.sim.study.analysis import (
         AnalysisError,
         effects_figure,
@@ -110,13 +111,15 @@ def _cmd_effects(args: argparse.Namespace) -> int:
         print(f"k37: error: {args.dir}: not a study ({what}; `k37 sweep STUDY --out "
               f"{args.dir}` makes one)", file=sys.stderr)
         return 2
-    if not check([("", figure)], inputs=[table]):
+    page = Path(args.dir) / f"effects_{args.metric}.html"
+    if not check([("", figure), ("--html", page if args.html else None)], inputs=[table]):
         return 2
     try:
         with open(table, newline="") as f:
             reader = csv.DictReader(f)
             header = list(reader.fieldnames or [])
-            rows = [r for r in reader if r.get("status") == "ok"]
+            every = list(reader)
+            rows = [r for r in every if r.get("status") == "ok"]
         if "status" not in header or header[:1] != ["run"]:
             raise ValueError("no run and status columns")
     except (OSError, ValueError, csv.Error) as e:
@@ -168,7 +171,20 @@ def _cmd_effects(args: argparse.Namespace) -> int:
     except OSError as e:
         print(f"k37: error: {figure}: not written: {why(e)}", file=sys.stderr)
         return EXIT_OUTPUT
-    return stdout(lambda: print(f"k37 effects: wrote {figure}"))
+    written = [figure]
+    if args.html:
+        from k37.sim.study.html_report import study_page
+
+        try:
+            text = study_page(Path(args.dir), header, every, args.metric, effects, surface,
+                              needs)
+            with atomic_open(page, "w", encoding="utf-8") as f:
+                f.write(text)
+        except OSError as e:
+            print(f"k37: error: {page}: not written: {why(e)}", file=sys.stderr)
+            return EXIT_OUTPUT
+        written.append(page)
+    return stdout(lambda: print(f"k37 effects: wrote {' and '.join(map(str, written))}"))
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
@@ -183,6 +199,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                    help="local worker processes (default: one per core)")
     p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
                    help="run on this Dask distributed scheduler instead of local processes")
+    p.add_argument("--html", action="store_true",
+                   help="also write each run's interactive report, DIR/runs/RUN.html (`k37 "
+                        "effects DIR --html` links them)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=_cmd_sweep)
     p = sub.add_parser("effects", help="main effects and a second-order response surface of "
@@ -190,6 +209,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("dir", help="a sweep's folder (its results.csv)")
     p.add_argument("--metric", required=True, help="a column of results.csv")
     p.add_argument("--factors", help="comma-separated factors (default: all of the study's)")
+    p.add_argument("--html", action="store_true",
+                   help="also write DIR/effects_METRIC.html: the runs (linked to DIR/runs/"
+                        "RUN.html where it exists), the main effects and the response surface, "
+                        "interactive, in one self-contained page")
     p.set_defaults(func=_cmd_effects)
     p = sub.add_parser("reproduce", help="run the paper's experiments; write figures and "
                                          "report.md (paper vs emulator, pass/fail per row)")

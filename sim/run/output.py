@@ -1,6 +1,6 @@
 """What ``k37 run`` writes: the summary, JSON report and trace CSV (the plot is made by
-:mod:`k37.sim.run.plot`, the GTKWave file by :mod:`k37.sim.run.waveform`); and the check of every
-output path before a run starts."""
+:mod:`k37.sim.run.plot`, the HTML report by :mod:`k37.sim.run.report_html`, the GTKWave file by
+:mod:`k37.sim.run.waveform`); and the check of every output path before a run starts."""
 
 from __future__ import annotations
 
@@ -22,15 +22,16 @@ from k37.sim.files import (
 )
 from k37.sim.files import check_outputs as check_files
 from k37.sim.machine.plant_model import DAC_VOLTS
-from k37.sim.run.ballbar import BallbarError, ballbar, ballbar_figure
+from k37.sim.run.ballbar import Ballbar, BallbarError, ballbar, ballbar_figure
 from k37.sim.run.plot import write_plot
 from k37.sim.run.report import validate
+from k37.sim.run.report_html.run_page import run_page
 from k37.sim.run.runner import RunResult
 from k37.sim.run.sampler import SampleStore
 from k37.sim.run.waveform import WAVE_FORMATS, wave_span, write_gtkw
 
 __all__ = ["OutputError", "add_ballbar", "check_outputs", "print_stdout", "summary",
-           "write_outputs", "write_trace"]
+           "write_html", "write_outputs", "write_trace"]
 
 
 def plot_formats() -> list[str]:
@@ -42,11 +43,16 @@ def plot_formats() -> list[str]:
 
 def check_outputs(*, json_path: str | None, trace: Path | None, plot: Path | None,
                   vcd: Path | None, gtkw: Path | None, ballbar: Path | None = None,
-                  inputs: Sequence[str | Path | None] = (), stdout: bool = False) -> None:
+                  html: Path | None = None, inputs: Sequence[str | Path | None] = (),
+                  stdout: bool = False) -> None:
     """Refuse, before a run, outputs it could not write (:func:`k37.sim.files.check_outputs`: a
     missing or unwritable folder, a folder where the file should be, an input or another
     output at the same path, a closed stdout), a plot format matplotlib does not write, a
-    waveform that is neither VCD nor FST, ``--gtkw`` without ``--vcd``."""
+    waveform that is neither VCD nor FST, ``--gtkw`` without ``--vcd``, an HTML report whose
+    name does not end in ``.html`` or ``.htm``."""
+    if html is not None and html.suffix.lower() not in (".html", ".htm"):
+        raise OutputError(f"--html {html}: name the report .html (a browser opens it by its "
+                          f"suffix)")
     if vcd is not None and vcd.suffix.lower() not in WAVE_FORMATS:
         what = f"the suffix {vcd.suffix}" if vcd.suffix else "a file without a suffix"
         raise OutputError(f"--vcd {vcd}: {what} names no waveform format; use "
@@ -62,7 +68,8 @@ def check_outputs(*, json_path: str | None, trace: Path | None, plot: Path | Non
             raise OutputError(f"{option} {figure}: matplotlib cannot write {what}; it writes "
                               f"{', '.join('.' + f for f in formats)}")
     check_files({"--json": json_path, "--trace": trace, "--plot": plot, "--vcd": vcd,
-                 "--gtkw": gtkw, "--ballbar": ballbar}, inputs=inputs, stdout=stdout)
+                 "--gtkw": gtkw, "--ballbar": ballbar, "--html": html}, inputs=inputs,
+                stdout=stdout)
 
 
 def _mm(lsb: float, lsb_mm: float) -> str:
@@ -150,15 +157,15 @@ def _attempt(label: str, path: Path | str, write: Callable[[], object]) -> list[
 
 
 def add_ballbar(result: RunResult, path: Path, settle_deg: float | None = None
-                ) -> list[OutputFailure]:
+                ) -> tuple[Ballbar | None, list[OutputFailure]]:
     """Write the ballbar plot of ``result`` to ``path`` and its figures into the report (or,
-    for a run that is no circle, a warning); the plot's failure to be written, if it was
-    not."""
+    for a run that is no circle, a warning); the analysis (None: no circle) and the plot's
+    failure to be written, if it was not."""
     try:
         b = ballbar(result, settle_deg)
     except BallbarError as e:
         result.report["warnings"].append(f"--ballbar {path}: {e}; no ballbar plot written")
-        return []
+        return None, []
     result.report["ballbar"] = b.figures()
     validate(result.report)
 
@@ -167,7 +174,7 @@ def add_ballbar(result: RunResult, path: Path, settle_deg: float | None = None
             ballbar_figure(b, f"k37 run {result.job.name}",
                            result.job.machine.lsb_mm).savefig(tmp, dpi=110)
 
-    return _attempt("--ballbar", path, write)
+    return b, _attempt("--ballbar", path, write)
 
 
 def print_stdout(text: str) -> None:
@@ -180,13 +187,23 @@ def print_stdout(text: str) -> None:
         raise
 
 
+def write_html(result: RunResult, path: Path, ballbar: Ballbar | None = None) -> None:
+    """The run's HTML report (:func:`k37.sim.run.report_html.run_page.run_page`), written
+    whole or not at all."""
+    text = run_page(result, summary(result), ballbar)
+    with atomic_open(path, "w", encoding="utf-8") as f:
+        f.write(text)
+
+
 def write_outputs(result: RunResult, *, json_path: str | None, trace: Path | None,
                   plot: Path | None, gtkw: Path | None, vcd: Path | None,
-                  vcd_start: int = 0, quiet: bool = False) -> list[OutputFailure]:
+                  vcd_start: int = 0, quiet: bool = False, html: Path | None = None,
+                  ballbar: Ballbar | None = None) -> list[OutputFailure]:
     """Write every output the command line asked for (checked by :func:`check_outputs`), each
     whole or not at all; return those that could not be written (each also a warning in the
     report, which is written last to carry them). No GTKWave save file for a waveform the run
-    did not write (its report warns)."""
+    did not write (its report warns). ``ballbar``: the run's ballbar analysis, for the HTML
+    report."""
     failures = list(result.failures)
     if trace:
         failures += _attempt("--trace", trace, lambda: write_trace(result, trace))
@@ -196,11 +213,13 @@ def write_outputs(result: RunResult, *, json_path: str | None, trace: Path | Non
                 write_plot(result, tmp)
 
         failures += _attempt("--plot", plot, write_figure)
+    if html:
+        failures += _attempt("--html", html, lambda: write_html(result, html, ballbar))
     if gtkw and vcd is not None and vcd.exists():
         def write_save_file() -> None:
             window = round(vcd_start * CLOCK_PERIOD * 1e15), wave_span(vcd)[1]
             with atomic_path(gtkw) as tmp:
-                write_gtkw(vcd, tmp, window=window)
+                write_gtkw(vcd, tmp, window=window, save_name=gtkw.name)
 
         failures += _attempt("--gtkw", gtkw, write_save_file)
     known = set(result.report["warnings"])

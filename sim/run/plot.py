@@ -1,11 +1,11 @@
 """The ``--plot`` figure: what a motion engineer looks at first.
 
 Six panels: the programmed and the actual path (block starts dotted, some labelled with their
-G-code line); the contour error per block (largest and RMS); and, along the run's time, the
-contour error (the report's, :func:`k37.sim.run.contour.contour_errors`), each axis's following
-error (the K3702 error counter), the axis and path speeds (position differences over
-:data:`SPEED_WINDOW_S` windows, not per-sample encoder counts) against the programmed feed,
-and the D/A output. Built by :func:`figure` (a matplotlib ``Figure``, for tests and
+N-word or G-code line); the contour error per block (largest and RMS); and, along the run's
+time, the contour error (the report's, :func:`k37.sim.run.contour.contour_errors`), each
+axis's following error (the K3702 error counter), the axis and path speeds (position
+differences over :data:`SPEED_WINDOW_S` windows, not per-sample encoder counts) against the
+programmed feed, and the D/A output. Built by :func:`figure` (a matplotlib ``Figure``, for tests and
 notebooks), written by :func:`write_plot`.
 
 The figure reads the same at any program length:
@@ -16,9 +16,9 @@ The figure reads the same at any program length:
 * the time panels draw a dashed line at every block's start while there are at most
   :data:`MAX_BOUNDARIES` blocks (lines a few millimetres apart); beyond, only at the starts
   of the blocks the bars show, so the curves are never greyed by lines;
-* block labels (``N<line>``) go to the worst blocks first, then the others in program order,
-  each only where it does not overlap one already placed (:func:`thin`); at most
-  :data:`MAX_LABELS` per panel;
+* block labels (the program's N-word, ``N30``, else the line, ``line 5``) go to the worst
+  blocks first, then the others in program order, each only where it does not overlap one
+  already placed (:func:`thin`); at most :data:`MAX_LABELS` per panel;
 * every series is one artist (the path, the boundaries, the programmed feed), so drawing
   costs the same for 10 blocks or 10,000.
 """
@@ -42,7 +42,8 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = ["MAX_BOUNDARIES", "MAX_LABELS", "SPEED_WINDOW_S", "WORST_BLOCKS", "bars_that_fit",
-           "figure", "marked_blocks", "programmed_path", "thin", "windowed_speed", "write_plot"]
+           "block_code", "figure", "marked_blocks", "programmed_path", "thin", "windowed_speed",
+           "write_plot"]
 
 #: The window the speeds are measured over (s): 20 ms, one encoder count in it is
 #: 3 mm/min at 1 um per LSB.
@@ -190,7 +191,7 @@ def _series(ax: Axes, t: np.ndarray, data: PlotData, column: str, **style: objec
         ax.fill_between(t[firsts], low, high, color=line.get_color(), lw=0)
 
 
-def _code(item: Move) -> str:
+def block_code(item: Move) -> str:
     """The G code of a move."""
     if isinstance(item, Parabola | Exponential):
         return item.code
@@ -248,7 +249,7 @@ def _bars_panel(ax: Axes, result: RunResult, data: PlotData, shown: Sequence[int
         title = "contour error per block (from its start to the next block's start)"
     else:
         title = f"contour error per block (the {len(shown)} worst of {total:,}, by max)"
-    ax.set(title=title, xlabel="block (G-code line), in program order", ylabel="LSB")
+    ax.set(title=title, xlabel="block (N-word or G-code line), in program order", ylabel="LSB")
     ax.legend(loc="upper right")
     _mm_axis(ax, result.job.machine.lsb_mm)
 
@@ -306,8 +307,8 @@ def figure(result: RunResult) -> Figure:
         ax.sharex(contour_ax)
 
     items = {item.index: item for item in result.job.program.items}
-    names = [f"N{b['line']}" for b in blocks]
-    codes = [_code(items[b["index"]]) for b in blocks]
+    names = [result.job.program.label(b["line"]) for b in blocks]
+    codes = [block_code(items[b["index"]]) for b in blocks]
     shown, wanted = marked_blocks([peak for peak, _ in data.blocks], bars_that_fit(names))
     starts_xy = np.array([items[b["index"]].start[:2] for b in blocks], dtype=float)
     _path_panel(path_ax, result, data, starts_xy.reshape(-1, 2), wanted, names)

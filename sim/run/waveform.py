@@ -20,11 +20,14 @@ WAVE_FORMATS = (".vcd", ".fst")
 #: Signals of the GTKWave save file, grouped per chip and axis: (group, names), a name
 #: followed by ``:s`` being signed (two's complement). The Z axis's are in the file where the
 #: machine has one (a name the VCD does not declare is left out, a group without any too).
+#: A name is a signal's last name component, or ``a|b``: the first of the alternatives the
+#: file declares, an alternative with a dot naming the end of a dotted path (the K3701's own
+#: step outputs, ``k3701.x_pos``, where the chipset's ``step_x_pos`` is not dumped).
 GTKW_GROUPS = (
     ("host bus", ("bus__addr", "bus__w_stb", "bus__w_data", "bus__r_stb", "bus__r_data",
                   "irq_interp", "irq_alarm")),
     ("feed", ("fp", "fp_total")),
-    ("K3701", tuple(f"step_{a}_{d}" for a in ALL_AXES for d in ("pos", "neg"))),
+    ("K3701", tuple(f"step_{a}_{d}|k3701.{a}_{d}" for a in ALL_AXES for d in ("pos", "neg"))),
     *((f"K3702 {a}", (f"{a}__command:s", f"{a}__error:s", f"{a}__dac", f"{a}__alarm_n"))
       for a in ALL_AXES),
     *((f"plant {a}", (f"{a}__count:s",)) for a in ALL_AXES),
@@ -90,31 +93,48 @@ def wave_span(path: Path) -> tuple[int, int]:
     return first, last
 
 
+def _declared(declared: dict[str, int], names: str) -> tuple[str, str] | None:
+    """The first of the alternatives ``names`` (``a|b``) the file declares: (the alternative,
+    the shortest declared path it names), or None."""
+    for name in names.split("|"):
+        if "." in name:
+            match = [d for d in declared if d.endswith("." + name)]
+        else:
+            match = [d for d in declared if d.rsplit(".", 1)[-1] == name]
+        if match:
+            return name.rsplit(".", 1)[-1], min(match, key=len)
+    return None
+
+
 def write_gtkw(wave: Path, path: Path, *, window: tuple[int, int] | None = None,
-               width_px: int = GTKW_WIDTH_PX) -> list[str]:
+               width_px: int = GTKW_WIDTH_PX, save_name: str | None = None) -> list[str]:
     """A GTKWave save file for ``wave`` (VCD or FST) showing the chips' main signals, grouped,
     zoomed to fit ``window`` (first and last time, default the file's span) into ``width_px``
     pixels. (Amaranth's VCD writer stamps the values at a window's start at time 0.)
 
-    Each listed name is looked up among the signals the file declares (by its last name
-    component, the shortest path winning), so the file names only traced signals; a
-    multi-bit one carries the ``[msb:lsb]`` suffix GTKWave gives it. Returns the signals
-    written, as the file names them.
+    The waveform is named relative to the save file's folder, and the save file by ``save_name``
+    (default: ``path``'s), so GTKWave finds the waveform beside the save file wherever the
+    two are moved together (it resolves the dump file against the save file's own place).
+    Each listed name is looked up among the signals the file declares (:data:`GTKW_GROUPS`,
+    the shortest path winning), so the file names only traced signals; a multi-bit one
+    carries the ``[msb:lsb]`` suffix GTKWave gives it. Returns the signals written, as the
+    file names them.
     """
     declared = wave_signals(wave)
     start, stop = window or wave_span(wave)
     # GTKWave shows 2**-zoom time units per pixel (its default zoom base, 2).
     zoom = -math.log2(max(stop - start, 1) / width_px)
-    lines = [f'[dumpfile] "{wave.resolve()}"', f"[timestart] {start}",
-             f"*{zoom:.6f} -1"]
+    relative = Path(os.path.relpath(wave.resolve(), path.resolve().parent)).as_posix()
+    lines = [f'[dumpfile] "{relative}"', f'[savefile] "{save_name or path.name}"',
+             f"[timestart] {start}", f"*{zoom:.6f} -1"]
     written = []
     for group, names in GTKW_GROUPS:
         found = []
         for entry in names:
-            name, _, kind = entry.partition(":")
-            match = [d for d in declared if d.rsplit(".", 1)[-1] == name]
-            if match:
-                sig = min(match, key=len)
+            alternatives, _, kind = entry.partition(":")
+            chosen = _declared(declared, alternatives)
+            if chosen is not None:
+                name, sig = chosen
                 width = declared[sig]
                 shown = sig if width == 1 else f"{sig}[{width - 1}:0]"
                 found.append((shown, gtkw_flags(name, width, kind == "s")))

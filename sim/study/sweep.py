@@ -33,10 +33,12 @@ from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import Any
 
-from k37.sim.files import atomic_open, atomic_path
+from k37.sim.files import atomic_open, atomic_path, why
 from k37.sim.run.ballbar import FIGURES, BallbarError, ballbar
 from k37.sim.run.jobfile import JobError
+from k37.sim.run.output import write_html
 from k37.sim.run.runner import OptionError, RunOptions, reused_backend, run_job
+from k37.sim.study.html_report import RUN_REPORTS
 from k37.sim.study.studyfile import Study, StudyRun
 
 __all__ = ["METRICS", "WORKER_STOP_SECONDS", "SweepError", "check_study", "end_with_parent",
@@ -55,9 +57,10 @@ class SweepError(ValueError):
     """A results folder that cannot take this study's table."""
 
 
-def run_one(study: Study, run: StudyRun) -> dict[str, Any]:
+def run_one(study: Study, run: StudyRun, pages: Path | None = None) -> dict[str, Any]:
     """Run ``run`` of ``study`` and return its row (a bad job is a row with status
-    ``error``, never an exception)."""
+    ``error``, never an exception); with ``pages``, write its ``--html`` report there as
+    ``RUN.html`` (a page that cannot be written says so in the row's reason)."""
     start = time.perf_counter()
     row: dict[str, Any] = {"run": run.number, **dict(run.levels)}
     try:
@@ -76,8 +79,16 @@ def run_one(study: Study, run: StudyRun) -> dict[str, Any]:
             "end_reached": report["end_point"]["reached"]}
     for axis, values in report["axes"].items():
         row[f"{axis}_max_following_error"] = values["max_abs_error"]
+    circle = None
     with contextlib.suppress(BallbarError):  # not a circle: no ballbar figures
-        row |= ballbar(result, study.settle_deg).figures()
+        circle = ballbar(result, study.settle_deg)
+        row |= circle.figures()
+    if pages is not None:
+        page = pages / f"{run.number}.html"
+        try:
+            write_html(result, page, circle)
+        except OSError as e:
+            row["reason"] += f"; {page}: not written: {why(e)}"
     row["wall_seconds"] = time.perf_counter() - start
     return row
 
@@ -167,8 +178,9 @@ def end_with_parent() -> None:
         libc.prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
 
 
-def _worker(study: Study, tasks: Connection, parent: int) -> None:
-    """A worker process: runs of ``study`` received on ``tasks``, their rows sent back."""
+def _worker(study: Study, tasks: Connection, parent: int, pages: Path | None) -> None:
+    """A worker process: runs of ``study`` received on ``tasks``, their rows sent back (and
+    their reports written to ``pages``)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the sweep stops its workers itself
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     end_with_parent()
@@ -181,16 +193,17 @@ def _worker(study: Study, tasks: Connection, parent: int) -> None:
             return
         if run is None:
             return
-        tasks.send(run_one(study, run))
+        tasks.send(run_one(study, run, pages))
 
 
 class _Pool:
     """``jobs`` worker processes, one run each at a time; a worker that dies is replaced and
     its run reported as an error row."""
 
-    def __init__(self, study: Study, jobs: int):
+    def __init__(self, study: Study, jobs: int, pages: Path | None):
         self.study = study
         self.jobs = jobs
+        self.pages = pages
         self.context = multiprocessing.get_context(
             "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn")
         self.workers: dict[Connection, tuple[multiprocessing.process.BaseProcess,
@@ -198,8 +211,8 @@ class _Pool:
 
     def _start(self) -> Connection:
         mine, theirs = self.context.Pipe()
-        process = self.context.Process(target=_worker, args=(self.study, theirs, os.getpid()),
-                                       daemon=True)
+        process = self.context.Process(target=_worker, args=(self.study, theirs, os.getpid(),
+                                                             self.pages), daemon=True)
         process.start()
         theirs.close()
         self.workers[mine] = (process, None)
@@ -294,10 +307,10 @@ def _death(exitcode: int | None) -> str:
     return f"the worker process running it exited with status {exitcode}"
 
 
-def _executor(jobs: int, scheduler: str | None) -> Callable[[Study, list[StudyRun]],
-                                                            Iterator[dict[str, Any]]]:
+def _executor(jobs: int, scheduler: str | None, pages: Path | None
+              ) -> Callable[[Study, list[StudyRun]], Iterator[dict[str, Any]]]:
     def local(study: Study, runs: list[StudyRun]) -> Iterator[dict[str, Any]]:
-        pool = _Pool(study, jobs)
+        pool = _Pool(study, jobs, pages)
         try:
             yield from pool.rows(runs)
         finally:
@@ -312,7 +325,7 @@ def _executor(jobs: int, scheduler: str | None) -> Callable[[Study, list[StudyRu
                              "install leaves out: pip install 'k37[cluster]'") from None
 
         with Client(scheduler, timeout="20s") as client:
-            futures = [client.submit(run_one, study, run, pure=False) for run in runs]
+            futures = [client.submit(run_one, study, run, pages, pure=False) for run in runs]
             try:
                 for future in dask_completed(futures):
                     yield future.result()
@@ -341,14 +354,19 @@ def _append(fd: int, header: list[str], row: dict[str, Any]) -> None:
 
 
 def sweep(study: Study, out: Path, *, jobs: int = 2, scheduler: str | None = None,
-          report: Callable[[str], None] | None = None) -> Path:
+          report: Callable[[str], None] | None = None, html: bool = False) -> Path:
     """Run every run of ``study`` not yet in ``out/results.csv``; return the CSV's path.
+    ``html``: also write each run's ``--html`` report, ``out/runs/RUN.html`` (the workers
+    write them: on a cluster, ``out`` must be a folder they share).
 
     Raises :class:`~k37.sim.run.jobfile.JobError` (:func:`check_study`) or :class:`SweepError`
     (a folder holding another table) before any run.
     """
     check_study(study)
     out.mkdir(parents=True, exist_ok=True)
+    pages = out / RUN_REPORTS if html else None
+    if pages is not None:
+        pages.mkdir(exist_ok=True)
     path = out / "results.csv"
     done = _done(study, path, report)
     todo = [run for run in study.runs if run.number not in done]
@@ -359,7 +377,7 @@ def sweep(study: Study, out: Path, *, jobs: int = 2, scheduler: str | None = Non
             csv.writer(f).writerow(header)
     fd = os.open(path, os.O_WRONLY | os.O_APPEND)
     try:
-        for k, row in enumerate(_executor(jobs, scheduler)(study, todo), 1):
+        for k, row in enumerate(_executor(jobs, scheduler, pages)(study, todo), 1):
             _append(fd, header, row)
             if report:
                 elapsed = time.perf_counter() - start

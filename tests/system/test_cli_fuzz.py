@@ -138,6 +138,7 @@ def flags(draw: st.DrawFn) -> list[str]:
         "--json": _mostly(["-", "out.json"], ["no/such/dir/r.json", "."]),
         "--trace": _mostly(["t.csv"], ["no/such/t.csv", "."]),
         "--plot": _mostly(["p.png", "p.svg", "p.pdf"], ["p.xyz", "p", "no/p.png", "."]),
+        "--html": _mostly(["r.html"], ["r.txt", "no/r.html", "."]),
         "--stall": _mostly(["x", "y"], ["z"]),
         "--break-line": _mostly(["x", "y"], ["xy"]),
     }

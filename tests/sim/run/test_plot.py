@@ -72,7 +72,17 @@ def test_block_boundaries_are_at_the_blocks_start_cycles(run, panels):
     for title in ("contour error", "following error", "speeds", "D/A output"):
         assert boundaries(panels[title]) == starts
         labels = [t.get_text().strip() for t in panels[title].texts]
-        assert labels == [f"N{b['line']}" for b in run.report["blocks"]]
+        assert labels == [f"line {b['line']}" for b in run.report["blocks"]]
+
+
+def test_blocks_are_labelled_by_the_programs_own_n_words(make_job):
+    job = make_job("N10 G21 G90 F1200\nN30 G01 X2\nG01 Y2\nN50 G01 X0\nM30", name="nwords")
+    assert job.program.sequence == {1: 10, 2: 30, 4: 50}
+    result = run_job(job, RunOptions(sample_every=500))
+    bars = next(ax for ax in figure(result).axes
+                if ax.get_title().startswith("contour error per block"))
+    assert [t.get_text().split("\n")[0] for t in bars.get_xticklabels()] == [
+        "N30", "line 3", "N50"]
 
 
 def test_path_speed_reaches_the_programmed_feed_in_a_blocks_steady_part(run, panels):

@@ -52,11 +52,12 @@ def test_the_program_has_more_blocks_than_the_figure_marks(many):
 def test_bars_show_only_the_worst_blocks_in_program_order(many, panels):
     bars = panels["contour error per block"]
     shown = len(bars.get_xticks())
-    assert shown == bars_that_fit([f"N{b['line']}" for b in many.report["blocks"]])
+    assert shown == bars_that_fit([f"line {b['line']}" for b in many.report["blocks"]])
     assert 0 < shown <= WORST_BLOCKS and len(bars.patches) == 2 * shown
     heights = [p.get_height() for p in bars.patches[:shown]]
     assert max(heights) == pytest.approx(many.report["path"]["max_contour_error"], rel=1e-12)
-    lines = [int(t.get_text().split("\n")[0][1:]) for t in bars.get_xticklabels()]
+    lines = [int(t.get_text().split("\n")[0].removeprefix("line "))
+             for t in bars.get_xticklabels()]
     assert lines == sorted(lines)
     assert f"the {shown} worst of {len(many.report['blocks'])}" in bars.get_title()
 

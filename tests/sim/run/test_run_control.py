@@ -50,6 +50,8 @@ def _no_simulation(*_: object) -> None:
     (["--json", "."], "--json .: is a folder, not a file"),
     (["--plot", "p.xyz"], "--plot p.xyz: matplotlib cannot write the suffix .xyz; it writes "),
     (["--gtkw", "g.gtkw"], "--gtkw g.gtkw: needs --vcd"),
+    (["--html", "nowhere/r.html"], "--html nowhere/r.html: the folder nowhere does not exist"),
+    (["--html", "r.txt"], "--html r.txt: name the report .html"),
     (["--vcd", "v.ghw"], "--vcd v.ghw: the suffix .ghw names no waveform format; use .vcd or .fst"),
     (["--vcd", "v.vcd", "--vcd-start", "500", "--vcd-stop", "400"],
      "--vcd-start 500 must come before --vcd-stop 400"),

@@ -51,8 +51,9 @@ def test_vcd_opens_in_pywellen_with_a_scope_per_chip_and_gtkw_shows_every_listed
     settings, traces = parse_gtkw(gtkw.read_text())
     signals = [(f, name) for f, name in traces if not name.startswith("-")]
     assert [name for _, name in signals] == written
-    # Every listed signal the file declares is shown, multi-bit ones as GTKWave names them.
-    listed = [e.partition(":")[0] for _, names in GTKW_GROUPS for e in names
+    # Every listed signal the file declares is shown, multi-bit ones as GTKWave names them
+    # (of alternatives, the chipset's step ports: the whole design is dumped).
+    listed = [e.partition(":")[0].partition("|")[0] for _, names in GTKW_GROUPS for e in names
               if not e.startswith(("z__", "step_z"))]  # a two-axis machine
     traced = [n for n in listed if any(d.rsplit(".", 1)[-1] == n for d in widths)]
     assert len(traced) >= len(listed) - 1  # fp: a wire CXXRTL may inline
@@ -137,4 +138,34 @@ def test_fst_holds_the_same_signals_and_changes_as_the_vcd(tmp_path, backend):
     assert fst.stat().st_size * 4 < vcd.stat().st_size
     shown = write_gtkw(fst, tmp_path / "fst.gtkw")
     assert shown == write_gtkw(vcd, tmp_path / "vcd.gtkw")
-    assert f'[dumpfile] "{fst.resolve()}"' in (tmp_path / "fst.gtkw").read_text()
+    assert '[dumpfile] "run.fst"' in (tmp_path / "fst.gtkw").read_text()
+
+
+def test_the_gtkw_names_its_waveform_from_its_own_folder(tmp_path):
+    """GTKWave resolves the dump file against the save file's own place (the folder of its
+    ``[savefile]``): the pair moved together still opens."""
+    waves = tmp_path / "waves"
+    waves.mkdir()
+    vcd = waves / "run.vcd"
+    run_job(demo_job(), RunOptions(backend="cxxrtl", max_cycles=2000, vcd=vcd))
+    gtkw = tmp_path / "view.gtkw"
+    write_gtkw(vcd, gtkw)
+    settings, _ = parse_gtkw(gtkw.read_text())
+    assert settings["dumpfile"] == '"waves/run.vcd"' and settings["savefile"] == '"view.gtkw"'
+    moved = tmp_path / "elsewhere"
+    (moved / "waves").mkdir(parents=True)
+    vcd.rename(moved / "waves" / "run.vcd")
+    gtkw.rename(moved / "view.gtkw")
+    assert (moved / settings["dumpfile"].strip('"')).exists()
+
+
+def test_the_gtkw_shows_the_k3701s_step_pulses_when_only_the_k3701_is_dumped(tmp_path):
+    vcd = tmp_path / "run.vcd"
+    run_job(demo_job(), RunOptions(backend="cxxrtl", max_cycles=20_000, vcd=vcd,
+                                   signals=("chipset.k3701.*", "x__*")))
+    write_gtkw(vcd, tmp_path / "run.gtkw")
+    _, traces = parse_gtkw((tmp_path / "run.gtkw").read_text())
+    names = [name for _, name in traces]
+    group = names[names.index("-K3701") + 1:names.index("-K3701", names.index("-K3701") + 1)]
+    assert [n.rsplit(".", 1)[-1] for n in group] == ["x_pos", "x_neg", "y_pos", "y_neg"]
+    assert all(".k3701." in n for n in group)
