@@ -25,7 +25,8 @@ from k37.hdl.chipset.identity import chipset_identity
 from k37.hdl.common.constants import CHIP_HZ
 from k37.sim.fpga.export import pins as export_pins
 from k37.sim.fpga.icarus import HOST_DRIVES
-from tests.sim.fpga.test_export_cosim import SEEDS, _core_port, amaranth_chipset, chipset_stimulus
+from tests.sim.fpga.chips import SEEDS
+from tests.sim.fpga.cosim import amaranth_chipset, chipset_stimulus, core_port
 from tests.testbench import simulate
 
 needs_boards = pytest.mark.skipif(importlib.util.find_spec("amaranth_boards") is None,
@@ -99,7 +100,7 @@ def test_the_chipset_on_a_board_clock_matches_the_chipset_on_its_own_cycle_by_cy
             for _ in range(ratio):
                 ticks.append(ctx.get(dut.tick))
                 if ticks[-1]:
-                    got = {name: ctx.get(_core_port(chip, name)) for name in outputs}
+                    got = {name: ctx.get(core_port(chip, name)) for name in outputs}
                     got["r_data"] = ctx.get(dut.bus.r_data)
                     got["x_alarm"], got["irq"] = ctx.get(dut.x_alarm), ctx.get(dut.irq_alarm)
                     seen.append(got)

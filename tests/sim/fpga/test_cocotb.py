@@ -12,7 +12,7 @@ import pytest
 
 from k37.sim.fpga.export import export_verilog
 from tests.paths import ROOT
-from tests.sim.fpga.test_export_cosim import needs_icarus
+from tests.sim.fpga.cosim import needs_icarus
 
 EXAMPLE = ROOT / "examples" / "cocotb"
 

@@ -17,9 +17,8 @@ import pytest
 from k37.sim.fpga.export import verilog_text
 from k37.sim.fpga.icarus import HOST_DRIVES, simulate
 from k37.sim.fpga.netlist import ecp5_cell_models, ecp5_netlist
-from tests.sim.fpga.test_export_cosim import (
-    CHIPS,
-    SEEDS,
+from tests.sim.fpga.chips import CHIPS, SEEDS
+from tests.sim.fpga.cosim import (
     amaranth_chipset,
     chipset_stimulus,
     icarus_rows,
