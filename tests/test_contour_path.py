@@ -38,12 +38,14 @@ def _dense(move) -> np.ndarray:
     return _curve_at(move, np.linspace(0.0, 1.0, DENSE))
 
 
-def _distances(move, p: np.ndarray) -> np.ndarray:
-    """The exact distance of each row of ``p`` to a move: closed form on a line and an arc
-    (whose ends are on its circle), the nearest of dense points on a curve."""
+def _distances(move, p: np.ndarray, top: float = 1.0) -> np.ndarray:
+    """The exact distance of each row of ``p`` to a move (up to ``top`` of its parameter):
+    closed form on a line and an arc (whose ends are on its circle), the nearest of dense
+    points on a curve."""
     if isinstance(move, Arc):
         c = np.array(move.center, dtype=float)
-        a0, sweep = move.span
+        a0, full = move.span
+        sweep = full * top
         a1 = a0 - sweep if move.cw else a0 + sweep
         ends = c + move.radius * np.array([[math.cos(a0), math.sin(a0)],
                                            [math.cos(a1), math.sin(a1)]])
@@ -55,9 +57,9 @@ def _distances(move, p: np.ndarray) -> np.ndarray:
     if isinstance(move, Line) and move.curve is None:
         a, b = np.array(move.start, dtype=float), np.array(move.end, dtype=float)
         d = b - a
-        t = np.zeros(len(p)) if not d @ d else np.clip((p - a) @ d / (d @ d), 0.0, 1.0)
+        t = np.zeros(len(p)) if not d @ d else np.clip((p - a) @ d / (d @ d), 0.0, top)
         return np.hypot(*(p - a - np.outer(t, d)).T)
-    coarse = np.linspace(0.0, 1.0, DENSE)
+    coarse = np.linspace(0.0, top, DENSE)
     q = _curve_at(move, coarse)
     out = []
     for row in p:
@@ -77,14 +79,15 @@ def _length(move) -> float:
 
 
 def reference_errors(moves, blocks, samples) -> np.ndarray:
-    """The documented window rule, sample by sample: the exact distance to every move from
-    the previous sample's to those starting within twice the tool's travel plus REACH of its
-    end, none past the move after the running block's; of equal distances, the furthest."""
+    """The documented window rule, sample by sample: the exact distance to the path from the
+    previous sample's move forward as far as the previous sample's distance, twice the tool's
+    travel since then and REACH past that move's end, none past the move after the running
+    block's; of equal distances, the furthest move."""
     ends = np.cumsum([_length(m) for m in moves])
     starts = [start for _, start in blocks]
     tool = samples[:, 3:5].astype(float)
     distance = [_distances(m, tool) for m in moves]
-    current, last, out = 0, None, []
+    current, last, error, out = 0, None, 0.0, []
     for i, row in enumerate(samples):
         p = tool[i]
         running = int(np.searchsorted(starts, row[0], side="right")) - 1
@@ -92,15 +95,18 @@ def reference_errors(moves, blocks, samples) -> np.ndarray:
             out.append(math.dist(p, moves[0].start))
             continue
         travel = 0.0 if last is None else math.dist(p, last)
-        last = p
+        reach = ends[current] + error + 2 * travel + REACH
         top = min(running + 1, len(moves) - 1)
         best, k = None, current
-        while k <= top and (k == current or ends[k - 1] < ends[current] + 2 * travel + REACH):
-            d = distance[k][i]
+        while k == current or (k <= top and ends[k - 1] < reach):
+            # The moves after the previous sample's only as far along them as the reach.
+            length = _length(moves[k])
+            d = distance[k][i] if k == current or not length else float(_distances(
+                moves[k], p[None], min(1.0, (reach - ends[k - 1]) / length))[0])
             if best is None or d <= best + 1e-6:
-                best, current_k = d, k
+                best, found = d, k
             k += 1
-        current = current_k
+        current, last, error = found, p, best
         out.append(best)
     return np.array(out)
 

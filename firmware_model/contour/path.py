@@ -11,11 +11,13 @@ brackets the minimum, which a golden-section search then closes in on (never a s
 the bracket). No numerical warning comes out: the curves are only evaluated between their ends.
 
 A :class:`Tracker` follows the tool along the path, sample after sample: each sample's nearest
-point is searched in a window of segments from the one the previous sample was matched on
-(the tool's progress is monotone, so an earlier pass of the path is never a candidate)
-forward over twice the tool's travel since that sample plus :data:`REACH`, and never past
-the block after the one the interpolator runs (a later pass is never one either). Of equal
-distances the furthest segment wins (a retraced stretch hands over to its next segment).
+point is searched from the segment the previous sample was matched on (the tool's progress
+is monotone, so an earlier pass of the path is never a candidate) forward over the path that
+lies within the previous sample's contour error, twice the tool's travel since then and
+:data:`REACH` of that segment's end (the segments after it only that far along them), and
+never past the block after the one the interpolator runs at its cycle (the tool is not ahead
+of the interpolator). Of equal distances the furthest segment wins (a retraced stretch hands
+over to its next segment).
 """
 
 from __future__ import annotations
@@ -31,9 +33,10 @@ from k37.firmware_model.gcode.program import Arc, Line, Move
 
 __all__ = ["REACH", "Foot", "Path", "Segment", "Tracker"]
 
-#: Arc length (LSB) the tracker's window reaches past the end of the last matched segment, on
-#: top of twice the tool's travel since the previous sample.
+#: Arc length (LSB) a tracker's window reaches past the end of the last matched segment, on
+#: top of the tool's distance to it and twice its travel since the previous sample.
 REACH = 16.0
+
 #: Points spaced evenly along a curve or helix that bracket its nearest point.
 GRID = 64
 #: Golden-section steps on the bracket: it shrinks to 0.618^40 (1e-8) of two grid spacings.
@@ -114,22 +117,31 @@ class Segment:
             return normal < self.axes and m.end[normal] != m.start[normal]
         return True
 
-    def foot(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The parameter of each row of ``p``'s nearest point of the segment, and that point."""
+    def foot(self, p: np.ndarray, top: np.ndarray | None = None
+             ) -> tuple[np.ndarray, np.ndarray]:
+        """The parameter of each row of ``p``'s nearest point of the segment, and that point;
+        with ``top``, of the part of it up to that parameter (per row; on a curve, the
+        nearest point beyond it is drawn back to it)."""
         if self._sampled:
-            return self._search(p)
+            u, q = self._search(p)
+            if top is None or not (u > top).any():
+                return u, q
+            u = np.minimum(u, top)
+            return u, self.at(u)
+        end = 1.0 if top is None else top
         if isinstance(self.move, Line):
             d = self.end - self.start
             length2 = float(d @ d)
             u = (np.zeros(len(p)) if length2 == 0
-                 else np.clip((p - self.start) @ d / length2, 0.0, 1.0))
+                 else np.clip((p - self.start) @ d / length2, 0.0, end))
             return u, self.start + np.outer(u, d)
         first, second, centre, _, a0, sweep, cw = self._circle
         angle = np.arctan2(p[:, second] - centre[1], p[:, first] - centre[0])
         off = ((a0 - angle) if cw else (angle - a0)) % math.tau
         # Past the sweep: the nearer end (the angle half way round the rest splits them).
-        u = np.where(off <= sweep, off / sweep,
-                     np.where(off - sweep < (math.tau - sweep) / 2, 1.0, 0.0))
+        swept = sweep * end
+        u = np.where(off <= swept, off / sweep,
+                     np.where(off - swept < (math.tau - swept) / 2, end, 0.0))
         return u, self.at(u)
 
     def _search(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -194,15 +206,22 @@ class Path:
         """Parameter and nearest point on segment ``k`` of each row of ``p``."""
         return self.segments[k].foot(np.asarray(p, dtype=float))
 
-    def nearest(self, p: np.ndarray, first: int, last: int | np.ndarray) -> Foot:
+    def nearest(self, p: np.ndarray, first: int, last: int | np.ndarray,
+                on_first: Foot | None = None, reach: np.ndarray | None = None) -> Foot:
         """The nearest point of each row of ``p`` on segments ``first`` to ``last``
         (inclusive; one for all rows or one per row, at least ``first``); of equal distances
-        the furthest segment's."""
+        the furthest segment's. ``on_first``: the rows' nearest points on ``first``, if
+        known; ``reach``: how far along the path (LSB from its start, per row) the segments
+        after ``first`` are candidates."""
         p = np.asarray(p, dtype=float)
         last = np.broadcast_to(last, len(p))
-        best = None
-        for k in range(first, int(last.max(initial=first)) + 1):
-            u, q = self.foot(k, p)
+        best = on_first
+        for k in range(first if best is None else first + 1, int(last.max(initial=first)) + 1):
+            top = None
+            if reach is not None and k > first:
+                length = self.segments[k].length
+                top = np.clip((reach - self.ends[k - 1]) / length, 0.0, 1.0) if length else None
+            u, q = self.segments[k].foot(p, top)
             d = np.sqrt(((q - p) ** 2).sum(axis=1))
             if best is None:
                 best = Foot(np.full(len(p), k), u, q, d)
@@ -221,40 +240,43 @@ class Tracker:
     def __init__(self, path: Path):
         self.path = path
         self.segment = 0
+        #: The last sample's position and its distance to the path (none yet).
         self.last: np.ndarray | None = None
-
-    def window_end(self, segment: int, travel: np.ndarray, limit: np.ndarray) -> np.ndarray:
-        """The last segment of each sample's window from ``segment``: the segments starting
-        within twice ``travel`` plus :data:`REACH` of its end, at most ``limit``."""
-        ends = self.path.ends
-        reach = ends[segment] + 2 * travel + REACH
-        last = np.searchsorted(ends, reach, side="left")
-        return np.maximum(np.minimum(np.minimum(last, len(ends) - 1), limit), segment)
+        self.error = 0.0
 
     def track(self, p: np.ndarray, limit: np.ndarray) -> Foot:
-        """The nearest points of positions ``p`` (rows, in sample order), each searched from
-        the previous sample's segment up to its window's end, never past ``limit`` (per row:
-        the last segment the tool may be on)."""
+        """The nearest points of positions ``p`` (rows, in sample order), each searched in
+        its window from the previous sample's segment, never past ``limit`` (per row: the
+        last segment the tool may be on)."""
         p = np.asarray(p, dtype=float)
         n = len(p)
-        previous = np.vstack([p[:1] if self.last is None else self.last[None], p[:-1]])
-        travel = np.sqrt(((p - previous) ** 2).sum(axis=1)) if n else np.zeros(0)
         out = Foot(np.zeros(n, dtype=int), np.zeros(n), np.zeros_like(p), np.zeros(n))
         i, batch = 0, 64
         while i < n:
             # Rows from i on, each as if the previous one were on the current segment: right
             # up to the first that moves on (it is right too).
             rows = slice(i, min(n, i + batch))
-            found = self.path.nearest(p[rows], self.segment,
-                                      self.window_end(self.segment, travel[rows], limit[rows]))
+            found = self._window(p[rows], limit[rows])
             moved = np.flatnonzero(found.segment != self.segment)
             done = rows.stop - i if not len(moved) else int(moved[0]) + 1
             part = slice(i, i + done)
             out.segment[part], out.param[part] = found.segment[:done], found.param[:done]
             out.point[part], out.distance[part] = found.point[:done], found.distance[:done]
             self.segment = int(found.segment[done - 1])
+            self.last, self.error = p[i + done - 1].copy(), float(found.distance[done - 1])
             i += done
             batch = 2 * batch if not len(moved) else max(16, 2 * done)
-        if n:
-            self.last = p[-1].copy()
         return out
+
+    def _window(self, p: np.ndarray, limit: np.ndarray) -> Foot:
+        """The nearest points of rows ``p`` in their windows, each as if the row before were
+        on the current segment."""
+        c = self.segment
+        u, q = self.path.foot(c, p)
+        here = Foot(np.full(len(p), c), u, q, np.sqrt(((q - p) ** 2).sum(axis=1)))
+        before = np.vstack([p[:1] if self.last is None else self.last[None], p[:-1]])
+        travel = np.sqrt(((p - before) ** 2).sum(axis=1))
+        error = np.concatenate([[self.error], here.distance[:-1]])
+        reach = self.path.ends[c] + error + 2 * travel + REACH
+        last = np.minimum(np.searchsorted(self.path.ends, reach), len(self.path.ends) - 1)
+        return self.path.nearest(p, c, np.maximum(np.minimum(last, limit), c), here, reach)
