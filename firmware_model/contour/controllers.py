@@ -32,8 +32,8 @@ from k37.firmware_model.job import ContourConfig
 
 __all__ = ["CORNER_DEG", "ContourController", "derivatives", "error_vector"]
 
-#: A junction whose tangent turns by more than this (degrees) is a corner: the CEC leaves the
-#: stretch before it once the reference has passed it.
+#: A junction whose tangent turns by more than this (degrees) is a corner: the CEC lets go
+#: of the tool from when the reference passes it until the tool's nearest point does.
 CORNER_DEG = 30.0
 
 
@@ -102,15 +102,17 @@ class ContourController:
         ``move_index`` (its item index) running."""
         c = self.config
         running = self.index[move_index]
-        passed = self.corners[(self.corners >= self.tracker.segment) & (self.corners < running)]
-        if c.controller == "cec" and len(passed):
-            # The reference has turned a corner the tool has not: the tool is taken to the
-            # stretch after it, and the jump of the error vector is no derivative kick.
-            self.tracker.segment = int(passed[-1]) + 1
-            self.last = None
         error = error_vector(c.controller, self.path, running,
                              np.asarray(reference, dtype=float),
                              np.asarray(actual, dtype=float), self.tracker)
+        if c.controller == "cec" and ((self.corners >= self.tracker.segment)
+                                      & (self.corners < running)).any():
+            # The reference has turned a corner the tool has not: the CEC lets go (the
+            # position loops turn the corner) and starts afresh once the tool's nearest point
+            # is past it (no derivative kick, no integral of the stretch before).
+            self.integral[:] = 0
+            self.last = None
+            return np.zeros_like(error)
         self.integral += error * self.period_s
         change = np.zeros_like(error) if self.last is None else error - self.last
         self.last = error
