@@ -159,7 +159,7 @@ def _lagging_samples(moves, lag: float, seed: int) -> tuple[list, np.ndarray]:
     return blocks, samples
 
 
-@settings(max_examples=25, deadline=None)
+@settings(max_examples=15, deadline=None)
 @given(chains())
 def test_the_contour_error_of_a_lagging_tool_equals_the_brute_force_reference(case):
     gcode, lag, seed = case
