@@ -189,3 +189,41 @@ def test_contour_error_is_linear_in_the_programs_size(benchmark):
     large = benchmark.pedantic(contour, args=(2000,), rounds=1, iterations=1)
     print(f"\ncontour error, 200 blocks {small:.3f} s, 2,000 blocks {large:.3f} s: "
           f"x{large / small:.1f} for x10 the blocks and samples (linear: 10)")
+
+
+def _lagging_tool(job: Job, per_block: int, lag: int) -> tuple[list[tuple[int, int]], np.ndarray]:
+    """The blocks of ``job`` started every 1,000 cycles and ``per_block`` samples a block of a
+    tool ``lag`` blocks behind the interpolator, 3 LSB off the path."""
+    moves = list(job.program.moves)
+    starts = [(move.index, 1000 * k) for k, move in enumerate(moves)]
+    u = np.linspace(0.0, 1.0, per_block, endpoint=False)
+    points = []
+    for move in moves:
+        a, b = np.array(move.start[:2], dtype=float), np.array(move.end[:2], dtype=float)
+        if hasattr(move, "center"):  # an arc: round its centre
+            c = np.array(move.center, dtype=float)
+            a0, sweep = move.span
+            angle = a0 + (-sweep if move.cw else sweep) * u
+            points.append(c + (move.radius + 3) * np.column_stack([np.cos(angle), np.sin(angle)]))
+        else:
+            points.append(a + np.outer(u, b - a) + 3)
+    rows = per_block * len(moves)
+    samples = np.zeros((rows, len(TRACE_COLUMNS)), dtype=np.int64)
+    samples[:, 0] = np.arange(rows) * (1000 // per_block) + 1000 * lag
+    samples[:, 3:5] = np.rint(np.vstack(points))
+    return starts, samples
+
+
+def test_contour_error_of_a_lagging_tool_costs_the_same_per_sample(benchmark):
+    """A tool two blocks behind the interpolator on 10,000 blocks, 50 samples a block."""
+    job = _zigzag(10_000)
+    starts, samples = _lagging_tool(job, 50, 2)
+
+    def contour() -> float:
+        start = time.perf_counter()
+        contour_errors(job, starts, samples)
+        return time.perf_counter() - start
+
+    took = benchmark.pedantic(contour, rounds=1, iterations=1)
+    print(f"\ncontour error of a lagging tool, 10,000 blocks: {took:.3f} s, "
+          f"{took / len(samples) * 1e6:.2f} us a sample")

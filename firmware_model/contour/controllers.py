@@ -11,8 +11,8 @@ contour-error paper's point: its controller is better because its error model is
   (its gains follow the direction theta and the radius of curvature rho there, every sample);
   on a straight piece, the CCC's;
 * ``cec``, the contour-error paper's contour error controller: the nearest point of the
-  programmed path itself (:meth:`k37.firmware_model.contour.geometry.Piece.nearest`), searched on
-  the running move and its neighbours.
+  programmed path itself, on the stretch the tool is on
+  (:class:`k37.firmware_model.contour.path.Tracker`, the report's contour error's).
 
 The vector then goes through a PID (gains ``kcp``, ``kci``, ``kcd``) taken component by
 component, which is the PID of the contour error distributed along the error vector while its
@@ -22,35 +22,43 @@ direction holds; the result is the correction (LSB) the host adds to each axis's
 from __future__ import annotations
 
 from collections.abc import Sequence
+from itertools import pairwise
 
 import numpy as np
 
-from k37.firmware_model.contour.geometry import Piece, piece
+from k37.firmware_model.contour.path import Path, Segment, Tracker
 from k37.firmware_model.job import ContourConfig
 from k37.firmware_model.motion.program import Move
 
-__all__ = ["ContourController", "error_vector", "nearest_on"]
+__all__ = ["CORNER_DEG", "ContourController", "derivatives", "error_vector"]
+
+#: A junction whose tangent turns by more than this (degrees) is a corner: the CEC lets go
+#: of the tool from when the reference passes it until the tool's nearest point does.
+CORNER_DEG = 30.0
 
 
-def nearest_on(pieces: Sequence[Piece], search: range, actual: np.ndarray
-               ) -> tuple[int, np.ndarray]:
-    """The piece among ``pieces[search]`` nearest to ``actual``, and its nearest point."""
-    return min(((k, pieces[k].nearest(actual)[1]) for k in search),
-               key=lambda found: float((found[1] - actual) @ (found[1] - actual)))
+def derivatives(segment: Segment, u: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Q, Q' and Q'' of ``segment`` at ``u`` (central differences, kept inside it)."""
+    h = 1e-4
+    c = min(max(u, h), 1 - h)
+    before, q, after = segment.at(np.array([c - h, c, c + h]))
+    q = segment.at(np.array([u]))[0] if c != u else q
+    return q, (after - before) / (2 * h), (after - 2 * q + before) / (h * h)
 
 
-def error_vector(controller: str, pieces: Sequence[Piece], running: int, reference: np.ndarray,
-                 actual: np.ndarray, search: range | None = None) -> np.ndarray:
+def error_vector(controller: str, path: Path, running: int, reference: np.ndarray,
+                 actual: np.ndarray, tracker: Tracker | None = None) -> np.ndarray:
     """The contour error vector (LSB) of ``controller``'s model: from ``actual`` to its
-    estimate of the nearest point of the path. ``pieces[running]`` is the move the reference
-    is on; the CEC searches ``pieces[search]`` (default: that move and its neighbours)."""
+    estimate of the nearest point of the path. ``running`` is the segment the reference is
+    on; the CEC's nearest point is ``tracker``'s (default: a fresh one, from the path's
+    start), never past the segment after ``running``."""
     if controller == "cec":
-        if search is None:
-            search = range(max(running - 1, 0), min(running + 2, len(pieces)))
-        return nearest_on(pieces, search, actual)[1] - actual
-    current = pieces[running]
-    u, _ = current.nearest(reference)
-    _, d1, d2 = current.derivatives(u)
+        tracker = tracker or Tracker(path)
+        foot = tracker.track(actual[None], np.array([min(running + 1, len(path.moves) - 1)]))
+        return foot.point[0] - actual
+    segment = path.segments[running]
+    u = float(segment.foot(reference[None])[0][0])
+    _, d1, d2 = derivatives(segment, u)
     speed2 = float(d1 @ d1)
     if speed2 == 0:
         return reference - actual
@@ -79,11 +87,14 @@ class ContourController:
         self.config = config
         self.period_s = period_s
         self.index = {move.index: k for k, move in enumerate(moves)}
-        self.pieces = [piece(move, axes) for move in moves]
+        self.path = Path(moves, axes)
+        #: The tool's progress along the path (the CEC's nearest point).
+        self.tracker = Tracker(self.path)
+        #: The segments that end in a corner.
+        self.corners = np.flatnonzero([_turn(a, b) > CORNER_DEG
+                                       for a, b in pairwise(self.path.segments)])
         self.integral = np.zeros(axes)
         self.last: np.ndarray | None = None
-        #: The piece the CEC last found the tool's nearest point on.
-        self.foot = 0
 
     def correction(self, move_index: int, reference: np.ndarray,
                    actual: np.ndarray) -> np.ndarray:
@@ -91,19 +102,28 @@ class ContourController:
         ``move_index`` (its item index) running."""
         c = self.config
         running = self.index[move_index]
-        actual = np.asarray(actual, dtype=float)
-        search = None
-        if c.controller == "cec":
-            # The tool lags the reference by many short moves (a spline's chords): its foot is
-            # tracked from sample to sample, never past the move after the running one.
-            start = min(max(self.foot - 1, 0), running)
-            search = range(start, min(max(self.foot + 3, start + 1), running + 2,
-                                      len(self.pieces)))
-            self.foot = nearest_on(self.pieces, search, actual)[0]
-            search = range(self.foot, self.foot + 1)
-        error = error_vector(c.controller, self.pieces, running,
-                             np.asarray(reference, dtype=float), actual, search)
+        error = error_vector(c.controller, self.path, running,
+                             np.asarray(reference, dtype=float),
+                             np.asarray(actual, dtype=float), self.tracker)
+        if c.controller == "cec" and ((self.corners >= self.tracker.segment)
+                                      & (self.corners < running)).any():
+            # The reference has turned a corner the tool has not: the CEC lets go (the
+            # position loops turn the corner) and starts afresh once the tool's nearest point
+            # is past it (no derivative kick, no integral of the stretch before).
+            self.integral[:] = 0
+            self.last = None
+            return np.zeros_like(error)
         self.integral += error * self.period_s
         change = np.zeros_like(error) if self.last is None else error - self.last
         self.last = error
         return c.kcp * error + c.kci * self.integral + c.kcd * change / self.period_s
+
+
+def _turn(before: Segment, after: Segment) -> float:
+    """How far the tangent turns (degrees) from the end of ``before`` to the start of
+    ``after``."""
+    out, into = derivatives(before, 1.0)[1], derivatives(after, 0.0)[1]
+    size = float(np.sqrt((out @ out) * (into @ into)))
+    if size == 0:
+        return 0.0
+    return float(np.degrees(np.arccos(np.clip(out @ into / size, -1.0, 1.0))))

@@ -1,117 +1,81 @@
 """The contour error: distance of each sampled actual position to the programmed path (in the
-plane on two axes, in space on three: a helix's normal axis is expected to rise in proportion
-to the angle swept)."""
+plane on two axes, in space on three), measured by the path geometry the host's contour
+controllers use (:mod:`k37.firmware_model.contour.path`), along the tool's own progress."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from functools import reduce
 
 import numpy as np
 
+from k37.firmware_model.contour.path import Path, Tracker
 from k37.firmware_model.job import Job
-from k37.firmware_model.motion.program import Arc, Line
 from k37.sim.run.sampler import CHUNK_ROWS, SampleStore
 
-__all__ = ["BlockStart", "contour_errors", "contour_summary"]
+__all__ = ["BlockStart", "ContourMeter", "contour_errors", "contour_summary"]
 
 #: A block that ran: its index in the program (dwells counted) and the cycle it started.
 BlockStart = tuple[int, int]
 
 
-def _norm(v: np.ndarray) -> np.ndarray:
-    """The length of each row of ``v`` (hypot over its columns)."""
-    return reduce(np.hypot, v.T)
+class ContourMeter:
+    """The contour errors of one run's samples, given in order in as many chunks as wanted.
 
+    ``blocks`` are the blocks that ran, in order (the firmware's records, or the report's).
+    Each sample is measured against the stretch of path the tool is on
+    (:class:`k37.firmware_model.contour.path.Tracker`), never past the block after the one
+    running at its cycle; a sample before the first block, against the start point.
+    """
 
-def _segment_distance(p: np.ndarray, a: tuple[int, ...], b: tuple[int, ...]) -> np.ndarray:
-    d = np.array(b, dtype=float) - np.array(a, dtype=float)
-    rel = p - np.array(a, dtype=float)
-    length2 = float(d @ d)
-    t = np.zeros(len(p)) if length2 == 0 else np.clip(rel @ d / length2, 0.0, 1.0)
-    return _norm(rel - np.outer(t, d))
+    def __init__(self, job: Job, blocks: Sequence[BlockStart]):
+        moves = job.program.moves
+        self.axes = job.machine.axes
+        self.start = np.array(moves[0].start, dtype=float) if moves else None
+        self.tracker = Tracker(Path(moves, self.axes)) if moves and blocks else None
+        move_of = {it.index: k for k, it in enumerate(moves)}
+        self.block_move = np.array([move_of[index] for index, _ in blocks], dtype=int)
+        self.block_start = np.array([start for _, start in blocks])
 
-
-def _arc_distance(p: np.ndarray, item: Arc) -> np.ndarray:
-    first, second, normal = item.plane_axes
-    rel = p[:, [first, second]] - np.array(item.center, dtype=float)
-    a0, sweep = item.span
-    ang = np.arctan2(rel[:, 1], rel[:, 0])
-    off = (ang - a0) % (2 * math.pi) if not item.cw else (a0 - ang) % (2 * math.pi)
-    on_arc = np.abs(np.hypot(rel[:, 0], rel[:, 1]) - item.radius)
-    if normal < p.shape[1]:  # three axes: the normal axis against the helix at that angle
-        rise = (item.end[normal] - item.start[normal]) * np.minimum(off, sweep) / sweep
-        on_arc = np.hypot(on_arc, p[:, normal] - (item.start[normal] + rise))
-    ends = np.minimum(_norm(p - np.array(item.start, dtype=float)),
-                      _norm(p - np.array(item.end, dtype=float)))
-    return np.where(off <= sweep, on_arc, ends)
-
-
-def _distance(item: Line | Arc, p: np.ndarray) -> np.ndarray:
-    """Distance of each point of ``p`` to the move ``item`` (a line, an arc or a curve)."""
-    if isinstance(item, Line):
-        if item.curve is not None:  # a spline's chord: the exact curve
-            return item.curve.distances(p)
-        return _segment_distance(p, item.start, item.end)
-    if isinstance(item, Arc):
-        return _arc_distance(p, item)
-    return item.distances(p)
+    def errors(self, samples: np.ndarray) -> np.ndarray:
+        """Distance of each sample's actual position to the programmed path (LSB); none when
+        the program has no move or no block ran."""
+        if not len(samples) or self.tracker is None:
+            return np.zeros(0)
+        n = self.axes
+        pts = samples[:, 1 + n:1 + 2 * n].astype(float)  # the actual positions
+        running = np.searchsorted(self.block_start, samples[:, 0], side="right") - 1
+        before = running < 0
+        errors = np.empty(len(pts))
+        errors[before] = np.sqrt(((pts[before] - self.start) ** 2).sum(axis=1))
+        on = ~before
+        limit = np.minimum(self.block_move[running[on]] + 1, len(self.tracker.path.moves) - 1)
+        errors[on] = self.tracker.track(pts[on], limit).distance
+        return errors
 
 
 def contour_errors(job: Job, blocks: Sequence[BlockStart], samples: np.ndarray) -> np.ndarray:
-    """Distance of each sample's actual position to the programmed path (LSB).
-
-    ``blocks`` are the blocks that ran, in order (the firmware's records, or the report's).
-    A sample is compared with the block running at its cycle and its neighbours (a lagging
-    axis is still on the block before).
-    """
-    moves = list(job.program.moves)
-    if not len(samples) or not moves or not blocks:
-        return np.zeros(0)
-    n = job.machine.axes
-    cycles, pts = samples[:, 0], samples[:, 1 + n:1 + 2 * n]  # the actual positions
-    move_of = {it.index: k for k, it in enumerate(moves)}
-    block_move = np.array([move_of[index] for index, _ in blocks])
-    running = np.searchsorted([start for _, start in blocks], cycles, side="right") - 1
-    # Each sample against the move of the block running at its cycle and of its neighbours,
-    # as (sample, move) pairs grouped by move (one stable sort: linear in the samples and
-    # the moves, where a mask per move would be their product).
-    samples_of, move = [], []
-    for shift in (-1, 0, 1):
-        idx = running + shift
-        valid = np.flatnonzero((idx >= 0) & (idx < len(block_move)))
-        samples_of.append(valid)
-        move.append(block_move[idx[valid]])
-    samples_of, move = np.concatenate(samples_of), np.concatenate(move)
-    order = np.argsort(move, kind="stable")
-    samples_of, move = samples_of[order], move[order]
-    best = np.full(len(pts), np.inf)
-    for group in np.split(np.arange(len(move)), np.flatnonzero(np.diff(move)) + 1):
-        if len(group):
-            near = samples_of[group]
-            best[near] = np.minimum(best[near], _distance(moves[move[group[0]]], pts[near]))
-    # Samples before the first block: distance to the start point.
-    before = ~np.isfinite(best)
-    best[before] = _norm(pts[before] - np.array(moves[0].start, dtype=float))
-    return best
+    """Distance of each of a run's samples' actual position to the programmed path (LSB):
+    :meth:`ContourMeter.errors` of all of them at once."""
+    return ContourMeter(job, blocks).errors(samples)
 
 
 def contour_summary(job: Job, blocks: Sequence[BlockStart], store: SampleStore,
                     leaf: int = CHUNK_ROWS) -> tuple[float, float]:
     """The largest and the root-mean-square contour error of the samples in ``store`` (LSB),
-    reading at most ``leaf`` samples at a time.
+    reading at most ``leaf`` samples at a time, in order.
 
     The sum of squares is split as numpy's pairwise summation splits one array (halves rounded
     down to a multiple of 8) down to ranges of at most ``leaf`` samples, each summed by numpy:
     the mean is the one ``np.mean`` gives for the whole run's errors at once, bit for bit.
     """
     peak = 0.0
+    meter = ContourMeter(job, blocks)
 
     def total(start: int, stop: int) -> float:
         nonlocal peak
         if stop - start <= leaf:
-            errors = contour_errors(job, blocks, store.read(start, stop))
+            errors = meter.errors(store.read(start, stop))
             if not errors.size:  # no block ran: no contour
                 return 0.0
             peak = max(peak, float(errors.max()))

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from k37.firmware_model.job import Job
-from k37.sim.run.contour import BlockStart, contour_errors
+from k37.sim.run.contour import BlockStart, ContourMeter
 from k37.sim.run.sampler import CHUNK_ROWS, SampleStore
 
 __all__ = ["PLOT_BUCKETS", "BlockContour", "PlotData", "plot_data"]
@@ -94,10 +94,11 @@ def plot_data(job: Job, blocks: Sequence[BlockStart], store: SampleStore,
     bucket = max(1, -(-store.rows // (buckets or PLOT_BUCKETS)))
     step = bucket * max(1, CHUNK_ROWS // bucket)
     per_block = BlockContour([start for _, start in blocks])
+    meter = ContourMeter(job, blocks)
     rows, low, high = [], [], []
     for start in range(0, store.rows, step):
         chunk = store.read(start, start + step)
-        errors = contour_errors(job, blocks, chunk)
+        errors = meter.errors(chunk)
         if not errors.size:
             errors = np.zeros(len(chunk))
         per_block.add(chunk[:, 0], errors)

@@ -37,11 +37,11 @@ def contour_error_mm(gcode: str, controller: str, servo=TABLE1, block: int | Non
     chosen = blocks if block is None else [blocks[block]]
     start, end = chosen[0]["start_cycle"], chosen[-1]["end_cycle"]
     start += after * (end - start)
-    samples = run.samples[(run.samples[:, 0] >= start) & (run.samples[:, 0] <= end)]
+    chosen = (run.samples[:, 0] >= start) & (run.samples[:, 0] <= end)
     if curve is not None:
-        return curve.nearest(samples[:, 3:5] * MACHINE.lsb_mm)[1]
+        return curve.nearest(run.samples[chosen, 3:5] * MACHINE.lsb_mm)[1]
     return contour_errors(job, [(b["index"], b["start_cycle"]) for b in blocks],
-                          samples) * MACHINE.lsb_mm
+                          run.samples)[chosen] * MACHINE.lsb_mm  # the tool tracked from the start
 
 
 #: A circle of radius 20 mm, entered along its tangent.

@@ -4,7 +4,6 @@ faults reported when they happen, memory flat in the run's length."""
 
 from __future__ import annotations
 
-import bisect
 import io
 import json
 import math
@@ -23,7 +22,6 @@ import pytest
 from k37.firmware_model.feeds import FirmwareError, check_program
 from k37.firmware_model.firmware import TIMER_TICK_SECONDS
 from k37.firmware_model.job import MachineConfig, RunConfig, demo_job
-from k37.firmware_model.motion.program import Arc
 from k37.sim.cli import main
 from k37.sim.link.simulated import SimulatedLink
 from k37.sim.run import runner
@@ -327,46 +325,6 @@ def test_contour_error_streamed_in_chunks_equals_the_whole_arrays_bit_for_bit(ma
     expected = (float(whole.max()), float(math.sqrt(np.mean(whole**2))))
     for leaf in (100, 1000, CHUNK_ROWS):
         assert contour_summary(job, blocks, store, leaf=leaf) == expected
-
-
-def test_contour_error_is_the_distance_to_the_nearest_of_the_running_blocks_moves(make_job):
-    """Against a plain per-sample reference: the least distance to the moves of the block
-    running at the sample's cycle and of the blocks just before and after it."""
-    job = make_job("G21 G90 F600\nG01 X2\nG02 X4 Y0 I1 J0\nG01 Y-1\nG03 X3 Y-2 I-1 J0\n"
-                   "G01 X0 Y0\nM30")
-    moves = list(job.program.moves)
-    blocks = [(move.index, start) for move, start in zip(moves, (100, 40_000, 90_000, 120_000,
-                                                                 150_000), strict=True)]
-    rng = np.random.default_rng(7)
-    n = 3000
-    raw = np.zeros((n, len(TRACE_COLUMNS)), dtype=np.int64)
-    raw[:, 0] = np.sort(rng.integers(0, 200_000, n))
-    raw[:, 3] = rng.integers(-500, 4500, n)
-    raw[:, 4] = rng.integers(-2500, 1500, n)
-    errors = contour_errors(job, blocks, raw)
-
-    def point_distance(move, x: float, y: float) -> float:
-        if isinstance(move, Arc):
-            angle = math.atan2(y - move.center[1], x - move.center[0])
-            a0, sweep = move.span
-            off = ((a0 - angle) if move.cw else (angle - a0)) % (2 * math.pi)
-            if off <= sweep:
-                return abs(math.hypot(x - move.center[0], y - move.center[1]) - move.radius)
-            return min(math.dist((x, y), move.start[:2]), math.dist((x, y), move.end[:2]))
-        (ax, ay), (bx, by) = move.start[:2], move.end[:2]
-        length2 = (bx - ax) ** 2 + (by - ay) ** 2
-        t = min(1.0, max(0.0, ((x - ax) * (bx - ax) + (y - ay) * (by - ay)) / length2))
-        return math.hypot(x - ax - t * (bx - ax), y - ay - t * (by - ay))
-
-    starts = [start for _, start in blocks]
-    for (cycle, x, y), error in zip(raw[:, [0, 3, 4]], errors, strict=True):
-        running = bisect.bisect_right(starts, cycle) - 1
-        if running < 0:
-            expected = math.dist((x, y), moves[0].start[:2])
-        else:
-            expected = min(point_distance(moves[k], x, y)
-                           for k in (running - 1, running, running + 1) if 0 <= k < len(moves))
-        assert error == pytest.approx(expected, abs=1e-6)
 
 
 def test_trace_csv_is_written_from_the_store_chunk_by_chunk(tmp_path, monkeypatch):
