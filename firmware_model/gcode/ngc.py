@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import contextlib
 import re
+from dataclasses import replace
 from decimal import Decimal
 from typing import Protocol
 
@@ -270,6 +271,12 @@ class _Runner:
 
     def call(self, i: int) -> None:
         o = self.statement(i)
+        if o.label_node is not None:
+            number = self.value(i, o.label_node)
+            if number != int(number) or number < 0:
+                raise NgcError(i + 1, o.col, f"o{o.label} call: the O-word number "
+                                             f"{_shown(number)} is not a whole number >= 0")
+            o = replace(o, label=str(int(number)), label_node=None)
         sub = self.subs.get(o.label)
         if sub is None:
             raise NgcError(i + 1, o.col, f"{o_name(o.label)} call: the program has no "
