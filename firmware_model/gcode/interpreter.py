@@ -480,11 +480,11 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
     def centre_from_radius(self, r: Word, start, target, first: int, second: int,
                            cw: bool) -> list[int]:
         """RS-274's R form: the centre on the chord's bisector, left of the chord for CCW,
-        right for CW (R < 0: the other side, the arc over 180 degrees)."""
+        right for CW (R < 0: the other side, the arc over 180 degrees). A centre beyond the
+        K3701's registers runs as chords, as an I/J arc's."""
         sx, sy = start[first], start[second]
         ex, ey = target[first], target[second]
         radius = self.lsb(r.value)
-        self.check_range(r, radius, "the radius")
         chord = math.hypot(ex - sx, ey - sy)
         if chord == 0:
             raise BlockError(r.col, f"{r.text}: an R-form arc cannot be a full circle (use I/J/K)")

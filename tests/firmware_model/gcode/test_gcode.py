@@ -413,6 +413,17 @@ def test_an_arc_beyond_the_24_bit_registers_runs_as_chords_within_the_tolerance(
                              "registers",)
 
 
+def test_an_r_form_arc_beyond_the_24_bit_registers_runs_as_its_i_j_twin_does():
+    program = parse("G21 G90 F100\nG02 X20 Y0 R10000\nM30", source="r.ngc")
+    centre = (10_000, -round(math.sqrt(10_000_000**2 - 10_000**2)))
+    twin = parse(f"G21 G90 F100\nG02 X20 Y0 I10 J{centre[1] / 1000}\nM30", source="r.ngc")
+    assert all(isinstance(m, Line) for m in program.moves)
+    assert [m.end for m in program.moves] == [m.end for m in twin.moves]
+    assert program.moves[-1].end == (20_000, 0)
+    assert max(_chord_errors(program, centre, 10_000_000)) <= 28
+    assert program.notes == twin.notes != ()
+
+
 def test_a_helix_steeper_than_the_chips_runs_as_chords_ending_exactly():
     # a ramp: R 0.5 mm, 5 mm down in one turn (the K3701's helix moves Z at most once per step)
     program = parse("G21 G90 F500\nG03 X0 Y0 I0.5 J0 Z-5\nM30", source="ramp.ngc", axes=3)
