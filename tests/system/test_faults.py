@@ -308,6 +308,23 @@ def test_a_program_beyond_the_size_limit_is_refused(tmp_path, monkeypatch, capsy
     _one_error(capsys.readouterr().err, "more than the 1,000 bytes a job or program may have")
 
 
+@pytest.mark.parametrize("text", ["", "(only a comment)\n; and another\n", "%\nM30\n%\n",
+                                  "G21 G90 F100 S1000 M3\nG0 X0 Y0\nM5 M30\n"])
+@pytest.mark.parametrize("command", ["plan", "run"])
+def test_a_program_without_motion_is_one_error_naming_the_file(tmp_path, capsys, text,
+                                                                command):
+    (tmp_path / "still.ngc").write_text(text)
+    assert main([command, str(tmp_path / "still.ngc"), "-q"][:2 if command == "plan" else 3]
+                ) == 2
+    _one_error(capsys.readouterr().err, f"{tmp_path / 'still.ngc'}: no motion in the program")
+
+
+def test_an_inline_program_without_motion_names_the_job(tmp_path, capsys):
+    (tmp_path / "still.toml").write_text('[program]\ngcode = "M30"\n')
+    assert main(["plan", str(tmp_path / "still.toml")]) == 2
+    _one_error(capsys.readouterr().err, "still.toml:program.gcode: no motion in the program")
+
+
 def test_a_program_read_from_stdin_plans(monkeypatch, capsys):
     import io
 
