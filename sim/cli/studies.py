@@ -73,7 +73,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
                   inputs=[args.study, study.base_path, *study.inputs]):
         return 2
     try:
-        path = sweep(study, out, jobs=args.jobs, scheduler=args.scheduler, report=progress)
+        path = sweep(study, out, jobs=args.jobs, scheduler=args.scheduler, report=progress,
+                     retry_errors=args.retry_errors)
     except (JobError, SweepError) as e:
         print_error(e)
         return 2
@@ -178,7 +179,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("study", help="study file (.toml)")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="folder for results.csv and results.parquet (runs already there are "
-                        "skipped)")
+                        "skipped, but for those that failed outside their job)")
+    p.add_argument("--retry-errors", action="store_true",
+                   help="run again every run whose row in DIR has status error")
     p.add_argument("-j", "--jobs", type=positive_int, default=os.cpu_count() or 1,
                    help="local worker processes (default: one per core)")
     p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
