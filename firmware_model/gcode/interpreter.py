@@ -1,6 +1,7 @@
 """The built-in front end's interpreter: modal state, and each block's words in RS-274's
-order (:mod:`k37.firmware_model.gcode.parser` reads a program through it). Splines, canned
-cycles and work offsets are in :mod:`k37.firmware_model.gcode.spline_motions`,
+order (:mod:`k37.firmware_model.gcode.parser` reads a program through it). Splines, parabolas
+and exponentials, canned cycles and work offsets are in
+:mod:`k37.firmware_model.gcode.spline_motions`, :mod:`k37.firmware_model.gcode.curve_motions`,
 :mod:`k37.firmware_model.gcode.cycles` and :mod:`k37.firmware_model.gcode.offsets`."""
 
 from __future__ import annotations
@@ -10,8 +11,10 @@ from collections.abc import Mapping
 from decimal import ROUND_HALF_UP, Decimal
 
 from k37.firmware_model.gcode.block_words import BlockError, BlockWords, g_name
+from k37.firmware_model.gcode.curve_motions import CurveMotions
 from k37.firmware_model.gcode.cycles import CannedCycles
 from k37.firmware_model.gcode.lex import Word
+from k37.firmware_model.gcode.modal_state import ModalState
 from k37.firmware_model.gcode.offsets import SYSTEMS, Offsets
 from k37.firmware_model.gcode.spline_motions import SplineMotions
 from k37.firmware_model.gcode.units import (
@@ -29,7 +32,7 @@ from k37.hdl.k3701.block import COORD_MAX
 __all__ = ["Interpreter"]
 
 
-class Interpreter(SplineMotions, CannedCycles, Offsets):
+class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState):
     """The modal state of a program being read, and what each block does with it."""
 
     def __init__(self, planner: Planner, *, lsb_mm: float, tolerance: float | None,
@@ -70,6 +73,7 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
         self.exact: list[Decimal | None] = [None, None, None]
         #: What the last :meth:`target` computed, kept by :meth:`keep_exact` once it is run.
         self.pending_exact: list[Decimal | None] = [None, None, None]
+        self.init_modal_state()
 
     # -- helpers ----------------------------------------------------------------------------
 
@@ -156,6 +160,7 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
 
     def event(self, w: Word, kind: str, value: float | None = None) -> None:
         self.planner.event(self.line_no, w.text, kind, value)
+        self.track(kind, value)
 
     # -- one block --------------------------------------------------------------------------
 
@@ -167,8 +172,10 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
         units = b.code("units")
         if units is not None:
             self.inch = units == 200
+        self.feed_mode(b)
         self.feed_word(b)
         self.spindle_tool_coolant(b)
+        self.modal_state(b)
         if "non-modal" in b.g and b.g["non-modal"][0] == 40:
             self.dwell(b)
         elif b.word("P") is not None and not self.takes_p(b):
@@ -228,7 +235,7 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
 
     def feed_word(self, b: BlockWords) -> None:
         f = b.word("F")
-        if f is None:
+        if f is None or self.inverse_time:
             return
         if f.value <= 0:
             raise BlockError(f.col, f"{f.text}: the feed must be positive")
@@ -364,7 +371,9 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
             raise BlockError(axes[0].col, f"{axes[0].text} without a motion mode "
                                            f"(G00/G01/G02/G03)")
         anchor = g[1] if g is not None else axes[0]
-        if self.motion != 0 and self.feed is None:
+        if self.motion not in (0, 10, 20, 30):
+            self.inverse_time_feed(anchor, 0.0)  # refused in G93
+        if self.motion != 0 and self.feed is None and not self.inverse_time:
             raise BlockError(anchor.col, f"{g_name(self.motion)} without a feed rate: program "
                                     f"F first")
         machine = "non-modal" in b.g and b.g["non-modal"][0] == 530
@@ -375,6 +384,8 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
                                                       "coordinates: not in G91")
         if self.motion in (0, 10):
             target = self.target(b, machine=machine, incremental=False if machine else None)
+            if self.motion == 10:
+                self.inverse_time_feed(anchor, math.dist(self.pos, target))
             self.plan(anchor.col, self.planner.line, target,
                       None if self.motion == 0 else self.feed, feed_source=self.feed_source)
             self.keep_exact()
@@ -434,48 +445,13 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
                 else:
                     c = start[axis] + (self.lsb(w.value) if w else 0)
                 centre.append(c)  # beyond the K3701's registers: the planner runs chords
+        if self.inverse_time:
+            self.inverse_time_feed(anchor, self.arc_length((centre[0], centre[1]), target,
+                                                           PLANE_AXES[self.plane], cw))
         self.plan(anchor.col, self.planner.arc, target, (centre[0], centre[1]), self.plane,
                   cw, self.feed, tolerance=self.arc_tolerance(), feed_source=self.feed_source,
                   exact=self.exact_target())
         self.keep_exact()
-
-    def parabola(self, b: BlockWords, anchor: Word) -> None:
-        """G06: the tangent point relative to the start, as an arc's centre (absolute under
-        G90.1)."""
-        if self.plane != 17:
-            raise BlockError(anchor.col, f"G06 in G{self.plane}: parabolas are in the XY "
-                                          f"plane (G17)")
-        if b.word("I") is None and b.word("J") is None:
-            raise BlockError(anchor.col, "G06 needs I and/or J (the tangent point)")
-        target = self.target(b)
-        start = self.pos
-        tangent = []
-        for axis in (0, 1):  # the point as an arc's centre is, from the machine's position
-            w = b.word("IJ"[axis])
-            if self.arc_absolute:
-                point = self.offset(axis) + (self.lsb(w.value) if w else 0)
-            else:
-                point = start[axis] + (self.lsb(w.value) if w else 0)
-            if w is not None:
-                self.check_range(w, point - start[axis], "the tangent point")
-            tangent.append(point - self.planner.position[axis])
-        self.plan(anchor.col, self.planner.parabola, target, (tangent[0], tangent[1]),
-                  self.feed, feed_source=self.feed_source)
-
-    def exponential(self, b: BlockWords, anchor: Word) -> None:
-        """G06.1 (exponential of X) and G06.2 (logarithm: exponential of Y): K the curve's
-        constant, a length along the abscissa (negative: the curve flattens)."""
-        name = g_name(self.motion)
-        if self.plane != 17:
-            raise BlockError(anchor.col, f"{name} in G{self.plane}: exponentials are in the "
-                                          f"XY plane (G17)")
-        k = b.word("K")
-        if k is None:
-            raise BlockError(anchor.col, f"{name} needs K (the curve's constant)")
-        constant = self.lsb(k.value)
-        self.check_range(k, constant, "the curve's constant")
-        self.plan(anchor.col, self.planner.exponential, self.target(b), constant,
-                  self.motion == 62, self.feed, feed_source=self.feed_source)
 
     def centre_from_radius(self, r: Word, start, target, first: int, second: int,
                            cw: bool) -> list[int]:

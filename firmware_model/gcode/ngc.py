@@ -69,6 +69,12 @@ class Host(Protocol):
         """A predefined parameter's value; None: not predefined; raises
         :class:`~k37.firmware_model.gcode.expr.ExprError` for one that is unsupported."""
 
+    def enter_call(self) -> None:
+        """A subroutine call begins (its context for M70-M73)."""
+
+    def leave_call(self) -> None:
+        """The subroutine called last returns."""
+
 
 # -- parameters --------------------------------------------------------------------------------
 
@@ -290,6 +296,7 @@ class _Runner:
         self.params.numbers.update({n + 1: v for n, v in enumerate(args)})
         self.params.scopes.append({})
         self.params.depth += 1
+        self.host.enter_call()
         value: float | None = None
         try:
             self.body(sub.body)
@@ -302,6 +309,7 @@ class _Runner:
             raise NgcError(i + 1, o.col, f"o{jump.label} {jump.kind} leaves the "
                                          f"subroutine") from None
         finally:
+            self.host.leave_call()
             self.params.depth -= 1
             self.params.scopes.pop()
             for n in range(1, 31):

@@ -21,7 +21,7 @@ Predefined parameters (in the program's units):
 ``#<_z>``
 ``#<_metric>`` ...        ``_metric _imperial _absolute _incremental _feed
                           _motion_mode _plane _coord_system _current_tool
-                          _selected_tool``
+                          _selected_tool _rpm``
 ========================  ==========================================================
 
 Offsets are in the program's units (LinuxCNC gives them in its machine units).
@@ -65,6 +65,7 @@ class Modal(Protocol):
     g5x: dict[int, list[int]]
     tool_offset: int
     coordinate_system: int
+    speed: float
     lsb_size: Decimal
     end: bool
     line_no: int
@@ -85,6 +86,10 @@ class Modal(Protocol):
     def block(self, words: list[Word]) -> None: ...
 
     def recover(self, words: list[Word]) -> None: ...
+
+    def enter_call(self) -> None: ...
+
+    def leave_call(self) -> None: ...
 
 
 class PolarError(ValueError):
@@ -230,7 +235,7 @@ class State:
             "_feed": 0.0 if m.feed is None else m.feed / (25.4 if m.inch else 1.0),
             "_motion_mode": 800.0 if m.motion is None else float(m.motion),
             "_plane": float(m.plane * 10), "_coord_system": float(m.coordinate_system),
-            "_current_tool": float(m.tool or 0),
+            "_current_tool": float(m.tool or 0), "_rpm": m.speed,
             "_selected_tool": -1.0 if m.selected is None else float(m.selected),
         }
         if name in values:
@@ -292,3 +297,9 @@ class InterpreterHost:
 
     def predefined(self, key: int | str, col: int) -> float | None:
         return self.state.predefined(key, col)
+
+    def enter_call(self) -> None:
+        self.modal.enter_call()
+
+    def leave_call(self) -> None:
+        self.modal.leave_call()

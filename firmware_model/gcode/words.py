@@ -97,8 +97,11 @@ G_CODES: dict[int, Code] = {
     _g(91.1): Code("arc distance", "I/J/K relative to the arc's start (the default)"),
     _g(92): Code("non-modal", "offset the coordinates so the current point is the given one"),
     _g(92.1): Code("non-modal", "clear the G92 offset"),
-    _g(94): Code("feed mode", "feed in units per minute (the only feed mode; G93 inverse "
-                              "time is refused)"),
+    _g(93): Code("feed mode", "inverse time: each G01-G03 block's F is the inverse of its "
+                              "time in minutes (its feed: F times its length); F is needed on "
+                              "each such block"),
+    _g(94): Code("feed mode", "feed in units per minute (the initial mode); a change of feed "
+                              "mode forgets the feed"),
     _g(98): Code("retract", "canned cycles retract to the Z before the cycle (or R if higher)"),
     _g(99): Code("retract", "canned cycles retract to R (the initial mode, as rs274's)"),
 }
@@ -117,6 +120,13 @@ M_CODES: dict[int, Code] = {
     7: Code("coolant", "mist coolant on (recorded)", "coolant_mist"),
     8: Code("coolant", "flood coolant on (recorded)", "coolant_flood"),
     9: Code("coolant", "coolant off (recorded)", "coolant_off"),
+    70: Code("modal state", "save the modal state (units, plane, distance modes, feed mode "
+                            "and feed, coordinate system, tool length offset, retract mode, "
+                            "spindle, coolant) in the current call"),
+    71: Code("modal state", "forget the state M70 saved in the current call"),
+    72: Code("modal state", "restore the state saved in the current call (units first)"),
+    73: Code("modal state", "save the modal state and restore it when the subroutine "
+                            "returns"),
 }
 
 LETTERS: dict[str, str] = {
@@ -143,7 +153,6 @@ LETTERS: dict[str, str] = {
 REFUSED_G: dict[int, str] = {
     **dict.fromkeys((410, 411, 420, 421), "cutter radius compensation is unsupported: K37 "
                                           "runs the programmed path (compensate in the CAM)"),
-    930: "inverse time feed is unsupported: K37 takes feeds in units per minute (G94)",
     **dict.fromkeys((382, 383, 384, 385), "probing is unsupported: K37 has no probe input"),
     **dict.fromkeys((431, 432), "dynamic tool length offsets (tool-length sensing) are "
                                 "unsupported: lengths come from the job's program.tools"),
@@ -154,7 +163,6 @@ REFUSED_M: dict[tuple[int, int], str] = {
     (100, 199): "user M-codes (M100-M199) are unsupported: K37 runs no external programs",
     (61, 61): "M61 (setting the loaded tool) is unsupported: M06 loads the selected T",
     (62, 68): "digital and analog I/O (M62-M68) is unsupported: the K3701 has no such ports",
-    (70, 73): "saving and restoring modal state (M70-M73) is unsupported",
 }
 
 #: The RS-274/NGC language the front end evaluates before the words above act

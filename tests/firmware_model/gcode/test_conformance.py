@@ -37,7 +37,6 @@ LINUXCNC_NCFILES = next((p for p in (Path("/usr/share/linuxcnc/ncfiles"),
                                      Path("/usr/share/doc/linuxcnc/examples/nc_files"))
                          if p.is_dir()), Path("/usr/share/linuxcnc/ncfiles"))
 _COMP = "cutter radius compensation is unsupported"
-_M70 = "saving and restoring modal state (M70-M73) is unsupported"
 _POLAR = "polar coordinates (@, ^) are for G00 and G01 moves"
 _SET = "is the interpreter's: setting it (offsets, tool data) is unsupported"
 #: Every example program ``rs274`` accepts, and what the built-in front end does with it:
@@ -46,12 +45,13 @@ LINUXCNC_EXAMPLES: dict[str, str | None] = {
     # programs that move
     "3D_Chips.ngc": None, "3dtest.ngc": None, "arcspiral.ngc": None, "cds.ngc": None,
     "flowsnake.ngc": None, "plasmatest.ngc": None, "skeleton.ngc": None, "spiral.ngc": None,
-    "tort.ngc": None,
+    "tort.ngc": None, "toplevel.ngc": None,
     # subroutine and remap files: parameters, messages and calls, no motion
     "factorial.ngc": None, "g20sub.ngc": None, "g881.ngc": None, "g881min.ngc": None,
     "g882.ngc": None, "m250.ngc": None, "m61demo.ngc": None, "m6demo.ngc": None,
     "m6remap.ngc": None, "m75.ngc": None, "m76.ngc": None, "retval.ngc": None,
     "roparams.ngc": None, "testm6fail.ngc": None, "touchoff.ngc": None,
+    "m70m72-demo.ngc": None, "m73-demo.ngc": None,
     # refused, naming what K37 does not have
     "b-index.ngc": "unsupported word B0 (K37's axes are X, Y and Z)",
     "daisy.ngc": "unsupported word A0 (K37's axes are X, Y and Z)",
@@ -61,7 +61,6 @@ LINUXCNC_EXAMPLES: dict[str, str | None] = {
     "gmoccapy_2_tools_with_cutter_radius_compensation.ngc": _COMP,
     "gridprobe.ngc": "probing is unsupported", "smartprobe.ngc": f"#5070 {_SET}",
     "offsets.ngc": f"#5599 {_SET}", "hole-circle.ngc": _POLAR, "polar.ngc": _POLAR,
-    "m70m72-demo.ngc": _M70, "m73-demo.ngc": _M70, "toplevel.ngc": _M70,
     "lathe_g70_71_demo.ngc": "G71.1 is unsupported", "lathe_g7x_face_boring.ngc":
     "G72 is unsupported", "lathe_g7x_quadrants.ngc": "G70 is unsupported",
     "lathe_pawn.ngc": "G8 is unsupported", "threading.ngc": "G33 is unsupported",

@@ -308,8 +308,8 @@ def test_motion_errors_name_line_and_column(text, message):
     ("G01 X1E3", "1:7: unsupported word E3"),
     ("G01 X1 A3", "1:8: unsupported word A3 (K37's axes are X, Y and Z)"),
     ("#1 = [2", "1:8: expression not closed: ']' missing"),
-    ("G93", "1:1: G93: inverse time feed is unsupported: K37 takes feeds in units per minute "
-            "(G94)"),
+    ("G95", "1:1: G95 is unsupported"),
+    ("G33 Z-1 K1", "1:1: G33 is unsupported"),
     ("G41 D1", "1:1: G41: cutter radius compensation is unsupported: K37 runs the programmed "
                "path (compensate in the CAM)"),
     ("G01 X", "1:5: word X has no number"),
