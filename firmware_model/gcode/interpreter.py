@@ -12,7 +12,7 @@ from decimal import ROUND_HALF_UP, Decimal
 
 from k37.firmware_model.gcode.block_words import BlockError, BlockWords, g_name
 from k37.firmware_model.gcode.curve_motions import CurveMotions
-from k37.firmware_model.gcode.cycles import CannedCycles
+from k37.firmware_model.gcode.cycles import CYCLES, CannedCycles
 from k37.firmware_model.gcode.lex import Word
 from k37.firmware_model.gcode.modal_state import ModalState
 from k37.firmware_model.gcode.offsets import SYSTEMS, Offsets
@@ -61,6 +61,8 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
         self.tool: int | None = None
         self.cycle: dict[str, Decimal] = {}
         self.cycle_planes: tuple[int, int, int] | None = None
+        #: The Z where the canned cycles since the last other motion mode began (LSB).
+        self.cycle_il: int | None = None
         self.line_no = 0
         #: The G05.2 NURBS being read: control points (LSB), weights, order, its G05.2 word
         #: and line.
@@ -342,8 +344,8 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
         order = b.word("L")
         g10 = b.code("non-modal") == 100
         if order is not None and not g10 and (g is None or g[0] != 52 or self.nurbs is not None):
-            raise BlockError(order.col, f"{order.text}: L is only for G05.2 (a NURBS's order) "
-                                        f"and G10")
+            raise BlockError(order.col, f"{order.text}: L is only for G05.2 (a NURBS's order), "
+                                        f"G10 and canned cycles (repeats)")
         if self.nurbs is not None or (g is not None and g[0] in (52, 53)):
             for letter in "IJKRQ":
                 w = b.word(letter)
@@ -354,6 +356,7 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
         if g is not None:
             if g[0] != self.motion:
                 self.cycle, self.cycle_planes = {}, None
+                self.cycle_il = self.cycle_il if g[0] in CYCLES else None
             self.motion = None if g[0] == 800 else g[0]
         if "non-modal" in b.g and b.g["non-modal"][0] in (100, 280, 300, 520, 920):
             return  # their axis words are theirs

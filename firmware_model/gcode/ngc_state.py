@@ -36,6 +36,7 @@ import math
 from decimal import Decimal
 from typing import Protocol
 
+from k37.firmware_model.gcode.cycles import CYCLES, cycle_repeats
 from k37.firmware_model.gcode.expr import ExprError
 from k37.firmware_model.gcode.lex import Word
 from k37.firmware_model.gcode.offsets import SYSTEMS, system_number
@@ -152,9 +153,9 @@ class State:
             raise PolarError(first.col, "polar coordinates (@, ^) and X or Y in one block")
         keys = [code_key(w.value) for w in words if w.letter == "G"]
         motion = next((k for k in keys if k in _MOTION), self.modal.motion)
-        if 530 in keys or motion not in (0, 10):
+        if 530 in keys or (motion not in (0, 10) and motion not in CYCLES):
             raise PolarError(first.col, "polar coordinates (@, ^) are for G00 and G01 moves "
-                                        "(not G53, arcs or canned cycles)")
+                                        "and canned cycles (not G53 or arcs)")
         if {200, 210} & set(keys):
             raise PolarError(first.col, "polar coordinates and G20/G21 in one block: change "
                                         "the units on a line before")
@@ -271,9 +272,12 @@ class InterpreterHost:
     def execute(self, line: int, words: list[Word]) -> None:
         self.modal.line_no = line
         try:
-            words = self.state.polar(words)
-            self.modal.block(words)
-            self.state.after()
+            words, again, repeats = cycle_repeats(words, self.modal.motion,
+                                                  self.modal.incremental)
+            for block in [words, *[again] * repeats]:  # a canned cycle's L repeats
+                words = self.state.polar(block)
+                self.modal.block(words)
+                self.state.after()
         except (self.block_error, PolarError) as e:
             self.modal.recover(words)
             self.state.forget()

@@ -102,7 +102,8 @@ G_CODES: dict[int, Code] = {
                               "each such block"),
     _g(94): Code("feed mode", "feed in units per minute (the initial mode); a change of feed "
                               "mode forgets the feed"),
-    _g(98): Code("retract", "canned cycles retract to the Z before the cycle (or R if higher)"),
+    _g(98): Code("retract", "canned cycles retract to the Z where they began (the initial "
+                            "level, kept until another motion mode; or R if higher)"),
     _g(99): Code("retract", "canned cycles retract to R (the initial mode, as rs274's)"),
 }
 
@@ -146,7 +147,8 @@ LETTERS: dict[str, str] = {
     "P": "dwell seconds (G04, G82); G64's tolerance (ignored); G05: second control point "
          "along X; G05.2: a control point's weight; G10: the coordinate system",
     "Q": "peck depth (G83); G64's tolerance (ignored); G05: second control point along Y",
-    "L": "order of a G05.2 NURBS (default 3); G10's form (L2, L20)",
+    "L": "order of a G05.2 NURBS (default 3); G10's form (L2, L20); canned cycles: repeats "
+         "of the block (G91: each moved by X/Y or a polar step; G90: the same hole)",
 }
 
 #: G codes refused with a reason (by table key).
@@ -183,7 +185,8 @@ NGC_LANGUAGE: dict[str, str] = {
                                           "`[..]` to `#1`-`#30`, a value to `#<_value>`",
     "`o.. while`/`do`/`repeat`/`if`/`elseif`/`else`/`break`/`continue`": "control flow, "
                                                                          "numbered or named",
-    "`@`, `^`": "polar radius and angle (degrees) for G00/G01, as LinuxCNC",
+    "`@`, `^`": "polar radius and angle (degrees) for G00/G01 and canned cycles (with L, "
+                "a bolt circle: `G91 G81 ^60 L6`), as LinuxCNC",
     "`(MSG,..)`, `(DEBUG,..)`, `(PRINT,..)`": "program events (DEBUG and PRINT with "
                                               "parameter values)",
 }

@@ -257,7 +257,7 @@ def test_polar_steps_in_g91_do_not_add_up_roundings():
 def test_polar_coordinates_with_x_or_an_arc_are_errors():
     assert error_of("G0 @1 X1") == "t.ngc:1:4: polar coordinates (@, ^) and X or Y in one block"
     assert error_of("G2 @1 ^3 F1") == ("t.ngc:1:4: polar coordinates (@, ^) are for G00 and G01 "
-                                       "moves (not G53, arcs or canned cycles)")
+                                       "moves and canned cycles (not G53 or arcs)")
 
 
 def test_msg_and_debug_comments_are_events_with_values():
