@@ -12,6 +12,7 @@ from decimal import ROUND_HALF_UP, Decimal
 
 from k37.firmware_model.gcode.block_words import BlockError, BlockWords, g_name
 from k37.firmware_model.gcode.curve_motions import CurveMotions
+from k37.firmware_model.gcode.cutter_comp import CutterComp
 from k37.firmware_model.gcode.cycles import CYCLES, CannedCycles
 from k37.firmware_model.gcode.lex import Word
 from k37.firmware_model.gcode.modal_state import ModalState
@@ -32,7 +33,7 @@ from k37.hdl.k3701.block import COORD_MAX
 __all__ = ["Interpreter"]
 
 
-class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState):
+class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState, CutterComp):
     """The modal state of a program being read, and what each block does with it."""
 
     def __init__(self, planner: Planner, *, lsb_mm: float, tolerance: float | None,
@@ -76,6 +77,7 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
         #: What the last :meth:`target` computed, kept by :meth:`keep_exact` once it is run.
         self.pending_exact: list[Decimal | None] = [None, None, None]
         self.init_modal_state()
+        self.init_cutter_comp()
 
     # -- helpers ----------------------------------------------------------------------------
 
@@ -154,6 +156,10 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
         return self.pos[axis] if incremental else (0 if machine else self.offset(axis))
 
     def plan(self, col: int, call, *args, **kwargs) -> None:
+        if self.comp_side and self.comp_radius > 0:  # D0: the path as programmed
+            self.comp_move(col, call, args, kwargs)
+            self.move_tool_offset = self.tool_offset
+            return
         try:
             call(self.line_no, *args, **kwargs)
         except PlanError as e:
@@ -185,6 +191,7 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
             raise BlockError(p.col, f"{p.text}: P is only for G04 (dwell), G10, G82, G64 and "
                                     f"arcs")
         self.modal_settings(b)
+        self.cutter_mode(b)
         self.non_modal(b)
         self.motion_of(b)
         if "tool change" in b.m:
@@ -192,6 +199,7 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
         if "stop" in b.m:
             key, w = b.m["stop"]
             if key in (2, 30):
+                self.comp_off()
                 self.end = True
             else:
                 self.event(w, M_CODES[key].event)
@@ -435,7 +443,8 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
         if r is not None:
             if self.has_offsets(b):
                 raise BlockError(r.col, f"{r.text}: an arc takes R or centre offsets, not both")
-            centre = self.centre_from_radius(r, start, target, first, second, cw)
+            centre = [round(c) for c in self.centre_from_radius(r, start, target, first,
+                                                                 second, cw)]
         elif not self.has_offsets(b):
             raise BlockError(anchor.col, f"{name} needs {OFFSET_LETTERS[first]} and/or "
                                     f"{OFFSET_LETTERS[second]} (the centre offsets) or R")
@@ -448,6 +457,8 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
                 else:
                     c = start[axis] + (self.lsb(w.value) if w else 0)
                 centre.append(c)  # beyond the K3701's registers: the planner runs chords
+        if self.comp_side:
+            self.comp_arc_centre = self.comp_centre(b, r, first, second, cw)
         if self.inverse_time:
             self.inverse_time_feed(anchor, self.arc_length((centre[0], centre[1]), target,
                                                            PLANE_AXES[self.plane], cw))
@@ -457,7 +468,7 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
         self.keep_exact()
 
     def centre_from_radius(self, r: Word, start, target, first: int, second: int,
-                           cw: bool) -> list[int]:
+                           cw: bool) -> tuple[float, float]:
         """RS-274's R form: the centre on the chord's bisector, left of the chord for CCW,
         right for CW (R < 0: the other side, the arc over 180 degrees). A centre beyond the
         K3701's registers runs as chords, as an I/J arc's."""
@@ -473,4 +484,4 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
         h = math.sqrt(max(0.0, radius * radius - chord * chord / 4))
         side = (1 if cw else -1) * (1 if radius > 0 else -1)
         ux, uy = (ex - sx) / chord, (ey - sy) / chord
-        return [round((sx + ex) / 2 + side * h * uy), round((sy + ey) / 2 - side * h * ux)]
+        return (sx + ex) / 2 + side * h * uy, (sy + ey) / 2 - side * h * ux

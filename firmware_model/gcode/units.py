@@ -31,8 +31,7 @@ G83_CLEARANCE_MM = Decimal("0.254")
 
 HINTS = {**dict.fromkeys("ABC", " (K37's axes are X, Y and Z)"),
           **dict.fromkeys("UVW", " (K37's axes are X, Y and Z)"),
-          "D": " (no cutter radius compensation: G40 only)",
-          "L": " (no G10 or canned-cycle repeats)", "E": ""}
+          "E": ""}
 #: What R and Q are for (in the error for one used elsewhere).
 USES = {"R": "arcs and canned cycles", "Q": "G83 (peck depth) and G64"}
 OFFSET_LETTERS = "IJK"

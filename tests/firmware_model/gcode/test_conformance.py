@@ -9,7 +9,8 @@ motion end points of K37's plan (where the K3701 really stops) must equal ``rs27
 canonical end points within 1 LSB on every axis (in G20 programs, 1 LSB plus ``rs274``'s
 rounding of its output to 0.0001 in). Where ``rs274`` is not installed the comparison is
 skipped, saying so. Slow tests do the same on random programs (moves, I/J and R arcs,
-drilling, mode changes; work offsets; inverse time, M70-M73 and bolt circles).
+drilling, mode changes; work offsets; inverse time, M70-M73 and bolt circles; cutter
+radius compensation).
 ``python -m tests.firmware_model.gcode.test_conformance`` prints the corpus table.
 """
 
@@ -36,7 +37,7 @@ FILES = sorted(p for p in CORPUS.iterdir() if p.is_file())
 LINUXCNC_NCFILES = next((p for p in (Path("/usr/share/linuxcnc/ncfiles"),
                                      Path("/usr/share/doc/linuxcnc/examples/nc_files"))
                          if p.is_dir()), Path("/usr/share/linuxcnc/ncfiles"))
-_COMP = "cutter radius compensation is unsupported"
+_COMP = "cutter radius compensation from a tool table is unsupported"
 _SET = "is the interpreter's: setting it (offsets, tool data) is unsupported"
 #: Every example program ``rs274`` accepts, and what the built-in front end does with it:
 #: None, it runs it as ``rs274`` does; else the unsupported feature its error names.
@@ -315,6 +316,35 @@ def test_random_inverse_time_modal_state_and_bolt_circles_run_as_rs274_runs_them
         theirs = programmed_ends(parse_linuxcnc(text, axes=3, tools=TOOLS), targets=True)
     except GcodeError:
         return  # rs274 refuses it (an M72 with nothing saved, an R arc too short...)
+    assert_ends_as_rs274s(text, theirs, tolerance_lsb(text))
+
+
+def random_comp_program(rng: random.Random) -> str:
+    """A random path of lines, arcs and helices under G41.1/G42.1, with its entry and exit."""
+    def num(low: float = -30, high: float = 30) -> str:
+        return f"{rng.uniform(low, high):.{rng.choice([0, 1, 3])}f}"
+
+    lines = [f"{rng.choice(['G20', 'G21'])} G90 G17 F100", f"G0 X{num()} Y{num()} Z1",
+             f"{rng.choice(['G41.1', 'G42.1'])} D{rng.choice(['0.5', '1', '2', '3.175'])}",
+             f"G1 X{num()} Y{num()} Z0"]
+    for _ in range(rng.randint(2, 8)):
+        lines.append(rng.choice([
+            f"G1 X{num()} Y{num()}", f"G{rng.choice('23')} X{num()} Y{num()} R{num(15, 40)}",
+            f"G91 G1 X{num(-10, 10)} Y{num(-10, 10)}\nG90",
+            f"G{rng.choice('23')} X{num()} Y{num()} Z{num(-2, 0)} R{num(20, 40)}"]))
+    return "\n".join([*lines, f"G40 G1 X{num()} Y{num()}", "M2"])
+
+
+@pytest.mark.slow
+@NEEDS_RS274
+@settings(max_examples=80, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**32))
+def test_random_compensated_paths_run_as_rs274_runs_them(seed):
+    text = random_comp_program(random.Random(seed))
+    try:
+        theirs = programmed_ends(parse_linuxcnc(text, axes=3, tools=TOOLS), targets=True)
+    except GcodeError:
+        return  # rs274 refuses it (gouging, an R arc too short...)
     assert_ends_as_rs274s(text, theirs, tolerance_lsb(text))
 
 
