@@ -22,6 +22,7 @@ from k37.firmware_model.gcode.units import (
     ARC_TOLERANCE_MM,
     AXIS_LETTERS,
     INCH_MM,
+    MAX_R_LSB,
     OFFSET_LETTERS,
     USES,
 )
@@ -475,6 +476,9 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
         sx, sy = start[first], start[second]
         ex, ey = target[first], target[second]
         radius = self.lsb(r.value)
+        if abs(radius) > MAX_R_LSB:
+            raise BlockError(r.col, f"{r.text}: the radius is outside -(2^40)..2^40 LSB "
+                                    f"(+-{self.planner.mm(MAX_R_LSB)})")
         chord = math.hypot(ex - sx, ey - sy)
         if chord == 0:
             raise BlockError(r.col, f"{r.text}: an R-form arc cannot be a full circle (use I/J/K)")
