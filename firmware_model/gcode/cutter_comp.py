@@ -10,8 +10,10 @@ arc of the cutter's radius; at an inside corner the held move ends where the two
 paths cross (one that would have to run backwards is an error: the tool would gouge);
 corners within 0.05 rad of straight join directly, as LinuxCNC's. An arc's compensated
 radius is its radius plus or minus the cutter's (an error when it is not positive). G40
-ends it: the held move runs to its square end and the next move goes from there. The
-program's position stays the programmed one (G91 and arc centres add to it).
+ends it: the held move runs to its square end and the next move (the exit) goes from there
+to its programmed point; an inside corner before a straight exit, taken from the tool's
+position, is checked for gouging as rs274 checks it. The program's position stays the
+programmed one (G91 and arc centres add to it). D0 runs the path as programmed.
 """
 
 from __future__ import annotations
@@ -206,6 +208,9 @@ class CutterComp:
             move = _Move((0.0, 0.0), (0.0, 0.0), target[2], feed, kwargs.get("feed_source"),
                          self.line_no, col)
             along = _unit(end[0] - start[0], end[1] - start[1])
+            if self.comp_exit and self.comp_held is not None:  # from the tool, uncompensated
+                tool = self.comp_held.end
+                along = _unit(end[0] - tool[0], end[1] - tool[1])
         else:
             centre, _, cw, feed = args[1:5]
             exact = self.comp_arc_centre
