@@ -11,9 +11,9 @@ paths cross (one that would have to run backwards is an error: the tool would go
 corners within 0.05 rad of straight join directly, as LinuxCNC's. An arc's compensated
 radius is its radius plus or minus the cutter's (an error when it is not positive). G40
 ends it: the held move runs to its square end and the next move (the exit) goes from there
-to its programmed point; an inside corner before a straight exit, taken from the tool's
-position, is checked for gouging as rs274 checks it. The program's position stays the
-programmed one (G91 and arc centres add to it). D0 runs the path as programmed.
+to its programmed point (``rs274`` also refuses some exits after a short move as gouging;
+K37 runs them). The program's position stays the programmed one (G91 and arc centres add
+to it). D0 runs the path as programmed.
 """
 
 from __future__ import annotations
@@ -106,7 +106,6 @@ class CutterComp:
         self.comp_radius = 0.0
         self.comp_held: _Move | None = None
         self.comp_entry = False
-        self.comp_exit = False
         #: The exact centre of the arc being planned (set by the interpreter's arc).
         self.comp_arc_centre = (0.0, 0.0)
 
@@ -120,12 +119,8 @@ class CutterComp:
         if mode is None:
             return
         w = b.g["cutter"][1]
-        if self.comp_exit:  # G40 then this, before a move: the held move runs as it is
-            self.comp_off()
         if mode == 400:
-            if self.comp_held is None:
-                self.comp_side = 0
-            self.comp_exit = bool(self.comp_side)
+            self.comp_off()
             return
         if self.comp_side:
             raise BlockError(w.col, f"{w.text}: cutter radius compensation is already on (G40 "
@@ -163,7 +158,7 @@ class CutterComp:
     def comp_off(self) -> None:
         """The end of compensation: the held move runs as it is."""
         self.comp_flush()
-        self.comp_side, self.comp_exit = 0, False
+        self.comp_side = 0
 
     def comp_run(self, move: _Move) -> None:
         """Plan ``move`` from the machine's position (the program's position kept)."""
@@ -208,9 +203,6 @@ class CutterComp:
             move = _Move((0.0, 0.0), (0.0, 0.0), target[2], feed, kwargs.get("feed_source"),
                          self.line_no, col)
             along = _unit(end[0] - start[0], end[1] - start[1])
-            if self.comp_exit and self.comp_held is not None:  # from the tool, uncompensated
-                tool = self.comp_held.end
-                along = _unit(end[0] - tool[0], end[1] - tool[1])
         else:
             centre, _, cw, feed = args[1:5]
             exact = self.comp_arc_centre
@@ -224,14 +216,8 @@ class CutterComp:
             else:
                 self.comp_corner(replace(move, along=along), start, end)
         except BlockError:  # the moves after it start again, as after an entry
-            self.comp_held, self.comp_entry = None, not self.comp_exit
-            self.comp_side = 0 if self.comp_exit else self.comp_side
-            self.comp_exit = False
+            self.comp_held, self.comp_entry = None, True
             raise
-        if self.comp_exit:  # the exit move: checked as rs274 checks it, then run as programmed
-            self.comp_off()
-            self.plan(col, call, *args, **kwargs)
-            return
         self.planner.programmed = target
 
     def comp_enter(self, move: _Move, tool: tuple[float, float], target: tuple[float, float],
@@ -292,15 +278,9 @@ class CutterComp:
         if move.centre is not None:
             toward = move.cw == (self.comp_side > 0)
         if beta < -SMALL or beta > math.pi + SMALL or (beta > math.pi - SMALL and toward):
-            if self.comp_exit:  # rs274 checks a line's retreat before a straight exit only
-                if held.centre is None and move.centre is None:
-                    self.comp_crossing(held, move, mid, end, start)
-                return
             corner = self.comp_crossing(held, move, mid, end, start)
             self.comp_run(replace(held, end=corner))
             self.comp_held = replace(move, start=corner, end=end)
-            return
-        if self.comp_exit:
             return
         self.comp_run(held)
         if beta > SMALL:  # outside: round the corner's point
