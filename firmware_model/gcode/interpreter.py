@@ -1,6 +1,7 @@
 """The built-in front end's interpreter: modal state, and each block's words in RS-274's
-order (:mod:`k37.firmware_model.gcode.parser` reads a program through it). Splines, canned
-cycles and work offsets are in :mod:`k37.firmware_model.gcode.spline_motions`,
+order (:mod:`k37.firmware_model.gcode.parser` reads a program through it). Splines, parabolas
+and exponentials, canned cycles and work offsets are in
+:mod:`k37.firmware_model.gcode.spline_motions`, :mod:`k37.firmware_model.gcode.curve_motions`,
 :mod:`k37.firmware_model.gcode.cycles` and :mod:`k37.firmware_model.gcode.offsets`."""
 
 from __future__ import annotations
@@ -10,14 +11,18 @@ from collections.abc import Mapping
 from decimal import ROUND_HALF_UP, Decimal
 
 from k37.firmware_model.gcode.block_words import BlockError, BlockWords, g_name
-from k37.firmware_model.gcode.cycles import CannedCycles
+from k37.firmware_model.gcode.curve_motions import CurveMotions
+from k37.firmware_model.gcode.cutter_comp import CutterComp
+from k37.firmware_model.gcode.cycles import CYCLES, CannedCycles
 from k37.firmware_model.gcode.lex import Word
+from k37.firmware_model.gcode.modal_state import ModalState
 from k37.firmware_model.gcode.offsets import SYSTEMS, Offsets
 from k37.firmware_model.gcode.spline_motions import SplineMotions
 from k37.firmware_model.gcode.units import (
     ARC_TOLERANCE_MM,
     AXIS_LETTERS,
     INCH_MM,
+    MAX_R_LSB,
     OFFSET_LETTERS,
     USES,
 )
@@ -29,7 +34,7 @@ from k37.hdl.k3701.block import COORD_MAX
 __all__ = ["Interpreter"]
 
 
-class Interpreter(SplineMotions, CannedCycles, Offsets):
+class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState, CutterComp):
     """The modal state of a program being read, and what each block does with it."""
 
     def __init__(self, planner: Planner, *, lsb_mm: float, tolerance: float | None,
@@ -58,6 +63,8 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
         self.tool: int | None = None
         self.cycle: dict[str, Decimal] = {}
         self.cycle_planes: tuple[int, int, int] | None = None
+        #: The Z where the canned cycles since the last other motion mode began (LSB).
+        self.cycle_il: int | None = None
         self.line_no = 0
         #: The N-word of each line that has one (the program's own block numbers), by line.
         self.sequence: dict[int, int] = {}
@@ -72,6 +79,8 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
         self.exact: list[Decimal | None] = [None, None, None]
         #: What the last :meth:`target` computed, kept by :meth:`keep_exact` once it is run.
         self.pending_exact: list[Decimal | None] = [None, None, None]
+        self.init_modal_state()
+        self.init_cutter_comp()
 
     # -- helpers ----------------------------------------------------------------------------
 
@@ -150,6 +159,10 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
         return self.pos[axis] if incremental else (0 if machine else self.offset(axis))
 
     def plan(self, col: int, call, *args, **kwargs) -> None:
+        if self.comp_side and self.comp_radius > 0:  # D0: the path as programmed
+            self.comp_move(col, call, args, kwargs)
+            self.move_tool_offset = self.tool_offset
+            return
         try:
             call(self.line_no, *args, **kwargs)
         except PlanError as e:
@@ -158,6 +171,7 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
 
     def event(self, w: Word, kind: str, value: float | None = None) -> None:
         self.planner.event(self.line_no, w.text, kind, value)
+        self.track(kind, value)
 
     # -- one block --------------------------------------------------------------------------
 
@@ -171,8 +185,10 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
         units = b.code("units")
         if units is not None:
             self.inch = units == 200
+        self.feed_mode(b)
         self.feed_word(b)
         self.spindle_tool_coolant(b)
+        self.modal_state(b)
         if "non-modal" in b.g and b.g["non-modal"][0] == 40:
             self.dwell(b)
         elif b.word("P") is not None and not self.takes_p(b):
@@ -180,6 +196,7 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
             raise BlockError(p.col, f"{p.text}: P is only for G04 (dwell), G10, G82, G64 and "
                                     f"arcs")
         self.modal_settings(b)
+        self.cutter_mode(b)
         self.non_modal(b)
         self.motion_of(b)
         if "tool change" in b.m:
@@ -187,6 +204,7 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
         if "stop" in b.m:
             key, w = b.m["stop"]
             if key in (2, 30):
+                self.comp_off()
                 self.end = True
             else:
                 self.event(w, M_CODES[key].event)
@@ -232,7 +250,7 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
 
     def feed_word(self, b: BlockWords) -> None:
         f = b.word("F")
-        if f is None:
+        if f is None or self.inverse_time:
             return
         if f.value <= 0:
             raise BlockError(f.col, f"{f.text}: the feed must be positive")
@@ -339,8 +357,8 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
         order = b.word("L")
         g10 = b.code("non-modal") == 100
         if order is not None and not g10 and (g is None or g[0] != 52 or self.nurbs is not None):
-            raise BlockError(order.col, f"{order.text}: L is only for G05.2 (a NURBS's order) "
-                                        f"and G10")
+            raise BlockError(order.col, f"{order.text}: L is only for G05.2 (a NURBS's order), "
+                                        f"G10 and canned cycles (repeats)")
         if self.nurbs is not None or (g is not None and g[0] in (52, 53)):
             for letter in "IJKRQ":
                 w = b.word(letter)
@@ -351,6 +369,7 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
         if g is not None:
             if g[0] != self.motion:
                 self.cycle, self.cycle_planes = {}, None
+                self.cycle_il = self.cycle_il if g[0] in CYCLES else None
             self.motion = None if g[0] == 800 else g[0]
         if "non-modal" in b.g and b.g["non-modal"][0] in (100, 280, 300, 520, 920):
             return  # their axis words are theirs
@@ -368,7 +387,9 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
             raise BlockError(axes[0].col, f"{axes[0].text} without a motion mode "
                                            f"(G00/G01/G02/G03)")
         anchor = g[1] if g is not None else axes[0]
-        if self.motion != 0 and self.feed is None:
+        if self.motion not in (0, 10, 20, 30):
+            self.inverse_time_feed(anchor, 0.0)  # refused in G93
+        if self.motion != 0 and self.feed is None and not self.inverse_time:
             raise BlockError(anchor.col, f"{g_name(self.motion)} without a feed rate: program "
                                     f"F first")
         machine = "non-modal" in b.g and b.g["non-modal"][0] == 530
@@ -379,6 +400,8 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
                                                       "coordinates: not in G91")
         if self.motion in (0, 10):
             target = self.target(b, machine=machine, incremental=False if machine else None)
+            if self.motion == 10:
+                self.inverse_time_feed(anchor, math.dist(self.pos, target))
             self.plan(anchor.col, self.planner.line, target,
                       None if self.motion == 0 else self.feed, feed_source=self.feed_source)
             self.keep_exact()
@@ -425,7 +448,8 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
         if r is not None:
             if self.has_offsets(b):
                 raise BlockError(r.col, f"{r.text}: an arc takes R or centre offsets, not both")
-            centre = self.centre_from_radius(r, start, target, first, second, cw)
+            centre = [round(c) for c in self.centre_from_radius(r, start, target, first,
+                                                                 second, cw)]
         elif not self.has_offsets(b):
             raise BlockError(anchor.col, f"{name} needs {OFFSET_LETTERS[first]} and/or "
                                     f"{OFFSET_LETTERS[second]} (the centre offsets) or R")
@@ -438,57 +462,27 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
                 else:
                     c = start[axis] + (self.lsb(w.value) if w else 0)
                 centre.append(c)  # beyond the K3701's registers: the planner runs chords
+        if self.comp_side:
+            self.comp_arc_centre = self.comp_centre(b, r, first, second, cw)
+        if self.inverse_time:
+            self.inverse_time_feed(anchor, self.arc_length((centre[0], centre[1]), target,
+                                                           PLANE_AXES[self.plane], cw))
         self.plan(anchor.col, self.planner.arc, target, (centre[0], centre[1]), self.plane,
                   cw, self.feed, tolerance=self.arc_tolerance(), feed_source=self.feed_source,
                   exact=self.exact_target())
         self.keep_exact()
 
-    def parabola(self, b: BlockWords, anchor: Word) -> None:
-        """G06: the tangent point relative to the start, as an arc's centre (absolute under
-        G90.1)."""
-        if self.plane != 17:
-            raise BlockError(anchor.col, f"G06 in G{self.plane}: parabolas are in the XY "
-                                          f"plane (G17)")
-        if b.word("I") is None and b.word("J") is None:
-            raise BlockError(anchor.col, "G06 needs I and/or J (the tangent point)")
-        target = self.target(b)
-        start = self.pos
-        tangent = []
-        for axis in (0, 1):  # the point as an arc's centre is, from the machine's position
-            w = b.word("IJ"[axis])
-            if self.arc_absolute:
-                point = self.offset(axis) + (self.lsb(w.value) if w else 0)
-            else:
-                point = start[axis] + (self.lsb(w.value) if w else 0)
-            if w is not None:
-                self.check_range(w, point - start[axis], "the tangent point")
-            tangent.append(point - self.planner.position[axis])
-        self.plan(anchor.col, self.planner.parabola, target, (tangent[0], tangent[1]),
-                  self.feed, feed_source=self.feed_source)
-
-    def exponential(self, b: BlockWords, anchor: Word) -> None:
-        """G06.1 (exponential of X) and G06.2 (logarithm: exponential of Y): K the curve's
-        constant, a length along the abscissa (negative: the curve flattens)."""
-        name = g_name(self.motion)
-        if self.plane != 17:
-            raise BlockError(anchor.col, f"{name} in G{self.plane}: exponentials are in the "
-                                          f"XY plane (G17)")
-        k = b.word("K")
-        if k is None:
-            raise BlockError(anchor.col, f"{name} needs K (the curve's constant)")
-        constant = self.lsb(k.value)
-        self.check_range(k, constant, "the curve's constant")
-        self.plan(anchor.col, self.planner.exponential, self.target(b), constant,
-                  self.motion == 62, self.feed, feed_source=self.feed_source)
-
     def centre_from_radius(self, r: Word, start, target, first: int, second: int,
-                           cw: bool) -> list[int]:
+                           cw: bool) -> tuple[float, float]:
         """RS-274's R form: the centre on the chord's bisector, left of the chord for CCW,
-        right for CW (R < 0: the other side, the arc over 180 degrees)."""
+        right for CW (R < 0: the other side, the arc over 180 degrees). A centre beyond the
+        K3701's registers runs as chords, as an I/J arc's."""
         sx, sy = start[first], start[second]
         ex, ey = target[first], target[second]
         radius = self.lsb(r.value)
-        self.check_range(r, radius, "the radius")
+        if abs(radius) > MAX_R_LSB:
+            raise BlockError(r.col, f"{r.text}: the radius is outside -(2^40)..2^40 LSB "
+                                    f"(+-{self.planner.mm(MAX_R_LSB)})")
         chord = math.hypot(ex - sx, ey - sy)
         if chord == 0:
             raise BlockError(r.col, f"{r.text}: an R-form arc cannot be a full circle (use I/J/K)")
@@ -498,4 +492,4 @@ class Interpreter(SplineMotions, CannedCycles, Offsets):
         h = math.sqrt(max(0.0, radius * radius - chord * chord / 4))
         side = (1 if cw else -1) * (1 if radius > 0 else -1)
         ux, uy = (ex - sx) / chord, (ey - sy) / chord
-        return [round((sx + ex) / 2 + side * h * uy), round((sy + ey) / 2 - side * h * ux)]
+        return (sx + ex) / 2 + side * h * uy, (sy + ey) / 2 - side * h * ux

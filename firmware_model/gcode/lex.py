@@ -12,7 +12,9 @@ decimal point), a parameter (``#1``, ``##1``, ``#[1+1]``, ``#<name>``), an expre
 brackets, a unary function (``SIN[..]``, ``ATAN[..]/[..]``, ``EXISTS[#<name>]``) or a sign
 before one of these (:mod:`k37.firmware_model.gcode.expr`). ``@`` and ``^`` are the polar
 radius and angle. ``#n = value`` and ``#<name> = value`` set parameters; ``O`` first on a
-line is an O-word statement (``o100 while [...]``, ``o<name> call [1] [2]``).
+line (after an optional ``N`` word) is an O-word statement (``o100 while [...]``,
+``o<name> call [1] [2]``, ``o#2 call``), or alone on its line a program number (``O1000``,
+``O0000(MY GCODE)``), read and ignored as LinuxCNC and Fanuc controls do.
 
 Any other character, including other Unicode spaces and non-ASCII digits, is an error naming
 it and its column (:class:`LexError`).
@@ -59,6 +61,8 @@ O_KEYWORDS: dict[str, tuple[int, int]] = {
     "break": (0, 0), "continue": (0, 0),
 }
 _FUNCTION_NAMES = (*FUNCTIONS, "atan", "exists")
+_O_NUMBER = re.compile(r"[+-]?[0-9]+")
+_N_BEFORE_O = re.compile(r"n[0-9]+(?:\.[0-9]*)?(?=o)")
 
 
 class Word(NamedTuple):
@@ -100,12 +104,15 @@ class Assignment:
 
 @dataclass(frozen=True)
 class OStatement:
-    """``o<label> keyword [args]``: label ``100`` or ``<name>`` (lower case)."""
+    """``o<label> keyword [args]``: label ``100`` or ``<name>`` (lower case). A ``call``'s
+    number may be computed (``o#2 call``, ``o[100+#1] call``): ``label_node`` is its value,
+    ``label`` its text."""
 
     label: str
     keyword: str
     args: tuple[Node, ...]
     col: int
+    label_node: Node | None = None
 
 
 @dataclass(frozen=True)
@@ -333,27 +340,42 @@ class _Reader:
             return Named(col, name)
         return Numbered(col, self.nested(self.value))
 
-    def o_statement(self) -> OStatement:
+    def o_statement(self) -> OStatement | None:
+        """The line's O-word statement; None for a program number (``O1000``, ``O0000``
+        followed by a comment: LinuxCNC and Fanuc controls read the line and do nothing)."""
         col = self.col()
         self.i += 1
+        label_node: Node | None = None
+        start = self.i
         if self.peek() == "<":
             close = self.line.find(">", self.i)
             if close < 0 or close == self.i + 1:
                 raise LexError(col, "O-word name not closed: o<name>")
             label = self.line[self.i:close + 1]
             self.i = close + 1
+        elif self.peek() in ("#", "["):
+            label_node = self.value()
+            label = self.line[start:self.i]
         else:
-            m = re.compile(r"[0-9]+").match(self.line, self.i)
+            m = _O_NUMBER.match(self.line, self.i)
             if m is None:
                 raise LexError(col, "an O-word needs a number or a <name>: o100, o<name>")
             label = str(int(m.group()))
             self.i = m.end()
         keyword_col = self.col()
         keyword = self.letters()
+        if not keyword and not self.peek():
+            return None
         if keyword not in O_KEYWORDS:
             raise LexError(keyword_col, f"unknown O-word keyword '{keyword}' (sub, endsub, "
                                         f"call, return, if, elseif, else, endif, while, "
-                                        f"endwhile, do, repeat, endrepeat, break, continue)")
+                                        f"endwhile, do, repeat, endrepeat, break, continue; "
+                                        f"o{label} alone on its line is a program number)")
+        if label_node is not None and keyword != "call":
+            raise LexError(col, f"o{label} {keyword}: only a call takes a computed O-word "
+                                f"number")
+        if label.startswith("-"):
+            raise LexError(col, f"o{label} {keyword}: an O-word number is not negative")
         args = []
         while self.peek() == "[":
             args.append(self.expression())
@@ -364,11 +386,19 @@ class _Reader:
             wanted = "no value" if most == 0 else ("one value [..]" if least == most
                                                    else f"at most {most} values [..]")
             raise LexError(keyword_col, f"o{label} {keyword} takes {wanted}")
-        return OStatement(label, keyword, tuple(args), col)
+        return OStatement(label, keyword, tuple(args), col, label_node)
+
+    def line_number(self) -> None:
+        """Skips an ``N`` word before an O-word (``N10 o100 sub``)."""
+        m = _N_BEFORE_O.match(self.line)
+        if m is not None:
+            self.i = m.end()
 
     def read(self) -> NgcLine:
+        self.line_number()
         if self.peek() == "o":
             return NgcLine(o=self.o_statement(), comments=tuple(self.comments))
+        self.i = 0
         words: list[Word | WordValue] = []
         assignments: list[Assignment] = []
         while self.i < len(self.line):

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import contextlib
 import re
+from dataclasses import replace
 from decimal import Decimal
 from typing import Protocol
 
@@ -67,6 +68,12 @@ class Host(Protocol):
     def predefined(self, key: int | str, col: int) -> float | None:
         """A predefined parameter's value; None: not predefined; raises
         :class:`~k37.firmware_model.gcode.expr.ExprError` for one that is unsupported."""
+
+    def enter_call(self) -> None:
+        """A subroutine call begins (its context for M70-M73)."""
+
+    def leave_call(self) -> None:
+        """The subroutine called last returns."""
 
 
 # -- parameters --------------------------------------------------------------------------------
@@ -270,6 +277,12 @@ class _Runner:
 
     def call(self, i: int) -> None:
         o = self.statement(i)
+        if o.label_node is not None:
+            number = self.value(i, o.label_node)
+            if number != int(number) or number < 0:
+                raise NgcError(i + 1, o.col, f"o{o.label} call: the O-word number "
+                                             f"{_shown(number)} is not a whole number >= 0")
+            o = replace(o, label=str(int(number)), label_node=None)
         sub = self.subs.get(o.label)
         if sub is None:
             raise NgcError(i + 1, o.col, f"{o_name(o.label)} call: the program has no "
@@ -283,6 +296,7 @@ class _Runner:
         self.params.numbers.update({n + 1: v for n, v in enumerate(args)})
         self.params.scopes.append({})
         self.params.depth += 1
+        self.host.enter_call()
         value: float | None = None
         try:
             self.body(sub.body)
@@ -295,6 +309,7 @@ class _Runner:
             raise NgcError(i + 1, o.col, f"o{jump.label} {jump.kind} leaves the "
                                          f"subroutine") from None
         finally:
+            self.host.leave_call()
             self.params.depth -= 1
             self.params.scopes.pop()
             for n in range(1, 31):

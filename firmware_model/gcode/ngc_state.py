@@ -21,7 +21,7 @@ Predefined parameters (in the program's units):
 ``#<_z>``
 ``#<_metric>`` ...        ``_metric _imperial _absolute _incremental _feed
                           _motion_mode _plane _coord_system _current_tool
-                          _selected_tool``
+                          _selected_tool _rpm``
 ========================  ==========================================================
 
 Offsets are in the program's units (LinuxCNC gives them in its machine units).
@@ -36,6 +36,7 @@ import math
 from decimal import Decimal
 from typing import Protocol
 
+from k37.firmware_model.gcode.cycles import CYCLES, cycle_repeats
 from k37.firmware_model.gcode.expr import ExprError
 from k37.firmware_model.gcode.lex import Word
 from k37.firmware_model.gcode.offsets import SYSTEMS, system_number
@@ -66,6 +67,7 @@ class Modal(Protocol):
     g5x: dict[int, list[int]]
     tool_offset: int
     coordinate_system: int
+    speed: float
     lsb_size: Decimal
     end: bool
     line_no: int
@@ -86,6 +88,10 @@ class Modal(Protocol):
     def block(self, words: list[Word]) -> None: ...
 
     def recover(self, words: list[Word]) -> None: ...
+
+    def enter_call(self) -> None: ...
+
+    def leave_call(self) -> None: ...
 
 
 class PolarError(ValueError):
@@ -148,9 +154,9 @@ class State:
             raise PolarError(first.col, "polar coordinates (@, ^) and X or Y in one block")
         keys = [code_key(w.value) for w in words if w.letter == "G"]
         motion = next((k for k in keys if k in _MOTION), self.modal.motion)
-        if 530 in keys or motion not in (0, 10):
+        if 530 in keys or (motion not in (0, 10) and motion not in CYCLES):
             raise PolarError(first.col, "polar coordinates (@, ^) are for G00 and G01 moves "
-                                        "(not G53, arcs or canned cycles)")
+                                        "and canned cycles (not G53 or arcs)")
         if {200, 210} & set(keys):
             raise PolarError(first.col, "polar coordinates and G20/G21 in one block: change "
                                         "the units on a line before")
@@ -232,7 +238,7 @@ class State:
             "_feed": 0.0 if m.feed is None else m.feed / (25.4 if m.inch else 1.0),
             "_motion_mode": 800.0 if m.motion is None else float(m.motion),
             "_plane": float(m.plane * 10), "_coord_system": float(m.coordinate_system),
-            "_current_tool": float(m.tool or 0),
+            "_current_tool": float(m.tool or 0), "_rpm": m.speed,
             "_selected_tool": -1.0 if m.selected is None else float(m.selected),
         }
         if name in values:
@@ -268,9 +274,12 @@ class InterpreterHost:
     def execute(self, line: int, words: list[Word]) -> None:
         self.modal.line_no = line
         try:
-            words = self.state.polar(words)
-            self.modal.block(words)
-            self.state.after()
+            words, again, repeats = cycle_repeats(words, self.modal.motion,
+                                                  self.modal.incremental)
+            for block in [words, *[again] * repeats]:  # a canned cycle's L repeats
+                words = self.state.polar(block)
+                self.modal.block(words)
+                self.state.after()
         except (self.block_error, PolarError) as e:
             self.modal.recover(words)
             self.state.forget()
@@ -294,3 +303,9 @@ class InterpreterHost:
 
     def predefined(self, key: int | str, col: int) -> float | None:
         return self.state.predefined(key, col)
+
+    def enter_call(self) -> None:
+        self.modal.enter_call()
+
+    def leave_call(self) -> None:
+        self.modal.leave_call()

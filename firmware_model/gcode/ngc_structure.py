@@ -14,7 +14,7 @@ __all__ = ["MAX_STRUCTURE_DEPTH", "Builder", "NgcError", "Structure", "Sub", "o_
 #: Most nested O-word structures in the source.
 MAX_STRUCTURE_DEPTH = 64
 #: A line that is an O-word statement (whether or not it reads).
-_O_LINE = re.compile(r"[ \t]*(/[ \t]*)?[oO]")
+_O_LINE = re.compile(r"[ \t]*(/[ \t]*)?([nN][0-9. \t]*)?[oO]")
 
 
 class NgcError(Exception):

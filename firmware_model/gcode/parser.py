@@ -10,8 +10,8 @@ words it takes, their modal groups and meanings are the tables of
 :mod:`k37.firmware_model.gcode.words` (``docs/gcode.md``); the lexer
 (:mod:`k37.firmware_model.gcode.lex`) says how a line is read. In short, what CAM post-processors
 emit: G00-G03 (I/J/K or R arcs, helices on three axes), G04, G17-G19, G20/G21, G28/G30, G40,
-G43/G49, G53, G54-G59, G61/G64, G80-G83, G90/G91, G90.1/G91.1, G92/G92.1, G94, G98/G99, F, S, T, H,
-N, M00-M09 and M30.
+G41.1/G42.1, G43/G49, G53, G54-G59, G61/G64, G80-G83 (L repeats), G90/G91, G90.1/G91.1,
+G92/G92.1, G93/G94, G98/G99, F, S, T, H, D, N, M00-M09, M30 and M70-M73.
 
 Semantics (RS-274/NGC's, as LinuxCNC's ``rs274``; the decisions are in the README):
 

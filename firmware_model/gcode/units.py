@@ -29,11 +29,13 @@ AXES_LIMIT = Limit(2, 3, integer=True)
 MAX_ERRORS = 20
 #: G83's rapid stop above the last peck: LinuxCNC's G83_RAPID_DELTA, 0.010 in.
 G83_CLEARANCE_MM = Decimal("0.254")
+#: The largest R-form arc radius (LSB): beyond the 24-bit registers an arc runs as chords,
+#: computed in floating point, which stays well within an LSB up to this.
+MAX_R_LSB = 2**40
 
 HINTS = {**dict.fromkeys("ABC", " (K37's axes are X, Y and Z)"),
           **dict.fromkeys("UVW", " (K37's axes are X, Y and Z)"),
-          "D": " (no cutter radius compensation: G40 only)",
-          "L": " (no G10 or canned-cycle repeats)", "E": ""}
+          "E": ""}
 #: What R and Q are for (in the error for one used elsewhere).
 USES = {"R": "arcs and canned cycles", "Q": "G83 (peck depth) and G64"}
 OFFSET_LETTERS = "IJK"

@@ -69,7 +69,13 @@ G_CODES: dict[int, Code] = {
     _g(28): Code("non-modal", "rapid to the home position, the machine origin (through the "
                               "programmed point first, moving only the named axes, if any)"),
     _g(30): Code("non-modal", "as G28 (the second home position is the origin too)"),
-    _g(40): Code("cutter", "cutter radius compensation off (the only state)"),
+    _g(40): Code("cutter", "cutter radius compensation off (the initial state)"),
+    _g(41.1): Code("cutter", "cutter radius compensation, the tool left of the path: D the "
+                             "cutter's diameter (XY plane, as LinuxCNC: an entry line, "
+                             "outside corners as arcs, inside corners where the paths "
+                             "cross)"),
+    _g(42.1): Code("cutter", "cutter radius compensation, the tool right of the path, as "
+                             "G41.1"),
     _g(43): Code("tool length", "tool length offset: H's length (or the loaded tool's) from "
                                 "the job's tool table; no table: zero"),
     _g(49): Code("tool length", "tool length offset off"),
@@ -97,9 +103,13 @@ G_CODES: dict[int, Code] = {
     _g(91.1): Code("arc distance", "I/J/K relative to the arc's start (the default)"),
     _g(92): Code("non-modal", "offset the coordinates so the current point is the given one"),
     _g(92.1): Code("non-modal", "clear the G92 offset"),
-    _g(94): Code("feed mode", "feed in units per minute (the only feed mode; G93 inverse "
-                              "time is refused)"),
-    _g(98): Code("retract", "canned cycles retract to the Z before the cycle (or R if higher)"),
+    _g(93): Code("feed mode", "inverse time: each G01-G03 block's F is the inverse of its "
+                              "time in minutes (its feed: F times its length); F is needed on "
+                              "each such block"),
+    _g(94): Code("feed mode", "feed in units per minute (the initial mode); a change of feed "
+                              "mode forgets the feed"),
+    _g(98): Code("retract", "canned cycles retract to the Z where they began (the initial "
+                            "level, kept until another motion mode; or R if higher)"),
     _g(99): Code("retract", "canned cycles retract to R (the initial mode, as rs274's)"),
 }
 
@@ -117,6 +127,13 @@ M_CODES: dict[int, Code] = {
     7: Code("coolant", "mist coolant on (recorded)", "coolant_mist"),
     8: Code("coolant", "flood coolant on (recorded)", "coolant_flood"),
     9: Code("coolant", "coolant off (recorded)", "coolant_off"),
+    70: Code("modal state", "save the modal state (units, plane, distance modes, feed mode "
+                            "and feed, coordinate system, tool length offset, retract mode, "
+                            "spindle, coolant) in the current call"),
+    71: Code("modal state", "forget the state M70 saved in the current call"),
+    72: Code("modal state", "restore the state saved in the current call (units first)"),
+    73: Code("modal state", "save the modal state and restore it when the subroutine "
+                            "returns"),
 }
 
 LETTERS: dict[str, str] = {
@@ -136,14 +153,16 @@ LETTERS: dict[str, str] = {
     "P": "dwell seconds (G04, G82); G64's tolerance (ignored); G05: second control point "
          "along X; G05.2: a control point's weight; G10: the coordinate system",
     "Q": "peck depth (G83); G64's tolerance (ignored); G05: second control point along Y",
-    "L": "order of a G05.2 NURBS (default 3); G10's form (L2, L20)",
+    "D": "the cutter's diameter (G41.1/G42.1)",
+    "L": "order of a G05.2 NURBS (default 3); G10's form (L2, L20); canned cycles: repeats "
+         "of the block (G91: each moved by X/Y or a polar step; G90: the same hole)",
 }
 
 #: G codes refused with a reason (by table key).
 REFUSED_G: dict[int, str] = {
-    **dict.fromkeys((410, 411, 420, 421), "cutter radius compensation is unsupported: K37 "
-                                          "runs the programmed path (compensate in the CAM)"),
-    930: "inverse time feed is unsupported: K37 takes feeds in units per minute (G94)",
+    **dict.fromkeys((410, 420), "cutter radius compensation from a tool table is "
+                                "unsupported: K37 has no tool diameters (G41.1/G42.1 D "
+                                "give the diameter)"),
     **dict.fromkeys((382, 383, 384, 385), "probing is unsupported: K37 has no probe input"),
     **dict.fromkeys((431, 432), "dynamic tool length offsets (tool-length sensing) are "
                                 "unsupported: lengths come from the job's program.tools"),
@@ -154,7 +173,6 @@ REFUSED_M: dict[tuple[int, int], str] = {
     (100, 199): "user M-codes (M100-M199) are unsupported: K37 runs no external programs",
     (61, 61): "M61 (setting the loaded tool) is unsupported: M06 loads the selected T",
     (62, 68): "digital and analog I/O (M62-M68) is unsupported: the K3701 has no such ports",
-    (70, 73): "saving and restoring modal state (M70-M73) is unsupported",
 }
 
 #: The RS-274/NGC language the front end evaluates before the words above act
@@ -175,7 +193,8 @@ NGC_LANGUAGE: dict[str, str] = {
                                           "`[..]` to `#1`-`#30`, a value to `#<_value>`",
     "`o.. while`/`do`/`repeat`/`if`/`elseif`/`else`/`break`/`continue`": "control flow, "
                                                                          "numbered or named",
-    "`@`, `^`": "polar radius and angle (degrees) for G00/G01, as LinuxCNC",
+    "`@`, `^`": "polar radius and angle (degrees) for G00/G01 and canned cycles (with L, "
+                "a bolt circle: `G91 G81 ^60 L6`), as LinuxCNC",
     "`(MSG,..)`, `(DEBUG,..)`, `(PRINT,..)`": "program events (DEBUG and PRINT with "
                                               "parameter values)",
 }

@@ -74,7 +74,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         return 2
     try:
         path = sweep(study, out, jobs=args.jobs, scheduler=args.scheduler, report=progress,
-                     html=args.html)
+                     html=args.html, retry_errors=args.retry_errors)
     except (JobError, SweepError) as e:
         print_error(e)
         return 2
@@ -194,7 +194,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("study", help="study file (.toml)")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="folder for results.csv and results.parquet (runs already there are "
-                        "skipped)")
+                        "skipped, but for those that failed outside their job)")
+    p.add_argument("--retry-errors", action="store_true",
+                   help="run again every run whose row in DIR has status error")
     p.add_argument("-j", "--jobs", type=positive_int, default=os.cpu_count() or 1,
                    help="local worker processes (default: one per core)")
     p.add_argument("--scheduler", metavar="tcp://HOST:PORT",

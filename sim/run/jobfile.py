@@ -61,7 +61,7 @@ from k37.firmware_model.job import (
     gcode_job,
     parse_for_machine,
 )
-from k37.firmware_model.motion.program import Program
+from k37.firmware_model.motion.program import Dwell, Line, Move, Program
 from k37.hdl.chipset.map import ALL_AXES
 from k37.hdl.common.params import Limit
 from k37.sim.files import STDIO, InputError, read_input_text
@@ -83,7 +83,8 @@ def load_job(path: str | PathLike[str] | None, *, frontend: str = "builtin",
     Raises
     ------
     JobError
-        The file cannot be read, is not valid TOML, or holds an unknown key or a bad value.
+        The file cannot be read, is not valid TOML, or holds an unknown key or a bad value;
+        or its program neither moves nor dwells.
     GcodeError
         The program is bad (naming its file, line and column).
     """
@@ -93,9 +94,15 @@ def load_job(path: str | PathLike[str] | None, *, frontend: str = "builtin",
     text = _read(path, str(path))
     if path.suffix.lower() != ".toml":  # G-code, from a file or from stdin ("-")
         name = "stdin" if str(path) == STDIO else path.stem
-        return gcode_job(name, text, str(path), frontend=frontend,
-                         arc_tolerance=arc_tolerance)
-    return _TomlJob(path, read_toml(text, str(path)), text, frontend, arc_tolerance).job()
+        job = gcode_job(name, text, str(path), frontend=frontend, arc_tolerance=arc_tolerance)
+    else:
+        job = _TomlJob(path, read_toml(text, str(path)), text, frontend, arc_tolerance).job()
+    if not any(isinstance(item, Dwell) or (isinstance(item, Move) and not (
+            isinstance(item, Line) and item.end == item.start)) for item in job.program.items):
+        # a dwell holds the machine still for a while: a run of its servos (a load step)
+        raise JobError(f"{job.program.source}: no motion in the program (no move, arc, "
+                       f"canned cycle or dwell: nothing for the machine to run)")
+    return job
 
 
 def _read(path: Path, name: str) -> str:

@@ -12,6 +12,9 @@ finishes (its number, its factors' levels, :data:`METRICS`), appended whole or n
 last row cut short by a crash is dropped when the study is run again into the same folder,
 which skips the runs already there. A local worker that dies (killed, out of memory) makes
 its run a row with status ``error`` naming the signal, and a new worker takes the next run;
+such a row, and one whose run failed for another reason outside its job (an ``OSError``: a
+full disk, a missing compiler; ``MemoryError``), has a reason beginning :data:`OUTSIDE`, and
+a sweep run again into the folder retries it (``retry_errors``: every ``error`` row);
 an interrupted sweep (KeyboardInterrupt, which the command line raises for SIGINT and
 SIGTERM) ends its workers before it returns. When every run is in, the rows are sorted by
 run number and ``DIR/results.parquet`` written.
@@ -41,13 +44,17 @@ from k37.sim.run.runner import OptionError, RunOptions, reused_backend, run_job
 from k37.sim.study.html_report import RUN_REPORTS
 from k37.sim.study.studyfile import Study, StudyRun
 
-__all__ = ["METRICS", "WORKER_STOP_SECONDS", "SweepError", "check_study", "end_with_parent",
-           "run_one", "stop_workers", "sweep"]
+__all__ = ["METRICS", "OUTSIDE", "WORKER_STOP_SECONDS", "SweepError", "check_study",
+           "end_with_parent", "run_one", "stop_workers", "sweep"]
 
 #: The columns each run fills after its factors.
 METRICS = ("status", "reason", "cycles", "machine_seconds", "wall_seconds",
            "max_contour_error", "rms_contour_error", "x_max_following_error",
            "y_max_following_error", "end_reached", *FIGURES)
+
+#: How the reason of an ``error`` row begins when the run failed outside its job (a rerun
+#: retries it).
+OUTSIDE = "outside the job: "
 
 #: How long a stopped worker has to end on SIGTERM before it is killed.
 WORKER_STOP_SECONDS = 5.0
@@ -69,6 +76,8 @@ def run_one(study: Study, run: StudyRun, pages: Path | None = None) -> dict[str,
                                          sample_every=study.sample_every), reused_backend(job))
     except (JobError, OptionError, ValueError) as e:
         return row | {"status": "error", "reason": str(e)}
+    except (OSError, MemoryError) as e:
+        return row | {"status": "error", "reason": f"{OUTSIDE}{type(e).__name__}: {e}"}
     except Exception as e:  # any other failure of one run is that run's row, not the sweep's
         return row | {"status": "error", "reason": f"{type(e).__name__}: {e}"}
     report = result.report
@@ -133,9 +142,11 @@ def _header(study: Study) -> list[str]:
     return ["run", *study.factors, *METRICS]
 
 
-def _done(study: Study, path: Path, report: Callable[[str], None] | None) -> set[int]:
+def _done(study: Study, path: Path, report: Callable[[str], None] | None,
+          retry_errors: bool = False) -> set[int]:
     """The runs ``path`` already holds (checking it is this study's table); a last row cut
-    short (no line end: the writer stopped within it) is dropped from the file."""
+    short (no line end: the writer stopped within it) is dropped from the file, and so are
+    the ``error`` rows to retry (:func:`_retried`)."""
     if not path.exists():
         return set()
     data = path.read_bytes()
@@ -167,7 +178,30 @@ def _done(study: Study, path: Path, report: Callable[[str], None] | None) -> set
         if levels != values[1:1 + len(study.factors)] or len(values) != len(header):
             raise SweepError(f"{path}:{line}: run {number} has other levels than this study's")
         done.add(number)
-    return done
+    retry = _retried(path, header.index("status"), header.index("reason"), retry_errors)
+    if retry and report:
+        report(f"{path}: retrying {len(retry)} run{'s' * (len(retry) > 1)} that failed "
+               f"{'' if retry_errors else 'outside the job '}(run "
+               f"{', '.join(map(str, sorted(retry)[:10]))}{', ...' * (len(retry) > 10)})")
+    return done - retry
+
+
+def _retried(path: Path, status: int, reason: int, every_error: bool) -> set[int]:
+    """The runs of ``path`` whose rows are ``error`` rows to run again: those that failed
+    outside their job (their reason begins :data:`OUTSIDE`), or every ``error`` row
+    (``every_error``). Their rows are taken out of the file (which is rewritten whole)."""
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    keep, retry = [rows[0]], set()
+    for row in rows[1:]:
+        if row[status] == "error" and (every_error or row[reason].startswith(OUTSIDE)):
+            retry.add(int(row[0]))
+        else:
+            keep.append(row)
+    if retry:
+        with atomic_open(path, "w", newline="") as f:
+            csv.writer(f).writerows(keep)
+    return retry
 
 
 def end_with_parent() -> None:
@@ -258,7 +292,7 @@ class _Pool:
                     del self.workers[conn]
                     conn.close()
                     row = {"run": run.number, **dict(run.levels), "status": "error",
-                           "reason": _death(process.exitcode)}
+                           "reason": OUTSIDE + _death(process.exitcode)}
                     if todo:
                         self._start()
                 else:
@@ -354,8 +388,10 @@ def _append(fd: int, header: list[str], row: dict[str, Any]) -> None:
 
 
 def sweep(study: Study, out: Path, *, jobs: int = 2, scheduler: str | None = None,
-          report: Callable[[str], None] | None = None, html: bool = False) -> Path:
-    """Run every run of ``study`` not yet in ``out/results.csv``; return the CSV's path.
+          report: Callable[[str], None] | None = None, html: bool = False,
+          retry_errors: bool = False) -> Path:
+    """Run every run of ``study`` not yet in ``out/results.csv``, and those whose rows failed
+    outside their job (``retry_errors``: every ``error`` row); return the CSV's path.
     ``html``: also write each run's ``--html`` report, ``out/runs/RUN.html`` (the workers
     write them: on a cluster, ``out`` must be a folder they share).
 
@@ -368,7 +404,7 @@ def sweep(study: Study, out: Path, *, jobs: int = 2, scheduler: str | None = Non
     if pages is not None:
         pages.mkdir(exist_ok=True)
     path = out / "results.csv"
-    done = _done(study, path, report)
+    done = _done(study, path, report, retry_errors)
     todo = [run for run in study.runs if run.number not in done]
     header = _header(study)
     start = time.perf_counter()

@@ -308,6 +308,23 @@ def test_a_program_beyond_the_size_limit_is_refused(tmp_path, monkeypatch, capsy
     _one_error(capsys.readouterr().err, "more than the 1,000 bytes a job or program may have")
 
 
+@pytest.mark.parametrize("text", ["", "(only a comment)\n; and another\n", "%\nM30\n%\n",
+                                  "G21 G90 F100 S1000 M3\nG0 X0 Y0\nM5 M30\n"])
+@pytest.mark.parametrize("command", ["plan", "run"])
+def test_a_program_without_motion_is_one_error_naming_the_file(tmp_path, capsys, text,
+                                                                command):
+    (tmp_path / "still.ngc").write_text(text)
+    assert main([command, str(tmp_path / "still.ngc"), "-q"][:2 if command == "plan" else 3]
+                ) == 2
+    _one_error(capsys.readouterr().err, f"{tmp_path / 'still.ngc'}: no motion in the program")
+
+
+def test_an_inline_program_without_motion_names_the_job(tmp_path, capsys):
+    (tmp_path / "still.toml").write_text('[program]\ngcode = "M30"\n')
+    assert main(["plan", str(tmp_path / "still.toml")]) == 2
+    _one_error(capsys.readouterr().err, "still.toml:program.gcode: no motion in the program")
+
+
 def test_a_program_read_from_stdin_plans(monkeypatch, capsys):
     import io
 
@@ -338,8 +355,10 @@ def _study(folder: Path, factors: str = 'feed = [600, 900]\nradius = [5, 6]') ->
 
 
 def _fake_run(study, run):  # noqa: ARG001 (the signature of run_one)
-    """A run's row without a simulation; run 1 dies of SIGKILL in a worker process."""
-    if run.number == 1 and os.getpid() != _fake_run.parent:  # type: ignore[attr-defined]
+    """A run's row without a simulation; run 1 dies of SIGKILL in a worker process (unless
+    ``_fake_run.parent`` is None)."""
+    parent = _fake_run.parent  # type: ignore[attr-defined]
+    if run.number == 1 and parent is not None and os.getpid() != parent:
         os.kill(os.getpid(), signal.SIGKILL)
     return {"run": run.number, **dict(run.levels), "status": "ok", "reason": "fake",
             "cycles": 1000 + run.number}
@@ -364,7 +383,7 @@ def test_a_worker_that_dies_is_an_error_row_naming_the_signal_and_the_sweep_goes
 
 def test_a_torn_last_row_is_dropped_on_resume_and_its_run_runs_once_again(
         tmp_path, monkeypatch):
-    _fake_run.parent = -1  # type: ignore[attr-defined]  # no run dies
+    _fake_run.parent = None  # type: ignore[attr-defined]  # no run dies
     monkeypatch.setattr(sweep_module, "run_one", _fake_run)
     study = load_study(_study(tmp_path))
     path = sweep(study, tmp_path / "out", jobs=1)
@@ -376,6 +395,61 @@ def test_a_torn_last_row_is_dropped_on_resume_and_its_run_runs_once_again(
     assert any("last row was cut short" in n and "dropped" in n for n in notes)
     assert path.read_text() == whole
     assert sum(1 for n in notes if n.startswith("run ")) == 2  # runs 2 and 3, each once
+
+
+def test_a_run_whose_worker_died_is_retried_when_the_sweep_runs_again(tmp_path, monkeypatch):
+    _fake_run.parent = os.getpid()  # type: ignore[attr-defined]
+    monkeypatch.setattr(sweep_module, "run_one", _fake_run)
+    study = load_study(_study(tmp_path))
+    path = sweep(study, tmp_path / "out", jobs=2)
+    assert _rows(path)[1]["reason"].startswith(sweep_module.OUTSIDE)
+    _fake_run.parent = None  # type: ignore[attr-defined]  # this time run 1 lives
+    notes: list[str] = []
+    sweep(study, tmp_path / "out", jobs=1, report=notes.append)
+    rows = _rows(path)
+    assert [(r["run"], r["status"], r["cycles"]) for r in rows] == [
+        ("0", "ok", "1000"), ("1", "ok", "1001"), ("2", "ok", "1002"), ("3", "ok", "1003")]
+    assert any("retrying 1 run that failed outside the job (run 1)" in n for n in notes)
+    assert [n.split(":")[0] for n in notes if n.startswith("run ")] == ["run 1"]
+
+
+def _no_space(*_args, **_kwargs):
+    raise OSError(28, "No space left on device")
+
+
+def test_a_run_failing_with_an_oserror_is_a_row_failed_outside_the_job(tmp_path, monkeypatch):
+    monkeypatch.setattr(sweep_module, "reused_backend", lambda _job: None)
+    monkeypatch.setattr(sweep_module, "run_job", _no_space)
+    study = load_study(_study(tmp_path))
+    row = sweep_module.run_one(study, study.runs[0])
+    assert (row["status"], row["reason"]) == (
+        "error", f"{sweep_module.OUTSIDE}OSError: [Errno 28] No space left on device")
+
+
+def test_a_rerun_retries_rows_failed_outside_the_job_and_retry_errors_every_error_row(
+        tmp_path, monkeypatch):
+    monkeypatch.setattr(sweep_module, "run_one", lambda _study, run: _row_of(run))
+    study = load_study(_study(tmp_path))
+    path = tmp_path / "out" / "results.csv"
+    (tmp_path / "out").mkdir()
+    with open(path, "w", newline="") as f:
+        writer = csv.DictWriter(f, ["run", "feed", "radius", *sweep_module.METRICS],
+                                restval="")
+        writer.writeheader()
+        writer.writerow({"run": 0, "feed": 600, "radius": 5, "status": "error",
+                         "reason": "a job error"})
+        writer.writerow({"run": 1, "feed": 600, "radius": 6, "status": "error",
+                         "reason": f"{sweep_module.OUTSIDE}OSError: disk full"})
+    sweep(study, tmp_path / "out", jobs=1)
+    assert [(r["run"], r["status"]) for r in _rows(path)] == [
+        ("0", "error"), ("1", "ok"), ("2", "ok"), ("3", "ok")]
+    sweep(study, tmp_path / "out", jobs=1, retry_errors=True)
+    assert [(r["run"], r["status"]) for r in _rows(path)] == [
+        ("0", "ok"), ("1", "ok"), ("2", "ok"), ("3", "ok")]
+
+
+def _row_of(run):
+    return {"run": run.number, **dict(run.levels), "status": "ok", "reason": "fake"}
 
 
 def test_a_row_that_cannot_be_written_is_not_left_half_in_the_table(small_fs):

@@ -8,9 +8,10 @@ built-in front end (on a three-axis machine) and by ``rs274`` (``--frontend linu
 motion end points of K37's plan (where the K3701 really stops) must equal ``rs274``'s
 canonical end points within 1 LSB on every axis (in G20 programs, 1 LSB plus ``rs274``'s
 rounding of its output to 0.0001 in). Where ``rs274`` is not installed the comparison is
-skipped, saying so. A slow test does the same on random programs (moves, I/J and R arcs,
-drilling, mode changes). ``python -m tests.firmware_model.gcode.test_conformance`` prints the
-corpus table.
+skipped, saying so. Slow tests do the same on random programs (moves, I/J and R arcs,
+drilling, mode changes; work offsets; inverse time, M70-M73 and bolt circles; cutter
+radius compensation).
+``python -m tests.firmware_model.gcode.test_conformance`` prints the corpus table.
 """
 
 from __future__ import annotations
@@ -36,9 +37,7 @@ FILES = sorted(p for p in CORPUS.iterdir() if p.is_file())
 LINUXCNC_NCFILES = next((p for p in (Path("/usr/share/linuxcnc/ncfiles"),
                                      Path("/usr/share/doc/linuxcnc/examples/nc_files"))
                          if p.is_dir()), Path("/usr/share/linuxcnc/ncfiles"))
-_COMP = "cutter radius compensation is unsupported"
-_M70 = "saving and restoring modal state (M70-M73) is unsupported"
-_POLAR = "polar coordinates (@, ^) are for G00 and G01 moves"
+_COMP = "cutter radius compensation from a tool table is unsupported"
 _SET = "is the interpreter's: setting it (offsets, tool data) is unsupported"
 #: Every example program ``rs274`` accepts, and what the built-in front end does with it:
 #: None, it runs it as ``rs274`` does; else the unsupported feature its error names.
@@ -46,12 +45,13 @@ LINUXCNC_EXAMPLES: dict[str, str | None] = {
     # programs that move
     "3D_Chips.ngc": None, "3dtest.ngc": None, "arcspiral.ngc": None, "cds.ngc": None,
     "flowsnake.ngc": None, "plasmatest.ngc": None, "skeleton.ngc": None, "spiral.ngc": None,
-    "tort.ngc": None,
+    "tort.ngc": None, "hole-circle.ngc": None, "polar.ngc": None, "toplevel.ngc": None,
     # subroutine and remap files: parameters, messages and calls, no motion
     "factorial.ngc": None, "g20sub.ngc": None, "g881.ngc": None, "g881min.ngc": None,
     "g882.ngc": None, "m250.ngc": None, "m61demo.ngc": None, "m6demo.ngc": None,
     "m6remap.ngc": None, "m75.ngc": None, "m76.ngc": None, "retval.ngc": None,
     "roparams.ngc": None, "testm6fail.ngc": None, "touchoff.ngc": None,
+    "m70m72-demo.ngc": None, "m73-demo.ngc": None,
     # refused, naming what K37 does not have
     "b-index.ngc": "unsupported word B0 (K37's axes are X, Y and Z)",
     "daisy.ngc": "unsupported word A0 (K37's axes are X, Y and Z)",
@@ -60,8 +60,7 @@ LINUXCNC_EXAMPLES: dict[str, str | None] = {
     "useful-subroutines.ngc": _COMP,
     "gmoccapy_2_tools_with_cutter_radius_compensation.ngc": _COMP,
     "gridprobe.ngc": "probing is unsupported", "smartprobe.ngc": f"#5070 {_SET}",
-    "offsets.ngc": f"#5599 {_SET}", "hole-circle.ngc": _POLAR, "polar.ngc": _POLAR,
-    "m70m72-demo.ngc": _M70, "m73-demo.ngc": _M70, "toplevel.ngc": _M70,
+    "offsets.ngc": f"#5599 {_SET}",
     "lathe_g70_71_demo.ngc": "G71.1 is unsupported", "lathe_g7x_face_boring.ngc":
     "G72 is unsupported", "lathe_g7x_quadrants.ngc": "G70 is unsupported",
     "lathe_pawn.ngc": "G8 is unsupported", "threading.ngc": "G33 is unsupported",
@@ -281,6 +280,71 @@ def random_offsets_program(rng: random.Random) -> str:
 def test_random_work_offsets_move_as_rs274_moves(seed):
     text = random_offsets_program(random.Random(seed))
     theirs = programmed_ends(parse_linuxcnc(text, axes=3, tools=TOOLS), targets=True)
+    assert_ends_as_rs274s(text, theirs, tolerance_lsb(text))
+
+
+def random_language_program(rng: random.Random) -> str:
+    """A random program of inverse-time moves (G93), modal state saved and restored (M70-M73,
+    in the main program and a subroutine) and bolt circles (polar canned cycles with L)."""
+    def num(low: float = -20, high: float = 20) -> str:
+        return f"{rng.uniform(low, high):.{rng.choice([0, 1, 3])}f}"
+
+    lines = ["o<steps> sub", "M73", f"{rng.choice(['G20', 'G21'])} G91 G94 F{num(5, 50)}",
+             f"G1 X{num(0.2, 1)} Y{num(-1, -0.2)}", "o<steps> endsub",
+             f"{rng.choice(['G20', 'G21'])} G90 G17 F300", "G0 X0 Y0 Z5", "M70"]
+    for _ in range(rng.randint(4, 12)):
+        lines.append(rng.choice([
+            f"G93 G1 X{num()} Y{num()} F{num(0.5, 20)}",
+            f"G93 G2 X{num()} Y{num()} R{num(25, 40)} F{num(0.5, 20)}",
+            f"G93 G3 X{num()} Y{num()} Z{num(0, 5)} R{num(25, 40)} F{num(0.5, 20)}",
+            f"G94 G1 X{num()} Y{num()} F{num(50, 500)}",
+            "M70", "M72", "M71\nM70", "o<steps> call", rng.choice(["G20", "G21", "G90", "G91"]),
+            f"G94 G90 G0 X{num(5, 20)} Y{num(5, 20)}\nG91 G81 R{num(-3, -1)} Z{num(-4, -1)} "
+            f"^{num(10, 120)} L{rng.randint(1, 6)} F100\nG80\nG90 G0 Z5",
+            f"G94 G90 G0 X{num(5, 20)} Y0\nG91 G81 @{num(1, 5)} R{num(-3, -1)} Z{num(-4, -1)} "
+            f"L{rng.randint(1, 4)} F100\nG80\nG90 G0 Z5"]))
+    return "\n".join([*lines, "M2"])
+
+
+@pytest.mark.slow
+@NEEDS_RS274
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**32))
+def test_random_inverse_time_modal_state_and_bolt_circles_run_as_rs274_runs_them(seed):
+    text = random_language_program(random.Random(seed))
+    try:
+        theirs = programmed_ends(parse_linuxcnc(text, axes=3, tools=TOOLS), targets=True)
+    except GcodeError:
+        return  # rs274 refuses it (an M72 with nothing saved, an R arc too short...)
+    assert_ends_as_rs274s(text, theirs, tolerance_lsb(text))
+
+
+def random_comp_program(rng: random.Random) -> str:
+    """A random path of lines, arcs and helices under G41.1/G42.1, with its entry and exit."""
+    def num(low: float = -30, high: float = 30) -> str:
+        return f"{rng.uniform(low, high):.{rng.choice([0, 1, 3])}f}"
+
+    lines = [f"{rng.choice(['G20', 'G21'])} G90 G17 F100", f"G0 X{num()} Y{num()} Z1",
+             f"{rng.choice(['G41.1', 'G42.1'])} D{rng.choice(['0.5', '1', '2', '3.175'])}",
+             f"G1 X{num()} Y{num()} Z0"]
+    for _ in range(rng.randint(2, 8)):
+        lines.append(rng.choice([
+            f"G1 X{num()} Y{num()}", f"G{rng.choice('23')} X{num()} Y{num()} R{num(15, 40)}",
+            f"G91 G1 X{num(-10, 10)} Y{num(-10, 10)}\nG90",
+            f"G{rng.choice('23')} X{num()} Y{num()} Z{num(-2, 0)} R{num(20, 40)}"]))
+    return "\n".join([*lines, f"G40 G1 X{num()} Y{num()}", "M2"])
+
+
+@pytest.mark.slow
+@NEEDS_RS274
+@settings(max_examples=80, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**32))
+def test_random_compensated_paths_run_as_rs274_runs_them(seed):
+    text = random_comp_program(random.Random(seed))
+    try:
+        theirs = programmed_ends(parse_linuxcnc(text, axes=3, tools=TOOLS), targets=True)
+    except GcodeError:
+        return  # rs274 refuses it (gouging, an R arc too short...)
     assert_ends_as_rs274s(text, theirs, tolerance_lsb(text))
 
 

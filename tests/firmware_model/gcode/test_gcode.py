@@ -308,10 +308,10 @@ def test_motion_errors_name_line_and_column(text, message):
     ("G01 X1E3", "1:7: unsupported word E3"),
     ("G01 X1 A3", "1:8: unsupported word A3 (K37's axes are X, Y and Z)"),
     ("#1 = [2", "1:8: expression not closed: ']' missing"),
-    ("G93", "1:1: G93: inverse time feed is unsupported: K37 takes feeds in units per minute "
-            "(G94)"),
-    ("G41 D1", "1:1: G41: cutter radius compensation is unsupported: K37 runs the programmed "
-               "path (compensate in the CAM)"),
+    ("G95", "1:1: G95 is unsupported"),
+    ("G33 Z-1 K1", "1:1: G33 is unsupported"),
+    ("G41 D1", "1:1: G41: cutter radius compensation from a tool table is unsupported: K37 "
+               "has no tool diameters (G41.1/G42.1 D give the diameter)"),
     ("G01 X", "1:5: word X has no number"),
     ("G01 X1 (open", "1:8: comment '(' is not closed on its line"),
     ("G01 G00 X1", "1:5: G01 and G00 are in the same modal group (motion)"),
@@ -411,6 +411,17 @@ def test_an_arc_beyond_the_24_bit_registers_runs_as_chords_within_the_tolerance(
     assert program.notes == ("flat.ngc:2: an arc run as 3 lines within the arc tolerance "
                              "(28 LSB): its radius 9238.605 mm is beyond the K3701's 24-bit "
                              "registers",)
+
+
+def test_an_r_form_arc_beyond_the_24_bit_registers_runs_as_its_i_j_twin_does():
+    program = parse("G21 G90 F100\nG02 X20 Y0 R10000\nM30", source="r.ngc")
+    centre = (10_000, -round(math.sqrt(10_000_000**2 - 10_000**2)))
+    twin = parse(f"G21 G90 F100\nG02 X20 Y0 I10 J{centre[1] / 1000}\nM30", source="r.ngc")
+    assert all(isinstance(m, Line) for m in program.moves)
+    assert [m.end for m in program.moves] == [m.end for m in twin.moves]
+    assert program.moves[-1].end == (20_000, 0)
+    assert max(_chord_errors(program, centre, 10_000_000)) <= 28
+    assert program.notes == twin.notes != ()
 
 
 def test_a_helix_steeper_than_the_chips_runs_as_chords_ending_exactly():

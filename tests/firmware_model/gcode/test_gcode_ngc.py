@@ -170,13 +170,38 @@ def test_the_program_end_inside_a_subroutine_ends_the_program():
     ("o1 sub\no1 call\no1 endsub\no1 call", "2:1: o1 call: more than 64 nested calls (a "
                                             "recursion that never ends?)"),
     ("o1 frob", "1:4: unknown O-word keyword 'frob' (sub, endsub, call, return, if, elseif, "
-                "else, endif, while, endwhile, do, repeat, endrepeat, break, continue)"),
+                "else, endif, while, endwhile, do, repeat, endrepeat, break, continue; o1 "
+                "alone on its line is a program number)"),
+    ("O100 G1 X5", "1:6: unknown O-word keyword 'g' (sub, endsub, call, return, if, elseif, "
+                   "else, endif, while, endwhile, do, repeat, endrepeat, break, continue; "
+                   "o100 alone on its line is a program number)"),
+    ("o#1 sub\no1 endsub", "1:1: o#1 sub: only a call takes a computed O-word number"),
+    ("o-1 call", "1:1: o-1 call: an O-word number is not negative"),
+    ("#1 = 2.5\no#1 call", "2:1: o#1 call: the O-word number 2.5 is not a whole number >= 0"),
     ("o1 if\no1 endif", "1:4: o1 if takes one value [..]"),
     ("G0 X1 o1 sub", "1:7: an O-word must begin its line"),
     ("o1 while [#<u> GT 1]\no1 endwhile", "1:11: parameter #<u> is not set"),
 ])
 def test_o_word_errors_stop_the_program_at_their_place(text, message):
     assert error_of(text) == f"t.ngc:{message}"
+
+
+@pytest.mark.parametrize("first", ["O0000(MY GCODE)", "O1000", "O1000 (CAM POST)", "o1000;x",
+                                   "O 1 0 0 ( x )", "O<prog>", "O-5", "O#<_x>", "O[100]",
+                                   "/O100", "N5 O100"])
+def test_a_program_number_line_is_read_and_does_nothing(first):
+    assert xs(f"{first}\nG21 G90\nG1 X10 F100\nO2000\nG1 X3\nM30") == [10000, 3000]
+
+
+def test_a_program_number_line_keeps_its_message():
+    program = parse("O1000 (MSG, cam post)\nG0 X1")
+    assert [(e.line_no, e.word) for e in program.events] == [(1, "(MSG, cam post)")]
+
+
+@pytest.mark.parametrize("call", ["#2 = 100\no#2 call [5]", "o[50+50] call [5]",
+                                  "O00100 call [5]", "N30 o100 call [5]"])
+def test_o_word_numbers_may_be_computed_padded_or_after_a_line_number(call):
+    assert xs(f"N10 O0100 sub\nG1 X#1 F100\nN20 o100 endsub\n{call}\nM30") == [5000]
 
 
 def test_a_loop_that_never_ends_is_stopped_at_the_block_limit(monkeypatch):
@@ -232,7 +257,7 @@ def test_polar_steps_in_g91_do_not_add_up_roundings():
 def test_polar_coordinates_with_x_or_an_arc_are_errors():
     assert error_of("G0 @1 X1") == "t.ngc:1:4: polar coordinates (@, ^) and X or Y in one block"
     assert error_of("G2 @1 ^3 F1") == ("t.ngc:1:4: polar coordinates (@, ^) are for G00 and G01 "
-                                       "moves (not G53, arcs or canned cycles)")
+                                       "moves and canned cycles (not G53 or arcs)")
 
 
 def test_msg_and_debug_comments_are_events_with_values():

@@ -1,0 +1,330 @@
+"""Cutter radius compensation, G41.1/G42.1 D (the cutter's diameter) and G40, in G17, as
+LinuxCNC's interpreter does it (a mixin of
+:class:`k37.firmware_model.gcode.interpreter.Interpreter`).
+
+The tool runs at the cutter's radius to the left (G41.1) or right (G42.1) of the programmed
+path. The first move after turning it on (a line, longer than the radius) ends at the radius
+from its programmed end, square to the move. Each later move is held back until the next one
+is known: where they meet at an outside corner the tool goes round the corner's point on an
+arc of the cutter's radius; at an inside corner the held move ends where the two compensated
+paths cross (one that would have to run backwards is an error: the tool would gouge);
+corners within 0.05 rad of straight join directly, as LinuxCNC's. An arc's compensated
+radius is its radius plus or minus the cutter's (an error when it is not positive). G40
+ends it: the held move runs to its square end and the next move (the exit) goes from there
+to its programmed point (``rs274`` also refuses some exits after a short move as gouging;
+K37 runs them). The program's position stays the programmed one (G91 and arc centres add
+to it). D0 runs the path as programmed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+from k37.firmware_model.gcode.block_words import BlockError, BlockWords, g_name
+from k37.firmware_model.gcode.lex import Word
+from k37.firmware_model.motion.planner import PlanError
+
+__all__ = ["CutterComp"]
+
+#: Corners within this angle (radians) of straight join without an arc or an intersection.
+SMALL = 0.05
+
+
+@dataclass(frozen=True)
+class _Move:
+    """A compensated move held back: its start and end (LSB, XY), its Z, and, for an arc,
+    its centre (on the LSB grid for the planner, and ``exact``) and direction; a line's
+    ``along`` is its programmed direction (an inside corner moves its end back along it);
+    ``entry``: the entry move (rs274 lets an inside corner move its end back past its start)."""
+
+    start: tuple[float, float]
+    end: tuple[float, float]
+    z: int
+    feed: float | None
+    feed_source: tuple[int, int, str] | None
+    line_no: int
+    col: int
+    centre: tuple[int, int] | None = None
+    cw: bool = False
+    tolerance: float = 0.0
+    along: tuple[float, float] = (1.0, 0.0)
+    exact: tuple[float, float] = (0.0, 0.0)
+    entry: bool = False
+
+
+def _unit(dx: float, dy: float) -> tuple[float, float]:
+    length = math.hypot(dx, dy)
+    return dx / length, dy / length
+
+
+def _line_circle(a: tuple[float, float], b: tuple[float, float], c: tuple[float, float],
+                 radius: float) -> list[tuple[float, float]]:
+    """Where the line through ``a`` and ``b`` crosses the circle."""
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    fx, fy = a[0] - c[0], a[1] - c[1]
+    qa, qb, qc = dx * dx + dy * dy, 2 * (fx * dx + fy * dy), fx * fx + fy * fy - radius ** 2
+    disc = qb * qb - 4 * qa * qc
+    if qa == 0 or disc < 0:
+        return []
+    return [(a[0] + t * dx, a[1] + t * dy)
+            for t in ((-qb - math.sqrt(disc)) / (2 * qa), (-qb + math.sqrt(disc)) / (2 * qa))]
+
+
+def _circles(c0: tuple[float, float], r0: float, c1: tuple[float, float],
+             r1: float) -> list[tuple[float, float]]:
+    """Where two circles cross."""
+    d = math.dist(c0, c1)
+    if d == 0 or d > r0 + r1 or d < abs(r0 - r1):
+        return []
+    a = (r0 * r0 - r1 * r1 + d * d) / (2 * d)
+    h = math.sqrt(max(0.0, r0 * r0 - a * a))
+    ux, uy = (c1[0] - c0[0]) / d, (c1[1] - c0[1]) / d
+    mx, my = c0[0] + a * ux, c0[1] + a * uy
+    return [(mx - h * uy, my + h * ux), (mx + h * uy, my - h * ux)]
+
+
+def _back(held: _Move, point: tuple[float, float]) -> float:
+    """How far back along the held move from its end ``point`` is (LSB along a line, radians
+    around an arc); negative: ahead of its end."""
+    if held.centre is None:
+        return ((held.end[0] - point[0]) * held.along[0]
+                + (held.end[1] - point[1]) * held.along[1])
+    c = held.exact
+    turn = math.atan2(held.end[1] - c[1], held.end[0] - c[0]) - math.atan2(point[1] - c[1],
+                                                                          point[0] - c[0])
+    return (-turn if held.cw else turn) % (2 * math.pi)
+
+
+class CutterComp:
+    """The cutter radius compensation of the interpreter (its state: ``comp_side`` 0, +1
+    left, -1 right; ``comp_radius`` LSB; ``comp_held``, the move held back; ``comp_entry``,
+    the next move is the entry move; ``comp_arc_centre``)."""
+
+    def init_cutter_comp(self) -> None:
+        self.comp_side = 0
+        self.comp_radius = 0.0
+        self.comp_held: _Move | None = None
+        self.comp_entry = False
+        #: The exact centre of the arc being planned (set by the interpreter's arc).
+        self.comp_arc_centre = (0.0, 0.0)
+
+    def cutter_mode(self, b: BlockWords) -> None:
+        """G40, G41.1 and G42.1 D, after the block's other modal settings."""
+        d = b.word("D")
+        mode = b.code("cutter")
+        if d is not None and mode not in (411, 421):
+            raise BlockError(d.col, f"{d.text}: D is only for G41.1/G42.1 (the cutter's "
+                                    f"diameter)")
+        if mode is None:
+            return
+        w = b.g["cutter"][1]
+        if mode == 400:
+            self.comp_off()
+            return
+        if self.comp_side:
+            raise BlockError(w.col, f"{w.text}: cutter radius compensation is already on (G40 "
+                                    f"first)")
+        if self.plane != 17:
+            raise BlockError(w.col, f"{w.text} in G{self.plane}: cutter radius compensation "
+                                    f"is in the XY plane (G17) here")
+        if d is None or d.value < 0:
+            raise BlockError(w.col, f"{w.text} needs D, the cutter's diameter (>= 0)")
+        self.comp_side = 1 if mode == 411 else -1
+        self.comp_radius = float(self.lsb_exact(d.value)) / 2
+        self.comp_entry = True
+
+    def comp_centre(self, b: BlockWords, r: Word | None, first: int, second: int,
+                    cw: bool) -> tuple[float, float]:
+        """An arc's centre before its rounding to the LSB grid, from the exact programmed
+        start and end, as rs274 has it (the compensated path is offset from it)."""
+        start = tuple(float(self.exact_pos(axis)) for axis in range(3))
+        end = self.exact_target()
+        if r is not None:
+            return self.centre_from_radius(r, start, end, first, second, cw)
+        centre = []
+        for axis in (first, second):
+            w = b.word("IJK"[axis])
+            offset = 0.0 if w is None else float(self.lsb_exact(w.value))
+            centre.append(offset + (self.offset(axis) if self.arc_absolute else start[axis]))
+        return centre[0], centre[1]
+
+    def comp_flush(self) -> None:
+        """Run the held move as it is (its end square to its path)."""
+        held, self.comp_held = self.comp_held, None
+        if held is not None:
+            self.comp_run(held)
+
+    def comp_off(self) -> None:
+        """The end of compensation: the held move runs as it is."""
+        self.comp_flush()
+        self.comp_side = 0
+
+    def comp_run(self, move: _Move) -> None:
+        """Plan ``move`` from the machine's position (the program's position kept)."""
+        programmed = self.planner.programmed
+        self.planner.programmed = self.planner.position
+        target = (round(move.end[0]), round(move.end[1]), move.z)
+        try:
+            if move.centre is None:
+                self.planner.line(move.line_no, target, move.feed, feed_source=move.feed_source)
+            else:
+                self.planner.arc(move.line_no, target, move.centre, 17, move.cw, move.feed,
+                                 tolerance=move.tolerance, feed_source=move.feed_source,
+                                 exact=(move.end[0], move.end[1], float(move.z)))
+        except PlanError as e:
+            raise BlockError(move.col, str(e)) from None
+        finally:
+            self.planner.programmed = programmed
+
+    def comp_normal(self, direction: tuple[float, float]) -> tuple[float, float]:
+        """The unit vector from the path to the tool, for a path going ``direction``."""
+        return -direction[1] * self.comp_side, direction[0] * self.comp_side
+
+    def comp_move(self, col: int, call, args: tuple, kwargs: dict) -> None:
+        """A line or arc of the program (``call`` the planner's, with its arguments) run
+        compensated."""
+        if self.motion not in (0, 10, 20, 30) or call not in (self.planner.line,
+                                                               self.planner.arc):
+            name = "this move" if self.motion is None else g_name(self.motion)
+            raise BlockError(col, f"{name} with cutter radius compensation: G40 first")
+        start = (float(self.exact_pos(0)), float(self.exact_pos(1)))
+        target = args[0]
+        end = self.exact_target()[:2]
+        if call == self.planner.line:
+            feed = args[1]
+            if (target[0], target[1]) == self.pos[:2]:  # along Z only
+                self.comp_flush()
+                self.comp_run(_Move(self.planner.position[:2], self.planner.position[:2],
+                                    target[2], feed, kwargs.get("feed_source"), self.line_no,
+                                    col))
+                self.planner.programmed = target
+                return
+            move = _Move((0.0, 0.0), (0.0, 0.0), target[2], feed, kwargs.get("feed_source"),
+                         self.line_no, col)
+            along = _unit(end[0] - start[0], end[1] - start[1])
+        else:
+            centre, _, cw, feed = args[1:5]
+            exact = self.comp_arc_centre
+            move = _Move((0.0, 0.0), (0.0, 0.0), target[2], feed, kwargs.get("feed_source"),
+                         self.line_no, col, centre, cw, kwargs["tolerance"], exact=exact)
+            radial = _unit(start[0] - exact[0], start[1] - exact[1])
+            along = (radial[1], -radial[0]) if cw else (-radial[1], radial[0])
+        try:
+            if self.comp_entry:
+                self.comp_enter(move, start, end, col)
+            else:
+                self.comp_corner(replace(move, along=along), start, end)
+        except BlockError:  # the moves after it start again, as after an entry
+            self.comp_held, self.comp_entry = None, True
+            raise
+        self.planner.programmed = target
+
+    def comp_enter(self, move: _Move, tool: tuple[float, float], target: tuple[float, float],
+                   col: int) -> None:
+        """The entry move, from the tool's position ``tool`` (the programmed one)."""
+        if move.centre is not None:
+            raise BlockError(col, "the first move with cutter radius compensation is a line "
+                                  "(the entry move), not an arc")
+        if math.dist(tool, target) <= self.comp_radius:
+            raise BlockError(col, "the cutter radius compensation entry move is not longer "
+                                  "than the cutter's radius")
+        n = self.comp_normal(_unit(target[0] - tool[0], target[1] - tool[1]))
+        end = (target[0] + self.comp_radius * n[0], target[1] + self.comp_radius * n[1])
+        self.comp_held = replace(move, start=tool, end=end, entry=True,
+                                 along=_unit(target[0] - tool[0], target[1] - tool[1]))
+        self.comp_entry = False
+
+    def comp_end(self, move: _Move, start: tuple[float, float],
+                 target: tuple[float, float]) -> tuple[float, float]:
+        """Where the compensated ``move`` from ``start`` to ``target`` ends (an error when an
+        arc's compensated radius is not positive)."""
+        r = self.comp_radius
+        if move.centre is None:
+            n = self.comp_normal(_unit(target[0] - start[0], target[1] - start[1]))
+            return target[0] + r * n[0], target[1] + r * n[1]
+        c = move.exact
+        radius = math.hypot(start[0] - c[0], start[1] - c[1])
+        outward = (1 if move.cw else -1) * self.comp_side  # left of a CW arc: outside
+        compensated = radius + outward * r
+        if compensated <= 0:
+            raise BlockError(move.col, f"the arc's radius {self.planner.mm(radius)} is not more "
+                                       f"than the cutter's: cutter radius compensation cannot "
+                                       f"follow it inside")
+        u = _unit(target[0] - c[0], target[1] - c[1])
+        return c[0] + compensated * u[0], c[1] + compensated * u[1]
+
+    def comp_corner(self, move: _Move, start: tuple[float, float],
+                    target: tuple[float, float]) -> None:
+        """``move`` (its start direction ``along``) after the held move, at the programmed
+        corner ``start``."""
+        along = move.along
+        held = self.comp_held
+        assert held is not None
+        tool = held.end
+        theta = math.atan2(tool[1] - start[1], tool[0] - start[0])
+        alpha = math.atan2(along[1], along[0])
+        if self.comp_side > 0:
+            theta += 2 * math.pi if theta < alpha else 0.0
+            beta = theta - alpha - math.pi / 2
+        else:
+            alpha += 2 * math.pi if alpha < theta else 0.0
+            beta = alpha - theta - math.pi / 2
+        n = self.comp_normal(along)
+        mid = (start[0] + self.comp_radius * n[0], start[1] + self.comp_radius * n[1])
+        end = self.comp_end(move, start, target)
+        # an "h" (nearly back on itself): inside when the arc turns towards the tool
+        toward = held.centre is not None and held.cw == (self.comp_side > 0)
+        if move.centre is not None:
+            toward = move.cw == (self.comp_side > 0)
+        if beta < -SMALL or beta > math.pi + SMALL or (beta > math.pi - SMALL and toward):
+            corner = self.comp_crossing(held, move, mid, end, start)
+            self.comp_run(replace(held, end=corner))
+            self.comp_held = replace(move, start=corner, end=end)
+            return
+        self.comp_run(held)
+        if beta > SMALL:  # outside: round the corner's point
+            self.comp_run(_Move(tool, mid, held.z, move.feed, move.feed_source, move.line_no,
+                                move.col, (round(start[0]), round(start[1])),
+                                self.comp_side > 0, self.arc_tolerance(), exact=start))
+            tool = mid
+        self.comp_held = replace(move, start=tool, end=end)
+
+    def comp_crossing(self, held: _Move, move: _Move, mid: tuple[float, float],
+                      end: tuple[float, float],
+                      corner: tuple[float, float]) -> tuple[float, float]:
+        """Where the held move's compensated path crosses ``move``'s (which starts at
+        ``mid``), nearest the programmed corner; an error where the tool would gouge."""
+        r = self.comp_radius
+        back = (held.end[0] - held.along[0], held.end[1] - held.along[1])
+        if held.centre is None and move.centre is None:
+            (bx, by), (ux, uy) = held.end, held.along
+            (cx, cy), (vx, vy) = mid, move.along
+            denom = ux * vy - uy * vx
+            s = ((cx - bx) * vy - (cy - by) * vx) / denom if denom else 1.0
+            points = [(bx + s * ux, by + s * uy)]
+        elif move.centre is None:
+            points = _line_circle(mid, end, held.exact, math.dist(held.end, held.exact))
+        elif held.centre is None:
+            points = _line_circle(back, held.end, move.exact, math.dist(end, move.exact))
+        else:
+            points = _circles(held.exact, math.dist(held.end, held.exact), move.exact,
+                              math.dist(end, move.exact))
+        # the held move's end moves back to the nearest crossing behind it
+        behind = [p for p in points if _back(held, p) >= -1e-6]
+        point = min(behind, key=lambda p: _back(held, p)) if behind else None
+        what = "line" if held.centre is None else "arc"
+        if point is not None and not held.entry and _back(held, point) > _back(
+                held, held.start) + 1e-6:
+            raise BlockError(move.col, f"cutter radius compensation: the {what} before the "
+                                       f"inside corner at X{self.planner.mm(corner[0])} "
+                                       f"Y{self.planner.mm(corner[1])} is too short for a "
+                                       f"cutter of radius {self.planner.mm(r)} (it would "
+                                       f"gouge)")
+        if point is None:
+            raise BlockError(move.col, f"cutter radius compensation: the inside corner at "
+                                       f"X{self.planner.mm(corner[0])} "
+                                       f"Y{self.planner.mm(corner[1])} is too tight for a "
+                                       f"cutter of radius {self.planner.mm(r)} (it would gouge)")
+        return point
+

@@ -1,0 +1,87 @@
+"""Cutter radius compensation (G41.1/G42.1 D, G40) in the built-in front end: the entry
+move, outside corners as arcs, inside corners where the compensated paths cross, arcs and
+the gouging errors, as LinuxCNC's ``rs274`` runs them (its canonical end points, in mm)."""
+
+from __future__ import annotations
+
+import pytest
+
+from k37.firmware_model.gcode.parser import GcodeError, parse
+from k37.firmware_model.motion.program import Arc
+
+
+def path(text: str) -> list[tuple[str, tuple[int, int]]]:
+    """Each move's kind and XY end (LSB, 1 um; an arc's programmed end)."""
+    out = []
+    for m in parse(f"G21 G90 G17 F100\n{text}\nM30", axes=3).moves:
+        if isinstance(m, Arc):
+            out.append(("arc", (m.start[0] + m.xe, m.start[1] + m.ye)))
+        elif not m.correction:
+            out.append(("line", m.end[:2]))
+    return out
+
+
+def error_of(text: str) -> str:
+    with pytest.raises(GcodeError) as info:
+        parse(f"G21 G90 G17 F100\n{text}\nM30", source="t.ngc", axes=3)
+    return str(info.value)
+
+
+def test_a_square_inside_has_an_entry_an_outside_arc_and_inside_corners():
+    # rs274: the entry ends square to it, the first corner is outside (an arc round the
+    # corner's point), the others inside (the paths cross)
+    assert path("G0 X-10 Y-10\nG41.1 D2\nG1 X0 Y0\nX20\nY20\nX0\nY0\nG40\nG0 X-10 Y-10") == [
+        ("line", (-10_000, -10_000)), ("line", (-707, 707)), ("arc", (0, 1000)),
+        ("line", (19_000, 1000)), ("line", (19_000, 19_000)), ("line", (1000, 19_000)),
+        ("line", (1000, 0)), ("line", (-10_000, -10_000))]
+
+
+def test_the_right_side_turns_the_other_way_and_the_exit_goes_to_the_programmed_point():
+    assert path("G0 X-10 Y0\nG42.1 D2\nG1 X0 Y0\nX20\nX30 Y-10\nX40 Y10\n"
+                "G40 G1 X50 Y10") == [
+        ("line", (-10_000, 0)), ("line", (0, -1000)), ("line", (19_586, -1000)),
+        ("line", (29_293, -10_707)), ("arc", (30_894, -10_447)), ("line", (40_894, 9553)),
+        ("line", (50_000, 10_000))]
+
+
+def test_nearly_straight_corners_join_without_an_arc():
+    assert path("G0 X-10 Y0\nG41.1 D2\nG1 X0 Y0\nX20 Y0.1\nX40 Y0") == [
+        ("line", (-10_000, 0)), ("line", (0, 1000)), ("line", (19_995, 1100)),
+        ("line", (40_005, 1000))]
+
+
+def test_an_arc_is_offset_by_the_radius_and_its_corners_cross_or_round():
+    assert path("G0 X-10 Y0\nG41.1 D2\nG1 X0 Y0\nG2 X10 Y0 R5\nG1 X20\nG3 X30 Y0 R5\n"
+                "G1 X30 Y-10\nG40 G1 X40 Y-20") == [
+        ("line", (-10_000, 0)), ("line", (-916, 1000)), ("arc", (10_916, 1000)),
+        ("line", (20_000, 1000)), ("arc", (21_000, 0)), ("arc", (29_000, 0)),
+        ("arc", (31_000, 0)), ("line", (31_000, -10_000)), ("line", (40_000, -20_000))]
+
+
+def test_d0_runs_the_path_as_programmed():
+    assert path("G41.1 D0\nG1 X10 Y5\nX20") == [("line", (10_000, 5000)), ("line", (20_000, 5000))]
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("G41.1 D2\nG1 X1", "3:1: the cutter radius compensation entry move is not longer than "
+                        "the cutter's radius"),
+    ("G41.1 D2\nG2 X10 R5", "3:1: the first move with cutter radius compensation is a line "
+                            "(the entry move), not an arc"),
+    ("G42.1\nG1 X10", "2:1: G42.1 needs D, the cutter's diameter (>= 0)"),
+    ("G41.1 D2\nG42.1 D2", "3:1: G42.1: cutter radius compensation is already on (G40 first)"),
+    ("G18 G41.1 D2", "2:5: G41.1 in G18: cutter radius compensation is in the XY plane (G17) "
+                     "here"),
+    ("G1 X1 D2", "2:7: D2: D is only for G41.1/G42.1 (the cutter's diameter)"),
+    ("G41 D1", "2:1: G41: cutter radius compensation from a tool table is unsupported: K37 "
+               "has no tool diameters (G41.1/G42.1 D give the diameter)"),
+    ("G41.1 D10\nG1 X20\nG1 X30\nG3 X38 R4", "5:1: the arc's radius 4.000 mm is not more than "
+                                            "the cutter's: cutter radius compensation cannot "
+                                            "follow it inside"),
+    ("G0 Z5\nG41.1 D2\nG1 X10\nG81 X20 R1 Z-1", "5:1: G81 with cutter radius compensation: "
+                                                "G40 first"),
+    ("G41.1 D4\nG1 X10\nX10.5\nY10", "5:1: cutter radius compensation: the line before the "
+                                      "inside corner at X10.500 mm Y0.000 mm is too short "
+                                      "for a cutter of radius 2.000 mm (it would gouge)"),
+])
+def test_compensation_errors_name_what_is_wrong(text, message):
+    assert error_of(text) == f"t.ngc:{message}"
