@@ -354,7 +354,7 @@ def _study(folder: Path, factors: str = 'feed = [600, 900]\nradius = [5, 6]') ->
     return path
 
 
-def _fake_run(study, run):  # noqa: ARG001 (the signature of run_one)
+def _fake_run(study, run, pages=None):  # noqa: ARG001 (the signature of run_one)
     """A run's row without a simulation; run 1 dies of SIGKILL in a worker process (unless
     ``_fake_run.parent`` is None)."""
     parent = _fake_run.parent  # type: ignore[attr-defined]
@@ -428,7 +428,7 @@ def test_a_run_failing_with_an_oserror_is_a_row_failed_outside_the_job(tmp_path,
 
 def test_a_rerun_retries_rows_failed_outside_the_job_and_retry_errors_every_error_row(
         tmp_path, monkeypatch):
-    monkeypatch.setattr(sweep_module, "run_one", lambda _study, run: _row_of(run))
+    monkeypatch.setattr(sweep_module, "run_one", lambda _study, run, _pages=None: _row_of(run))
     study = load_study(_study(tmp_path))
     path = tmp_path / "out" / "results.csv"
     (tmp_path / "out").mkdir()
@@ -495,7 +495,7 @@ _SLOW_SWEEP = textwrap.dedent("""
     import os, sys, time
     from pathlib import Path
     from k37.sim.study import sweep
-    def slow(study, run):
+    def slow(study, run, pages=None):
         Path(sys.argv[2], f"worker-{os.getpid()}").write_text("")
         time.sleep(600)
     sweep.run_one = slow
