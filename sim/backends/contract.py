@@ -11,7 +11,9 @@ domain's clock is driven (``rst`` stays low); it starts low, so the first cycle 
 edge, as with ``Simulator.add_clock``.
 
 :class:`k37.sim.backends.pysim.PysimBackend` runs Amaranth's own simulator and is the reference;
-the compiled :class:`k37.sim.backends.cxxrtl.backend.CxxrtlBackend` matches it bit for bit;
+the compiled :class:`k37.sim.backends.cxxrtl.backend.CxxrtlBackend` matches it bit for bit; the
+event-level :class:`k37.sim.backends.engine.backend.EngineBackend` runs the simulated machine at
+its ports (checked against the compiled one by :mod:`k37.sim.backends.engine.lockstep`);
 :func:`k37.sim.backends.factory.make_backend` picks one.
 
 Names
@@ -164,6 +166,10 @@ class Backend(abc.ABC):
 
     #: Short name of the backend, as ``--backend`` spells it.
     name = "backend"
+
+    #: Why this backend runs the design, in words (set by
+    #: :func:`k37.sim.backends.factory.make_backend`).
+    reason = ""
 
     #: Cycles counted without evaluation by ``skip_idle`` so far.
     skipped_cycles = 0

@@ -1,0 +1,194 @@
+"""The engine behind the backend contract: :class:`EngineBackend` drives the engine's library
+(:mod:`.build`) through ctypes, with the ports of :class:`k37.sim.machine.system.System`.
+
+It runs what :func:`k37.sim.backends.engine.support.unsupported` accepts and refuses the rest
+when it is built (:class:`UnsupportedMachine`, naming the option). It has no internal signals to
+probe and writes no waveform: those are the RTL backends'. Every cycle is computed (``skip_idle``
+is accepted and changes nothing).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import weakref
+
+from k37.sim.backends.contract import (
+    CLOCK_PERIOD,
+    Backend,
+    Design,
+    Port,
+    check_count,
+    check_window,
+    instantiate,
+)
+from k37.sim.backends.engine.build import build
+from k37.sim.backends.engine.support import unsupported
+from k37.sim.machine.system import DRIVES, System
+
+__all__ = ["EngineBackend", "UnsupportedMachine", "machine_params"]
+
+
+class UnsupportedMachine(ValueError):
+    """A machine option the engine does not run (one line naming it)."""
+
+
+def _load(path: str) -> ctypes.CDLL:
+    lib = ctypes.CDLL(path)
+    handle, u64, c_int = ctypes.c_void_p, ctypes.c_uint64, ctypes.c_int
+    signatures = {
+        "k37e_create": (handle, [c_int, ctypes.c_uint]),
+        "k37e_destroy": (None, [handle]),
+        "k37e_port": (c_int, [ctypes.c_char_p]),
+        "k37e_get": (u64, [handle, c_int]),
+        "k37e_set": (None, [handle, c_int, u64]),
+        "k37e_get_many": (None, [handle, ctypes.POINTER(c_int), ctypes.c_size_t,
+                                 ctypes.POINTER(u64)]),
+        "k37e_cycle": (u64, [handle]),
+        "k37e_unsupported": (c_int, [handle]),
+        "k37e_step": (None, [handle, u64]),
+        "k37e_run_until": (u64, [handle, c_int, u64]),
+        "k37e_bus_write": (None, [handle, u64, u64]),
+        "k37e_bus_read": (u64, [handle, u64]),
+        "k37e_plant_ns": (ctypes.c_double, [u64]),
+    }
+    for name, (restype, argtypes) in signatures.items():
+        function = getattr(lib, name)
+        function.restype = restype
+        function.argtypes = argtypes
+    return lib
+
+
+def machine_params(system: System) -> dict:
+    """The options ``system`` was built with, as :func:`k37.sim.run.runner.system_params`
+    names them."""
+    chip = system.chipset
+    names = {cls: name for name, cls in DRIVES.items()}
+    return {"accel": chip.accel, "accel_bits": chip.accel_bits, "axes": len(system.axes),
+            "accel_shape": chip.accel_shape, "axis_fa": chip.axis_fa,
+            "drives": {axis: names[cls] for axis, cls in system.drives.items()}}
+
+
+class EngineBackend(Backend):
+    """:class:`k37.sim.backends.contract.Backend` on the engine, for a
+    :class:`k37.sim.machine.system.System` (or a function that makes one)."""
+
+    name = "engine"
+
+    def __init__(self, design: Design, *, period: float = CLOCK_PERIOD,
+                 compiler: str | None = None):
+        from k37.sim.backends.introspect import component_ports, mark_elaborated
+
+        system = instantiate(design)
+        if not isinstance(system, System):
+            raise TypeError(f"the engine runs the simulated machine (System), not "
+                            f"{type(system).__name__}")
+        mark_elaborated(system)
+        params = machine_params(system)
+        why = unsupported(params)
+        if why is not None:
+            raise UnsupportedMachine(f"the engine does not run {why}; use --backend cxxrtl")
+        ports = {name: port for name, (port, _) in component_ports(system).items()}
+        super().__init__(ports, type(system).__name__)
+        self._period = period
+        self.model = build(compiler)
+        self._lib = lib = _load(str(self.model.path))
+        self._accel = (int(params["accel"].value == "pre"), params["accel_bits"])
+        self._index = {name: lib.k37e_port(name.encode()) for name in ports}
+        missing = [name for name, i in self._index.items() if i < 0 and not ports[name].is_input]
+        if missing:
+            raise RuntimeError(f"the engine has no output {', '.join(missing)}")
+        # Inputs the engine's machine leaves unconnected (other drives' parameters): held here.
+        self._held = {name: port.init for name, port in ports.items() if self._index[name] < 0}
+        self._batches: dict[tuple[str, ...], tuple[list[Port], ctypes.Array, ctypes.Array]] = {}
+        self._create()
+
+    def _create(self) -> None:
+        self._handle = self._lib.k37e_create(*self._accel)
+        self._destroy = weakref.finalize(self, self._lib.k37e_destroy, self._handle)
+        for name, port in self.ports.items():
+            if port.is_input and port.init:
+                self.set(name, port.init)
+
+    def reset(self) -> None:
+        self._destroy()
+        self._held = {name: self.ports[name].init for name in self._held}
+        self._create()
+
+    def _set_raw(self, port: Port, raw: int) -> None:
+        index = self._index[port.name]
+        if index < 0:
+            self._held[port.name] = raw
+        else:
+            self._lib.k37e_set(self._handle, index, raw)
+
+    def _get_raw(self, port: Port) -> int:
+        index = self._index[port.name]
+        return self._held[port.name] if index < 0 else self._lib.k37e_get(self._handle, index)
+
+    def get_many(self, port_names: tuple[str, ...]) -> list[int]:
+        if port_names not in self._batches:
+            ports = [self.port(name) for name in port_names]
+            if any(self._index[port.name] < 0 for port in ports):
+                return super().get_many(port_names)
+            indices = (ctypes.c_int * len(ports))(*(self._index[p.name] for p in ports))
+            self._batches[port_names] = (ports, indices, (ctypes.c_uint64 * len(ports))())
+        ports, indices, out = self._batches[port_names]
+        self._lib.k37e_get_many(self._handle, indices, len(ports), out)
+        return [port.decode(raw) for port, raw in zip(ports, out, strict=True)]
+
+    def _probe_raw(self, path: str) -> tuple[int, int, bool]:
+        raise KeyError(path)
+
+    def probe_names(self) -> list[str]:
+        return []
+
+    def _check_blocks(self) -> None:
+        if self._lib.k37e_unsupported(self._handle):
+            raise RuntimeError("the engine does not run parabolic or exponential blocks; "
+                               "use --backend cxxrtl")
+
+    def step(self, n: int = 1, *, skip_idle: bool = False) -> None:
+        check_count("n", n)
+        self._lib.k37e_step(self._handle, n)
+        self._check_blocks()
+
+    def run_until(self, port_name: str, max_cycles: int, *, skip_idle: bool = False) -> int:
+        check_count("max_cycles", max_cycles)
+        index = self._index[self.port(port_name).name]
+        if index < 0:
+            raise ValueError(f"port {port_name} is an input the engine leaves unconnected")
+        done = self._lib.k37e_run_until(self._handle, index, max_cycles)
+        self._check_blocks()
+        return done
+
+    def bus_write(self, addr: int, data: int, *, bus: str = "bus") -> None:
+        if bus != "bus":
+            super().bus_write(addr, data, bus=bus)
+            return
+        self._lib.k37e_bus_write(self._handle, self.port("bus__addr").encode(addr),
+                                 self.port("bus__w_data").encode(data))
+
+    def bus_read(self, addr: int, *, bus: str = "bus") -> int:
+        if bus != "bus":
+            return super().bus_read(addr, bus=bus)
+        return self._lib.k37e_bus_read(self._handle, self.port("bus__addr").encode(addr))
+
+    @property
+    def cycle(self) -> int:
+        return self._lib.k37e_cycle(self._handle)
+
+    def trace(self, path: str, start_cycle: int = 0, stop_cycle: int | None = None,
+              signals: tuple[str, ...] = ()) -> None:
+        check_window(start_cycle, stop_cycle)
+        raise ValueError("the engine writes no waveform: use --backend cxxrtl for --vcd")
+
+    def stop_trace(self) -> None:
+        pass
+
+    def close(self) -> None:
+        self._destroy()
+
+    def plant_ns(self, cycles: int = 10**8) -> float:
+        """Nanoseconds per cycle of one first-order plant stepped alone in the engine's C++
+        (the cost of stepping a plant per axis and cycle)."""
+        return self._lib.k37e_plant_ns(cycles)

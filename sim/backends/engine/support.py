@@ -1,0 +1,56 @@
+"""What the engine runs: a predicate over a machine's options and a program's blocks.
+
+The engine runs the two-axis machine with the exponential accel/decel circuit before the
+K3701 (``machine.accel = "pre"``, any ``accel_bits``) or without one (``"none"``), first-order
+servo drives on both axes, and programs of lines and arcs. :func:`unsupported` names the first
+option outside that (None: the engine runs the machine); it reads the parameters the simulated
+machine is built with (:func:`k37.sim.run.runner.system_params`), so it needs no Amaranth.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+__all__ = ["EXPERIMENTAL", "unsupported", "unsupported_blocks"]
+
+#: Whether ``--backend auto`` leaves the engine out (it is picked only by name): True until
+#: the engine is proven equal to the compiled RTL backend on every test that compares them.
+EXPERIMENTAL = True
+
+
+def _value(option: object) -> object:
+    """An option's plain value (an enum's value)."""
+    return option.value if isinstance(option, enum.Enum) else option
+
+
+def unsupported(params: Mapping[str, Any], kinds: Iterable[object] = ()) -> str | None:
+    """The first machine option in ``params`` (the keyword arguments of
+    :class:`k37.sim.machine.system.System`) that the engine does not run, in words naming
+    the job's key, or else the first block kind of ``kinds`` (:func:`unsupported_blocks`);
+    None if it runs them all."""
+    axes = params.get("axes", 2)
+    if axes != 2:
+        return f"machine.axes = {axes} (the engine runs 2 axes)"
+    accel = _value(params.get("accel", "pre"))
+    if accel not in ("pre", "none"):
+        return f"machine.accel = \"{accel}\" (the engine runs \"pre\" and \"none\")"
+    shape = _value(params.get("accel_shape", "exponential"))
+    if accel == "pre" and shape != "exponential":
+        return (f"machine.accel_shape = \"{shape}\" (the engine runs the exponential "
+                f"circuit)")
+    for axis, drive in sorted((params.get("drives") or {}).items()):
+        if drive != "first_order":
+            return f"servo.{axis}.drive = \"{drive}\" (the engine runs the first-order drive)"
+    return unsupported_blocks(kinds)
+
+
+def unsupported_blocks(kinds: Iterable[object]) -> str | None:
+    """The first block kind (a :class:`k37.hdl.k3701.block.Kind`) the engine does not run, in
+    words; None if it runs them all (lines and arcs)."""
+    for kind in kinds:
+        name = str(getattr(kind, "name", kind)).lower()
+        if name not in ("linear", "circular"):
+            return f"a {name} block (the engine runs lines and arcs)"
+    return None
