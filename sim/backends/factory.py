@@ -55,9 +55,9 @@ def make_backend(design: Design, kind: str = BACKEND_NAMES[0], *,
                  params: Mapping[str, Any] | None = None, kinds: Iterable[object] = (),
                  waveform: bool = False) -> Backend:
     """A backend of kind ``kind`` (one of :data:`BACKEND_NAMES`, ``auto`` as
-    :func:`choose_backend` picks with ``params``, ``kinds`` and ``waveform``) for ``design``: a component,
-    or a function that makes one (called only if the design must be elaborated). The backend's
-    ``reason`` says why it was picked.
+    :func:`choose_backend` picks with ``params``, ``kinds`` and ``waveform``) for ``design``: a
+    component, or a function that makes one (called only if the design must be elaborated).
+    The backend's ``reason`` says why it was picked.
 
     ``design_key``, if given, names the design by what it is made from (its sources and
     parameters): the compiled backend then finds a model built before without elaborating

@@ -496,7 +496,8 @@ def _report(job: Job, backend: Backend, firmware: Firmware, meter: BlockMeter,
         job, [(b.index, b.start_cycle) for b in firmware.blocks], store)
     return report_document(
         job, firmware, status=status, reason=reason, backend=backend.name,
-        backend_reason=backend.reason, cycles=backend.cycle, wall=wall, skipped=backend.skipped_cycles,
+        backend_reason=backend.reason, cycles=backend.cycle, wall=wall,
+        skipped=backend.skipped_cycles,
         blocks=[_block_report(b, meter.of(b)) for b in firmware.blocks],
         axes={axis: _axis_report(backend, axis) for axis in job.machine.axis_names},
         path={"max_contour_error": max_contour, "rms_contour_error": rms_contour,
@@ -504,8 +505,8 @@ def _report(job: Job, backend: Backend, firmware: Firmware, meter: BlockMeter,
 
 
 def report_document(job: Job, firmware: Firmware, *, status: str, reason: str, backend: str,
-                    backend_reason: str = "", cycles: int, wall: float, skipped: int, blocks: list[dict],
-                    axes: dict[str, dict], path: dict) -> dict:
+                    backend_reason: str = "", cycles: int, wall: float, skipped: int,
+                    blocks: list[dict], axes: dict[str, dict], path: dict) -> dict:
     """The report of a run of ``job`` by ``firmware`` (:mod:`k37.sim.run.report`), from what was
     measured of it."""
     clock = job.machine.clock_hz

@@ -2,9 +2,9 @@
 (:mod:`.build`) through ctypes, with the ports of :class:`k37.sim.machine.system.System`.
 
 It runs what :func:`k37.sim.backends.engine.support.unsupported` accepts and refuses the rest
-when it is built (:class:`UnsupportedMachine`, naming the option). It has no internal signals to
-probe and writes no waveform: those are the RTL backends'. Every cycle is computed (``skip_idle``
-is accepted and changes nothing).
+when it is built (:class:`UnsupportedMachineError`, naming the option). It has no internal
+signals to probe and writes no waveform: those are the RTL backends'. Every cycle is computed
+(``skip_idle`` is accepted and changes nothing).
 """
 
 from __future__ import annotations
@@ -25,10 +25,10 @@ from k37.sim.backends.engine.build import build
 from k37.sim.backends.engine.support import unsupported
 from k37.sim.machine.system import DRIVES, System
 
-__all__ = ["EngineBackend", "UnsupportedMachine", "machine_params"]
+__all__ = ["EngineBackend", "UnsupportedMachineError", "machine_params"]
 
 
-class UnsupportedMachine(ValueError):
+class UnsupportedMachineError(ValueError):
     """A machine option the engine does not run (one line naming it)."""
 
 
@@ -86,7 +86,7 @@ class EngineBackend(Backend):
         params = machine_params(system)
         why = unsupported(params)
         if why is not None:
-            raise UnsupportedMachine(f"the engine does not run {why}; use --backend cxxrtl")
+            raise UnsupportedMachineError(f"the engine does not run {why}; use --backend cxxrtl")
         ports = {name: port for name, (port, _) in component_ports(system).items()}
         super().__init__(ports, type(system).__name__)
         self._period = period

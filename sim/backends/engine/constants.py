@@ -89,6 +89,6 @@ def header() -> str:
         lines.append(f"constexpr unsigned SELECT_{name} = {selects[name][0]};")
     lines.append("")
     for prefix, (_, regmap) in maps.items():
-        lines += _map(prefix, regmap) + [""]
+        lines += [*_map(prefix, regmap), ""]
     lines.append("}  // namespace k37e")
     return "\n".join(lines) + "\n"

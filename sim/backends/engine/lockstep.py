@@ -5,7 +5,7 @@ by side, and the first cycle at which any output port differs stops the run, nam
 one machine: every call goes to both, and after it every output port (and the cycle count) is
 compared. Calls that run many cycles (``step(n)``, ``run_until``) compare at their end; when
 they differ there, both backends are reset and the calls so far replayed, and the differing
-call is run again cycle by cycle, so :class:`Divergence` names the first differing cycle
+call is run again cycle by cycle, so :class:`DivergenceError` names the first differing cycle
 exactly. The backend records no samples and runs no polling wait itself (the caller's loop of
 its calls does), so every cycle the firmware runs is checked.
 
@@ -20,19 +20,25 @@ from typing import Any
 
 from k37.sim.backends.contract import Backend, Port
 
-__all__ = ["Divergence", "LockstepBackend"]
+__all__ = ["DivergenceError", "LockstepBackend"]
+
+
+#: A call of the backend contract: its method's name, arguments and keyword arguments.
+Call = tuple[str, tuple, dict]
 
 
 @dataclass
-class Divergence(AssertionError):
-    """The two backends differ: at ``cycle`` (cycles run when the difference was seen),
-    ``port`` reads ``values`` (the checked backend's, the reference's), after ``call``."""
+class DivergenceError(AssertionError):
+    """The two backends differ: after the cycle that brought them to ``cycle`` cycles,
+    ``port`` reads ``values`` (the checked backend's, the reference's), in ``call``.
+    ``replayed``: the calls that bring two fresh backends to the cycle before, equal."""
 
     cycle: int
     port: str
     values: tuple[int, int]
     call: str
     names: tuple[str, str]
+    replayed: list[Call]
 
     def __str__(self) -> str:
         return (f"cycle {self.cycle:,}: {self.port} is {self.values[0]} on {self.names[0]}, "
@@ -51,7 +57,7 @@ class LockstepBackend(Backend):
         self.checked, self.reference = checked, reference
         self._outputs = tuple(name for name, port in self.ports.items() if not port.is_input)
         #: The calls since the start (or the last reset), to replay (method, args, kwargs).
-        self._log: list[tuple[str, tuple, dict]] = []
+        self._log: list[Call] = []
 
     # -- every call to both, compared -----------------------------------------------------
 
@@ -77,18 +83,19 @@ class LockstepBackend(Backend):
                 return name, (a, b)
         return None
 
-    def _raise(self, difference: tuple[str, tuple[int, int]], call: str) -> None:
+    def _raise(self, difference: tuple[str, tuple[int, int]], call: str,
+               replayed: list[Call]) -> None:
         port, values = difference
-        raise Divergence(self.reference.cycle, port, values, call,
-                         (self.checked.name, self.reference.name))
+        raise DivergenceError(self.reference.cycle, port, values, call,
+                         (self.checked.name, self.reference.name), replayed)
 
     def _locate(self, difference: tuple[str, tuple[int, int]]) -> None:
         """Replay to the last call and run it cycle by cycle; raise at the first difference."""
-        method, args, kwargs = self._log[-1]
+        method, args, _ = self._log[-1]
         call = f"{method}{args!r}"
-        if method not in ("step", "run_until"):
-            self._raise(difference, call)
         log = self._log[:-1]
+        if method not in ("step", "run_until"):
+            self._raise(difference, call, log)
         for backend in (self.checked, self.reference):
             backend.reset()
         for name, a, k in log:
@@ -96,15 +103,15 @@ class LockstepBackend(Backend):
                 getattr(backend, name)(*a, **k)
         port_name = args[0] if method == "run_until" else None
         cycles = args[1] if method == "run_until" else (args[0] if args else 1)
-        for _ in range(cycles):
+        for stepped in range(cycles):
             for backend in (self.checked, self.reference):
                 backend.step(1)
             found = self._difference()
             if found is not None:
-                self._raise(found, call)
+                self._raise(found, call, [*log, *[("step", (1,), {})] * stepped])
             if port_name is not None and self.reference.get(port_name):
                 break
-        self._raise(difference, call)  # seen only with skipping: report it where seen
+        self._raise(difference, call, log)  # not seen cycle by cycle: reported where seen
 
     def set(self, port_name: str, value: int) -> None:
         self._log.append(("set", (port_name, value), {}))

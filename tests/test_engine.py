@@ -1,0 +1,129 @@
+"""The event-level engine equals the compiled RTL backend, and the lockstep checker finds the
+first cycle where two backends differ.
+
+Whole jobs run on ``--backend engine`` and ``--backend cxxrtl``: the reports (the fields of how
+a run was computed aside) and every sample must be equal. The jobs are the demo and
+hypothesis-drawn short programs of lines, arcs and dwells on random small machines within what
+the engine runs (accel/decel before the K3701 or none, random widths and servos, faults).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from k37.firmware_model.job import MachineConfig, demo_job
+from k37.hdl.k3701.block import LATENCY_LINEAR
+from k37.hdl.k3702.map import K3702_MAP
+from k37.sim.backends.engine.constants import header
+from k37.sim.backends.engine.lockstep import DivergenceError, LockstepBackend
+from k37.sim.backends.engine.support import EXPERIMENTAL, unsupported
+from k37.sim.backends.factory import choose_backend
+from k37.sim.run.report import HOW_FIELDS
+from k37.sim.run.runner import (
+    OptionError,
+    RunOptions,
+    build_backend,
+    run_job,
+    system_params,
+)
+
+
+def comparable(report: dict) -> dict:
+    return {k: v for k, v in report.items() if k not in HOW_FIELDS}
+
+
+def same_on_engine_and_rtl(job, faults=None, **options) -> dict:
+    """Run ``job`` on both backends; assert equal reports and samples; the engine's report."""
+    runs = {kind: run_job(job, RunOptions(backend=kind, faults=faults or {}, **options))
+            for kind in ("engine", "cxxrtl")}
+    engine, rtl = runs["engine"], runs["cxxrtl"]
+    assert engine.report["backend"] == "engine" and rtl.report["backend"] == "cxxrtl"
+    assert comparable(engine.report) == comparable(rtl.report)
+    assert engine.samples.shape == rtl.samples.shape
+    assert np.array_equal(engine.samples, rtl.samples)
+    return engine.report
+
+
+def test_engine_equals_the_rtl_on_the_demo_report_and_samples():
+    report = same_on_engine_and_rtl(demo_job())
+    assert report["status"] == "ok" and report["cycles"] > 6_000_000
+    assert report["backend_reason"] == "--backend engine"
+
+
+@settings(max_examples=8, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(seed=st.integers(0, 10**6), accel=st.sampled_from(["pre", "none"]),
+       dwell=st.booleans())
+def test_engine_equals_the_rtl_on_generated_jobs(seed, accel, dwell, random_moves):
+    job, faults, _ = random_moves(seed, accel, dwell=dwell)
+    assert unsupported(system_params(job)) is None
+    same_on_engine_and_rtl(job, faults, sample_every=97)
+
+
+def test_lockstep_runs_the_demo_without_a_difference():
+    report = run_job(demo_job(), RunOptions(backend="lockstep", max_cycles=400_000)).report
+    assert report["backend"] == "lockstep" and report["cycles"] == 400_000
+
+
+def test_lockstep_names_the_first_differing_cycle_and_port(make_job):
+    """An engine of a machine with a shorter accel/decel time constant beside the RTL of the
+    paper's: the checker stops at the first cycle their outputs differ, and names the port;
+    stepped alone, the two agree on every output up to the cycle before."""
+    slow = make_job("G21 G91 F1200\nG01 X1 Y0.5\nM30")
+    fast = make_job("G21 G91 F1200\nG01 X1 Y0.5\nM30", MachineConfig(accel_bits=8))
+    pair = LockstepBackend(build_backend(fast, "engine"), build_backend(slow, "cxxrtl"))
+    with pytest.raises(DivergenceError) as caught:
+        run_job(slow, RunOptions(max_cycles=2_000_000), pair)
+    found = caught.value
+    assert found.names == ("engine", "cxxrtl") and found.values[0] != found.values[1]
+    engine, rtl = build_backend(fast, "engine"), build_backend(slow, "cxxrtl")
+    pair = LockstepBackend(engine, rtl)
+    for name, args, kwargs in caught.value.replayed:
+        getattr(pair, name)(*args, **kwargs)
+    outputs = tuple(name for name, port in rtl.ports.items() if not port.is_input)
+    assert engine.cycle == rtl.cycle == found.cycle - 1
+    assert engine.get_many(outputs) == rtl.get_many(outputs)
+    engine.step()
+    rtl.step()
+    assert (engine.get(found.port), rtl.get(found.port)) == found.values
+
+
+def test_engine_constants_come_from_the_register_maps():
+    text = header()
+    assert f"constexpr int64_t LATENCY_LINEAR = {LATENCY_LINEAR}LL;" in text
+    alarm = K3702_MAP["ALARM_ZONE"]
+    assert (f'{{"ALARM_ZONE", {alarm.addr}, {alarm.nbytes}, 1, 1, 0, 0, 0LL, '
+            f'{(1 << alarm.width) - 1}LL, {alarm.init}ULL}},') in text
+
+
+@pytest.mark.parametrize(("machine", "named"), [
+    (MachineConfig(axes=3), "machine.axes = 3"),
+    (MachineConfig(accel="post"), 'machine.accel = "post"'),
+    (MachineConfig(accel_shape="bell"), 'machine.accel_shape = "bell"'),
+])
+def test_engine_names_the_first_option_it_does_not_run(machine, named, make_job):
+    job = make_job("G21 G91 F600\nG01 X0.1\nM30", machine)
+    why = unsupported(system_params(job))
+    assert why is not None and why.startswith(named)
+    with pytest.raises(OptionError, match=f"--backend engine: the engine does not run "
+                                          f"{named}"):
+        build_backend(job, "engine")
+    assert choose_backend("auto", system_params(job))[0] == "cxxrtl"
+
+
+def test_engine_refuses_a_program_with_a_parabola(make_job):
+    job = make_job("G21 G91 F600\nG06 X0.03 Y0 I0.015 J0.002\nM30")
+    with pytest.raises(OptionError, match="a parabolic block"):
+        build_backend(job, "engine")
+
+
+def test_auto_picks_the_engine_only_when_it_runs_the_machine_and_no_waveform_is_asked():
+    params = system_params(demo_job())
+    kind, why = choose_backend("auto", params)
+    assert kind == ("cxxrtl" if EXPERIMENTAL else "engine"), why
+    assert choose_backend("auto", params, waveform=True) == (
+        "cxxrtl", "auto: a waveform of internal signals needs the RTL")
+    assert choose_backend("engine", params) == ("engine", "--backend engine")
