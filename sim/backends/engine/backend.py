@@ -3,14 +3,18 @@
 
 It runs what :func:`k37.sim.backends.engine.support.unsupported` accepts and refuses the rest
 when it is built (:class:`UnsupportedMachineError`, naming the option). It has no internal
-signals to probe and writes no waveform: those are the RTL backends'. Every cycle is computed
-(``skip_idle`` is accepted and changes nothing).
+signals to probe and writes no waveform: those are the RTL backends'. With ``skip_idle`` it
+advances the cycles in which only its free-running state and its plants change in closed form
+(``skipped_cycles``); the host's polling wait and the sampler's samples run in the library.
 """
 
 from __future__ import annotations
 
 import ctypes
 import weakref
+from collections.abc import Sequence
+
+import numpy as np
 
 from k37.sim.backends.contract import (
     CLOCK_PERIOD,
@@ -35,6 +39,7 @@ class UnsupportedMachineError(ValueError):
 def _load(path: str) -> ctypes.CDLL:
     lib = ctypes.CDLL(path)
     handle, u64, c_int = ctypes.c_void_p, ctypes.c_uint64, ctypes.c_int
+    words = ctypes.POINTER(u64)
     signatures = {
         "k37e_create": (handle, [c_int, ctypes.c_uint]),
         "k37e_destroy": (None, [handle]),
@@ -45,8 +50,13 @@ def _load(path: str) -> ctypes.CDLL:
                                  ctypes.POINTER(u64)]),
         "k37e_cycle": (u64, [handle]),
         "k37e_unsupported": (c_int, [handle]),
-        "k37e_step": (None, [handle, u64]),
-        "k37e_run_until": (u64, [handle, c_int, u64]),
+        "k37e_skipped": (u64, [handle]),
+        "k37e_step": (None, [handle, u64, c_int]),
+        "k37e_run_until": (u64, [handle, c_int, u64, c_int]),
+        "k37e_wait_polling": (c_int, [handle, c_int, u64, u64, u64, words, words,
+                                      ctypes.c_size_t, words, u64, c_int, c_int, words, words]),
+        "k37e_record": (None, [handle, ctypes.POINTER(c_int), ctypes.c_size_t, u64]),
+        "k37e_recorded": (ctypes.c_size_t, [handle, words, ctypes.c_size_t]),
         "k37e_bus_write": (None, [handle, u64, u64]),
         "k37e_bus_read": (u64, [handle, u64]),
         "k37e_plant_ns": (ctypes.c_double, [u64]),
@@ -100,6 +110,7 @@ class EngineBackend(Backend):
         # Inputs the engine's machine leaves unconnected (other drives' parameters): held here.
         self._held = {name: port.init for name, port in ports.items() if self._index[name] < 0}
         self._batches: dict[tuple[str, ...], tuple[list[Port], ctypes.Array, ctypes.Array]] = {}
+        self._recording: list[Port] | None = None  # the ports k37e_record samples
         self._create()
 
     def _create(self) -> None:
@@ -111,6 +122,7 @@ class EngineBackend(Backend):
 
     def reset(self) -> None:
         self._destroy()
+        self._recording = None
         self._held = {name: self.ports[name].init for name in self._held}
         self._create()
 
@@ -149,17 +161,73 @@ class EngineBackend(Backend):
 
     def step(self, n: int = 1, *, skip_idle: bool = False) -> None:
         check_count("n", n)
-        self._lib.k37e_step(self._handle, n)
+        self._lib.k37e_step(self._handle, n, skip_idle)
         self._check_blocks()
 
-    def run_until(self, port_name: str, max_cycles: int, *, skip_idle: bool = False) -> int:
-        check_count("max_cycles", max_cycles)
+    def _output(self, port_name: str) -> int:
         index = self._index[self.port(port_name).name]
         if index < 0:
             raise ValueError(f"port {port_name} is an input the engine leaves unconnected")
-        done = self._lib.k37e_run_until(self._handle, index, max_cycles)
+        return index
+
+    def run_until(self, port_name: str, max_cycles: int, *, skip_idle: bool = False) -> int:
+        check_count("max_cycles", max_cycles)
+        done = self._lib.k37e_run_until(self._handle, self._output(port_name), max_cycles,
+                                        skip_idle)
         self._check_blocks()
         return done
+
+    def wait_polling(self, port_name: str, max_cycles: int, pause: int, period: int,
+                     ports: Sequence[int], stops: Sequence[int], idles: Sequence[int], *,
+                     due: bool = False, skip_idle: bool = False,
+                     bus: str = "bus") -> tuple[int, list[int] | None, int] | None:
+        if bus != "bus":
+            return None
+        for name, value in (("max_cycles", max_cycles), ("pause", pause), ("period", period)):
+            check_count(name, value)
+        n = len(ports)
+        if not n or len(stops) != n or len(idles) % (n + 1) or period < 1:
+            raise ValueError("wait_polling: one stop mask per port, n + 1 idles per routine")
+        u64 = ctypes.c_uint64
+        addr = self.port("bus__addr")
+        done, read = u64(), (u64 * n)()
+        end = self._lib.k37e_wait_polling(
+            self._handle, self._output(port_name), max_cycles, pause, period,
+            (u64 * n)(*(addr.encode(a) for a in ports)), (u64 * n)(*stops), n,
+            (u64 * len(idles))(*idles), len(idles) // (n + 1), due, skip_idle,
+            ctypes.byref(done), read)
+        self._check_blocks()
+        # The ends of the compiled RTL backend's wait (WaitEnd): 1 stopped, 2 and 3 go on.
+        return done.value, list(read) if end == 1 else None, {2: 1, 3: 2}.get(end, 0)
+
+    def record(self, port_names: tuple[str, ...], every: int) -> bool:
+        if not isinstance(every, int) or every < 1:
+            raise ValueError(f"every must be a positive number of cycles, not {every!r}")
+        ports = [self.port(name) for name in port_names]
+        if any(self._index[port.name] < 0 or port.width > 63 for port in ports):
+            return False
+        indices = [self._index[port.name] for port in ports]
+        self._lib.k37e_record(self._handle, (ctypes.c_int * len(ports))(*indices), len(ports),
+                              every)
+        self._recording = ports
+        return True
+
+    def recorded(self) -> np.ndarray:
+        if self._recording is None:
+            return super().recorded()
+        ports = self._recording
+        raw = np.zeros(self._lib.k37e_recorded(self._handle, None, 0), dtype=np.uint64)
+        self._lib.k37e_recorded(self._handle,
+                                raw.ctypes.data_as(ctypes.POINTER(ctypes.c_uint64)), len(raw))
+        rows = raw.astype(np.int64).reshape(-1, 1 + len(ports))
+        for column, port in enumerate(ports, start=1):
+            if port.signed:
+                rows[:, column] -= (rows[:, column] >> (port.width - 1) & 1) << port.width
+        return rows
+
+    @property
+    def skipped_cycles(self) -> int:  # type: ignore[override]
+        return self._lib.k37e_skipped(self._handle)
 
     def bus_write(self, addr: int, data: int, *, bus: str = "bus") -> None:
         if bus != "bus":

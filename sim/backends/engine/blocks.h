@@ -307,17 +307,37 @@ struct Plant {
 		bool a = (bit(c, 0) != bit(c, 1)) != glitch_a, b = bit(c, 1) != glitch_b;
 		return {a, break_a ? a : !a, b, !b};
 	}
-	void rise(const PlantInputs &in, uint64_t dac, int com) {
+	// The velocity command for D/A word `dac` and net command pulse `com`.
+	static int64_t command(const PlantInputs &in, uint64_t dac, int com) {
 		int64_t err = int64_t(dac) - int64_t(in.dac_zero);
 		int64_t ff = com > 0 ? int64_t(in.kf) : com < 0 ? -int64_t(in.kf) : 0;
 		int64_t raw = err * int64_t(in.gain) + ff;
 		constexpr int64_t VC_MAX = (int64_t(1) << VC_BITS) - 1;
 		int64_t vmax = in.vmax == 0 || in.vmax > uint64_t(VC_MAX) ? VC_MAX : int64_t(in.vmax);
-		int64_t vc = raw > vmax ? vmax : raw < -vmax ? -vmax : raw;
+		return raw > vmax ? vmax : raw < -vmax ? -vmax : raw;
+	}
+	// Cycles without a command pulse that keep the count, if the velocity is steady (its next
+	// update leaves it as it is: the position then moves by it every cycle); else 0.
+	uint64_t steady_cycles(const PlantInputs &in, uint64_t dac) const {
+		if (velocity != (in.stall ? 0 : command(in, dac, 0)))
+			return 0;
+		if (velocity == 0)
+			return UINT64_MAX;
+		uint64_t position = before + uint64_t(velocity);
+		uint64_t offset = position & low_bits(FRAC_BITS);
+		return velocity > 0 ? (low_bits(FRAC_BITS) - offset) / uint64_t(velocity)
+		                    : offset / uint64_t(-velocity);
+	}
+	// The velocity after an update towards the velocity command `vc`.
+	int64_t next_velocity(const PlantInputs &in, int64_t vc) const {
 		int64_t delta = int64_t(uint64_t(vc - velocity) * in.alpha + (uint64_t(1) << (ALPHA_BITS - 1)));
 		int64_t step = delta >> ALPHA_BITS;
+		return in.stall ? 0 : step == 0 ? vc : wrap(velocity + step, VC_BITS + 1);
+	}
+	void rise(const PlantInputs &in, uint64_t dac, int com) {
+		int64_t vc = command(in, dac, com);
 		before += uint64_t(velocity);
-		velocity = in.stall ? 0 : step == 0 ? vc : wrap(velocity + step, VC_BITS + 1);
+		velocity = next_velocity(in, vc);
 		glitch_a = in.glitch_a;
 		glitch_b = in.glitch_b;
 		break_a = in.break_a;

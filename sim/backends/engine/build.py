@@ -25,7 +25,7 @@ from k37.sim.backends.toolchain import (
 __all__ = ["SOURCES", "build"]
 
 #: The engine's sources: its one translation unit (first) and the headers it includes.
-SOURCES = ("machine.cc", "blocks.h", "k3701.h")
+SOURCES = ("machine.cc", "machine.h", "blocks.h", "k3701.h", "free.h")
 #: g++ flags of the engine library (part of the cache key).
 CXX_FLAGS = ("-std=c++17", "-O2", "-fPIC", "-shared")
 _LIBRARY = "libk37engine.so"

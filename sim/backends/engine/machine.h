@@ -1,0 +1,372 @@
+// The engine's machine: the two-axis chipset (FEED, DECEL, the exponential accel/decel circuit
+// before the K3701 or none, the K3701, a K3702 and an encoder interface per axis, the host bus
+// decoding) with a first-order plant per axis and the observation counters, composed as
+// k37.sim.machine.system.System and k37.hdl.chipset.chip.Chipset wire them; its ports by the
+// System's names; its cycles (a falling edge, except in the first, then a rising edge, as
+// Amaranth's simulator clocks it); and its idle skipping: while nothing but the free-running
+// state (the dividers, the rate multiplier's counter, the accel/decel accumulator, the K3701's
+// latency or setup count) and the plants changes, cycles are advanced in closed form up to the
+// next event, the plants stepped alone, exactly as stepping the whole machine would.
+
+#pragma once
+
+#include <algorithm>
+#include <cstring>
+#include <utility>
+#include <vector>
+
+#include "blocks.h"
+#include "free.h"
+#include "k3701.h"
+
+namespace k37e {
+
+constexpr int AXES = 2;
+
+// Every port, by the System's name (a bus member, a top output or an axis's member).
+const char *const TOP_PORTS[] = {"bus__addr", "bus__w_stb", "bus__w_data", "bus__r_stb",
+                                 "bus__r_data", "irq", "irq_interp", "irq_alarm", "fp_total",
+                                 "quiet"};
+enum TopPort { BUS_ADDR, BUS_W_STB, BUS_W_DATA, BUS_R_STB, BUS_R_DATA, IRQ, IRQ_INTERP,
+               IRQ_ALARM, FP_TOTAL, QUIET, TOP_COUNT };
+const char *const AXIS_PORTS[] = {"gain", "alpha", "vmax", "kf", "dac_zero", "stall",
+                                  "glitch_a", "glitch_b", "break_a", "command", "error", "count",
+                                  "dac", "max_abs_error", "pulses_pos", "pulses_neg", "alarm_n"};
+enum AxisPort { GAIN, ALPHA, VMAX, KF, DAC_ZERO, STALL, GLITCH_A, GLITCH_B, BREAK_A, COMMAND,
+                ERROR, COUNT, DAC, MAX_ABS_ERROR, PULSES_POS, PULSES_NEG, ALARM_N, AXIS_COUNT };
+constexpr int PORT_COUNT = TOP_COUNT + AXES * AXIS_COUNT;
+
+struct Axis {
+	K3702 ctrl;
+	Encoder enc;
+	Plant plant;
+	PlantInputs in;
+	uint64_t max_abs_error = 0;
+	uint32_t pulses_pos = 0, pulses_neg = 0;
+};
+
+struct Machine {
+	bool accel_pre = true;
+	Feed feed;
+	Decel decel;
+	Accel accel;
+	K3701 interp;
+	Axis axis[AXES];
+	uint64_t addr = 0, w_data = 0;
+	bool w_stb = false, r_stb = false;
+	unsigned read_cs = 0;
+	uint32_t fp_total = 0;
+	uint64_t cycle = 0, skipped = 0;
+	// Samples of some ports at every multiple of `every` cycles (k37e_record): each row the
+	// cycle and the ports' values; a skip ends at the next sample.
+	std::vector<int> record_ports;
+	uint64_t every = 0, next_sample = UINT64_MAX;
+	std::vector<uint64_t> rows;
+
+	Machine(bool pre, unsigned accel_bits) : accel_pre(pre) {
+		accel.n = accel_bits;
+		feed.bank.init(FEED_REGS, FEED_REG_COUNT);
+		decel.bank.init(DECEL_REGS, DECEL_REG_COUNT);
+		interp.bank.init(K3701_REGS, K3701_REG_COUNT);
+		for (Axis &a : axis) {
+			a.ctrl.bank.init(K3702_REGS, K3702_REG_COUNT);
+			a.enc.bank.init(ENCODER_REGS, ENCODER_REG_COUNT);
+		}
+	}
+	// The decel gate's output and the interpolator's FP in this cycle (combinational).
+	bool decel_out() const { return feed.out() && decel.gate_open(); }
+	bool fp() const { return accel_pre ? accel.out() : decel_out(); }
+	bool irq_alarm() const { return axis[0].ctrl.irq || axis[1].ctrl.irq; }
+	bool quiet() const { return interp.quiet(fp()) && (!accel_pre || accel.pending == 0); }
+	uint8_t r_data() const {
+		switch (read_cs) {
+		case SELECT_K3701: return interp.bank.r_data;
+		case SELECT_K3702_X: return axis[0].ctrl.bank.r_data;
+		case SELECT_K3702_Y: return axis[1].ctrl.bank.r_data;
+		case SELECT_ENCODER_X: return axis[0].enc.bank.r_data;
+		case SELECT_ENCODER_Y: return axis[1].enc.bank.r_data;
+		case SELECT_FEED: return feed.bank.r_data;
+		case SELECT_DECEL: return decel.bank.r_data;
+		default: return 0;
+		}
+	}
+
+	// One chip's bank edge: its strobes where the address selects it (no aliases: the
+	// address bits between the chip's map and the select must be 0).
+	template<class Chip>
+	BankEdge decode(const Chip &chip, unsigned select, unsigned width) const {
+		bool hit = (addr >> REG_BITS) == select && (addr & low_bits(REG_BITS)) >> width == 0;
+		return chip.bank.decode(w_stb && hit, r_stb && hit, unsigned(addr & low_bits(width)),
+		                        uint8_t(w_data), [&](int reg) { return chip.read(reg); });
+	}
+
+	void fall() {
+		for (int k = 0; k < AXES; k++) {
+			const K3701Out &o = interp.out;
+			int com = k == 0 ? int(o.x_pos) - int(o.x_neg) : int(o.y_pos) - int(o.y_neg);
+			Axis &a = axis[k];
+			a.ctrl.fall(com, int(a.enc.fb_pos) - int(a.enc.fb_neg));
+		}
+	}
+
+	void rise() {
+		// Everything the edge reads, from the values before it.
+		bool gate = decel_out(), add = feed.fa(), feed_pulse = fp();
+		BankEdge e_feed = decode(feed, SELECT_FEED, FEED_ADDR_WIDTH);
+		BankEdge e_decel = decode(decel, SELECT_DECEL, DECEL_ADDR_WIDTH);
+		BankEdge e_interp = decode(interp, SELECT_K3701, K3701_ADDR_WIDTH);
+		BankEdge e_ctrl[AXES] = {decode(axis[0].ctrl, SELECT_K3702_X, K3702_ADDR_WIDTH),
+		                         decode(axis[1].ctrl, SELECT_K3702_Y, K3702_ADDR_WIDTH)};
+		BankEdge e_enc[AXES] = {decode(axis[0].enc, SELECT_ENCODER_X, ENCODER_ADDR_WIDTH),
+		                        decode(axis[1].enc, SELECT_ENCODER_Y, ENCODER_ADDR_WIDTH)};
+		const K3701Out steps = interp.out;
+		int com[AXES] = {int(steps.x_pos) - int(steps.x_neg), int(steps.y_pos) - int(steps.y_neg)};
+		// The edge.
+		feed.rise();
+		decel.rise(gate);
+		if (accel_pre)
+			accel.rise(gate, add);
+		interp.rise(feed_pulse);
+		for (int k = 0; k < AXES; k++) {
+			Axis &a = axis[k];
+			a.enc.rise(a.plant.lines());
+			a.plant.rise(a.in, a.ctrl.dac, com[k]);
+			uint64_t magnitude = uint64_t(a.ctrl.error < 0 ? -a.ctrl.error : a.ctrl.error);
+			if (magnitude > a.max_abs_error)
+				a.max_abs_error = magnitude;
+			a.pulses_pos += com[k] > 0;
+			a.pulses_neg += com[k] < 0;
+		}
+		fp_total += feed_pulse;
+		if (r_stb)
+			read_cs = unsigned(addr >> REG_BITS) & 7;
+		feed.bank.apply(e_feed);
+		decel.bank.apply(e_decel);
+		interp.bank.apply(e_interp);
+		for (int k = 0; k < AXES; k++) {
+			axis[k].ctrl.bank.apply(e_ctrl[k]);
+			axis[k].enc.bank.apply(e_enc[k]);
+		}
+	}
+
+	void step() {
+		if (cycle)
+			fall();
+		rise();
+		count_cycles(1);
+	}
+
+	// Count n cycles run or skipped, and take the sample that is due, if one is.
+	void count_cycles(uint64_t n) {
+		cycle += n;
+		if (cycle == next_sample) {
+			rows.push_back(cycle);
+			for (int port : record_ports)
+				rows.push_back(get(port));
+			next_sample += every;
+		}
+	}
+
+	// Whether the cycles to come change nothing but the free-running state and the plants
+	// until an event of theirs (horizon): no bus cycle, no bank strobe, no step pulse, FP or
+	// accel/decel output pulse, K3702s and encoder interfaces at a fixed point, and the
+	// K3701 idle, counting down, or waiting for an FP it does not hold.
+	bool quiet_now() const {
+		if (w_stb || r_stb || !banks_quiet())
+			return false;
+		const K3701Out &o = interp.out;
+		if (o.x_pos || o.x_neg || o.y_pos || o.y_neg)
+			return false;
+		if (interp.phase == K3701::Phase::RUN && interp.count == 0 && interp.held)
+			return false;
+		if (accel_pre && accel.pending != 0)
+			return false;
+		for (const Axis &a : axis) {
+			const Encoder &e = a.enc;
+			const Plant &p = a.plant;
+			if (e.fb_pos || e.fb_neg || !e.started)
+				return false;
+			if (p.glitch_a != a.in.glitch_a || p.glitch_b != a.in.glitch_b ||
+			    p.break_a != a.in.break_a)
+				return false;
+			Lines in = p.lines();
+			const bool pins[2][2] = {{in.a, in.a_n}, {in.b, in.b_n}};
+			for (int i = 0; i < 2; i++) {
+				const EncoderLine &l = e.line[i];
+				if (pins[i][0] == pins[i][1] || l.held != pins[i][0] || l.level != pins[i][0] ||
+				    l.run || l.broken)
+					return false;
+			}
+		}
+		return true;
+	}
+	bool banks_quiet() const {
+		const Bank *banks[] = {&feed.bank, &decel.bank, &interp.bank, &axis[0].ctrl.bank,
+		                       &axis[1].ctrl.bank, &axis[0].enc.bank, &axis[1].enc.bank};
+		for (const Bank *b : banks)
+			if (b->committed >= 0 || b->refused >= 0)
+				return false;
+		return true;
+	}
+
+	// The most cycles that can run before an event of the free-running state: a feed pulse
+	// through the open decel gate, an accel/decel carry, the K3701's step or the end of its
+	// setup (UINT64_MAX: none comes).
+	uint64_t horizon() const {
+		uint64_t h = UINT64_MAX;
+		if (interp.phase == K3701::Phase::SETUP)
+			h = uint64_t(interp.setup_left - 1);
+		else if (interp.phase == K3701::Phase::RUN && interp.count)
+			h = uint64_t(interp.count - 1);
+		if (decel.gate_open()) {
+			uint64_t clocks = clocks_before_pulse(feed.count, feed.bank.value[FEED_FEED], Feed::BITS);
+			if (clocks != UINT64_MAX)
+				h = std::min(h, cycles_within(feed.rm_clock.phase, feed.bank.value[FEED_RM_INC],
+				                              feed.rm_clock.stb, DIVIDER_WIDTH, clocks));
+		}
+		if (accel_pre && accel.x) {
+			uint64_t safe = (low_bits(accel.n) - accel.y) / accel.x;
+			h = std::min(h, cycles_within(feed.fa_clock.phase, feed.bank.value[FEED_FA_INC],
+			                              feed.fa_clock.stb, DIVIDER_WIDTH, safe));
+		}
+		return h;
+	}
+
+	// Advance the free-running state by k cycles (k >= 1; no event on the way).
+	void advance_free(uint64_t k) {
+		uint64_t rm = strobes_seen(feed.rm_clock.phase, feed.bank.value[FEED_RM_INC],
+		                           feed.rm_clock.stb, DIVIDER_WIDTH, k);
+		uint64_t fa = strobes_seen(feed.fa_clock.phase, feed.bank.value[FEED_FA_INC],
+		                           feed.fa_clock.stb, DIVIDER_WIDTH, k);
+		feed.count = (feed.count + rm) & low_bits(Feed::BITS);
+		for (auto [d, inc] : {std::pair{&feed.rm_clock, feed.bank.value[FEED_RM_INC]},
+		                      std::pair{&feed.fa_clock, feed.bank.value[FEED_FA_INC]}}) {
+			u128 before_last = u128(d->phase) + u128(k - 1) * inc, total = before_last + inc;
+			d->stb = (total >> DIVIDER_WIDTH) != (before_last >> DIVIDER_WIDTH);
+			d->phase = uint64_t(total) & low_bits(DIVIDER_WIDTH);
+		}
+		if (accel_pre)
+			accel.y = (accel.y + fa * accel.x) & low_bits(accel.n);
+		if (interp.phase == K3701::Phase::SETUP)
+			interp.setup_left -= int64_t(k);
+		else if (interp.phase == K3701::Phase::RUN && interp.count)
+			interp.count -= int64_t(k);
+	}
+
+	// Step the plants alone for at most h cycles (their D/A words and inputs held, no command
+	// pulse), stopping after the first cycle that changes an encoder count; the cycles run.
+	// Where every plant's velocity is steady, the cycles to its next count are jumped. The
+	// update is Plant::rise's with the velocity command computed once (it is held).
+	uint64_t advance_plants(uint64_t h) {
+		int64_t target[AXES];
+		for (int k = 0; k < AXES; k++)
+			target[k] = axis[k].in.stall ? 0 : Plant::command(axis[k].in, axis[k].ctrl.dac, 0);
+		uint64_t done = 0;
+		while (done < h) {
+			uint64_t steady = h - done;
+			for (const Axis &a : axis)
+				steady = std::min(steady, a.plant.steady_cycles(a.in, a.ctrl.dac));
+			if (steady) {
+				for (Axis &a : axis)
+					a.plant.before += steady * uint64_t(a.plant.velocity);
+				done += steady;
+				continue;
+			}
+			// Step until a count changes or every velocity is steady.
+			bool crossed = false, settled = false;
+			while (done < h && !crossed && !settled) {
+				settled = true;
+				for (int k = 0; k < AXES; k++) {
+					Plant &p = axis[k].plant;
+					uint64_t position = p.before + uint64_t(p.velocity);
+					p.before = position;
+					p.velocity = p.next_velocity(axis[k].in, target[k]);
+					crossed |= (position ^ (position + uint64_t(p.velocity))) >> FRAC_BITS != 0;
+					settled &= p.velocity == target[k];
+				}
+				done++;
+			}
+			if (crossed)
+				break;
+		}
+		return done;
+	}
+
+	// After a cycle: skip up to `rest` cycles if the machine is quiet, to just before its next
+	// event (or just after a plant's count changes, or at the next sample); the cycles skipped.
+	uint64_t skip(uint64_t rest) {
+		if (rest == 0 || !quiet_now())
+			return 0;
+		uint64_t h = std::min({rest, horizon(), next_sample - cycle});
+		if (h == 0)
+			return 0;
+		uint64_t k = advance_plants(h);
+		advance_free(k);
+		skipped += k;
+		count_cycles(k);
+		return k;
+	}
+
+	uint64_t get(int port) const {
+		if (port < TOP_COUNT) {
+			switch (port) {
+			case BUS_ADDR: return addr;
+			case BUS_W_STB: return w_stb;
+			case BUS_W_DATA: return w_data;
+			case BUS_R_STB: return r_stb;
+			case BUS_R_DATA: return r_data();
+			case IRQ: return interp.out.irq || irq_alarm();
+			case IRQ_INTERP: return interp.out.irq;
+			case IRQ_ALARM: return irq_alarm();
+			case FP_TOTAL: return fp_total;
+			case QUIET: return quiet();
+			}
+		}
+		const Axis &a = axis[(port - TOP_COUNT) / AXIS_COUNT];
+		switch ((port - TOP_COUNT) % AXIS_COUNT) {
+		case GAIN: return a.in.gain;
+		case ALPHA: return a.in.alpha;
+		case VMAX: return a.in.vmax;
+		case KF: return a.in.kf;
+		case DAC_ZERO: return a.in.dac_zero;
+		case STALL: return a.in.stall;
+		case GLITCH_A: return a.in.glitch_a;
+		case GLITCH_B: return a.in.glitch_b;
+		case BREAK_A: return a.in.break_a;
+		case COMMAND: return uint64_t(a.ctrl.command) & low_bits(COUNTER_WIDTH);
+		case ERROR: return uint64_t(a.ctrl.error) & low_bits(COUNTER_WIDTH);
+		case COUNT: return uint32_t(a.plant.count());
+		case DAC: return a.ctrl.dac;
+		case MAX_ABS_ERROR: return a.max_abs_error;
+		case PULSES_POS: return a.pulses_pos;
+		case PULSES_NEG: return a.pulses_neg;
+		case ALARM_N: return a.ctrl.alarm_n;
+		}
+		return 0;
+	}
+
+	void set(int port, uint64_t v) {
+		switch (port) {
+		case BUS_ADDR: addr = v; return;
+		case BUS_W_STB: w_stb = v; return;
+		case BUS_W_DATA: w_data = v; return;
+		case BUS_R_STB: r_stb = v; return;
+		}
+		if (port < TOP_COUNT)
+			return;
+		PlantInputs &in = axis[(port - TOP_COUNT) / AXIS_COUNT].in;
+		switch ((port - TOP_COUNT) % AXIS_COUNT) {
+		case GAIN: in.gain = v; return;
+		case ALPHA: in.alpha = v; return;
+		case VMAX: in.vmax = v; return;
+		case KF: in.kf = v; return;
+		case DAC_ZERO: in.dac_zero = v; return;
+		case STALL: in.stall = v; return;
+		case GLITCH_A: in.glitch_a = v; return;
+		case GLITCH_B: in.glitch_b = v; return;
+		case BREAK_A: in.break_a = v; return;
+		}
+	}
+};
+
+}  // namespace k37e
