@@ -29,14 +29,15 @@ from k37.sim.backends.engine.build import build
 from k37.sim.backends.engine.support import unsupported
 from k37.sim.machine.system import DRIVES, System
 
-__all__ = ["EngineBackend", "UnsupportedMachineError", "machine_params"]
+__all__ = ["EngineBackend", "UnsupportedMachineError", "load", "machine_params"]
 
 
 class UnsupportedMachineError(ValueError):
     """A machine option the engine does not run (one line naming it)."""
 
 
-def _load(path: str) -> ctypes.CDLL:
+def load(path: str) -> ctypes.CDLL:
+    """The engine's library at ``path``, its functions typed."""
     lib = ctypes.CDLL(path)
     handle, u64, c_int = ctypes.c_void_p, ctypes.c_uint64, ctypes.c_int
     words = ctypes.POINTER(u64)
@@ -60,6 +61,9 @@ def _load(path: str) -> ctypes.CDLL:
         "k37e_bus_write": (None, [handle, u64, u64]),
         "k37e_bus_read": (u64, [handle, u64]),
         "k37e_plant_ns": (ctypes.c_double, [u64]),
+        "k37e_clocks_before_pulse": (u64, [u64, u64, ctypes.c_uint]),
+        "k37e_cycles_within": (u64, [u64, u64, c_int, ctypes.c_uint, u64]),
+        "k37e_strobes_seen": (u64, [u64, u64, c_int, ctypes.c_uint, u64]),
     }
     for name, (restype, argtypes) in signatures.items():
         function = getattr(lib, name)
@@ -101,7 +105,7 @@ class EngineBackend(Backend):
         super().__init__(ports, type(system).__name__)
         self._period = period
         self.model = build(compiler)
-        self._lib = lib = _load(str(self.model.path))
+        self._lib = lib = load(str(self.model.path))
         self._accel = (int(params["accel"].value == "pre"), params["accel_bits"])
         self._index = {name: lib.k37e_port(name.encode()) for name in ports}
         missing = [name for name, i in self._index.items() if i < 0 and not ports[name].is_input]

@@ -316,18 +316,6 @@ struct Plant {
 		int64_t vmax = in.vmax == 0 || in.vmax > uint64_t(VC_MAX) ? VC_MAX : int64_t(in.vmax);
 		return raw > vmax ? vmax : raw < -vmax ? -vmax : raw;
 	}
-	// Cycles without a command pulse that keep the count, if the velocity is steady (its next
-	// update leaves it as it is: the position then moves by it every cycle); else 0.
-	uint64_t steady_cycles(const PlantInputs &in, uint64_t dac) const {
-		if (velocity != (in.stall ? 0 : command(in, dac, 0)))
-			return 0;
-		if (velocity == 0)
-			return UINT64_MAX;
-		uint64_t position = before + uint64_t(velocity);
-		uint64_t offset = position & low_bits(FRAC_BITS);
-		return velocity > 0 ? (low_bits(FRAC_BITS) - offset) / uint64_t(velocity)
-		                    : offset / uint64_t(-velocity);
-	}
 	// The velocity after an update towards the velocity command `vc`.
 	int64_t next_velocity(const PlantInputs &in, int64_t vc) const {
 		int64_t delta = int64_t(uint64_t(vc - velocity) * in.alpha + (uint64_t(1) << (ALPHA_BITS - 1)));

@@ -24,8 +24,9 @@ from k37.sim.backends.toolchain import (
 
 __all__ = ["SOURCES", "build"]
 
-#: The engine's sources: its one translation unit (first) and the headers it includes.
-SOURCES = ("machine.cc", "machine.h", "blocks.h", "k3701.h", "free.h")
+#: The engine's sources: its one translation unit (first) and the headers it includes, and
+#: the plant's update that it shares with the compiled RTL harness (a path from here).
+SOURCES = ("machine.cc", "machine.h", "blocks.h", "k3701.h", "free.h", "../cxxrtl/lag.h")
 #: g++ flags of the engine library (part of the cache key).
 CXX_FLAGS = ("-std=c++17", "-O2", "-fPIC", "-shared")
 _LIBRARY = "libk37engine.so"
@@ -54,7 +55,7 @@ def build(compiler: str | None = None) -> Model:
         progress("engine", "compiling the engine (about 10 s)")
         with build_dir(root, key) as work:
             for name in SOURCES:
-                (work / name).write_text((here / name).read_text())
+                (work / Path(name).name).write_text((here / name).read_text())
             (work / "constants.h").write_text(constants)
             finish(subprocess.Popen([compiler, *CXX_FLAGS, SOURCES[0], "-o", _LIBRARY],
                                     cwd=work, stderr=subprocess.PIPE, text=True), "the engine")

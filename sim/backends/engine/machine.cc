@@ -170,6 +170,19 @@ uint64_t k37e_bus_read(void *m, uint64_t addr) {
 	return k37e::bus_read(*static_cast<Machine *>(m), addr);
 }
 
+// The closed forms of free.h, for tests that pin them to the reference models.
+uint64_t k37e_clocks_before_pulse(uint64_t count, uint64_t word, unsigned width) {
+	return k37e::clocks_before_pulse(count, word, width);
+}
+uint64_t k37e_cycles_within(uint64_t phase, uint64_t increment, int stb, unsigned width,
+                            uint64_t safe) {
+	return k37e::cycles_within(phase, increment, stb, width, safe);
+}
+uint64_t k37e_strobes_seen(uint64_t phase, uint64_t increment, int stb, unsigned width,
+                           uint64_t k) {
+	return k37e::strobes_seen(phase, increment, stb, width, k);
+}
+
 // Nanoseconds per cycle of one plant stepped `cycles` times at a constant D/A word (the cost
 // of stepping a plant per axis and cycle, for the performance page).
 double k37e_plant_ns(uint64_t cycles) {

@@ -18,6 +18,7 @@
 #include "blocks.h"
 #include "free.h"
 #include "k3701.h"
+#include "lag.h"
 
 namespace k37e {
 
@@ -254,42 +255,24 @@ struct Machine {
 	}
 
 	// Step the plants alone for at most h cycles (their D/A words and inputs held, no command
-	// pulse), stopping after the first cycle that changes an encoder count; the cycles run.
-	// Where every plant's velocity is steady, the cycles to its next count are jumped. The
-	// update is Plant::rise's with the velocity command computed once (it is held).
+	// pulse), up to and including the first cycle that changes an encoder count; the cycles
+	// run. In pieces, exactly (lag.h, as the compiled RTL backend's skips step its plants).
 	uint64_t advance_plants(uint64_t h) {
-		int64_t target[AXES];
-		for (int k = 0; k < AXES; k++)
-			target[k] = axis[k].in.stall ? 0 : Plant::command(axis[k].in, axis[k].ctrl.dac, 0);
-		uint64_t done = 0;
-		while (done < h) {
-			uint64_t steady = h - done;
-			for (const Axis &a : axis)
-				steady = std::min(steady, a.plant.steady_cycles(a.in, a.ctrl.dac));
-			if (steady) {
-				for (Axis &a : axis)
-					a.plant.before += steady * uint64_t(a.plant.velocity);
-				done += steady;
-				continue;
-			}
-			// Step until a count changes or every velocity is steady.
-			bool crossed = false, settled = false;
-			while (done < h && !crossed && !settled) {
-				settled = true;
-				for (int k = 0; k < AXES; k++) {
-					Plant &p = axis[k].plant;
-					uint64_t position = p.before + uint64_t(p.velocity);
-					p.before = position;
-					p.velocity = p.next_velocity(axis[k].in, target[k]);
-					crossed |= (position ^ (position + uint64_t(p.velocity))) >> FRAC_BITS != 0;
-					settled &= p.velocity == target[k];
-				}
-				done++;
-			}
-			if (crossed)
-				break;
+		k37lag::Lag lags[AXES] = {lag(axis[0]), lag(axis[1])};
+		int64_t steps[AXES];
+		bool crossed;
+		uint64_t k = k37lag::advance(lags, AXES, steps, h, crossed);
+		for (int i = 0; i < AXES; i++) {
+			axis[i].plant.velocity = lags[i].v;
+			axis[i].plant.before = lags[i].position - uint64_t(lags[i].v);
 		}
-		return done;
+		return k;
+	}
+	static k37lag::Lag lag(const Axis &a) {
+		const Plant &p = a.plant;
+		return k37lag::Lag(p.velocity, Plant::command(a.in, a.ctrl.dac, 0), int64_t(a.in.alpha),
+		                   p.before + uint64_t(p.velocity), a.in.stall, VC_BITS, ALPHA_BITS,
+		                   FRAC_BITS);
 	}
 
 	// After a cycle: skip up to `rest` cycles if the machine is quiet, to just before its next
