@@ -4,7 +4,8 @@ first cycle where two backends differ.
 Whole jobs run on ``--backend engine`` and ``--backend cxxrtl``: the reports (the fields of how
 a run was computed aside) and every sample must be equal. The jobs are the demo and
 hypothesis-drawn short programs of lines, arcs and dwells on random small machines within what
-the engine runs (accel/decel before the K3701 or none, random widths and servos, faults).
+the engine runs (accel/decel before the K3701, after it or none, random widths and servos,
+faults).
 """
 
 from __future__ import annotations
@@ -53,9 +54,9 @@ def test_engine_equals_the_rtl_on_the_demo_report_and_samples():
     assert report["backend_reason"] == "--backend engine"
 
 
-@settings(max_examples=8, deadline=None,
+@settings(max_examples=12, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
-@given(seed=st.integers(0, 10**6), accel=st.sampled_from(["pre", "none"]),
+@given(seed=st.integers(0, 10**6), accel=st.sampled_from(["pre", "post", "none"]),
        dwell=st.booleans())
 def test_engine_equals_the_rtl_on_generated_jobs(seed, accel, dwell, random_moves):
     job, faults, _ = random_moves(seed, accel, dwell=dwell)
@@ -101,7 +102,7 @@ def test_engine_constants_come_from_the_register_maps():
 
 @pytest.mark.parametrize(("machine", "named"), [
     (MachineConfig(axes=3), "machine.axes = 3"),
-    (MachineConfig(accel="post"), 'machine.accel = "post"'),
+    (MachineConfig(accel="post", accel_shape="linear"), 'machine.accel_shape = "linear"'),
     (MachineConfig(accel_shape="bell"), 'machine.accel_shape = "bell"'),
 ])
 def test_engine_names_the_first_option_it_does_not_run(machine, named, make_job):
@@ -112,6 +113,11 @@ def test_engine_names_the_first_option_it_does_not_run(machine, named, make_job)
                                           f"{named}"):
         build_backend(job, "engine")
     assert choose_backend("auto", system_params(job))[0] == "cxxrtl"
+
+
+def test_engine_names_an_axis_on_its_own_addition_clock(random_moves):
+    job, _, _ = random_moves(7, "post", dwell=False, axis_fa=("y",))
+    assert unsupported(system_params(job)).startswith("machine.y.accel_fa_hz")
 
 
 def test_engine_refuses_a_program_with_a_parabola(make_job):

@@ -42,7 +42,7 @@ def load(path: str) -> ctypes.CDLL:
     handle, u64, c_int = ctypes.c_void_p, ctypes.c_uint64, ctypes.c_int
     words = ctypes.POINTER(u64)
     signatures = {
-        "k37e_create": (handle, [c_int, ctypes.c_uint]),
+        "k37e_create": (handle, [c_int, ctypes.c_uint, ctypes.c_uint, ctypes.c_uint]),
         "k37e_destroy": (None, [handle]),
         "k37e_port": (c_int, [ctypes.c_char_p]),
         "k37e_get": (u64, [handle, c_int]),
@@ -79,6 +79,7 @@ def machine_params(system: System) -> dict:
     names = {cls: name for name, cls in DRIVES.items()}
     return {"accel": chip.accel, "accel_bits": chip.accel_bits, "axes": len(system.axes),
             "accel_shape": chip.accel_shape, "axis_fa": chip.axis_fa,
+            "axis_accel": chip.axis_accel if chip.accel.value == "post" else {},
             "drives": {axis: names[cls] for axis, cls in system.drives.items()}}
 
 
@@ -106,7 +107,11 @@ class EngineBackend(Backend):
         self._period = period
         self.model = build(compiler)
         self._lib = lib = load(str(self.model.path))
-        self._accel = (int(params["accel"].value == "pre"), params["accel_bits"])
+        # The placement (0 none, 1 pre, 2 post) and the circuits' widths, as k37e_create takes them.
+        placement = ("none", "pre", "post").index(params["accel"].value)
+        bits = [params["axis_accel"].get(axis, (None, params["accel_bits"]))[1]
+                for axis in ("x", "y")]
+        self._accel = (placement, params["accel_bits"], *bits)
         self._index = {name: lib.k37e_port(name.encode()) for name in ports}
         missing = [name for name, i in self._index.items() if i < 0 and not ports[name].is_input]
         if missing:

@@ -168,19 +168,34 @@ struct Decel {
 	}
 };
 
-// k37.hdl.accel.exponential.AccelDecel, one direction (before the interpolator).
+// k37.hdl.accel.exponential.AccelDecel: one direction before the interpolator, or
+// bidirectional after it (x and pending signed, net pulses +1, 0, -1).
 struct Accel {
 	unsigned n = 15;
-	uint64_t x = 0, y = 0, pending = 0;
+	bool bidirectional = false;
+	int64_t x = 0, pending = 0;
+	uint64_t y = 0;
 
-	bool out() const { return pending != 0; }
-	void rise(bool inp, bool add) {
-		uint64_t total = y + x;
-		uint64_t carry = add ? total >> n : 0;
+	// The output pulse of this cycle (net: out_pos - out_neg).
+	int out() const { return bidirectional ? (pending > 0) - (pending < 0) : pending != 0; }
+	int64_t counter(int64_t v) const {
+		return bidirectional ? wrap(v, ACCEL_COUNTER_WIDTH) : int64_t(uint64_t(v) & low_bits(ACCEL_COUNTER_WIDTH));
+	}
+	// The carry of the addition y + x at an fa strobe (a floor: a borrow when x < 0).
+	int64_t carry() const { return (int64_t(y) + x) >> n; }
+	void rise(int inp, bool add) {
+		int64_t c = add ? carry() : 0;
 		if (add)
-			y = total & low_bits(n);
-		x = (x - carry + inp) & low_bits(ACCEL_COUNTER_WIDTH);
-		pending = (pending - out() + carry) & low_bits(ACCEL_COUNTER_WIDTH);
+			y = uint64_t(int64_t(y) + x) & low_bits(n);
+		int o = out();
+		x = counter(x - c + inp);
+		pending = counter(pending - o + c);
+	}
+	// Strobes of its addition clock that may come without a carry (UINT64_MAX: any number).
+	uint64_t safe_strobes() const {
+		if (x == 0)
+			return UINT64_MAX;
+		return x > 0 ? (low_bits(n) - y) / uint64_t(x) : y / uint64_t(-x);
 	}
 };
 

@@ -93,7 +93,11 @@ using k37e::Machine;
 #pragma GCC visibility push(default)
 extern "C" {
 
-void *k37e_create(int accel_pre, unsigned accel_bits) { return new Machine(accel_pre, accel_bits); }
+// A machine with its accel/decel circuit placed at `placement` (0 none, 1 pre, 2 post), of
+// `bits` (pre) or `bits_x` and `bits_y` (post).
+void *k37e_create(int placement, unsigned bits, unsigned bits_x, unsigned bits_y) {
+	return new Machine(k37e::Placement(placement), bits, bits_x, bits_y);
+}
 void k37e_destroy(void *m) { delete static_cast<Machine *>(m); }
 
 // The index of the port `name` (-1: the engine has no such port).

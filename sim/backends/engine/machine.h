@@ -1,5 +1,5 @@
 // The engine's machine: the two-axis chipset (FEED, DECEL, the exponential accel/decel circuit
-// before the K3701 or none, the K3701, a K3702 and an encoder interface per axis, the host bus
+// before the K3701, one per axis after it, or none; the K3701, a K3702 and an encoder interface per axis, the host bus
 // decoding) with a first-order plant per axis and the observation counters, composed as
 // k37.sim.machine.system.System and k37.hdl.chipset.chip.Chipset wire them; its ports by the
 // System's names; its cycles (a falling edge, except in the first, then a rising edge, as
@@ -38,6 +38,7 @@ enum AxisPort { GAIN, ALPHA, VMAX, KF, DAC_ZERO, STALL, GLITCH_A, GLITCH_B, BREA
 constexpr int PORT_COUNT = TOP_COUNT + AXES * AXIS_COUNT;
 
 struct Axis {
+	Accel post;  // the accel/decel circuit after the K3701 (post placement)
 	K3702 ctrl;
 	Encoder enc;
 	Plant plant;
@@ -46,8 +47,13 @@ struct Axis {
 	uint32_t pulses_pos = 0, pulses_neg = 0;
 };
 
+// Where the accel/decel circuit is (k37.hdl.chipset.map.Accel): before the K3701, one per
+// axis after it, or none.
+enum class Placement { NONE, PRE, POST };
+
 struct Machine {
-	bool accel_pre = true;
+	const Placement placement;
+	const bool accel_pre, accel_post;
 	Feed feed;
 	Decel decel;
 	Accel accel;
@@ -64,8 +70,11 @@ struct Machine {
 	uint64_t every = 0, next_sample = UINT64_MAX;
 	std::vector<uint64_t> rows;
 
-	Machine(bool pre, unsigned accel_bits) : accel_pre(pre) {
-		accel.n = accel_bits;
+	Machine(Placement where, unsigned bits, unsigned bits_x, unsigned bits_y)
+	    : placement(where), accel_pre(where == Placement::PRE), accel_post(where == Placement::POST) {
+		accel.n = bits;
+		axis[0].post = {bits_x, true};
+		axis[1].post = {bits_y, true};
 		feed.bank.init(FEED_REGS, FEED_REG_COUNT);
 		decel.bank.init(DECEL_REGS, DECEL_REG_COUNT);
 		interp.bank.init(K3701_REGS, K3701_REG_COUNT);
@@ -76,9 +85,19 @@ struct Machine {
 	}
 	// The decel gate's output and the interpolator's FP in this cycle (combinational).
 	bool decel_out() const { return feed.out() && decel.gate_open(); }
-	bool fp() const { return accel_pre ? accel.out() : decel_out(); }
+	bool fp() const { return accel_pre ? accel.out() != 0 : decel_out(); }
+	// The K3701's net step pulse on axis k, and the command pulse its K3702 counts (after the
+	// axis's accel/decel circuit in post placement).
+	int steps(int k) const {
+		const K3701Out &o = interp.out;
+		return k == 0 ? int(o.x_pos) - int(o.x_neg) : int(o.y_pos) - int(o.y_neg);
+	}
+	int command(int k) const { return accel_post ? axis[k].post.out() : steps(k); }
 	bool irq_alarm() const { return axis[0].ctrl.irq || axis[1].ctrl.irq; }
-	bool quiet() const { return interp.quiet(fp()) && (!accel_pre || accel.pending == 0); }
+	bool quiet() const {
+		return interp.quiet(fp()) && (!accel_pre || accel.pending == 0) &&
+		       (!accel_post || (axis[0].post.pending == 0 && axis[1].post.pending == 0));
+	}
 	uint8_t r_data() const {
 		switch (read_cs) {
 		case SELECT_K3701: return interp.bank.r_data;
@@ -103,10 +122,8 @@ struct Machine {
 
 	void fall() {
 		for (int k = 0; k < AXES; k++) {
-			const K3701Out &o = interp.out;
-			int com = k == 0 ? int(o.x_pos) - int(o.x_neg) : int(o.y_pos) - int(o.y_neg);
 			Axis &a = axis[k];
-			a.ctrl.fall(com, int(a.enc.fb_pos) - int(a.enc.fb_neg));
+			a.ctrl.fall(command(k), int(a.enc.fb_pos) - int(a.enc.fb_neg));
 		}
 	}
 
@@ -120,8 +137,7 @@ struct Machine {
 		                         decode(axis[1].ctrl, SELECT_K3702_Y, K3702_ADDR_WIDTH)};
 		BankEdge e_enc[AXES] = {decode(axis[0].enc, SELECT_ENCODER_X, ENCODER_ADDR_WIDTH),
 		                        decode(axis[1].enc, SELECT_ENCODER_Y, ENCODER_ADDR_WIDTH)};
-		const K3701Out steps = interp.out;
-		int com[AXES] = {int(steps.x_pos) - int(steps.x_neg), int(steps.y_pos) - int(steps.y_neg)};
+		int step[AXES] = {steps(0), steps(1)}, com[AXES] = {command(0), command(1)};
 		// The edge.
 		feed.rise();
 		decel.rise(gate);
@@ -132,11 +148,13 @@ struct Machine {
 			Axis &a = axis[k];
 			a.enc.rise(a.plant.lines());
 			a.plant.rise(a.in, a.ctrl.dac, com[k]);
+			if (accel_post)
+				a.post.rise(step[k], add);
 			uint64_t magnitude = uint64_t(a.ctrl.error < 0 ? -a.ctrl.error : a.ctrl.error);
 			if (magnitude > a.max_abs_error)
 				a.max_abs_error = magnitude;
-			a.pulses_pos += com[k] > 0;
-			a.pulses_neg += com[k] < 0;
+			a.pulses_pos += step[k] > 0;
+			a.pulses_neg += step[k] < 0;
 		}
 		fp_total += feed_pulse;
 		if (r_stb)
@@ -182,6 +200,8 @@ struct Machine {
 			return false;
 		if (accel_pre && accel.pending != 0)
 			return false;
+		if (accel_post && (axis[0].post.pending != 0 || axis[1].post.pending != 0))
+			return false;
 		for (const Axis &a : axis) {
 			const Encoder &e = a.enc;
 			const Plant &p = a.plant;
@@ -225,11 +245,11 @@ struct Machine {
 				h = std::min(h, cycles_within(feed.rm_clock.phase, feed.bank.value[FEED_RM_INC],
 				                              feed.rm_clock.stb, DIVIDER_WIDTH, clocks));
 		}
-		if (accel_pre && accel.x) {
-			uint64_t safe = (low_bits(accel.n) - accel.y) / accel.x;
-			h = std::min(h, cycles_within(feed.fa_clock.phase, feed.bank.value[FEED_FA_INC],
-			                              feed.fa_clock.stb, DIVIDER_WIDTH, safe));
-		}
+		const Accel *circuits[] = {&accel, &axis[0].post, &axis[1].post};
+		for (const Accel *c : circuits)
+			if ((c == &accel ? accel_pre : accel_post) && c->safe_strobes() != UINT64_MAX)
+				h = std::min(h, cycles_within(feed.fa_clock.phase, feed.bank.value[FEED_FA_INC],
+				                              feed.fa_clock.stb, DIVIDER_WIDTH, c->safe_strobes()));
 		return h;
 	}
 
@@ -247,7 +267,10 @@ struct Machine {
 			d->phase = uint64_t(total) & low_bits(DIVIDER_WIDTH);
 		}
 		if (accel_pre)
-			accel.y = (accel.y + fa * accel.x) & low_bits(accel.n);
+			accel.y = (accel.y + fa * uint64_t(accel.x)) & low_bits(accel.n);
+		if (accel_post)
+			for (Axis &a : axis)
+				a.post.y = (a.post.y + fa * uint64_t(a.post.x)) & low_bits(a.post.n);
 		if (interp.phase == K3701::Phase::SETUP)
 			interp.setup_left -= int64_t(k);
 		else if (interp.phase == K3701::Phase::RUN && interp.count)

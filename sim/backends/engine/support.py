@@ -1,8 +1,9 @@
 """What the engine runs: a predicate over a machine's options and a program's blocks.
 
-The engine runs the two-axis machine with the exponential accel/decel circuit before the
-K3701 (``machine.accel = "pre"``, any ``accel_bits``) or without one (``"none"``), first-order
-servo drives on both axes, and programs of lines and arcs. :func:`unsupported` names the first
+The engine runs the two-axis machine with the exponential accel/decel circuit in any placement
+(``machine.accel``: before the K3701, one per axis after it, each of its own ``accel_bits``, or
+none) at the shared addition clock, first-order servo drives on both axes, and programs of
+lines and arcs. :func:`unsupported` names the first
 option outside that (None: the engine runs the machine); it reads the parameters the simulated
 machine is built with (:func:`k37.sim.run.runner.system_params`), so it needs no Amaranth.
 """
@@ -34,12 +35,17 @@ def unsupported(params: Mapping[str, Any], kinds: Iterable[object] = ()) -> str 
     if axes != 2:
         return f"machine.axes = {axes} (the engine runs 2 axes)"
     accel = _value(params.get("accel", "pre"))
-    if accel not in ("pre", "none"):
-        return f"machine.accel = \"{accel}\" (the engine runs \"pre\" and \"none\")"
     shape = _value(params.get("accel_shape", "exponential"))
-    if accel == "pre" and shape != "exponential":
+    if accel != "none" and shape != "exponential":
         return (f"machine.accel_shape = \"{shape}\" (the engine runs the exponential "
                 f"circuit)")
+    for axis, (axis_shape, _) in sorted((params.get("axis_accel") or {}).items()):
+        if _value(axis_shape) != "exponential":
+            return (f"machine.{axis}.accel_shape = \"{_value(axis_shape)}\" (the engine runs "
+                    f"the exponential circuit)")
+    for axis in params.get("axis_fa") or ():
+        return (f"machine.{axis}.accel_fa_hz (the engine runs every circuit at the shared "
+                f"addition clock)")
     for axis, drive in sorted((params.get("drives") or {}).items()):
         if drive != "first_order":
             return f"servo.{axis}.drive = \"{drive}\" (the engine runs the first-order drive)"
