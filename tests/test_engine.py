@@ -10,6 +10,8 @@ faults).
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -22,6 +24,7 @@ from k37.sim.backends.engine.constants import header
 from k37.sim.backends.engine.lockstep import DivergenceError, LockstepBackend
 from k37.sim.backends.engine.support import EXPERIMENTAL, unsupported
 from k37.sim.backends.factory import choose_backend
+from k37.sim.run.jobfile import load_job
 from k37.sim.run.report import HOW_FIELDS
 from k37.sim.run.runner import (
     OptionError,
@@ -62,6 +65,18 @@ def test_engine_equals_the_rtl_on_generated_jobs(seed, accel, dwell, random_move
     job, faults, _ = random_moves(seed, accel, dwell=dwell)
     assert unsupported(system_params(job)) is None
     same_on_engine_and_rtl(job, faults, sample_every=97)
+
+
+EXAMPLES = Path(__file__).parent.parent / "examples"
+
+
+@pytest.mark.parametrize(("example", "faults"), [
+    ("circle.toml", {}), ("circle_post.toml", {}), ("dwell.toml", {}), ("square.toml", {}),
+    ("stall.toml", {"x": {"stall": 1}})])
+def test_engine_equals_the_rtl_on_every_example_it_runs(example, faults):
+    job = load_job(EXAMPLES / example)
+    assert unsupported(system_params(job)) is None
+    same_on_engine_and_rtl(job, faults)
 
 
 def test_lockstep_runs_the_demo_without_a_difference():
