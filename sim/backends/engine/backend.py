@@ -42,7 +42,7 @@ def load(path: str) -> ctypes.CDLL:
     handle, u64, c_int = ctypes.c_void_p, ctypes.c_uint64, ctypes.c_int
     words = ctypes.POINTER(u64)
     signatures = {
-        "k37e_create": (handle, [c_int, ctypes.c_uint, ctypes.c_uint, ctypes.c_uint]),
+        "k37e_create": (handle, [c_int, c_int, *[ctypes.c_uint] * 4]),
         "k37e_destroy": (None, [handle]),
         "k37e_port": (c_int, [ctypes.c_char_p]),
         "k37e_get": (u64, [handle, c_int]),
@@ -107,11 +107,12 @@ class EngineBackend(Backend):
         self._period = period
         self.model = build(compiler)
         self._lib = lib = load(str(self.model.path))
-        # The placement (0 none, 1 pre, 2 post) and the circuits' widths, as k37e_create takes them.
+        # The axes, the placement (0 none, 1 pre, 2 post) and the circuits' widths, as
+        # k37e_create takes them.
         placement = ("none", "pre", "post").index(params["accel"].value)
         bits = [params["axis_accel"].get(axis, (None, params["accel_bits"]))[1]
-                for axis in ("x", "y")]
-        self._accel = (placement, params["accel_bits"], *bits)
+                for axis in ("x", "y", "z")]
+        self._machine = (params["axes"], placement, params["accel_bits"], *bits)
         self._index = {name: lib.k37e_port(name.encode()) for name in ports}
         missing = [name for name, i in self._index.items() if i < 0 and not ports[name].is_input]
         if missing:
@@ -123,7 +124,7 @@ class EngineBackend(Backend):
         self._create()
 
     def _create(self) -> None:
-        self._handle = self._lib.k37e_create(*self._accel)
+        self._handle = self._lib.k37e_create(*self._machine)
         self._destroy = weakref.finalize(self, self._lib.k37e_destroy, self._handle)
         for name, port in self.ports.items():
             if port.is_input and port.init:

@@ -1,14 +1,14 @@
 """The engine's constants header, generated from the register maps and the chips' parameters.
 
 Every register address, width, reset value and valid range, every field offset, the chip
-selects and the timing constants the engine's C++ uses come from here, so that the engine
-states no number of its own: :func:`header` writes them as ``constexpr`` C++.
+selects and their windows, and the timing constants the engine's C++ uses come from here, so
+that the engine states no number of its own: :func:`header` writes them as ``constexpr`` C++.
 """
 
 from __future__ import annotations
 
 from k37.hdl.bus.registers import RegisterMap
-from k37.hdl.chipset.map import REG_BITS, chip_selects
+from k37.hdl.chipset.map import REG_BITS, SUB_WINDOWS, chip_selects
 from k37.hdl.feed.decel_control_model import BUDGET_WIDTH
 from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH, FEED_STAGES
 from k37.hdl.feed.rate_multiplier_model import STAGE_BITS
@@ -18,18 +18,22 @@ from k37.sim.machine import plant_model
 
 __all__ = ["header"]
 
-#: The two-axis chipset's chips, in the order of the engine's chip table (``Chip`` in engine.h).
-CHIPS = ("K3701", "K3702_X", "K3702_Y", "ENCODER_X", "ENCODER_Y", "FEED", "DECEL")
+#: The three-axis chipset's chips (the two-axis one has all but the Z axis's).
+CHIPS = ("K3701", "K3702_X", "K3702_Y", "K3702_Z", "ENCODER_X", "ENCODER_Y", "ENCODER_Z",
+         "FEED", "DECEL")
 
 
 def _datapath_stages() -> dict[str, int]:
-    """The decision stages of the two-axis K3701's linear and circular datapaths (what its
-    ``quiet`` looks at)."""
+    """The decision stages of the K3701's linear and circular datapaths, two- and three-axis
+    (what its ``quiet`` looks at)."""
     from k37.hdl.k3701.block import Kind
+    from k37.hdl.k3701.datapaths.circular import CircularDatapath
+    from k37.hdl.k3701.datapaths.linear import LinearDatapath3
     from k37.hdl.k3701.two_axis import DATAPATHS
 
     return {"LINEAR_STAGES": DATAPATHS[Kind.LINEAR].STAGES,
-            "CIRCULAR_STAGES": DATAPATHS[Kind.CIRCULAR].STAGES}
+            "CIRCULAR_STAGES": DATAPATHS[Kind.CIRCULAR].STAGES,
+            "LINEAR3_STAGES": LinearDatapath3.STAGES, "CIRCULAR3_STAGES": CircularDatapath.STAGES}
 
 
 def _accel_counter_width() -> int:
@@ -60,11 +64,19 @@ def _map(prefix: str, regmap: RegisterMap) -> list[str]:
     return lines
 
 
+def _braces(values: object) -> str:
+    """Nested sequences as a C++ initializer."""
+    if isinstance(values, (list, tuple)):
+        return "{" + ", ".join(_braces(v) for v in values) + "}"
+    return str(values)
+
+
 def header() -> str:
-    """The C++ header ``constants.h`` of the two-axis machine."""
-    selects = chip_selects(2)
-    maps = {"K3701": selects["K3701"], "K3702": selects["K3702_X"],
-            "ENCODER": selects["ENCODER_X"], "FEED": selects["FEED"], "DECEL": selects["DECEL"]}
+    """The C++ header ``constants.h`` of the two- and three-axis machines."""
+    selects = chip_selects(3)
+    maps = {"K3701": chip_selects(2)["K3701"], "K3701_3": selects["K3701"],
+            "K3702": selects["K3702_X"], "ENCODER": selects["ENCODER_X"],
+            "FEED": selects["FEED"], "DECEL": selects["DECEL"]}
     values = {
         "REG_BITS": REG_BITS, "COUNTER_WIDTH": COUNTER_WIDTH, "DIVIDER_WIDTH": DIVIDER_WIDTH,
         "FEED_STAGES": FEED_STAGES, "STAGE_BITS": STAGE_BITS, "BUDGET_WIDTH": BUDGET_WIDTH,
@@ -84,9 +96,17 @@ def header() -> str:
              "\tuint64_t init;", "};", ""]
     lines += [f"constexpr int64_t {name} = {value}LL;" for name, value in values.items()]
     lines.append(f"constexpr int64_t MAX_RADIUS_SQUARED = {block.MAX_RADIUS_SQUARED}LL;")
+    # A step's cost in credit units (an FP adds a plain step's), by axes, sqrt(2) control and
+    # the axes the step moves; the machine axes of a block's, by CTRL.plane.
+    moving = (block.Step(1, 0, 0), block.Step(1, 1, 0), block.Step(1, 1, 1))
+    costs = [[[block.step_cost(step, sqrt2, axes) for step in moving] for sqrt2 in (False, True)]
+             for axes in (2, 3)]
+    lines.append(f"constexpr int64_t STEP_COST[2][2][3] = {_braces(costs)};")
+    lines.append(f"constexpr int PLANES[3][3] = {_braces(block.PLANES)};")
     lines.append("")
     for name in CHIPS:
-        lines.append(f"constexpr unsigned SELECT_{name} = {selects[name][0]};")
+        lines.append(f"constexpr unsigned SELECT_{name} = {selects[name][0]}, "
+                     f"WINDOW_{name} = {SUB_WINDOWS.get(name, 0)};")
     lines.append("")
     for prefix, (_, regmap) in maps.items():
         lines += [*_map(prefix, regmap), ""]

@@ -1,8 +1,9 @@
-// The two-axis KM3701 interpolator at its ports, cycle by cycle, as its reference model states
-// it (k37.hdl.k3701.model.K3701Model, with the paths of k37.hdl.k3701.datapaths.linear_model
-// and circular_model): BUSY, the radius check's setup cycles, the FP credit in half-FP units,
-// the one-FP hold and the overrun bit, the step latency count and the step pulses. Lines and
-// arcs; a parabolic or exponential block is refused (`unsupported`), not run.
+// The KM3701 interpolator, two- or three-axis, at its ports, cycle by cycle, as its reference
+// model states it (k37.hdl.k3701.model.K3701Model, with the paths of
+// k37.hdl.k3701.datapaths.linear_model, circular_model and helix_model): BUSY, the radius
+// check's setup cycles, the FP credit (half-FP units, quarter-FP on three axes), the one-FP
+// hold and the overrun bit, the step latency count, the step pulses routed by CTRL.plane. Lines,
+// arcs and helices; a parabolic or exponential block is refused (`unsupported`), not run.
 
 #pragma once
 
@@ -15,9 +16,10 @@ namespace k37e {
 
 enum class Kind { LINEAR, CIRCULAR, PARABOLIC, EXPONENTIAL };
 
+// A step in the block's axes.
 struct Move {
-	int dx = 0, dy = 0;
-	bool diagonal() const { return dx && dy; }
+	int dx = 0, dy = 0, dz = 0;
+	int moved() const { return (dx != 0) + (dy != 0) + (dz != 0); }
 };
 
 // One short axis of a DDA (Dda).
@@ -31,31 +33,61 @@ struct Dda {
 	}
 };
 
-// A two-axis line by DDA long-axis stepping (LinearPath with ze = 0).
+// A line by DDA long-axis stepping (LinearPath): the long axis the largest |component|
+// (ties to the first), each other axis a DDA over the long count.
 struct LinePath {
-	bool long_is_x = true;
-	int sx = 0, sy = 0;
+	int long_axis = 0, sign[3] = {};
 	int64_t left = 0;
-	Dda shorter;
+	Dda dda[3];
 
-	void init(int64_t xe, int64_t ye) {
-		int64_t ax = std::llabs(xe), ay = std::llabs(ye);
-		long_is_x = ax >= ay;
-		sx = (xe > 0) - (xe < 0);
-		sy = (ye > 0) - (ye < 0);
-		left = long_is_x ? ax : ay;
-		int64_t n = long_is_x ? ay : ax;
-		shorter = {n, left, left / 2};
+	void init(const int64_t (&end)[3]) {
+		int64_t mag[3];
+		for (int k = 0; k < 3; k++) {
+			mag[k] = std::llabs(end[k]);
+			sign[k] = (end[k] > 0) - (end[k] < 0);
+		}
+		long_axis = 0;
+		for (int k = 1; k < 3; k++)
+			if (mag[k] > mag[long_axis])
+				long_axis = k;
+		left = mag[long_axis];
+		for (int k = 0; k < 3; k++)
+			dda[k] = {mag[k], left, left / 2};
 	}
-	Move make(bool moves) const {
-		return long_is_x ? Move{sx, moves ? sy : 0} : Move{moves ? sx : 0, sy};
+	Move make(const bool (&moves)[3]) const {
+		int d[3];
+		for (int k = 0; k < 3; k++)
+			d[k] = k == long_axis || moves[k] ? sign[k] : 0;
+		return {d[0], d[1], d[2]};
 	}
-	Move peek() const { return make(shorter.peek()); }
+	Move peek() const {
+		bool moves[3];
+		for (int k = 0; k < 3; k++)
+			moves[k] = k != long_axis && dda[k].peek();
+		return make(moves);
+	}
 	Move advance(bool &final) {
-		Move m = make(shorter.advance());
+		bool moves[3];
+		for (int k = 0; k < 3; k++)
+			moves[k] = k != long_axis && dda[k].advance();
 		final = --left == 0;
-		return m;
+		return make(moves);
 	}
+};
+
+// A helix's third axis: ze moves spread over the arc's n steps (HelixPath; |ze| <= n).
+struct HelixPath {
+	int sign = 0;
+	Dda dda;
+	bool init(int64_t ze, int64_t n) {
+		if (ze < -COORD_MAX || ze > COORD_MAX || std::llabs(ze) > n)
+			return false;
+		sign = (ze > 0) - (ze < 0);
+		dda = {std::llabs(ze), n, n / 2};
+		return true;
+	}
+	int peek() const { return dda.peek() ? sign : 0; }
+	int advance() { return dda.advance() ? sign : 0; }
 };
 
 // Motion signs inside each quadrant (QUADRANT_SIGNS), [cw][quadrant - 1].
@@ -151,32 +183,62 @@ struct ArcPath {
 	}
 };
 
-// The chip's registered outputs.
+// The chip's registered outputs: the step pulses by machine axis (+1, 0, -1), the status bits
+// and the remaining distances in the block's axes.
 struct K3701Out {
-	bool x_pos = false, x_neg = false, y_pos = false, y_neg = false;
+	int step[3] = {};
 	bool busy = false, irq = false, error = false, overrun = false;
-	int64_t xm = 0, ym = 0;
+	int64_t xm = 0, ym = 0, zm = 0;
 };
 
 struct K3701 {
 	enum class Phase { IDLE, SETUP, RUN };
+	int axes = 2;
 	Bank bank;
 	K3701Out out;
 	Phase phase = Phase::IDLE;
 	Kind kind = Kind::LINEAR;
 	bool sqrt2 = false, held = false, unsupported = false;
 	int64_t setup_left = 0, count = 0, credit = 0;
-	int64_t xe = 0, ye = 0, i = 0, j = 0;
+	int64_t xe = 0, ye = 0, ze = 0, i = 0, j = 0, helix_steps = 0;
 	bool cw = false;
-	int quadrant = 1;
+	int quadrant = 1, plane = 0;
 	LinePath line;
 	ArcPath arc;
+	HelixPath helix;  // an arc's third axis (ze != 0)
+
+	void init(int chip_axes) {
+		axes = chip_axes;
+		if (axes == 3)
+			bank.init(K3701_3_REGS, K3701_3_REG_COUNT);
+		else
+			bank.init(K3701_REGS, K3701_REG_COUNT);
+	}
+	// A step's cost in credit units, and what an FP adds.
+	int64_t cost(const Move &m) const { return STEP_COST[axes - 2][sqrt2][m.moved() - 1]; }
+	int64_t unit() const { return STEP_COST[axes - 2][0][0]; }
+	Move peek() const {
+		if (kind == Kind::LINEAR)
+			return line.peek();
+		Move m = arc.peek();
+		m.dz = ze ? helix.peek() : 0;
+		return m;
+	}
+	Move advance(bool &final, bool &error) {
+		error = false;
+		if (kind == Kind::LINEAR)
+			return line.advance(final);
+		Move m = arc.advance(final, error);
+		m.dz = ze ? helix.advance() : 0;
+		return m;
+	}
 
 	int latency() const { return kind == Kind::LINEAR ? LATENCY_LINEAR : LATENCY_CIRCULAR; }
 	// The simulation-only `quiet` of the chip (k37.hdl.k3701.core): no FP, and the latency
 	// count waiting or past the running datapath's decision stages.
 	bool quiet(bool fp) const {
-		int64_t stages = kind == Kind::LINEAR ? LINEAR_STAGES : CIRCULAR_STAGES;
+		int64_t stages = kind == Kind::LINEAR ? (axes == 3 ? LINEAR3_STAGES : LINEAR_STAGES)
+		                                      : (axes == 3 ? CIRCULAR3_STAGES : CIRCULAR_STAGES);
 		bool past = stages == 0 || count <= latency() - 1 - stages;
 		return !fp && (count == 0 || (count >= 2 && past));
 	}
@@ -185,6 +247,8 @@ struct K3701 {
 		switch (reg) {
 		case K3701_X: return uint64_t(out.xm) & low_bits(24);
 		case K3701_Y: return uint64_t(out.ym) & low_bits(24);
+		case K3701_3_Z: return axes == 3 ? uint64_t(out.zm) & low_bits(24) : 0;
+		case K3701_3_MODE: return bank.value[K3701_3_MODE];
 		case K3701_CTRL: return bank.value[K3701_CTRL];
 		case K3701_STATUS:
 			return uint64_t(out.busy) << K3701_STATUS_BUSY | uint64_t(out.irq) << K3701_STATUS_IRQ |
@@ -203,12 +267,13 @@ struct K3701 {
 			nxt.error = nxt.overrun = false;
 		nxt.xm = out.xm;
 		nxt.ym = out.ym;
+		nxt.zm = out.zm;
 		bool was_idle = phase == Phase::IDLE;
 		if (phase == Phase::SETUP) {
 			if (fp)
 				hold(nxt);
 			if (--setup_left == 0) {
-				if (arc.init(xe, ye, i, j, cw, quadrant))
+				if (arc.init(xe, ye, i, j, cw, quadrant) && (ze == 0 || helix.init(ze, helix_steps)))
 					phase = Phase::RUN;
 				else
 					finish(nxt, true);
@@ -240,15 +305,21 @@ struct K3701 {
 	}
 	void start(K3701Out &nxt) {
 		uint64_t word = bank.value[K3701_CTRL];
-		kind = bit(word, K3701_CTRL_EXPONENTIAL) ? Kind::EXPONENTIAL
-		       : bit(word, K3701_CTRL_PARABOLIC) ? Kind::PARABOLIC
-		       : bit(word, K3701_CTRL_CIRCULAR)  ? Kind::CIRCULAR : Kind::LINEAR;
+		uint64_t modes = axes == 3 ? bank.value[K3701_3_MODE] : word;
+		unsigned parabolic = axes == 3 ? K3701_3_MODE_PARABOLIC : K3701_CTRL_PARABOLIC;
+		unsigned exponential = axes == 3 ? K3701_3_MODE_EXPONENTIAL : K3701_CTRL_EXPONENTIAL;
+		kind = bit(modes, exponential) ? Kind::EXPONENTIAL
+		       : bit(modes, parabolic) ? Kind::PARABOLIC
+		       : bit(word, K3701_CTRL_CIRCULAR) ? Kind::CIRCULAR : Kind::LINEAR;
 		if (kind == Kind::PARABOLIC || kind == Kind::EXPONENTIAL) {
 			unsupported = true;
 			return;
 		}
 		xe = bank.get(K3701_X);
 		ye = bank.get(K3701_Y);
+		ze = axes == 3 ? bank.get(K3701_3_Z) : 0;
+		helix_steps = axes == 3 ? bank.get(K3701_3_H) : 0;
+		plane = axes == 3 ? int(word >> K3701_3_CTRL_PLANE & low_bits(K3701_3_CTRL_PLANE_WIDTH)) : 0;
 		i = bank.get(K3701_I);
 		j = bank.get(K3701_J);
 		cw = bit(word, K3701_CTRL_CW);
@@ -259,17 +330,18 @@ struct K3701 {
 		count = 0;
 		nxt.xm = xe;
 		nxt.ym = ye;
+		nxt.zm = ze;
 		if (kind == Kind::CIRCULAR) {
 			phase = Phase::SETUP;
 			setup_left = CIRCLE_SETUP_CYCLES;
 			nxt.busy = true;
 			return;
 		}
-		if (!ArcPath::coord_ok(xe) || !ArcPath::coord_ok(ye)) {
+		if (!ArcPath::coord_ok(xe) || !ArcPath::coord_ok(ye) || !ArcPath::coord_ok(ze)) {
 			nxt.irq = nxt.error = true;
 			return;
 		}
-		line.init(xe, ye);
+		line.init({xe, ye, ze});
 		if (line.left == 0) {
 			nxt.irq = true;
 			return;
@@ -283,13 +355,14 @@ struct K3701 {
 				hold(nxt);
 			if (--count == 0) {
 				bool final = false, error = false;
-				Move m = kind == Kind::LINEAR ? line.advance(final) : arc.advance(final, error);
-				nxt.x_pos = m.dx > 0;
-				nxt.x_neg = m.dx < 0;
-				nxt.y_pos = m.dy > 0;
-				nxt.y_neg = m.dy < 0;
+				Move m = advance(final, error);
+				const int *to = PLANES[plane < 3 ? plane : 0];  // the machine axis of each
+				nxt.step[to[0]] = m.dx;
+				nxt.step[to[1]] = m.dy;
+				nxt.step[to[2]] = m.dz;
 				nxt.xm -= m.dx;
 				nxt.ym -= m.dy;
+				nxt.zm -= m.dz;
 				if (final)
 					finish(nxt, error);
 			}
@@ -299,11 +372,10 @@ struct K3701 {
 		if (held)
 			held = fp;
 		if (take) {
-			credit += 2;
-			Move next = kind == Kind::LINEAR ? line.peek() : arc.peek();
-			int64_t cost = sqrt2 && next.diagonal() ? 3 : 2;
-			if (credit >= cost) {
-				credit -= cost;
+			credit += unit();
+			int64_t need = cost(peek());
+			if (credit >= need) {
+				credit -= need;
 				count = latency() - 1;
 			}
 		}

@@ -93,10 +93,11 @@ using k37e::Machine;
 #pragma GCC visibility push(default)
 extern "C" {
 
-// A machine with its accel/decel circuit placed at `placement` (0 none, 1 pre, 2 post), of
-// `bits` (pre) or `bits_x` and `bits_y` (post).
-void *k37e_create(int placement, unsigned bits, unsigned bits_x, unsigned bits_y) {
-	return new Machine(k37e::Placement(placement), bits, bits_x, bits_y);
+// A machine of `axes` axes with its accel/decel circuit placed at `placement` (0 none, 1 pre,
+// 2 post), of `bits` (pre) or bits_x, bits_y and bits_z (post).
+void *k37e_create(int axes, int placement, unsigned bits, unsigned bits_x, unsigned bits_y,
+                  unsigned bits_z) {
+	return new Machine(axes, k37e::Placement(placement), bits, {bits_x, bits_y, bits_z});
 }
 void k37e_destroy(void *m) { delete static_cast<Machine *>(m); }
 
@@ -105,8 +106,8 @@ int k37e_port(const char *name) {
 	for (int i = 0; i < k37e::TOP_COUNT; i++)
 		if (!strcmp(name, k37e::TOP_PORTS[i]))
 			return i;
-	const char *axes[] = {"x__", "y__"};
-	for (int k = 0; k < k37e::AXES; k++)
+	const char *axes[] = {"x__", "y__", "z__"};
+	for (int k = 0; k < k37e::MAX_AXES; k++)
 		if (!strncmp(name, axes[k], 3))
 			for (int i = 0; i < k37e::AXIS_COUNT; i++)
 				if (!strcmp(name + 3, k37e::AXIS_PORTS[i]))

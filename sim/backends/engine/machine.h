@@ -1,8 +1,8 @@
-// The engine's machine: the two-axis chipset (FEED, DECEL, the exponential accel/decel circuit
-// before the K3701, one per axis after it, or none; the K3701, a K3702 and an encoder interface per axis, the host bus
-// decoding) with a first-order plant per axis and the observation counters, composed as
-// k37.sim.machine.system.System and k37.hdl.chipset.chip.Chipset wire them; its ports by the
-// System's names; its cycles (a falling edge, except in the first, then a rising edge, as
+// The engine's machine: the two- or three-axis chipset (FEED, DECEL, the exponential
+// accel/decel circuit before the K3701, one per axis after it, or none; the K3701, a K3702 and
+// an encoder interface per axis, the host bus decoding) with a first-order plant per axis and
+// the observation counters, composed as k37.sim.machine.system.System and
+// k37.hdl.chipset.chip.Chipset wire them; its ports by the System's names; its cycles (a falling edge, except in the first, then a rising edge, as
 // Amaranth's simulator clocks it); and its idle skipping: while nothing but the free-running
 // state (the dividers, the rate multiplier's counter, the accel/decel accumulator, the K3701's
 // latency or setup count) and the plants changes, cycles are advanced in closed form up to the
@@ -22,7 +22,7 @@
 
 namespace k37e {
 
-constexpr int AXES = 2;
+constexpr int MAX_AXES = 3;
 
 // Every port, by the System's name (a bus member, a top output or an axis's member).
 const char *const TOP_PORTS[] = {"bus__addr", "bus__w_stb", "bus__w_data", "bus__r_stb",
@@ -35,7 +35,7 @@ const char *const AXIS_PORTS[] = {"gain", "alpha", "vmax", "kf", "dac_zero", "st
                                   "dac", "max_abs_error", "pulses_pos", "pulses_neg", "alarm_n"};
 enum AxisPort { GAIN, ALPHA, VMAX, KF, DAC_ZERO, STALL, GLITCH_A, GLITCH_B, BREAK_A, COMMAND,
                 ERROR, COUNT, DAC, MAX_ABS_ERROR, PULSES_POS, PULSES_NEG, ALARM_N, AXIS_COUNT };
-constexpr int PORT_COUNT = TOP_COUNT + AXES * AXIS_COUNT;
+constexpr int PORT_COUNT = TOP_COUNT + MAX_AXES * AXIS_COUNT;
 
 struct Axis {
 	Accel post;  // the accel/decel circuit after the K3701 (post placement)
@@ -52,16 +52,18 @@ struct Axis {
 enum class Placement { NONE, PRE, POST };
 
 struct Machine {
+	const int axes;
 	const Placement placement;
 	const bool accel_pre, accel_post;
 	Feed feed;
 	Decel decel;
 	Accel accel;
 	K3701 interp;
-	Axis axis[AXES];
+	Axis axis[MAX_AXES];
 	uint64_t addr = 0, w_data = 0;
 	bool w_stb = false, r_stb = false;
 	unsigned read_cs = 0;
+	bool read_a4 = false;  // select 7's window of the last read (three axes)
 	uint32_t fp_total = 0;
 	uint64_t cycle = 0, skipped = 0;
 	// Samples of some ports at every multiple of `every` cycles (k37e_record): each row the
@@ -70,14 +72,15 @@ struct Machine {
 	uint64_t every = 0, next_sample = UINT64_MAX;
 	std::vector<uint64_t> rows;
 
-	Machine(Placement where, unsigned bits, unsigned bits_x, unsigned bits_y)
-	    : placement(where), accel_pre(where == Placement::PRE), accel_post(where == Placement::POST) {
+	Machine(int chip_axes, Placement where, unsigned bits, const unsigned (&axis_bits)[MAX_AXES])
+	    : axes(chip_axes), placement(where), accel_pre(where == Placement::PRE),
+	      accel_post(where == Placement::POST) {
 		accel.n = bits;
-		axis[0].post = {bits_x, true};
-		axis[1].post = {bits_y, true};
+		for (int k = 0; k < MAX_AXES; k++)
+			axis[k].post = {axis_bits[k], true};
 		feed.bank.init(FEED_REGS, FEED_REG_COUNT);
 		decel.bank.init(DECEL_REGS, DECEL_REG_COUNT);
-		interp.bank.init(K3701_REGS, K3701_REG_COUNT);
+		interp.init(axes);
 		for (Axis &a : axis) {
 			a.ctrl.bank.init(K3702_REGS, K3702_REG_COUNT);
 			a.enc.bank.init(ENCODER_REGS, ENCODER_REG_COUNT);
@@ -88,15 +91,23 @@ struct Machine {
 	bool fp() const { return accel_pre ? accel.out() != 0 : decel_out(); }
 	// The K3701's net step pulse on axis k, and the command pulse its K3702 counts (after the
 	// axis's accel/decel circuit in post placement).
-	int steps(int k) const {
-		const K3701Out &o = interp.out;
-		return k == 0 ? int(o.x_pos) - int(o.x_neg) : int(o.y_pos) - int(o.y_neg);
-	}
+	int steps(int k) const { return interp.out.step[k]; }
 	int command(int k) const { return accel_post ? axis[k].post.out() : steps(k); }
-	bool irq_alarm() const { return axis[0].ctrl.irq || axis[1].ctrl.irq; }
+	bool irq_alarm() const {
+		for (int k = 0; k < axes; k++)
+			if (axis[k].ctrl.irq)
+				return true;
+		return false;
+	}
+	bool posts_pending() const {
+		for (int k = 0; k < axes; k++)
+			if (axis[k].post.pending)
+				return true;
+		return false;
+	}
 	bool quiet() const {
 		return interp.quiet(fp()) && (!accel_pre || accel.pending == 0) &&
-		       (!accel_post || (axis[0].post.pending == 0 && axis[1].post.pending == 0));
+		       (!accel_post || !posts_pending());
 	}
 	uint8_t r_data() const {
 		switch (read_cs) {
@@ -107,21 +118,24 @@ struct Machine {
 		case SELECT_ENCODER_Y: return axis[1].enc.bank.r_data;
 		case SELECT_FEED: return feed.bank.r_data;
 		case SELECT_DECEL: return decel.bank.r_data;
+		case SELECT_K3702_Z:  // and ENCODER_Z, told apart by A4
+			return axes < 3 ? 0 : read_a4 ? axis[2].enc.bank.r_data : axis[2].ctrl.bank.r_data;
 		default: return 0;
 		}
 	}
 
 	// One chip's bank edge: its strobes where the address selects it (no aliases: the
-	// address bits between the chip's map and the select must be 0).
+	// address bits between the chip's map and the select are its window's).
 	template<class Chip>
-	BankEdge decode(const Chip &chip, unsigned select, unsigned width) const {
-		bool hit = (addr >> REG_BITS) == select && (addr & low_bits(REG_BITS)) >> width == 0;
+	BankEdge decode(const Chip &chip, unsigned select, unsigned window, unsigned width) const {
+		bool hit = (addr >> REG_BITS) == select &&
+		           (addr & low_bits(REG_BITS)) >> width == window >> width;
 		return chip.bank.decode(w_stb && hit, r_stb && hit, unsigned(addr & low_bits(width)),
 		                        uint8_t(w_data), [&](int reg) { return chip.read(reg); });
 	}
 
 	void fall() {
-		for (int k = 0; k < AXES; k++) {
+		for (int k = 0; k < axes; k++) {
 			Axis &a = axis[k];
 			a.ctrl.fall(command(k), int(a.enc.fb_pos) - int(a.enc.fb_neg));
 		}
@@ -130,21 +144,33 @@ struct Machine {
 	void rise() {
 		// Everything the edge reads, from the values before it.
 		bool gate = decel_out(), add = feed.fa(), feed_pulse = fp();
-		BankEdge e_feed = decode(feed, SELECT_FEED, FEED_ADDR_WIDTH);
-		BankEdge e_decel = decode(decel, SELECT_DECEL, DECEL_ADDR_WIDTH);
-		BankEdge e_interp = decode(interp, SELECT_K3701, K3701_ADDR_WIDTH);
-		BankEdge e_ctrl[AXES] = {decode(axis[0].ctrl, SELECT_K3702_X, K3702_ADDR_WIDTH),
-		                         decode(axis[1].ctrl, SELECT_K3702_Y, K3702_ADDR_WIDTH)};
-		BankEdge e_enc[AXES] = {decode(axis[0].enc, SELECT_ENCODER_X, ENCODER_ADDR_WIDTH),
-		                        decode(axis[1].enc, SELECT_ENCODER_Y, ENCODER_ADDR_WIDTH)};
-		int step[AXES] = {steps(0), steps(1)}, com[AXES] = {command(0), command(1)};
+		BankEdge e_feed = decode(feed, SELECT_FEED, WINDOW_FEED, FEED_ADDR_WIDTH);
+		BankEdge e_decel = decode(decel, SELECT_DECEL, WINDOW_DECEL, DECEL_ADDR_WIDTH);
+		BankEdge e_interp = decode(interp, SELECT_K3701, WINDOW_K3701,
+		                           axes == 3 ? K3701_3_ADDR_WIDTH : K3701_ADDR_WIDTH);
+		static constexpr unsigned CTRL_SELECTS[MAX_AXES][2] = {
+		    {SELECT_K3702_X, WINDOW_K3702_X}, {SELECT_K3702_Y, WINDOW_K3702_Y},
+		    {SELECT_K3702_Z, WINDOW_K3702_Z}};
+		static constexpr unsigned ENC_SELECTS[MAX_AXES][2] = {
+		    {SELECT_ENCODER_X, WINDOW_ENCODER_X}, {SELECT_ENCODER_Y, WINDOW_ENCODER_Y},
+		    {SELECT_ENCODER_Z, WINDOW_ENCODER_Z}};
+		BankEdge e_ctrl[MAX_AXES], e_enc[MAX_AXES];
+		int step[MAX_AXES], com[MAX_AXES];
+		for (int k = 0; k < axes; k++) {
+			e_ctrl[k] = decode(axis[k].ctrl, CTRL_SELECTS[k][0], CTRL_SELECTS[k][1],
+			                   K3702_ADDR_WIDTH);
+			e_enc[k] = decode(axis[k].enc, ENC_SELECTS[k][0], ENC_SELECTS[k][1],
+			                  ENCODER_ADDR_WIDTH);
+			step[k] = steps(k);
+			com[k] = command(k);
+		}
 		// The edge.
 		feed.rise();
 		decel.rise(gate);
 		if (accel_pre)
 			accel.rise(gate, add);
 		interp.rise(feed_pulse);
-		for (int k = 0; k < AXES; k++) {
+		for (int k = 0; k < axes; k++) {
 			Axis &a = axis[k];
 			a.enc.rise(a.plant.lines());
 			a.plant.rise(a.in, a.ctrl.dac, com[k]);
@@ -157,12 +183,14 @@ struct Machine {
 			a.pulses_neg += step[k] < 0;
 		}
 		fp_total += feed_pulse;
-		if (r_stb)
+		if (r_stb) {
 			read_cs = unsigned(addr >> REG_BITS) & 7;
+			read_a4 = axes == 3 && bit(addr, REG_BITS - 1);
+		}
 		feed.bank.apply(e_feed);
 		decel.bank.apply(e_decel);
 		interp.bank.apply(e_interp);
-		for (int k = 0; k < AXES; k++) {
+		for (int k = 0; k < axes; k++) {
 			axis[k].ctrl.bank.apply(e_ctrl[k]);
 			axis[k].enc.bank.apply(e_enc[k]);
 		}
@@ -193,16 +221,17 @@ struct Machine {
 	bool quiet_now() const {
 		if (w_stb || r_stb || !banks_quiet())
 			return false;
-		const K3701Out &o = interp.out;
-		if (o.x_pos || o.x_neg || o.y_pos || o.y_neg)
-			return false;
+		for (int k = 0; k < axes; k++)
+			if (steps(k))
+				return false;
 		if (interp.phase == K3701::Phase::RUN && interp.count == 0 && interp.held)
 			return false;
 		if (accel_pre && accel.pending != 0)
 			return false;
-		if (accel_post && (axis[0].post.pending != 0 || axis[1].post.pending != 0))
+		if (accel_post && posts_pending())
 			return false;
-		for (const Axis &a : axis) {
+		for (int k = 0; k < axes; k++) {
+			const Axis &a = axis[k];
 			const Encoder &e = a.enc;
 			const Plant &p = a.plant;
 			if (e.fb_pos || e.fb_neg || !e.started)
@@ -222,11 +251,14 @@ struct Machine {
 		return true;
 	}
 	bool banks_quiet() const {
-		const Bank *banks[] = {&feed.bank, &decel.bank, &interp.bank, &axis[0].ctrl.bank,
-		                       &axis[1].ctrl.bank, &axis[0].enc.bank, &axis[1].enc.bank};
+		const Bank *banks[] = {&feed.bank, &decel.bank, &interp.bank};
 		for (const Bank *b : banks)
 			if (b->committed >= 0 || b->refused >= 0)
 				return false;
+		for (int k = 0; k < axes; k++)
+			for (const Bank *b : {&axis[k].ctrl.bank, &axis[k].enc.bank})
+				if (b->committed >= 0 || b->refused >= 0)
+					return false;
 		return true;
 	}
 
@@ -245,11 +277,12 @@ struct Machine {
 				h = std::min(h, cycles_within(feed.rm_clock.phase, feed.bank.value[FEED_RM_INC],
 				                              feed.rm_clock.stb, DIVIDER_WIDTH, clocks));
 		}
-		const Accel *circuits[] = {&accel, &axis[0].post, &axis[1].post};
-		for (const Accel *c : circuits)
-			if ((c == &accel ? accel_pre : accel_post) && c->safe_strobes() != UINT64_MAX)
+		for (int k = -1; k < axes; k++) {
+			const Accel &c = k < 0 ? accel : axis[k].post;
+			if ((k < 0 ? accel_pre : accel_post) && c.safe_strobes() != UINT64_MAX)
 				h = std::min(h, cycles_within(feed.fa_clock.phase, feed.bank.value[FEED_FA_INC],
-				                              feed.fa_clock.stb, DIVIDER_WIDTH, c->safe_strobes()));
+				                              feed.fa_clock.stb, DIVIDER_WIDTH, c.safe_strobes()));
+		}
 		return h;
 	}
 
@@ -269,8 +302,10 @@ struct Machine {
 		if (accel_pre)
 			accel.y = (accel.y + fa * uint64_t(accel.x)) & low_bits(accel.n);
 		if (accel_post)
-			for (Axis &a : axis)
-				a.post.y = (a.post.y + fa * uint64_t(a.post.x)) & low_bits(a.post.n);
+			for (int k = 0; k < axes; k++) {
+				Accel &c = axis[k].post;
+				c.y = (c.y + fa * uint64_t(c.x)) & low_bits(c.n);
+			}
 		if (interp.phase == K3701::Phase::SETUP)
 			interp.setup_left -= int64_t(k);
 		else if (interp.phase == K3701::Phase::RUN && interp.count)
@@ -281,11 +316,11 @@ struct Machine {
 	// pulse), up to and including the first cycle that changes an encoder count; the cycles
 	// run. In pieces, exactly (lag.h, as the compiled RTL backend's skips step its plants).
 	uint64_t advance_plants(uint64_t h) {
-		k37lag::Lag lags[AXES] = {lag(axis[0]), lag(axis[1])};
-		int64_t steps[AXES];
+		k37lag::Lag lags[MAX_AXES] = {lag(axis[0]), lag(axis[1]), lag(axis[2])};
+		int64_t steps[MAX_AXES];
 		bool crossed;
-		uint64_t k = k37lag::advance(lags, AXES, steps, h, crossed);
-		for (int i = 0; i < AXES; i++) {
+		uint64_t k = k37lag::advance(lags, size_t(axes), steps, h, crossed);
+		for (int i = 0; i < axes; i++) {
 			axis[i].plant.velocity = lags[i].v;
 			axis[i].plant.before = lags[i].position - uint64_t(lags[i].v);
 		}

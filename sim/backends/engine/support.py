@@ -1,11 +1,11 @@
 """What the engine runs: a predicate over a machine's options and a program's blocks.
 
-The engine runs the two-axis machine with the exponential accel/decel circuit in any placement
-(``machine.accel``: before the K3701, one per axis after it, each of its own ``accel_bits``, or
-none) at the shared addition clock, first-order servo drives on both axes, and programs of
-lines and arcs. :func:`unsupported` names the first
-option outside that (None: the engine runs the machine); it reads the parameters the simulated
-machine is built with (:func:`k37.sim.run.runner.system_params`), so it needs no Amaranth.
+The engine runs the two- and three-axis machines with the exponential accel/decel circuit in
+any placement (``machine.accel``: before the K3701, one per axis after it, each of its own
+``accel_bits``, or none) at the shared addition clock, first-order servo drives on every axis,
+and programs of lines, arcs and helices. :func:`unsupported` names the first option outside
+that (None: the engine runs the machine); it reads the parameters the simulated machine is
+built with (:func:`k37.sim.run.runner.system_params`), so it needs no Amaranth.
 """
 
 from __future__ import annotations
@@ -31,9 +31,6 @@ def unsupported(params: Mapping[str, Any], kinds: Iterable[object] = ()) -> str 
     :class:`k37.sim.machine.system.System`) that the engine does not run, in words naming
     the job's key, or else the first block kind of ``kinds`` (:func:`unsupported_blocks`);
     None if it runs them all."""
-    axes = params.get("axes", 2)
-    if axes != 2:
-        return f"machine.axes = {axes} (the engine runs 2 axes)"
     accel = _value(params.get("accel", "pre"))
     shape = _value(params.get("accel_shape", "exponential"))
     if accel != "none" and shape != "exponential":
@@ -58,5 +55,5 @@ def unsupported_blocks(kinds: Iterable[object]) -> str | None:
     for kind in kinds:
         name = str(getattr(kind, "name", kind)).lower()
         if name not in ("linear", "circular"):
-            return f"a {name} block (the engine runs lines and arcs)"
+            return f"a {name} block (the engine runs lines, arcs and helices)"
     return None
