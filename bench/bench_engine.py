@@ -6,9 +6,9 @@ the reports must be equal (the fields of how a run was computed aside). Printed 
 machine seconds per wall second on each backend, the engine's speed-up, the cycles each
 evaluated (the rest skipped in closed form), and the process CPU time (steadier than wall
 time on a shared machine). The jobs: the demo, the K3701's top feed on a 100 mm line, a
-dwell-heavy job, the paper's low feed, six two-axis programs of the G-code corpus in several
-writers' styles, and :mod:`bench_cam`'s pocket without its Z moves (the engine runs two axes)
-on the default machine (exact stop after every block).
+dwell-heavy job, the paper's low feed, fourteen programs of the G-code corpus in several
+writers' styles (two and three axes) on the default machine (exact stop after every block),
+and :mod:`bench_cam`'s pocket (three axes, accel/decel after the K3701).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from bench_cam import cam_program
+from bench_cam import cam_job
 from bench_closed_loop import DWELL_GCODE, LOW_FEED_GCODE
 from bench_goals import TOP_FEED_GCODE
 
@@ -26,22 +26,21 @@ from k37.sim.run.report import HOW_FIELDS
 from k37.sim.run.runner import RunOptions, build_backend, run_job
 
 CORPUS = Path(__file__).parent.parent / "tests" / "gcode_corpus"
-#: Two-axis programs of the corpus (lines and arcs), in several writers' styles.
+#: Programs of the corpus in several writers' styles: six of two axes, eight of three.
 PROGRAMS = ("square_mm.ngc", "grbl_style_2d.nc", "inch_r_arcs.ngc", "ngc_subroutine.ngc",
-            "offsets_g92_g53.ngc", "block_delete_comments.ngc")
+            "offsets_g92_g53.ngc", "block_delete_comments.ngc", "linuxcnc_style_drill.ngc",
+            "linuxcnc_style_helix.ngc", "fusion_style_contour.nc", "cambam_circle_passes.nc",
+            "jscut_style.gcode", "pcbgcode_style_etch.tap", "partkam_style.ngc",
+            "ngc_polar_bolt_circle.ngc")
 ROUNDS = 3
-#: Passes of the two-axis pocket (a line and a joining arc each).
-POCKET_PASSES = 60
 
 
 def jobs() -> dict[str, Job]:
-    pocket = "\n".join(line for line in cam_program(POCKET_PASSES).splitlines()
-                       if "Z" not in line)
     return {"demo": demo_job(), "top-feed line": gcode_job("top", TOP_FEED_GCODE, "<top>"),
             "dwell-heavy": gcode_job("dwell", DWELL_GCODE, "<dwell>"),
             "low-feed circle": gcode_job("low", LOW_FEED_GCODE, "<low>"),
             **{name: load(CORPUS / name) for name in PROGRAMS},
-            "pocket (2 axes)": gcode_job("pocket", pocket, "<pocket>")}
+            "bench_cam pocket": cam_job()}
 
 
 def timed(job: Job, kind: str, rounds: int) -> tuple[dict, float, float]:

@@ -3,13 +3,14 @@ first cycle where two backends differ.
 
 Whole jobs run on ``--backend engine`` and ``--backend cxxrtl``: the reports (the fields of how
 a run was computed aside) and every sample must be equal. The jobs are the demo and
-hypothesis-drawn short programs of lines, arcs and dwells on random small machines within what
-the engine runs (accel/decel before the K3701, after it or none, random widths and servos,
-faults).
+hypothesis-drawn short programs of lines, arcs, helices and dwells on random small machines
+within what the engine runs (two and three axes; accel/decel before the K3701, after it or
+none; random widths and servos; faults), every example it runs and three-axis CAM programs.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -79,6 +80,24 @@ def test_engine_equals_the_rtl_on_every_example_it_runs(example, faults):
     same_on_engine_and_rtl(job, faults)
 
 
+@settings(max_examples=6, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(seed=st.integers(0, 10**6), dwell=st.booleans())
+def test_engine_equals_the_rtl_on_generated_three_axis_jobs(seed, dwell, random_moves):
+    """Lines through space, arcs in random planes, helices (on the default three-axis machine:
+    one compiled RTL model serves them all)."""
+    job, faults, _ = random_moves(seed, "pre", dwell=dwell, axes=3)
+    job = replace(job, machine=replace(job.machine, accel_bits=15))
+    same_on_engine_and_rtl(job, faults, sample_every=97)
+
+
+@pytest.mark.parametrize("program", ["linuxcnc_style_helix.ngc", "fusion_style_contour.nc"])
+def test_engine_equals_the_rtl_on_three_axis_cam_programs(program):
+    job = load_job(Path(__file__).parent / "gcode_corpus" / program)
+    assert job.machine.axes == 3
+    assert same_on_engine_and_rtl(job)["status"] == "ok"
+
+
 def test_lockstep_runs_the_demo_without_a_difference():
     report = run_job(demo_job(), RunOptions(backend="lockstep", max_cycles=400_000)).report
     assert report["backend"] == "lockstep" and report["cycles"] == 400_000
@@ -116,7 +135,6 @@ def test_engine_constants_come_from_the_register_maps():
 
 
 @pytest.mark.parametrize(("machine", "named"), [
-    (MachineConfig(axes=3), "machine.axes = 3"),
     (MachineConfig(accel="post", accel_shape="linear"), 'machine.accel_shape = "linear"'),
     (MachineConfig(accel_shape="bell"), 'machine.accel_shape = "bell"'),
 ])
@@ -128,6 +146,11 @@ def test_engine_names_the_first_option_it_does_not_run(machine, named, make_job)
                                           f"{named}"):
         build_backend(job, "engine")
     assert choose_backend("auto", system_params(job))[0] == "cxxrtl"
+
+
+def test_engine_names_a_drive_it_does_not_run():
+    params = {**system_params(demo_job()), "drives": {"x": "first_order", "y": "torque"}}
+    assert unsupported(params).startswith('servo.y.drive = "torque"')
 
 
 def test_engine_names_an_axis_on_its_own_addition_clock(random_moves):

@@ -1,4 +1,4 @@
-// The engine's blocks, one struct per chip of the two-axis chipset and per plant: the state the
+// The engine's blocks, one struct per chip of the chipset and per plant: the state the
 // gateware registers hold and its updates, stated after each block's reference model and
 // gateware (hdl/**/model*.py, sim/machine/plant_model.py). Each `rise` is the block's rising
 // edge, computed from the values before the edge (what its caller passes in); the K3702's
