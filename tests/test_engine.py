@@ -23,7 +23,7 @@ from k37.hdl.k3701.block import LATENCY_LINEAR
 from k37.hdl.k3702.map import K3702_MAP
 from k37.sim.backends.engine.constants import header
 from k37.sim.backends.engine.lockstep import DivergenceError, LockstepBackend
-from k37.sim.backends.engine.support import EXPERIMENTAL, unsupported
+from k37.sim.backends.engine.support import unsupported
 from k37.sim.backends.factory import choose_backend
 from k37.sim.run.jobfile import load_job
 from k37.sim.run.report import HOW_FIELDS
@@ -164,10 +164,14 @@ def test_engine_refuses_a_program_with_a_parabola(make_job):
         build_backend(job, "engine")
 
 
-def test_auto_picks_the_engine_only_when_it_runs_the_machine_and_no_waveform_is_asked():
+def test_auto_picks_the_engine_where_it_runs_the_job_and_no_internal_signal_is_read(
+        make_job):
     params = system_params(demo_job())
-    kind, why = choose_backend("auto", params)
-    assert kind == ("cxxrtl" if EXPERIMENTAL else "engine"), why
-    assert choose_backend("auto", params, waveform=True) == (
-        "cxxrtl", "auto: a waveform of internal signals needs the RTL")
+    assert choose_backend("auto", params) == (
+        "engine", "auto: the engine runs this machine and program")
+    assert choose_backend("auto", params, internals=True) == (
+        "cxxrtl", "auto: internal signals (a waveform, probes) need the RTL")
     assert choose_backend("engine", params) == ("engine", "--backend engine")
+    report = run_job(make_job("G21 G91 F600\nG01 X0.05\nM30")).report
+    assert (report["backend"], report["backend_reason"]) == (
+        "engine", "auto: the engine runs this machine and program")

@@ -195,10 +195,11 @@ def design_key(job: Job) -> str:
     return f"{_design_sources()} {sorted(system_params(job).items())}"
 
 
-def build_backend(job: Job, kind: str, *, waveform: bool = False) -> Backend:
+def build_backend(job: Job, kind: str, *, internals: bool = False) -> Backend:
     """The simulated machine of ``job`` on backend ``kind`` (one of ``BACKEND_NAMES``; ``auto``
-    as :func:`k37.sim.backends.factory.choose_backend` picks, with ``waveform``: a waveform is
-    asked for); the machine (and Amaranth) is only made if the backend has no model of it yet.
+    as :func:`k37.sim.backends.factory.choose_backend` picks, with ``internals``: the caller
+    reads internal signals); the machine (and Amaranth) is only made if the backend has no
+    model of it yet.
     Raises :class:`OptionError` if ``kind`` names the engine and the engine does not run the
     job's machine or program."""
     params = system_params(job)
@@ -215,7 +216,7 @@ def build_backend(job: Job, kind: str, *, waveform: bool = False) -> Backend:
         return System(**params)
 
     return make_backend(machine, kind, design_key=design_key(job), params=params, kinds=kinds,
-                        waveform=waveform)
+                        internals=internals)
 
 
 _REUSED: dict[str, Backend] = {}
@@ -314,7 +315,7 @@ def run_job(job: Job, options: RunOptions | None = None,
         raise OptionError(f"a fault on axis {axis}: the machine has {job.machine.axes} axes "
                           f"({', '.join(job.machine.axis_names)})")
     owned = backend is None
-    backend = backend or build_backend(job, options.backend, waveform=options.vcd is not None)
+    backend = backend or build_backend(job, options.backend, internals=options.vcd is not None)
     configure_plants(backend, job, options.faults)
     traced = None
     if options.vcd is not None:

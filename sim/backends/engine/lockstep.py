@@ -9,8 +9,8 @@ call is run again cycle by cycle, so :class:`DivergenceError` names the first di
 exactly. The backend records no samples and runs no polling wait itself (the caller's loop of
 its calls does), so every cycle the firmware runs is checked.
 
-``k37 run --lockstep`` and :func:`k37.sim.run.runner.run_job` with ``RunOptions(backend=
-"lockstep")`` run a job so.
+``k37 run --backend lockstep`` and :func:`k37.sim.run.runner.run_job` with
+``RunOptions(backend="lockstep")`` run a job so.
 """
 
 from __future__ import annotations

@@ -14,11 +14,7 @@ import enum
 from collections.abc import Iterable, Mapping
 from typing import Any
 
-__all__ = ["EXPERIMENTAL", "unsupported", "unsupported_blocks"]
-
-#: Whether ``--backend auto`` leaves the engine out (it is picked only by name): True until
-#: the engine is proven equal to the compiled RTL backend on every test that compares them.
-EXPERIMENTAL = True
+__all__ = ["unsupported", "unsupported_blocks"]
 
 
 def _value(option: object) -> object:
