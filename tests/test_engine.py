@@ -21,6 +21,7 @@ from hypothesis import strategies as st
 from k37.firmware_model.job import MachineConfig, demo_job
 from k37.hdl.k3701.block import LATENCY_LINEAR
 from k37.hdl.k3702.map import K3702_MAP
+from k37.sim.backends.engine import build as engine_build
 from k37.sim.backends.engine.constants import header
 from k37.sim.backends.engine.lockstep import DivergenceError, LockstepBackend
 from k37.sim.backends.engine.support import unsupported
@@ -124,6 +125,14 @@ def test_lockstep_names_the_first_differing_cycle_and_port(make_job):
     engine.step()
     rtl.step()
     assert (engine.get(found.port), rtl.get(found.port)) == found.values
+
+
+def test_every_cxx_file_of_the_engine_is_a_source_of_its_key():
+    """A C++ file that the key does not cover would let a library built before an edit of it
+    stand; the plant's update shared with the RTL harness is one of them."""
+    package = Path(engine_build.__file__).parent
+    files = {path.name for path in package.iterdir() if path.suffix in (".cc", ".h")}
+    assert files | {"lag.h"} == {Path(name).name for name in engine_build.SOURCES}
 
 
 def test_engine_constants_come_from_the_register_maps():
