@@ -16,6 +16,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from k37.hdl.chipset.map import AccelShape
 from k37.sim.backends.contract import (
     CLOCK_PERIOD,
     Backend,
@@ -32,6 +33,10 @@ from k37.sim.machine.system import DRIVES, System
 __all__ = ["EngineBackend", "UnsupportedMachineError", "load", "machine_params"]
 
 
+#: The accel/decel shapes by the engine's code (``Circuit::Shape``).
+_SHAPES = ("exponential", "linear", "bell")
+
+
 class UnsupportedMachineError(ValueError):
     """A machine option the engine does not run (one line naming it)."""
 
@@ -42,7 +47,8 @@ def load(path: str) -> ctypes.CDLL:
     handle, u64, c_int = ctypes.c_void_p, ctypes.c_uint64, ctypes.c_int
     words = ctypes.POINTER(u64)
     signatures = {
-        "k37e_create": (handle, [c_int, c_int, *[ctypes.c_uint] * 4]),
+        "k37e_create": (handle, [c_int, c_int, ctypes.POINTER(c_int),
+                                 ctypes.POINTER(ctypes.c_uint)]),
         "k37e_destroy": (None, [handle]),
         "k37e_port": (c_int, [ctypes.c_char_p]),
         "k37e_get": (u64, [handle, c_int]),
@@ -107,12 +113,15 @@ class EngineBackend(Backend):
         self._period = period
         self.model = build(compiler)
         self._lib = lib = load(str(self.model.path))
-        # The axes, the placement (0 none, 1 pre, 2 post) and the circuits' widths, as
-        # k37e_create takes them.
+        # The axes, the placement (0 none, 1 pre, 2 post) and the circuits' shapes and widths
+        # (before the K3701, then each axis's after it), as k37e_create takes them.
         placement = ("none", "pre", "post").index(params["accel"].value)
-        bits = [params["axis_accel"].get(axis, (None, params["accel_bits"]))[1]
-                for axis in ("x", "y", "z")]
-        self._machine = (params["axes"], placement, params["accel_bits"], *bits)
+        circuits = [(params["accel_shape"], params["accel_bits"]),
+                    *(params["axis_accel"].get(axis, (params["accel_shape"], params["accel_bits"]))
+                      for axis in ("x", "y", "z"))]
+        shapes = [_SHAPES.index(AccelShape(shape).value) for shape, _ in circuits]
+        self._machine = (params["axes"], placement, (ctypes.c_int * 4)(*shapes),
+                         (ctypes.c_uint * 4)(*(bits for _, bits in circuits)))
         self._index = {name: lib.k37e_port(name.encode()) for name in ports}
         missing = [name for name, i in self._index.items() if i < 0 and not ports[name].is_input]
         if missing:

@@ -199,6 +199,85 @@ struct Accel {
 	}
 };
 
+// k37.hdl.accel.linear.AccelLinear: the moving average over 2^n additions, a window of
+// 2^BINS_BITS bins (a ring, oldest at `head`), one direction or bidirectional.
+struct LinearAccel {
+	unsigned n = 15;
+	bool bidirectional = false;
+	int64_t x = 0, pending = 0, open = 0, bins[1 << LINEAR_BINS_BITS] = {};
+	uint64_t y = 0, tick = 0;
+	int live = 0, head = 0;
+	static constexpr int COUNT = 1 << LINEAR_BINS_BITS;
+
+	bool active() const { return open != 0 || live != 0; }
+	bool idle() const { return !active() && pending == 0; }
+	int out() const { return bidirectional ? (pending > 0) - (pending < 0) : pending != 0; }
+	int64_t counter(int64_t v) const {
+		return bidirectional ? wrap(v, ACCEL_COUNTER_WIDTH) : int64_t(uint64_t(v) & low_bits(ACCEL_COUNTER_WIDTH));
+	}
+	void rise(int inp, bool add) {
+		int o = out();
+		int64_t carry = 0;
+		if (add) {
+			int64_t total = int64_t(y) + x;
+			carry = total >> n;
+			y = uint64_t(total) & low_bits(n);
+			if (active()) {
+				if (tick == low_bits(n - LINEAR_BINS_BITS)) {
+					int64_t oldest = bins[head];
+					bins[head] = open;
+					head = (head + 1) % COUNT;
+					x = counter(x + open - oldest);
+					live = open != 0 ? COUNT : live - 1;
+					open = 0;
+					tick = 0;
+				} else {
+					tick++;
+				}
+			}
+		}
+		open = counter(open + inp);
+		pending = counter(pending - o + carry);
+	}
+};
+
+// An accel/decel circuit of any shape (k37.hdl.chipset.map.AccelShape): the exponential, the
+// linear, or the bell (the linear one into the exponential one, on one addition clock).
+struct Circuit {
+	enum class Shape { EXPONENTIAL, LINEAR, BELL } shape = Shape::EXPONENTIAL;
+	Accel exp;
+	LinearAccel lin;
+
+	void init(int code, unsigned n, bool bidirectional) {
+		shape = Shape(code);
+		exp.n = lin.n = n;
+		exp.bidirectional = lin.bidirectional = bidirectional;
+	}
+	int out() const { return shape == Shape::LINEAR ? lin.out() : exp.out(); }
+	// The circuit's `quiet`: no output pulse pending, a linear stage drained (then static).
+	bool quiet() const {
+		bool drained = shape == Shape::EXPONENTIAL || lin.idle();
+		return drained && (shape == Shape::LINEAR || exp.pending == 0);
+	}
+	void rise(int inp, bool add) {
+		if (shape == Shape::LINEAR) {
+			lin.rise(inp, add);
+			return;
+		}
+		int into = shape == Shape::BELL ? lin.out() : inp;
+		exp.rise(into, add);
+		if (shape == Shape::BELL)
+			lin.rise(inp, add);
+	}
+	// While quiet: the strobes of its addition clock that come without a carry, and the
+	// accumulator's advance by `strobes` of them (a drained linear stage is static).
+	uint64_t safe_strobes() const { return shape == Shape::LINEAR ? UINT64_MAX : exp.safe_strobes(); }
+	void advance(uint64_t strobes) {
+		if (shape != Shape::LINEAR)
+			exp.y = (exp.y + strobes * uint64_t(exp.x)) & low_bits(exp.n);
+	}
+};
+
 // One line of k37.hdl.encoder.chip.EncoderInterface: receiver, line-fault streak, filter.
 struct EncoderLine {
 	bool held = false, level = false, fault = false;

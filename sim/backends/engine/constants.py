@@ -36,13 +36,18 @@ def _datapath_stages() -> dict[str, int]:
             "LINEAR3_STAGES": LinearDatapath3.STAGES, "CIRCULAR3_STAGES": CircularDatapath.STAGES}
 
 
-def _accel_counter_width() -> int:
-    """The counter width the chipset builds its exponential accel/decel circuit with."""
+def _accel_defaults() -> dict[str, int]:
+    """The counter width and the linear window's bins the chipset builds its accel/decel
+    circuits with (their classes' defaults)."""
     import inspect
 
     from k37.hdl.accel.exponential import AccelDecel
+    from k37.hdl.accel.linear import AccelLinear
 
-    return inspect.signature(AccelDecel.__init__).parameters["counter_width"].default
+    return {"ACCEL_COUNTER_WIDTH":
+            inspect.signature(AccelDecel.__init__).parameters["counter_width"].default,
+            "LINEAR_BINS_BITS":
+            inspect.signature(AccelLinear.__init__).parameters["bins_bits"].default}
 
 
 def _map(prefix: str, regmap: RegisterMap) -> list[str]:
@@ -80,7 +85,7 @@ def header() -> str:
     values = {
         "REG_BITS": REG_BITS, "COUNTER_WIDTH": COUNTER_WIDTH, "DIVIDER_WIDTH": DIVIDER_WIDTH,
         "FEED_STAGES": FEED_STAGES, "STAGE_BITS": STAGE_BITS, "BUDGET_WIDTH": BUDGET_WIDTH,
-        "ACCEL_COUNTER_WIDTH": _accel_counter_width(),
+        **_accel_defaults(),
         "LATENCY_LINEAR": block.LATENCY_LINEAR, "LATENCY_CIRCULAR": block.LATENCY_CIRCULAR,
         "CIRCLE_SETUP_CYCLES": block.CIRCLE_SETUP_CYCLES, "COORD_MAX": block.COORD_MAX,
         **_datapath_stages(),

@@ -38,7 +38,7 @@ enum AxisPort { GAIN, ALPHA, VMAX, KF, DAC_ZERO, STALL, GLITCH_A, GLITCH_B, BREA
 constexpr int PORT_COUNT = TOP_COUNT + MAX_AXES * AXIS_COUNT;
 
 struct Axis {
-	Accel post;  // the accel/decel circuit after the K3701 (post placement)
+	Circuit post;  // the accel/decel circuit after the K3701 (post placement)
 	K3702 ctrl;
 	Encoder enc;
 	Plant plant;
@@ -57,7 +57,7 @@ struct Machine {
 	const bool accel_pre, accel_post;
 	Feed feed;
 	Decel decel;
-	Accel accel;
+	Circuit accel;  // before the K3701 (pre placement)
 	K3701 interp;
 	Axis axis[MAX_AXES];
 	uint64_t addr = 0, w_data = 0;
@@ -72,12 +72,14 @@ struct Machine {
 	uint64_t every = 0, next_sample = UINT64_MAX;
 	std::vector<uint64_t> rows;
 
-	Machine(int chip_axes, Placement where, unsigned bits, const unsigned (&axis_bits)[MAX_AXES])
+	// `shapes` and `bits`: the circuit before the K3701's, then each axis's (Circuit::Shape).
+	Machine(int chip_axes, Placement where, const int (&shapes)[1 + MAX_AXES],
+	        const unsigned (&bits)[1 + MAX_AXES])
 	    : axes(chip_axes), placement(where), accel_pre(where == Placement::PRE),
 	      accel_post(where == Placement::POST) {
-		accel.n = bits;
+		accel.init(shapes[0], bits[0], false);
 		for (int k = 0; k < MAX_AXES; k++)
-			axis[k].post = {axis_bits[k], true};
+			axis[k].post.init(shapes[1 + k], bits[1 + k], true);
 		feed.bank.init(FEED_REGS, FEED_REG_COUNT);
 		decel.bank.init(DECEL_REGS, DECEL_REG_COUNT);
 		interp.init(axes);
@@ -99,16 +101,16 @@ struct Machine {
 				return true;
 		return false;
 	}
-	bool posts_pending() const {
+	// Whether every accel/decel circuit is quiet (Circuit::quiet).
+	bool circuits_quiet() const {
+		if (accel_pre && !accel.quiet())
+			return false;
 		for (int k = 0; k < axes; k++)
-			if (axis[k].post.pending)
-				return true;
-		return false;
+			if (accel_post && !axis[k].post.quiet())
+				return false;
+		return true;
 	}
-	bool quiet() const {
-		return interp.quiet(fp()) && (!accel_pre || accel.pending == 0) &&
-		       (!accel_post || !posts_pending());
-	}
+	bool quiet() const { return interp.quiet(fp()) && circuits_quiet(); }
 	uint8_t r_data() const {
 		switch (read_cs) {
 		case SELECT_K3701: return interp.bank.r_data;
@@ -226,9 +228,7 @@ struct Machine {
 				return false;
 		if (interp.phase == K3701::Phase::RUN && interp.count == 0 && interp.held)
 			return false;
-		if (accel_pre && accel.pending != 0)
-			return false;
-		if (accel_post && posts_pending())
+		if (!circuits_quiet())
 			return false;
 		for (int k = 0; k < axes; k++) {
 			const Axis &a = axis[k];
@@ -278,7 +278,7 @@ struct Machine {
 				                              feed.rm_clock.stb, DIVIDER_WIDTH, clocks));
 		}
 		for (int k = -1; k < axes; k++) {
-			const Accel &c = k < 0 ? accel : axis[k].post;
+			const Circuit &c = k < 0 ? accel : axis[k].post;
 			if ((k < 0 ? accel_pre : accel_post) && c.safe_strobes() != UINT64_MAX)
 				h = std::min(h, cycles_within(feed.fa_clock.phase, feed.bank.value[FEED_FA_INC],
 				                              feed.fa_clock.stb, DIVIDER_WIDTH, c.safe_strobes()));
@@ -300,12 +300,10 @@ struct Machine {
 			d->phase = uint64_t(total) & low_bits(DIVIDER_WIDTH);
 		}
 		if (accel_pre)
-			accel.y = (accel.y + fa * uint64_t(accel.x)) & low_bits(accel.n);
+			accel.advance(fa);
 		if (accel_post)
-			for (int k = 0; k < axes; k++) {
-				Accel &c = axis[k].post;
-				c.y = (c.y + fa * uint64_t(c.x)) & low_bits(c.n);
-			}
+			for (int k = 0; k < axes; k++)
+				axis[k].post.advance(fa);
 		if (interp.phase == K3701::Phase::SETUP)
 			interp.setup_left -= int64_t(k);
 		else if (interp.phase == K3701::Phase::RUN && interp.count)

@@ -1,25 +1,19 @@
 """What the engine runs: a predicate over a machine's options and a program's blocks.
 
-The engine runs the two- and three-axis machines with the exponential accel/decel circuit in
-any placement (``machine.accel``: before the K3701, one per axis after it, each of its own
-``accel_bits``, or none) at the shared addition clock, first-order servo drives on every axis,
-and programs of lines, arcs and helices. :func:`unsupported` names the first option outside
-that (None: the engine runs the machine); it reads the parameters the simulated machine is
-built with (:func:`k37.sim.run.runner.system_params`), so it needs no Amaranth.
+The engine runs the two- and three-axis machines with accel/decel circuits of every shape in
+every placement (``machine.accel``: before the K3701, one per axis after it, each of its own
+shape and ``accel_bits``, or none) at the shared addition clock, first-order servo drives on
+every axis, and programs of lines, arcs and helices. :func:`unsupported` names the first option
+outside that (None: the engine runs the machine); it reads the parameters the simulated machine
+is built with (:func:`k37.sim.run.runner.system_params`), so it needs no Amaranth.
 """
 
 from __future__ import annotations
 
-import enum
 from collections.abc import Iterable, Mapping
 from typing import Any
 
 __all__ = ["unsupported", "unsupported_blocks"]
-
-
-def _value(option: object) -> object:
-    """An option's plain value (an enum's value)."""
-    return option.value if isinstance(option, enum.Enum) else option
 
 
 def unsupported(params: Mapping[str, Any], kinds: Iterable[object] = ()) -> str | None:
@@ -27,15 +21,6 @@ def unsupported(params: Mapping[str, Any], kinds: Iterable[object] = ()) -> str 
     :class:`k37.sim.machine.system.System`) that the engine does not run, in words naming
     the job's key, or else the first block kind of ``kinds`` (:func:`unsupported_blocks`);
     None if it runs them all."""
-    accel = _value(params.get("accel", "pre"))
-    shape = _value(params.get("accel_shape", "exponential"))
-    if accel != "none" and shape != "exponential":
-        return (f"machine.accel_shape = \"{shape}\" (the engine runs the exponential "
-                f"circuit)")
-    for axis, (axis_shape, _) in sorted((params.get("axis_accel") or {}).items()):
-        if _value(axis_shape) != "exponential":
-            return (f"machine.{axis}.accel_shape = \"{_value(axis_shape)}\" (the engine runs "
-                    f"the exponential circuit)")
     for axis in params.get("axis_fa") or ():
         return (f"machine.{axis}.accel_fa_hz (the engine runs every circuit at the shared "
                 f"addition clock)")
@@ -47,7 +32,7 @@ def unsupported(params: Mapping[str, Any], kinds: Iterable[object] = ()) -> str 
 
 def unsupported_blocks(kinds: Iterable[object]) -> str | None:
     """The first block kind (a :class:`k37.hdl.k3701.block.Kind`) the engine does not run, in
-    words; None if it runs them all (lines and arcs)."""
+    words; None if it runs them all (lines and arcs, helices among them)."""
     for kind in kinds:
         name = str(getattr(kind, "name", kind)).lower()
         if name not in ("linear", "circular"):
