@@ -4,8 +4,9 @@ first cycle where two backends differ.
 Whole jobs run on ``--backend engine`` and ``--backend cxxrtl``: the reports (the fields of how
 a run was computed aside) and every sample must be equal. The jobs are the demo and
 hypothesis-drawn short programs of lines, arcs, helices and dwells on random small machines
-within what the engine runs (two and three axes; accel/decel before the K3701, after it or
-none; random widths and servos; faults), every example it runs and three-axis CAM programs.
+within what the engine runs (two and three axes; accel/decel circuits of every shape before
+the K3701, after it or none; random widths and servos; faults), every example it runs and
+three-axis CAM programs.
 """
 
 from __future__ import annotations
@@ -66,6 +67,15 @@ def test_engine_equals_the_rtl_on_the_demo_report_and_samples():
 def test_engine_equals_the_rtl_on_generated_jobs(seed, accel, dwell, random_moves):
     job, faults, _ = random_moves(seed, accel, dwell=dwell)
     assert unsupported(system_params(job)) is None
+    same_on_engine_and_rtl(job, faults, sample_every=97)
+
+
+@pytest.mark.parametrize(("accel", "shape", "axis_shapes", "seed"), [
+    ("pre", "bell", None, 1), ("pre", "linear", None, 5),
+    ("post", "linear", {"y": "bell"}, 3)])
+def test_engine_equals_the_rtl_with_linear_and_bell_circuits(accel, shape, axis_shapes, seed,
+                                                             random_moves):
+    job, faults, _ = random_moves(seed, accel, dwell=False, shape=shape, axis_shapes=axis_shapes)
     same_on_engine_and_rtl(job, faults, sample_every=97)
 
 
@@ -143,28 +153,21 @@ def test_engine_constants_come_from_the_register_maps():
             f'{(1 << alarm.width) - 1}LL, {alarm.init}ULL}},') in text
 
 
-@pytest.mark.parametrize(("machine", "named"), [
-    (MachineConfig(accel="post", accel_shape="linear"), 'machine.accel_shape = "linear"'),
-    (MachineConfig(accel_shape="bell"), 'machine.accel_shape = "bell"'),
-])
-def test_engine_names_the_first_option_it_does_not_run(machine, named, make_job):
-    job = make_job("G21 G91 F600\nG01 X0.1\nM30", machine)
+#: The torque drive with every term (a 1 ms velocity loop, so that any Kp is stable).
+TORQUE = {"drive": "torque", "vg": 2.0, "kf": 0.6, "ti": 0.01, "d": 0.02, "fc": 0.002,
+          "load": 0.001}
+
+
+@pytest.mark.parametrize(("options", "named"), [
+    ({"axis_fa": ("y",)}, "machine.y.accel_fa_hz"),
+    ({"servo": TORQUE}, 'servo.x.drive = "torque"')])
+def test_engine_names_the_first_option_it_does_not_run(options, named, random_moves):
+    job, _, _ = random_moves(7, "post", dwell=False, **options)
     why = unsupported(system_params(job))
     assert why is not None and why.startswith(named)
-    with pytest.raises(OptionError, match=f"--backend engine: the engine does not run "
-                                          f"{named}"):
+    with pytest.raises(OptionError, match=f"--backend engine: the engine does not run {named}"):
         build_backend(job, "engine")
     assert choose_backend("auto", system_params(job))[0] == "cxxrtl"
-
-
-def test_engine_names_a_drive_it_does_not_run():
-    params = {**system_params(demo_job()), "drives": {"x": "first_order", "y": "torque"}}
-    assert unsupported(params).startswith('servo.y.drive = "torque"')
-
-
-def test_engine_names_an_axis_on_its_own_addition_clock(random_moves):
-    job, _, _ = random_moves(7, "post", dwell=False, axis_fa=("y",))
-    assert unsupported(system_params(job)).startswith("machine.y.accel_fa_hz")
 
 
 def test_engine_refuses_a_program_with_a_parabola(make_job):
