@@ -70,12 +70,15 @@ def test_engine_equals_the_rtl_on_generated_jobs(seed, accel, dwell, random_move
     same_on_engine_and_rtl(job, faults, sample_every=97)
 
 
-@pytest.mark.parametrize(("accel", "shape", "axis_shapes", "seed"), [
-    ("pre", "bell", None, 1), ("pre", "linear", None, 5),
-    ("post", "linear", {"y": "bell"}, 3)])
-def test_engine_equals_the_rtl_with_linear_and_bell_circuits(accel, shape, axis_shapes, seed,
-                                                             random_moves):
-    job, faults, _ = random_moves(seed, accel, dwell=False, shape=shape, axis_shapes=axis_shapes)
+@pytest.mark.parametrize(("accel", "shape", "axis_shapes", "axis_fa", "seed"), [
+    ("pre", "bell", None, (), 1), ("pre", "linear", None, (), 5),
+    ("post", "linear", {"y": "bell"}, (), 3),
+    ("post", "exponential", {"y": "linear"}, ("x", "y"), 7)])
+def test_engine_equals_the_rtl_with_every_circuit_and_addition_clock(accel, shape, axis_shapes,
+                                                                     axis_fa, seed, random_moves):
+    job, faults, _ = random_moves(seed, accel, dwell=False, shape=shape, axis_shapes=axis_shapes,
+                                  axis_fa=axis_fa)
+    assert job.fa_axes() == axis_fa
     same_on_engine_and_rtl(job, faults, sample_every=97)
 
 
@@ -158,11 +161,10 @@ TORQUE = {"drive": "torque", "vg": 2.0, "kf": 0.6, "ti": 0.01, "d": 0.02, "fc": 
           "load": 0.001}
 
 
-@pytest.mark.parametrize(("options", "named"), [
-    ({"axis_fa": ("y",)}, "machine.y.accel_fa_hz"),
-    ({"servo": TORQUE}, 'servo.x.drive = "torque"')])
-def test_engine_names_the_first_option_it_does_not_run(options, named, random_moves):
-    job, _, _ = random_moves(7, "post", dwell=False, **options)
+@pytest.mark.parametrize("servo", [TORQUE, {**TORQUE, "drive": "two_mass", "cs": 2000.0}])
+def test_engine_names_the_first_option_it_does_not_run(servo, random_moves):
+    job, _, _ = random_moves(7, "post", dwell=False, servo=servo)
+    named = f'servo.x.drive = "{servo["drive"]}"'
     why = unsupported(system_params(job))
     assert why is not None and why.startswith(named)
     with pytest.raises(OptionError, match=f"--backend engine: the engine does not run {named}"):

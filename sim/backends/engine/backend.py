@@ -48,7 +48,7 @@ def load(path: str) -> ctypes.CDLL:
     words = ctypes.POINTER(u64)
     signatures = {
         "k37e_create": (handle, [c_int, c_int, ctypes.POINTER(c_int),
-                                 ctypes.POINTER(ctypes.c_uint)]),
+                                 ctypes.POINTER(ctypes.c_uint), ctypes.c_uint]),
         "k37e_destroy": (None, [handle]),
         "k37e_port": (c_int, [ctypes.c_char_p]),
         "k37e_get": (u64, [handle, c_int]),
@@ -120,8 +120,9 @@ class EngineBackend(Backend):
                     *(params["axis_accel"].get(axis, (params["accel_shape"], params["accel_bits"]))
                       for axis in ("x", "y", "z"))]
         shapes = [_SHAPES.index(AccelShape(shape).value) for shape, _ in circuits]
+        fa_axes = sum(1 << "xyz".index(axis) for axis in params["axis_fa"])
         self._machine = (params["axes"], placement, (ctypes.c_int * 4)(*shapes),
-                         (ctypes.c_uint * 4)(*(bits for _, bits in circuits)))
+                         (ctypes.c_uint * 4)(*(bits for _, bits in circuits)), fa_axes)
         self._index = {name: lib.k37e_port(name.encode()) for name in ports}
         missing = [name for name, i in self._index.items() if i < 0 and not ports[name].is_input]
         if missing:

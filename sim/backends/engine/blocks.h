@@ -120,13 +120,34 @@ struct Divider {
 	}
 };
 
-// k37.hdl.feed.feed_rate.FeedRate: the rate multiplier's clock divider, its counter and the
-// addition clock fa.
+// k37.hdl.feed.feed_rate.FeedRate: the rate multiplier's clock divider, its counter, the
+// addition clock fa and, in the per-axis fa build, an axis's own (`own[k]`: the bank's index
+// of axis k's increment register FA_INC_X, ..., or -1 for the shared fa).
 struct Feed {
 	Bank bank;
-	Divider rm_clock, fa_clock;
+	RegSpec specs[FEED_FA_REG_COUNT];  // the build's registers: the plain map's, then the axes'
+	Divider rm_clock, fa_clock, fa_axis[3];
+	int own[3] = {-1, -1, -1};
 	uint64_t count = 0;  // the rate multiplier's counter
 	static constexpr unsigned BITS = STAGE_BITS * FEED_STAGES;
+
+	// The build with its own addition clock for each axis k whose bit k of `axes` is set.
+	void init(unsigned axes) {
+		int n = 0;
+		for (; n < FEED_REG_COUNT; n++)
+			specs[n] = FEED_FA_REGS[n];
+		for (int k = 0; k < 3; k++)
+			if (axes >> k & 1) {
+				own[k] = n;
+				specs[n++] = FEED_FA_REGS[FEED_FA_FA_INC_X + k];
+			}
+		bank.init(specs, n);
+	}
+	// Axis k's addition clock (the shared fa for k < 0) and its increment.
+	const Divider &clock(int k) const { return k >= 0 && own[k] >= 0 ? fa_axis[k] : fa_clock; }
+	uint64_t increment(int k) const {
+		return bank.value[k >= 0 && own[k] >= 0 ? own[k] : FEED_FA_INC];
+	}
 
 	// The rate multiplier's output: the clock gated by the word bit that the counter's next
 	// state selects (its trailing ones, k37.hdl.feed.rate_multiplier_model.selected_bit).
@@ -137,12 +158,14 @@ struct Feed {
 		unsigned ones = __builtin_ctzll(~next);
 		return ones < BITS && bit(bank.value[FEED_FEED], BITS - 1 - ones);
 	}
-	bool fa() const { return fa_clock.stb; }
 	void rise() {
 		if (rm_clock.stb)
 			count = (count + 1) & low_bits(BITS);
 		rm_clock.rise(bank.value[FEED_RM_INC]);
 		fa_clock.rise(bank.value[FEED_FA_INC]);
+		for (int k = 0; k < 3; k++)
+			if (own[k] >= 0)
+				fa_axis[k].rise(bank.value[own[k]]);
 	}
 	uint64_t read(int reg) const { return bank.value[reg]; }
 };

@@ -10,7 +10,7 @@ from __future__ import annotations
 from k37.hdl.bus.registers import RegisterMap
 from k37.hdl.chipset.map import REG_BITS, SUB_WINDOWS, chip_selects
 from k37.hdl.feed.decel_control_model import BUDGET_WIDTH
-from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH, FEED_STAGES
+from k37.hdl.feed.feed_rate_map import DIVIDER_WIDTH, FEED_MAP_AXIS_FA, FEED_STAGES
 from k37.hdl.feed.rate_multiplier_model import STAGE_BITS
 from k37.hdl.k3701 import block
 from k37.hdl.k3702.map import COUNTER_WIDTH
@@ -81,7 +81,8 @@ def header() -> str:
     selects = chip_selects(3)
     maps = {"K3701": chip_selects(2)["K3701"], "K3701_3": selects["K3701"],
             "K3702": selects["K3702_X"], "ENCODER": selects["ENCODER_X"],
-            "FEED": selects["FEED"], "DECEL": selects["DECEL"]}
+            "FEED": selects["FEED"], "FEED_FA": (selects["FEED"][0], FEED_MAP_AXIS_FA),
+            "DECEL": selects["DECEL"]}
     values = {
         "REG_BITS": REG_BITS, "COUNTER_WIDTH": COUNTER_WIDTH, "DIVIDER_WIDTH": DIVIDER_WIDTH,
         "FEED_STAGES": FEED_STAGES, "STAGE_BITS": STAGE_BITS, "BUDGET_WIDTH": BUDGET_WIDTH,

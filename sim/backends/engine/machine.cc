@@ -95,10 +95,13 @@ extern "C" {
 
 // A machine of `axes` axes with its accel/decel circuits placed at `placement` (0 none, 1 pre,
 // 2 post): shapes[0] and bits[0] the circuit's before the K3701, shapes[1 + k] and bits[1 + k]
-// axis k's after it (shapes: 0 exponential, 1 linear, 2 bell).
-void *k37e_create(int axes, int placement, const int *shapes, const unsigned *bits) {
-	return new Machine(axes, k37e::Placement(placement), {shapes[0], shapes[1], shapes[2], shapes[3]},
-	                   {bits[0], bits[1], bits[2], bits[3]});
+// axis k's after it (shapes: 0 exponential, 1 linear, 2 bell); bit k of `fa_axes` set if axis
+// k's circuit has an addition clock of its own.
+void *k37e_create(int axes, int placement, const int *shapes, const unsigned *bits,
+                  unsigned fa_axes) {
+	return new Machine(axes, k37e::Placement(placement),
+	                   {shapes[0], shapes[1], shapes[2], shapes[3]}, {bits[0], bits[1], bits[2], bits[3]},
+	                   fa_axes);
 }
 void k37e_destroy(void *m) { delete static_cast<Machine *>(m); }
 

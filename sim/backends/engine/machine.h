@@ -73,14 +73,15 @@ struct Machine {
 	std::vector<uint64_t> rows;
 
 	// `shapes` and `bits`: the circuit before the K3701's, then each axis's (Circuit::Shape).
+	// `fa_axes`: bit k set if axis k's circuit has an addition clock of its own.
 	Machine(int chip_axes, Placement where, const int (&shapes)[1 + MAX_AXES],
-	        const unsigned (&bits)[1 + MAX_AXES])
+	        const unsigned (&bits)[1 + MAX_AXES], unsigned fa_axes)
 	    : axes(chip_axes), placement(where), accel_pre(where == Placement::PRE),
 	      accel_post(where == Placement::POST) {
 		accel.init(shapes[0], bits[0], false);
 		for (int k = 0; k < MAX_AXES; k++)
 			axis[k].post.init(shapes[1 + k], bits[1 + k], true);
-		feed.bank.init(FEED_REGS, FEED_REG_COUNT);
+		feed.init(fa_axes);
 		decel.bank.init(DECEL_REGS, DECEL_REG_COUNT);
 		interp.init(axes);
 		for (Axis &a : axis) {
@@ -145,7 +146,10 @@ struct Machine {
 
 	void rise() {
 		// Everything the edge reads, from the values before it.
-		bool gate = decel_out(), add = feed.fa(), feed_pulse = fp();
+		bool gate = decel_out(), feed_pulse = fp();
+		bool add[1 + MAX_AXES];  // the addition clocks: the shared fa, then each axis's
+		for (int k = -1; k < axes; k++)
+			add[1 + k] = feed.clock(k).stb;
 		BankEdge e_feed = decode(feed, SELECT_FEED, WINDOW_FEED, FEED_ADDR_WIDTH);
 		BankEdge e_decel = decode(decel, SELECT_DECEL, WINDOW_DECEL, DECEL_ADDR_WIDTH);
 		BankEdge e_interp = decode(interp, SELECT_K3701, WINDOW_K3701,
@@ -170,14 +174,14 @@ struct Machine {
 		feed.rise();
 		decel.rise(gate);
 		if (accel_pre)
-			accel.rise(gate, add);
+			accel.rise(gate, add[0]);
 		interp.rise(feed_pulse);
 		for (int k = 0; k < axes; k++) {
 			Axis &a = axis[k];
 			a.enc.rise(a.plant.lines());
 			a.plant.rise(a.in, a.ctrl.dac, com[k]);
 			if (accel_post)
-				a.post.rise(step[k], add);
+				a.post.rise(step[k], add[1 + k]);
 			uint64_t magnitude = uint64_t(a.ctrl.error < 0 ? -a.ctrl.error : a.ctrl.error);
 			if (magnitude > a.max_abs_error)
 				a.max_abs_error = magnitude;
@@ -279,9 +283,10 @@ struct Machine {
 		}
 		for (int k = -1; k < axes; k++) {
 			const Circuit &c = k < 0 ? accel : axis[k].post;
+			const Divider &clock = feed.clock(k);
 			if ((k < 0 ? accel_pre : accel_post) && c.safe_strobes() != UINT64_MAX)
-				h = std::min(h, cycles_within(feed.fa_clock.phase, feed.bank.value[FEED_FA_INC],
-				                              feed.fa_clock.stb, DIVIDER_WIDTH, c.safe_strobes()));
+				h = std::min(h, cycles_within(clock.phase, feed.increment(k), clock.stb,
+				                              DIVIDER_WIDTH, c.safe_strobes()));
 		}
 		return h;
 	}
@@ -290,20 +295,29 @@ struct Machine {
 	void advance_free(uint64_t k) {
 		uint64_t rm = strobes_seen(feed.rm_clock.phase, feed.bank.value[FEED_RM_INC],
 		                           feed.rm_clock.stb, DIVIDER_WIDTH, k);
-		uint64_t fa = strobes_seen(feed.fa_clock.phase, feed.bank.value[FEED_FA_INC],
-		                           feed.fa_clock.stb, DIVIDER_WIDTH, k);
+		uint64_t fa[1 + MAX_AXES];  // strobes of each circuit's addition clock
+		for (int i = -1; i < axes; i++)
+			fa[1 + i] = strobes_seen(feed.clock(i).phase, feed.increment(i), feed.clock(i).stb,
+			                         DIVIDER_WIDTH, k);
 		feed.count = (feed.count + rm) & low_bits(Feed::BITS);
-		for (auto [d, inc] : {std::pair{&feed.rm_clock, feed.bank.value[FEED_RM_INC]},
-		                      std::pair{&feed.fa_clock, feed.bank.value[FEED_FA_INC]}}) {
+		std::pair<Divider *, uint64_t> dividers[2 + MAX_AXES] = {
+		    {&feed.rm_clock, feed.bank.value[FEED_RM_INC]},
+		    {&feed.fa_clock, feed.bank.value[FEED_FA_INC]}};
+		int n = 2;
+		for (int i = 0; i < 3; i++)
+			if (feed.own[i] >= 0)
+				dividers[n++] = {&feed.fa_axis[i], feed.bank.value[feed.own[i]]};
+		for (int i = 0; i < n; i++) {
+			auto [d, inc] = dividers[i];
 			u128 before_last = u128(d->phase) + u128(k - 1) * inc, total = before_last + inc;
 			d->stb = (total >> DIVIDER_WIDTH) != (before_last >> DIVIDER_WIDTH);
 			d->phase = uint64_t(total) & low_bits(DIVIDER_WIDTH);
 		}
 		if (accel_pre)
-			accel.advance(fa);
+			accel.advance(fa[0]);
 		if (accel_post)
-			for (int k = 0; k < axes; k++)
-				axis[k].post.advance(fa);
+			for (int i = 0; i < axes; i++)
+				axis[i].post.advance(fa[1 + i]);
 		if (interp.phase == K3701::Phase::SETUP)
 			interp.setup_left -= int64_t(k);
 		else if (interp.phase == K3701::Phase::RUN && interp.count)

@@ -2,10 +2,10 @@
 
 The engine runs the two- and three-axis machines with accel/decel circuits of every shape in
 every placement (``machine.accel``: before the K3701, one per axis after it, each of its own
-shape and ``accel_bits``, or none) at the shared addition clock, first-order servo drives on
-every axis, and programs of lines, arcs and helices. :func:`unsupported` names the first option
-outside that (None: the engine runs the machine); it reads the parameters the simulated machine
-is built with (:func:`k37.sim.run.runner.system_params`), so it needs no Amaranth.
+shape, ``accel_bits`` and addition clock, or none), first-order servo drives on every axis,
+and programs of lines, arcs and helices. :func:`unsupported` names the first option outside
+that (None: the engine runs the machine); it reads the parameters the simulated machine is
+built with (:func:`k37.sim.run.runner.system_params`), so it needs no Amaranth.
 """
 
 from __future__ import annotations
@@ -21,9 +21,6 @@ def unsupported(params: Mapping[str, Any], kinds: Iterable[object] = ()) -> str 
     :class:`k37.sim.machine.system.System`) that the engine does not run, in words naming
     the job's key, or else the first block kind of ``kinds`` (:func:`unsupported_blocks`);
     None if it runs them all."""
-    for axis in params.get("axis_fa") or ():
-        return (f"machine.{axis}.accel_fa_hz (the engine runs every circuit at the shared "
-                f"addition clock)")
     for axis, drive in sorted((params.get("drives") or {}).items()):
         if drive != "first_order":
             return f"servo.{axis}.drive = \"{drive}\" (the engine runs the first-order drive)"
