@@ -140,6 +140,14 @@ def test_lockstep_names_the_first_differing_cycle_and_port(make_job):
     assert (engine.get(found.port), rtl.get(found.port)) == found.values
 
 
+def test_a_closed_engine_refuses_every_call():
+    engine = build_backend(demo_job(), "engine")
+    engine.close()
+    with pytest.raises(RuntimeError, match="this EngineBackend is closed"):
+        engine.step(1)
+    engine.close()  # again: nothing
+
+
 def test_every_cxx_file_of_the_engine_is_a_source_of_its_key():
     """A C++ file that the key does not cover would let a library built before an edit of it
     stand; the plant's update shared with the RTL harness is one of them."""

@@ -38,8 +38,8 @@ import numpy as np
 if TYPE_CHECKING:
     from amaranth.lib import wiring
 
-__all__ = ["CLOCK_PERIOD", "Backend", "Design", "Port", "instantiate", "select_signals",
-           "sign_extend"]
+__all__ = ["CLOCK_PERIOD", "Backend", "ClosedLibrary", "Design", "Port", "instantiate",
+           "select_signals", "sign_extend"]
 
 #: The paper's system clock period, 1 us (1 MHz): the time base of waveforms.
 CLOCK_PERIOD = 1e-6
@@ -276,6 +276,20 @@ class Backend(abc.ABC):
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+class ClosedLibrary:
+    """Stands in for the library of a closed compiled backend (``owner``, its class's name):
+    any later call fails in Python rather than in C."""
+
+    def __init__(self, owner: str):
+        self.owner = owner
+
+    def __getattr__(self, name: str) -> ClosedLibrary:
+        return self
+
+    def __call__(self, *args: object) -> None:
+        raise RuntimeError(f"this {self.owner} is closed")
 
 
 def check_count(name: str, n: int) -> None:

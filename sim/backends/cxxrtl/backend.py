@@ -26,6 +26,7 @@ from k37.hdl.common.observation import FreeRunning
 from k37.sim.backends.contract import (
     CLOCK_PERIOD,
     Backend,
+    ClosedLibrary,
     Design,
     Port,
     check_count,
@@ -461,17 +462,7 @@ class CxxrtlBackend(Backend):
             self._destroy()
             self._handle = None
             # Any later call fails in Python rather than in C.
-            self._lib = self._k37_get = self._k37_set = _Closed()
-
-
-class _Closed:
-    """Stands in for the library of a closed backend."""
-
-    def __getattr__(self, name: str) -> _Closed:
-        return self
-
-    def __call__(self, *args: object) -> None:
-        raise RuntimeError("this CxxrtlBackend is closed")
+            self._lib = self._k37_get = self._k37_set = ClosedLibrary(type(self).__name__)
 
 
 def _top_inputs(rtlil_text: str) -> set[str]:

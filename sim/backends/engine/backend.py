@@ -20,6 +20,7 @@ from k37.hdl.chipset.map import AccelShape
 from k37.sim.backends.contract import (
     CLOCK_PERIOD,
     Backend,
+    ClosedLibrary,
     Design,
     Port,
     check_count,
@@ -275,6 +276,7 @@ class EngineBackend(Backend):
 
     def close(self) -> None:
         self._destroy()
+        self._lib = ClosedLibrary(type(self).__name__)
 
     def plant_ns(self, cycles: int = 10**8) -> float:
         """Nanoseconds per cycle of one first-order plant stepped alone in the engine's C++
