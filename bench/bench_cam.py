@@ -49,7 +49,7 @@ def cam_program(passes: int = PASSES) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _job() -> Job:
+def cam_job() -> Job:
     machine, program = parse_for_machine(MachineConfig(accel="post"), cam_program(),
                                          source="<cam>")
     return Job("cam", machine, dict.fromkeys(machine.axis_names, ServoConfig()), program)
@@ -57,14 +57,14 @@ def _job() -> Job:
 
 def test_planning_a_cam_program(benchmark):
     text = cam_program()
-    job = benchmark.pedantic(_job, rounds=3, iterations=1)
+    job = benchmark.pedantic(cam_job, rounds=3, iterations=1)
     print(f"\nCAM program: {text.count(chr(10))} lines, {len(job.program.moves)} blocks; "
           f"planned in {benchmark.stats.stats.min:.3f} s; planned machine time "
           f"{program_seconds(job):.1f} s")
 
 
 def test_running_a_cam_program_machine_time_against_wall_time(benchmark):
-    job = _job()
+    job = cam_job()
     backend = build_backend(job, "cxxrtl")  # built (or loaded) outside the timing
 
     def run() -> dict:

@@ -71,8 +71,9 @@ class Machine:
     def __init__(self, job: Job | str | PathLike[str] | None = None, *,
                  backend: str = BACKEND_NAMES[0]):
         self.job = _job(job)
-        #: The :class:`k37.sim.backends.contract.Backend`: ports, probes, stepping.
-        self.backend: Backend = build_backend(self.job, backend)
+        #: The :class:`k37.sim.backends.contract.Backend`: ports, probes, stepping (``auto``:
+        #: the compiled RTL, which has the probes).
+        self.backend: Backend = build_backend(self.job, backend, internals=True)
         configure_plants(self.backend, self.job)
         self.host = Host8085(SimulatedLink(self.backend), clock_hz=self.job.machine.clock_hz)
 

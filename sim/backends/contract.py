@@ -11,7 +11,9 @@ domain's clock is driven (``rst`` stays low); it starts low, so the first cycle 
 edge, as with ``Simulator.add_clock``.
 
 :class:`k37.sim.backends.pysim.PysimBackend` runs Amaranth's own simulator and is the reference;
-the compiled :class:`k37.sim.backends.cxxrtl.backend.CxxrtlBackend` matches it bit for bit;
+the compiled :class:`k37.sim.backends.cxxrtl.backend.CxxrtlBackend` matches it bit for bit; the
+event-level :class:`k37.sim.backends.engine.backend.EngineBackend` runs the simulated machine at
+its ports (checked against the compiled one by :mod:`k37.sim.backends.engine.lockstep`);
 :func:`k37.sim.backends.factory.make_backend` picks one.
 
 Names
@@ -38,8 +40,8 @@ from k37.hdl.common.constants import CHIP_HZ
 if TYPE_CHECKING:
     from amaranth.lib import wiring
 
-__all__ = ["CLOCK_PERIOD", "Backend", "Design", "Port", "instantiate", "select_signals",
-           "sign_extend"]
+__all__ = ["CLOCK_PERIOD", "Backend", "ClosedLibrary", "Design", "Port", "instantiate",
+           "select_signals", "sign_extend"]
 
 #: The paper's system clock period, 1 us (1 MHz): the time base of waveforms.
 CLOCK_PERIOD = 1 / CHIP_HZ
@@ -167,6 +169,10 @@ class Backend(abc.ABC):
     #: Short name of the backend, as ``--backend`` spells it.
     name = "backend"
 
+    #: Why this backend runs the design, in words (set by
+    #: :func:`k37.sim.backends.factory.make_backend`).
+    reason = ""
+
     #: Cycles counted without evaluation by ``skip_idle`` so far.
     skipped_cycles = 0
 
@@ -272,6 +278,20 @@ class Backend(abc.ABC):
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+class ClosedLibrary:
+    """Stands in for the library of a closed compiled backend (``owner``, its class's name):
+    any later call fails in Python rather than in C."""
+
+    def __init__(self, owner: str):
+        self.owner = owner
+
+    def __getattr__(self, name: str) -> ClosedLibrary:
+        return self
+
+    def __call__(self, *args: object) -> None:
+        raise RuntimeError(f"this {self.owner} is closed")
 
 
 def check_count(name: str, n: int) -> None:

@@ -1,19 +1,20 @@
 """What a backend reads of an Amaranth design: its ports and its signals' names.
 
 Only the backends that elaborate the design import this (and Amaranth): Amaranth's simulator
-always, the compiled backend when it converts a design it has no model of.
+always, the compiled backend when it converts a design it has no model of, and the engine for
+the machine's ports.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from amaranth.hdl import Shape, Value, ValueCastable
+from amaranth.hdl import Elaboratable, Shape, Value, ValueCastable
 from amaranth.lib import wiring
 
 from k37.sim.backends.contract import Port
 
-__all__ = ["component_ports", "signal_paths"]
+__all__ = ["component_ports", "mark_elaborated", "signal_paths"]
 
 
 def component_ports(component: wiring.Component) -> dict[str, tuple[Port, Value]]:
@@ -42,3 +43,17 @@ def signal_paths(design: Any) -> dict[str, Value]:
         for signal, name in info.signal_names.items():
             paths.setdefault(".".join((*scope, name)), signal)
     return paths
+
+
+def mark_elaborated(component: wiring.Component) -> None:
+    """Tell Amaranth's unused-elaboratable check that ``component`` and the elaboratables it
+    holds are in use, as elaborating them would have (a design found by its key is not
+    elaborated: a compiled model stands for it)."""
+    stack, seen = [component], set()
+    while stack:
+        obj = stack.pop()
+        if id(obj) in seen:
+            continue
+        seen.add(id(obj))
+        obj._MustUse__used = True  # Amaranth's own flag (amaranth/_unused.py)
+        stack.extend(v for v in vars(obj).values() if isinstance(v, Elaboratable))

@@ -16,7 +16,8 @@ __all__ = ["BALLBAR_FIGURES", "RUN_SCHEMA", "SCHEMA_VERSION", "schema_markdown",
 SCHEMA_VERSION = 3
 #: Fields that depend on how the run was computed (backend, idle skipping, wall clock), not
 #: on what it computed: two runs of one job differ in these only.
-HOW_FIELDS = ("wall_seconds", "cycles_per_second", "backend", "skipped_cycles")
+HOW_FIELDS = ("wall_seconds", "cycles_per_second", "backend", "backend_reason",
+              "skipped_cycles")
 
 
 #: The figures of a ballbar test (:func:`k37.sim.run.ballbar.ballbar`), with their meaning.
@@ -87,6 +88,8 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
     "backend": {"type": "string", "enum": [*BACKENDS, "link"],
                 "description": "simulation backend used; link: the firmware ran over a link "
                                "(`--link`), the machine elsewhere"},
+    "backend_reason": {"type": "string", "description": "why that backend ran (`--backend`, "
+                                                       "or what `auto` looked at)"},
     "cycles": _int("system clock cycles simulated"),
     "clock_hz": _num("system clock (Hz)"),
     "machine_seconds": _num("simulated time, cycles / clock_hz (s)"),
@@ -168,8 +171,9 @@ RUN_SCHEMA["properties"]["link"] = _obj(
                          "description": "each block's start and end cycle on the board "
                                         "(null: not known, a board without PROBE)"},
     })
-#: Present only when asked for (ballbar), when there are some (events) or with ``--link``.
-OPTIONAL = ("ballbar", "events", "link")
+#: Present only when asked for (ballbar), when there are some (events), with ``--link`` or
+#: when a backend was picked (backend_reason).
+OPTIONAL = ("ballbar", "events", "link", "backend_reason")
 RUN_SCHEMA["required"] = [key for key in RUN_SCHEMA["required"] if key not in OPTIONAL]
 
 _TYPES = {"object": dict, "array": list, "string": str, "integer": int, "number": (int, float),

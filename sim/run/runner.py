@@ -41,6 +41,7 @@ from k37.firmware_model.job import Job
 from k37.firmware_model.motion.program import Dwell, Event
 from k37.hdl.chipset.map import chip_register, port
 from k37.sim.backends.contract import Backend
+from k37.sim.backends.engine.support import unsupported
 from k37.sim.backends.factory import BACKEND_NAMES, make_backend
 from k37.sim.files import OutputFailure, discard_temporary, keep_temporary, temporary_beside, why
 
@@ -179,15 +180,28 @@ def design_key(job: Job) -> str:
     return f"{_design_sources()} {sorted(system_params(job).items())}"
 
 
-def build_backend(job: Job, kind: str) -> Backend:
-    """The simulated machine of ``job`` on backend ``kind`` (one of ``BACKEND_NAMES``); the
-    machine (and Amaranth) is only made if the backend has no model of it yet."""
+def build_backend(job: Job, kind: str, *, internals: bool = False) -> Backend:
+    """The simulated machine of ``job`` on backend ``kind`` (one of ``BACKEND_NAMES``; ``auto``
+    as :func:`k37.sim.backends.factory.choose_backend` picks, with ``internals``: the caller
+    reads internal signals); the machine (and Amaranth) is only made if the backend has no
+    model of it yet.
+    Raises :class:`OptionError` if ``kind`` names the engine and the engine does not run the
+    job's machine or program."""
+    params = system_params(job)
+    kinds = {move.block.kind for move in job.program.moves}
+    if kind in ("engine", "lockstep"):
+        why = unsupported(params, kinds)
+        if why is not None:
+            raise OptionError(f"--backend {kind}: the engine does not run {why}; use "
+                              f"--backend cxxrtl")
+
     def machine() -> System:
         from k37.sim.machine.system import System
 
-        return System(**system_params(job))
+        return System(**params)
 
-    return make_backend(machine, kind, design_key=design_key(job))
+    return make_backend(machine, kind, design_key=design_key(job), params=params, kinds=kinds,
+                        internals=internals)
 
 
 _REUSED: dict[str, Backend] = {}
@@ -286,7 +300,7 @@ def run_job(job: Job, options: RunOptions | None = None,
         raise OptionError(f"a fault on axis {axis}: the machine has {job.machine.axes} axes "
                           f"({', '.join(job.machine.axis_names)})")
     owned = backend is None
-    backend = backend or build_backend(job, options.backend)
+    backend = backend or build_backend(job, options.backend, internals=options.vcd is not None)
     configure_plants(backend, job, options.faults)
     traced = None
     if options.vcd is not None:
@@ -468,7 +482,8 @@ def _report(job: Job, backend: Backend, firmware: Firmware, meter: BlockMeter,
         job, [(b.index, b.start_cycle) for b in firmware.blocks], store)
     return report_document(
         job, firmware, status=status, reason=reason, backend=backend.name,
-        cycles=backend.cycle, wall=wall, skipped=backend.skipped_cycles,
+        backend_reason=backend.reason, cycles=backend.cycle, wall=wall,
+        skipped=backend.skipped_cycles,
         blocks=[_block_report(b, meter.of(b)) for b in firmware.blocks],
         axes={axis: _axis_report(backend, axis) for axis in job.machine.axis_names},
         path={"max_contour_error": max_contour, "rms_contour_error": rms_contour,
@@ -476,8 +491,8 @@ def _report(job: Job, backend: Backend, firmware: Firmware, meter: BlockMeter,
 
 
 def report_document(job: Job, firmware: Firmware, *, status: str, reason: str, backend: str,
-                    cycles: int, wall: float, skipped: int, blocks: list[dict],
-                    axes: dict[str, dict], path: dict) -> dict:
+                    backend_reason: str = "", cycles: int, wall: float, skipped: int,
+                    blocks: list[dict], axes: dict[str, dict], path: dict) -> dict:
     """The report of a run of ``job`` by ``firmware`` (:mod:`k37.sim.run.report`), from what was
     measured of it."""
     clock = job.machine.clock_hz
@@ -487,6 +502,7 @@ def report_document(job: Job, firmware: Firmware, *, status: str, reason: str, b
         "status": status,
         "reason": reason,
         "backend": backend,
+        **({"backend_reason": backend_reason} if backend_reason else {}),
         "cycles": cycles,
         "clock_hz": clock,
         "machine_seconds": cycles / clock,

@@ -64,7 +64,7 @@ class SimulatedBoard:
         self.listener = socket.create_server((host, port))  # first: a port in use fails fast
         self.port: int = self.listener.getsockname()[1]
         try:
-            self.backend: Backend = build_backend(job, kind)
+            self.backend: Backend = build_backend(job, kind, internals=trace is not None)
         except BaseException:
             self.listener.close()
             raise

@@ -26,6 +26,7 @@ from k37.hdl.common.observation import FreeRunning
 from k37.sim.backends.contract import (
     CLOCK_PERIOD,
     Backend,
+    ClosedLibrary,
     Design,
     Port,
     check_count,
@@ -161,7 +162,9 @@ class CxxrtlBackend(Backend):
         else:
             self.model, facts = known
             if hasattr(design, "signature"):  # a component made by the caller
-                _mark_elaborated(design)
+                from k37.sim.backends.introspect import mark_elaborated
+
+                mark_elaborated(design)
         super().__init__({p["name"]: Port(**p) for p in facts["ports"]}, facts["name"])
         self._free: FreeRunning | None = (pickle.loads(base64.b64decode(facts["free_running"]))
                                           if facts["free_running"] else None)
@@ -459,33 +462,7 @@ class CxxrtlBackend(Backend):
             self._destroy()
             self._handle = None
             # Any later call fails in Python rather than in C.
-            self._lib = self._k37_get = self._k37_set = _Closed()
-
-
-class _Closed:
-    """Stands in for the library of a closed backend."""
-
-    def __getattr__(self, name: str) -> _Closed:
-        return self
-
-    def __call__(self, *args: object) -> None:
-        raise RuntimeError("this CxxrtlBackend is closed")
-
-
-def _mark_elaborated(component: wiring.Component) -> None:
-    """Tell Amaranth's unused-elaboratable check that ``component`` and the elaboratables it
-    holds are in use, as elaborating them would have (a design found by its key is not
-    elaborated: its compiled model stands for it)."""
-    from amaranth.hdl import Elaboratable
-
-    stack, seen = [component], set()
-    while stack:
-        obj = stack.pop()
-        if id(obj) in seen:
-            continue
-        seen.add(id(obj))
-        obj._MustUse__used = True  # Amaranth's own flag (amaranth/_unused.py)
-        stack.extend(v for v in vars(obj).values() if isinstance(v, Elaboratable))
+            self._lib = self._k37_get = self._k37_set = ClosedLibrary(type(self).__name__)
 
 
 def _top_inputs(rtlil_text: str) -> set[str]:

@@ -43,10 +43,11 @@ from k37.sim.backends.toolchain import (
 __all__ = ["CXX_FLAGS", "build", "find_design", "remember_design"]
 
 #: The harness's sources: its one translation unit (``harness.cc``, first) and the parts that
-#: it includes (the model, idle skipping, the plants' native steps, the polling wait). Each is
-#: part of the harness object's key and of every model's (:func:`_makers`).
-HARNESS = ("harness.cc", "model.h", "model.cc", "skip.h", "skip.cc", "plant.h", "plant.cc",
-           "wait.h", "wait.cc")
+#: it includes (the model, idle skipping, the plants' native steps and their update, the
+#: polling wait). Each is part of the harness object's key and of every model's
+#: (:func:`_makers`).
+HARNESS = ("harness.cc", "model.h", "model.cc", "skip.h", "skip.cc", "plant.h", "lag.h",
+           "plant.cc", "wait.h", "wait.cc")
 #: CXXRTL's arithmetic in machine words, included by the design's translation unit.
 WORDS = Path(__file__).with_name("words.h")
 #: The form of the facts :func:`remember_design` keeps (part of their index's key).

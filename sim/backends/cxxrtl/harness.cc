@@ -11,7 +11,7 @@
 // the compiler inlines across them as within one file; their definitions are internal to it):
 //   model.h, model.cc  the model: its items, clock cycles, waveform, recorder and bus cycles;
 //   skip.h, skip.cc    idle skipping: the free-running state advanced in closed form;
-//   plant.h, plant.cc  the servo plants, stepped natively during a skip;
+//   plant.h, plant.cc  the servo plants, stepped natively during a skip (lag.h: their update);
 //   wait.h, wait.cc    the firmware's polling wait, run natively.
 // build.py compiles this file alone, and keys its object by every part.
 

@@ -128,7 +128,7 @@ struct Model {
 	size_t quiet = SIZE_MAX;  // item: the free-running state affects nothing else
 	Recorder recorder;
 	// Scratch space of a skip (kept to spare an allocation per skip).
-	std::vector<PlantState> plant_states;
+	std::vector<Lag> plant_states;
 	std::vector<int64_t> plant_steps;
 	std::vector<uint64_t> strobes;
 };

@@ -7,6 +7,8 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "lag.h"
+
 namespace {
 
 struct Model;
@@ -21,8 +23,7 @@ struct Plant {
 	unsigned vc_bits, alpha_bits, frac_bits;
 };
 
-// One plant's state during a skip (plant.cc).
-struct PlantState;
+using k37lag::Lag;
 
 // Step the plants natively for up to `limit` cycles, up to and including the first cycle
 // that changes a count (then `crossed`), and return the cycles stepped (their state written).

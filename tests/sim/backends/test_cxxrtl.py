@@ -517,7 +517,11 @@ def test_auto_backend_falls_back_to_amaranth_without_a_compiler(monkeypatch, cap
 
 
 def test_each_backend_reports_the_name_the_factory_makes_it_by():
-    assert (PysimBackend.name, CxxrtlBackend.name) == BACKENDS
+    from k37.sim.backends.engine.backend import EngineBackend
+    from k37.sim.backends.engine.lockstep import LockstepBackend
+
+    assert (PysimBackend.name, CxxrtlBackend.name, EngineBackend.name,
+            LockstepBackend.name) == BACKENDS
 
 
 @pytest.mark.usefixtures("backends")  # the model is built

@@ -72,7 +72,7 @@ def test_the_design_key_follows_the_parameters_and_every_source(monkeypatch, mak
 
 
 #: The files of the harness (build.HARNESS): its translation unit and the parts it includes.
-HARNESS = ("harness.cc", "model.h", "model.cc", "skip.h", "skip.cc", "plant.h", "plant.cc",
+HARNESS = ("harness.cc", "model.h", "model.cc", "skip.h", "skip.cc", "plant.h", "lag.h", "plant.cc",
            "wait.h", "wait.cc")
 #: The files that make a compiled model (build._makers).
 MAKERS = ("build.py", "codegen.py", "evals.py", "rise.py", "words.h", *HARNESS)

@@ -1,0 +1,87 @@
+"""The event-level engine against the compiled RTL backend, in one run.
+
+Run with ``pytest bench/bench_engine.py --benchmark-only -s``. Each job runs on both backends
+(built or loaded before the timing; the faster of ``ROUNDS`` runs for the short jobs), and
+the reports must be equal (the fields of how a run was computed aside). Printed per job:
+machine seconds per wall second on each backend, the engine's speed-up, the cycles each
+evaluated (the rest skipped in closed form), and the process CPU time (steadier than wall
+time on a shared machine). The jobs: the demo, the K3701's top feed on a 100 mm line, a
+dwell-heavy job, the paper's low feed, fourteen programs of the G-code corpus in several
+writers' styles (two and three axes) on the default machine (exact stop after every block),
+and :mod:`bench_cam`'s pocket (three axes, accel/decel after the K3701).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from bench_cam import cam_job
+from bench_closed_loop import DWELL_GCODE, LOW_FEED_GCODE
+from bench_goals import TOP_FEED_GCODE
+
+from k37.firmware_model.job import Job, demo_job, gcode_job
+from k37.sim.api import load
+from k37.sim.run.report import HOW_FIELDS
+from k37.sim.run.runner import RunOptions, build_backend, run_job
+
+CORPUS = Path(__file__).parent.parent / "tests" / "gcode_corpus"
+#: Programs of the corpus in several writers' styles: six of two axes, eight of three.
+PROGRAMS = ("square_mm.ngc", "grbl_style_2d.nc", "inch_r_arcs.ngc", "ngc_subroutine.ngc",
+            "offsets_g92_g53.ngc", "block_delete_comments.ngc", "linuxcnc_style_drill.ngc",
+            "linuxcnc_style_helix.ngc", "fusion_style_contour.nc", "cambam_circle_passes.nc",
+            "jscut_style.gcode", "pcbgcode_style_etch.tap", "partkam_style.ngc",
+            "ngc_polar_bolt_circle.ngc")
+ROUNDS = 3
+
+
+def jobs() -> dict[str, Job]:
+    return {"demo": demo_job(), "top-feed line": gcode_job("top", TOP_FEED_GCODE, "<top>"),
+            "dwell-heavy": gcode_job("dwell", DWELL_GCODE, "<dwell>"),
+            "low-feed circle": gcode_job("low", LOW_FEED_GCODE, "<low>"),
+            **{name: load(CORPUS / name) for name in PROGRAMS},
+            "bench_cam pocket": cam_job()}
+
+
+def timed(job: Job, kind: str, rounds: int) -> tuple[dict, float, float]:
+    """The report of the fastest of ``rounds`` runs, its wall and CPU seconds."""
+    backend = build_backend(job, kind)  # built (or loaded) outside the timing
+    best = None
+    for _ in range(rounds):
+        backend.reset()
+        cpu = time.process_time()
+        report = run_job(job, RunOptions(backend=kind), backend).report
+        cpu = time.process_time() - cpu
+        if best is None or report["wall_seconds"] < best[1]:
+            best = (report, report["wall_seconds"], cpu)
+    backend.close()
+    assert best is not None
+    return best
+
+
+def compare_all() -> list[str]:
+    rows = ["| job | machine s | cxxrtl x real time | engine x real time | engine / cxxrtl "
+            "| evaluated cycles cxxrtl / engine | CPU s cxxrtl / engine |",
+            "|---|---:|---:|---:|---:|---:|---:|"]
+    for name, job in jobs().items():
+        runs = {}
+        for kind in ("cxxrtl", "engine"):
+            short = job.program.moves and len(job.program.moves) < 20
+            runs[kind] = timed(job, kind, ROUNDS if short else 1)
+        (rtl, rtl_wall, rtl_cpu), (eng, eng_wall, eng_cpu) = runs["cxxrtl"], runs["engine"]
+        assert ({k: v for k, v in rtl.items() if k not in HOW_FIELDS}
+                == {k: v for k, v in eng.items() if k not in HOW_FIELDS}), name
+        machine = rtl["machine_seconds"]
+        rows.append(f"| {name} | {machine:,.1f} | {machine / rtl_wall:,.0f} | "
+                    f"{machine / eng_wall:,.0f} | {rtl_wall / eng_wall:.1f} | "
+                    f"{rtl['cycles'] - rtl['skipped_cycles']:,} / "
+                    f"{eng['cycles'] - eng['skipped_cycles']:,} | "
+                    f"{rtl_cpu:.2f} / {eng_cpu:.2f} |")
+        print(rows[-1], flush=True)
+    return rows
+
+
+def test_engine_against_the_rtl(benchmark):
+    print()
+    rows = benchmark.pedantic(compare_all, rounds=1, iterations=1)
+    print("\n".join(rows))

@@ -1,0 +1,284 @@
+"""The engine behind the backend contract: :class:`EngineBackend` drives the engine's library
+(:mod:`.build`) through ctypes, with the ports of :class:`k37.sim.machine.system.System`.
+
+It runs what :func:`k37.sim.backends.engine.support.unsupported` accepts and refuses the rest
+when it is built (:class:`UnsupportedMachineError`, naming the option). It has no internal
+signals to probe and writes no waveform: those are the RTL backends'. With ``skip_idle`` it
+advances the cycles in which only its free-running state and its plants change in closed form
+(``skipped_cycles``); the host's polling wait and the sampler's samples run in the library.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import weakref
+from collections.abc import Sequence
+
+import numpy as np
+
+from k37.hdl.chipset.map import AccelShape
+from k37.sim.backends.contract import (
+    CLOCK_PERIOD,
+    Backend,
+    ClosedLibrary,
+    Design,
+    Port,
+    check_count,
+    check_window,
+    instantiate,
+)
+from k37.sim.backends.engine.build import build
+from k37.sim.backends.engine.support import unsupported
+from k37.sim.machine.system import DRIVES, System
+
+__all__ = ["EngineBackend", "UnsupportedMachineError", "load", "machine_params"]
+
+
+#: The accel/decel shapes by the engine's code (``Circuit::Shape``).
+_SHAPES = ("exponential", "linear", "bell")
+
+
+class UnsupportedMachineError(ValueError):
+    """A machine option the engine does not run (one line naming it)."""
+
+
+def load(path: str) -> ctypes.CDLL:
+    """The engine's library at ``path``, its functions typed."""
+    lib = ctypes.CDLL(path)
+    handle, u64, c_int = ctypes.c_void_p, ctypes.c_uint64, ctypes.c_int
+    words = ctypes.POINTER(u64)
+    signatures = {
+        "k37e_create": (handle, [c_int, c_int, ctypes.POINTER(c_int),
+                                 ctypes.POINTER(ctypes.c_uint), ctypes.c_uint]),
+        "k37e_destroy": (None, [handle]),
+        "k37e_port": (c_int, [ctypes.c_char_p]),
+        "k37e_get": (u64, [handle, c_int]),
+        "k37e_set": (None, [handle, c_int, u64]),
+        "k37e_get_many": (None, [handle, ctypes.POINTER(c_int), ctypes.c_size_t,
+                                 ctypes.POINTER(u64)]),
+        "k37e_cycle": (u64, [handle]),
+        "k37e_unsupported": (c_int, [handle]),
+        "k37e_skipped": (u64, [handle]),
+        "k37e_step": (None, [handle, u64, c_int]),
+        "k37e_run_until": (u64, [handle, c_int, u64, c_int]),
+        "k37e_wait_polling": (c_int, [handle, c_int, u64, u64, u64, words, words,
+                                      ctypes.c_size_t, words, u64, c_int, c_int, words, words]),
+        "k37e_record": (None, [handle, ctypes.POINTER(c_int), ctypes.c_size_t, u64]),
+        "k37e_recorded": (ctypes.c_size_t, [handle, words, ctypes.c_size_t]),
+        "k37e_bus_write": (None, [handle, u64, u64]),
+        "k37e_bus_read": (u64, [handle, u64]),
+        "k37e_plant_ns": (ctypes.c_double, [u64]),
+        "k37e_clocks_before_pulse": (u64, [u64, u64, ctypes.c_uint]),
+        "k37e_cycles_within": (u64, [u64, u64, c_int, ctypes.c_uint, u64]),
+        "k37e_strobes_seen": (u64, [u64, u64, c_int, ctypes.c_uint, u64]),
+    }
+    for name, (restype, argtypes) in signatures.items():
+        function = getattr(lib, name)
+        function.restype = restype
+        function.argtypes = argtypes
+    return lib
+
+
+def machine_params(system: System) -> dict:
+    """The options ``system`` was built with, as :func:`k37.sim.run.runner.system_params`
+    names them."""
+    chip = system.chipset
+    names = {cls: name for name, cls in DRIVES.items()}
+    return {"accel": chip.accel, "accel_bits": chip.accel_bits, "axes": len(system.axes),
+            "accel_shape": chip.accel_shape, "axis_fa": chip.axis_fa,
+            "axis_accel": chip.axis_accel if chip.accel.value == "post" else {},
+            "drives": {axis: names[cls] for axis, cls in system.drives.items()}}
+
+
+class EngineBackend(Backend):
+    """:class:`k37.sim.backends.contract.Backend` on the engine, for a
+    :class:`k37.sim.machine.system.System` (or a function that makes one)."""
+
+    name = "engine"
+
+    def __init__(self, design: Design, *, period: float = CLOCK_PERIOD,
+                 compiler: str | None = None):
+        from k37.sim.backends.introspect import component_ports, mark_elaborated
+
+        system = instantiate(design)
+        if not isinstance(system, System):
+            raise TypeError(f"the engine runs the simulated machine (System), not "
+                            f"{type(system).__name__}")
+        mark_elaborated(system)
+        params = machine_params(system)
+        why = unsupported(params)
+        if why is not None:
+            raise UnsupportedMachineError(f"the engine does not run {why}; use --backend cxxrtl")
+        ports = {name: port for name, (port, _) in component_ports(system).items()}
+        super().__init__(ports, type(system).__name__)
+        self._period = period
+        self.model = build(compiler)
+        self._lib = lib = load(str(self.model.path))
+        # The axes, the placement (0 none, 1 pre, 2 post) and the circuits' shapes and widths
+        # (before the K3701, then each axis's after it), as k37e_create takes them.
+        placement = ("none", "pre", "post").index(params["accel"].value)
+        circuits = [(params["accel_shape"], params["accel_bits"]),
+                    *(params["axis_accel"].get(axis, (params["accel_shape"], params["accel_bits"]))
+                      for axis in ("x", "y", "z"))]
+        shapes = [_SHAPES.index(AccelShape(shape).value) for shape, _ in circuits]
+        fa_axes = sum(1 << "xyz".index(axis) for axis in params["axis_fa"])
+        self._machine = (params["axes"], placement, (ctypes.c_int * 4)(*shapes),
+                         (ctypes.c_uint * 4)(*(bits for _, bits in circuits)), fa_axes)
+        self._index = {name: lib.k37e_port(name.encode()) for name in ports}
+        missing = [name for name, i in self._index.items() if i < 0 and not ports[name].is_input]
+        if missing:
+            raise RuntimeError(f"the engine has no output {', '.join(missing)}")
+        # Inputs the engine's machine leaves unconnected (other drives' parameters): held here.
+        self._held = {name: port.init for name, port in ports.items() if self._index[name] < 0}
+        self._batches: dict[tuple[str, ...], tuple[list[Port], ctypes.Array, ctypes.Array]] = {}
+        self._recording: list[Port] | None = None  # the ports k37e_record samples
+        self._create()
+
+    def _create(self) -> None:
+        self._handle = self._lib.k37e_create(*self._machine)
+        self._destroy = weakref.finalize(self, self._lib.k37e_destroy, self._handle)
+        for name, port in self.ports.items():
+            if port.is_input and port.init:
+                self.set(name, port.init)
+
+    def reset(self) -> None:
+        self._destroy()
+        self._recording = None
+        self._held = {name: self.ports[name].init for name in self._held}
+        self._create()
+
+    def _set_raw(self, port: Port, raw: int) -> None:
+        index = self._index[port.name]
+        if index < 0:
+            self._held[port.name] = raw
+        else:
+            self._lib.k37e_set(self._handle, index, raw)
+
+    def _get_raw(self, port: Port) -> int:
+        index = self._index[port.name]
+        return self._held[port.name] if index < 0 else self._lib.k37e_get(self._handle, index)
+
+    def get_many(self, port_names: tuple[str, ...]) -> list[int]:
+        if port_names not in self._batches:
+            ports = [self.port(name) for name in port_names]
+            if any(self._index[port.name] < 0 for port in ports):
+                return super().get_many(port_names)
+            indices = (ctypes.c_int * len(ports))(*(self._index[p.name] for p in ports))
+            self._batches[port_names] = (ports, indices, (ctypes.c_uint64 * len(ports))())
+        ports, indices, out = self._batches[port_names]
+        self._lib.k37e_get_many(self._handle, indices, len(ports), out)
+        return [port.decode(raw) for port, raw in zip(ports, out, strict=True)]
+
+    def _probe_raw(self, path: str) -> tuple[int, int, bool]:
+        raise KeyError(path)
+
+    def probe_names(self) -> list[str]:
+        return []
+
+    def _check_blocks(self) -> None:
+        if self._lib.k37e_unsupported(self._handle):
+            raise RuntimeError("the engine does not run parabolic or exponential blocks; "
+                               "use --backend cxxrtl")
+
+    def step(self, n: int = 1, *, skip_idle: bool = False) -> None:
+        check_count("n", n)
+        self._lib.k37e_step(self._handle, n, skip_idle)
+        self._check_blocks()
+
+    def _output(self, port_name: str) -> int:
+        index = self._index[self.port(port_name).name]
+        if index < 0:
+            raise ValueError(f"port {port_name} is an input the engine leaves unconnected")
+        return index
+
+    def run_until(self, port_name: str, max_cycles: int, *, skip_idle: bool = False) -> int:
+        check_count("max_cycles", max_cycles)
+        done = self._lib.k37e_run_until(self._handle, self._output(port_name), max_cycles,
+                                        skip_idle)
+        self._check_blocks()
+        return done
+
+    def wait_polling(self, port_name: str, max_cycles: int, pause: int, period: int,
+                     ports: Sequence[int], stops: Sequence[int], idles: Sequence[int], *,
+                     due: bool = False, skip_idle: bool = False,
+                     bus: str = "bus") -> tuple[int, list[int] | None, int] | None:
+        if bus != "bus":
+            return None
+        for name, value in (("max_cycles", max_cycles), ("pause", pause), ("period", period)):
+            check_count(name, value)
+        n = len(ports)
+        if not n or len(stops) != n or len(idles) % (n + 1) or period < 1:
+            raise ValueError("wait_polling: one stop mask per port, n + 1 idles per routine")
+        u64 = ctypes.c_uint64
+        addr = self.port("bus__addr")
+        done, read = u64(), (u64 * n)()
+        end = self._lib.k37e_wait_polling(
+            self._handle, self._output(port_name), max_cycles, pause, period,
+            (u64 * n)(*(addr.encode(a) for a in ports)), (u64 * n)(*stops), n,
+            (u64 * len(idles))(*idles), len(idles) // (n + 1), due, skip_idle,
+            ctypes.byref(done), read)
+        self._check_blocks()
+        # The ends of the compiled RTL backend's wait (WaitEnd): 1 stopped, 2 and 3 go on.
+        return done.value, list(read) if end == 1 else None, {2: 1, 3: 2}.get(end, 0)
+
+    def record(self, port_names: tuple[str, ...], every: int) -> bool:
+        if not isinstance(every, int) or every < 1:
+            raise ValueError(f"every must be a positive number of cycles, not {every!r}")
+        ports = [self.port(name) for name in port_names]
+        if any(self._index[port.name] < 0 or port.width > 63 for port in ports):
+            return False
+        indices = [self._index[port.name] for port in ports]
+        self._lib.k37e_record(self._handle, (ctypes.c_int * len(ports))(*indices), len(ports),
+                              every)
+        self._recording = ports
+        return True
+
+    def recorded(self) -> np.ndarray:
+        if self._recording is None:
+            return super().recorded()
+        ports = self._recording
+        raw = np.zeros(self._lib.k37e_recorded(self._handle, None, 0), dtype=np.uint64)
+        self._lib.k37e_recorded(self._handle,
+                                raw.ctypes.data_as(ctypes.POINTER(ctypes.c_uint64)), len(raw))
+        rows = raw.astype(np.int64).reshape(-1, 1 + len(ports))
+        for column, port in enumerate(ports, start=1):
+            if port.signed:
+                rows[:, column] -= (rows[:, column] >> (port.width - 1) & 1) << port.width
+        return rows
+
+    @property
+    def skipped_cycles(self) -> int:  # type: ignore[override]
+        return self._lib.k37e_skipped(self._handle)
+
+    def bus_write(self, addr: int, data: int, *, bus: str = "bus") -> None:
+        if bus != "bus":
+            super().bus_write(addr, data, bus=bus)
+            return
+        self._lib.k37e_bus_write(self._handle, self.port("bus__addr").encode(addr),
+                                 self.port("bus__w_data").encode(data))
+
+    def bus_read(self, addr: int, *, bus: str = "bus") -> int:
+        if bus != "bus":
+            return super().bus_read(addr, bus=bus)
+        return self._lib.k37e_bus_read(self._handle, self.port("bus__addr").encode(addr))
+
+    @property
+    def cycle(self) -> int:
+        return self._lib.k37e_cycle(self._handle)
+
+    def trace(self, path: str, start_cycle: int = 0, stop_cycle: int | None = None,
+              signals: tuple[str, ...] = ()) -> None:
+        check_window(start_cycle, stop_cycle)
+        raise ValueError("the engine writes no waveform: use --backend cxxrtl for --vcd")
+
+    def stop_trace(self) -> None:
+        pass
+
+    def close(self) -> None:
+        self._destroy()
+        self._lib = ClosedLibrary(type(self).__name__)
+
+    def plant_ns(self, cycles: int = 10**8) -> float:
+        """Nanoseconds per cycle of one first-order plant stepped alone in the engine's C++
+        (the cost of stepping a plant per axis and cycle)."""
+        return self._lib.k37e_plant_ns(cycles)

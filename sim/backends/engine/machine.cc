@@ -1,0 +1,218 @@
+// The engine's C ABI, which the Python backend (backend.py) loads: a machine (machine.h) made
+// and destroyed, its ports read and written, its cycles run (stepped, or skipped where it is
+// quiet), a wait for a port, the host's bus cycles and polling wait, and samples recorded as
+// the clock reaches them.
+
+#include <ctime>
+
+#include "machine.h"
+
+namespace k37e {
+
+// Run n cycles; with skip_idle, skip ahead after each cycle where the machine is quiet.
+void run(Machine &m, uint64_t n, bool skip_idle) {
+	for (uint64_t i = 0; i < n;) {
+		m.step();
+		i++;
+		if (skip_idle)
+			i += m.skip(n - i);
+	}
+}
+
+// Step until `port` reads non-zero after a cycle, at most `limit` cycles; the cycles run. A
+// skip keeps the port as it is, so one is taken only while it reads zero.
+uint64_t run_until(Machine &m, int port, uint64_t limit, bool skip_idle) {
+	for (uint64_t i = 0; i < limit;) {
+		m.step();
+		i++;
+		if (m.get(port))
+			return i;
+		if (skip_idle)
+			i += m.skip(limit - i);
+	}
+	return limit;
+}
+
+uint64_t bus_read(Machine &m, uint64_t addr) {
+	m.addr = addr;
+	m.r_stb = true;
+	m.step();
+	m.r_stb = false;
+	return m.r_data();
+}
+
+// Why wait_polling returned (the compiled RTL backend's WaitEnd, value for value).
+enum WaitEnd : int { OVER = 0, STOPPED = 1, PAUSED = 2, PAUSED_DUE = 3 };
+
+// The host's halted wait for an interrupt with a timer routine that only reads, as
+// k37.firmware_model.host.Host8085.wait_polling's own loop runs it (the contract's
+// Backend.wait_polling tells each argument and result).
+int wait_polling(Machine &m, int irq, uint64_t limit, uint64_t pause, uint64_t period,
+                 const uint64_t *ports, const uint64_t *stops, size_t n, const uint64_t *idles,
+                 uint64_t routines, bool due, bool skip_idle, uint64_t &done, uint64_t *bytes) {
+	const uint64_t start = m.cycle;
+	for (done = 0;; done++) {
+		uint64_t to_tick = 0, waited = 1;
+		while (!due && (waited != to_tick || m.cycle - start >= limit)) {
+			uint64_t elapsed = m.cycle - start;
+			if (elapsed >= limit)
+				return OVER;
+			if (elapsed >= pause || done == routines)
+				return PAUSED;
+			to_tick = period - m.cycle % period;
+			uint64_t wait = std::min(limit - elapsed, to_tick);
+			bool paused = elapsed + wait > pause;
+			waited = run_until(m, irq, paused ? pause - elapsed : wait, skip_idle);
+			if (m.get(irq))
+				return OVER;
+			if (paused)
+				return PAUSED;
+		}
+		if (!due && m.cycle - start >= pause)
+			return PAUSED_DUE;
+		due = false;
+		const uint64_t *idle = idles + done * (n + 1);
+		bool stop = false;
+		for (size_t j = 0; j < n; j++) {
+			run(m, idle[j], skip_idle);
+			bytes[j] = bus_read(m, ports[j]);
+			stop |= (bytes[j] & stops[j]) != 0;
+		}
+		if (stop)
+			return STOPPED;
+		run(m, idle[n], skip_idle);
+	}
+}
+
+}  // namespace k37e
+
+using k37e::Machine;
+
+// Only the C ABI is exported (the library is built with hidden visibility): calls inside the
+// engine are then direct and inlined, never through the dynamic linker's table.
+#pragma GCC visibility push(default)
+extern "C" {
+
+// A machine of `axes` axes with its accel/decel circuits placed at `placement` (0 none, 1 pre,
+// 2 post): shapes[0] and bits[0] the circuit's before the K3701, shapes[1 + k] and bits[1 + k]
+// axis k's after it (shapes: 0 exponential, 1 linear, 2 bell); bit k of `fa_axes` set if axis
+// k's circuit has an addition clock of its own.
+void *k37e_create(int axes, int placement, const int *shapes, const unsigned *bits,
+                  unsigned fa_axes) {
+	return new Machine(axes, k37e::Placement(placement),
+	                   {shapes[0], shapes[1], shapes[2], shapes[3]}, {bits[0], bits[1], bits[2], bits[3]},
+	                   fa_axes);
+}
+void k37e_destroy(void *m) { delete static_cast<Machine *>(m); }
+
+// The index of the port `name` (-1: the engine has no such port).
+int k37e_port(const char *name) {
+	for (int i = 0; i < k37e::TOP_COUNT; i++)
+		if (!strcmp(name, k37e::TOP_PORTS[i]))
+			return i;
+	const char *axes[] = {"x__", "y__", "z__"};
+	for (int k = 0; k < k37e::MAX_AXES; k++)
+		if (!strncmp(name, axes[k], 3))
+			for (int i = 0; i < k37e::AXIS_COUNT; i++)
+				if (!strcmp(name + 3, k37e::AXIS_PORTS[i]))
+					return k37e::TOP_COUNT + k * k37e::AXIS_COUNT + i;
+	return -1;
+}
+
+uint64_t k37e_get(void *m, int port) { return static_cast<Machine *>(m)->get(port); }
+void k37e_set(void *m, int port, uint64_t v) { static_cast<Machine *>(m)->set(port, v); }
+
+void k37e_get_many(void *m, const int *ports, size_t n, uint64_t *out) {
+	for (size_t i = 0; i < n; i++)
+		out[i] = static_cast<Machine *>(m)->get(ports[i]);
+}
+
+uint64_t k37e_cycle(void *m) { return static_cast<Machine *>(m)->cycle; }
+uint64_t k37e_skipped(void *m) { return static_cast<Machine *>(m)->skipped; }
+// Whether a block the engine does not run (parabolic, exponential) was started.
+int k37e_unsupported(void *m) { return static_cast<Machine *>(m)->interp.unsupported; }
+
+void k37e_step(void *m, uint64_t n, int skip_idle) {
+	k37e::run(*static_cast<Machine *>(m), n, skip_idle);
+}
+
+uint64_t k37e_run_until(void *m, int port, uint64_t limit, int skip_idle) {
+	return k37e::run_until(*static_cast<Machine *>(m), port, limit, skip_idle);
+}
+
+int k37e_wait_polling(void *m, int irq, uint64_t limit, uint64_t pause, uint64_t period,
+                      const uint64_t *ports, const uint64_t *stops, size_t n,
+                      const uint64_t *idles, uint64_t routines, int due, int skip_idle,
+                      uint64_t *done, uint64_t *bytes) {
+	return k37e::wait_polling(*static_cast<Machine *>(m), irq, limit, pause, period, ports, stops,
+	                          n, idles, routines, due, skip_idle, *done, bytes);
+}
+
+// Record `ports` at every later multiple of `every` cycles (every >= 1).
+void k37e_record(void *m, const int *ports, size_t n, uint64_t every) {
+	Machine &machine = *static_cast<Machine *>(m);
+	machine.record_ports.assign(ports, ports + n);
+	machine.every = every;
+	machine.next_sample = (machine.cycle / every + 1) * every;
+	machine.rows.clear();
+}
+
+// The samples recorded and not yet taken (rows of the cycle and each port): moves up to
+// `size` words into `out` and returns the number of words held before the call.
+size_t k37e_recorded(void *m, uint64_t *out, size_t size) {
+	std::vector<uint64_t> &rows = static_cast<Machine *>(m)->rows;
+	size_t held = rows.size(), taken = std::min(size, held);
+	std::copy_n(rows.begin(), taken, out);
+	rows.erase(rows.begin(), rows.begin() + taken);
+	return held;
+}
+
+// A host write cycle (as Backend.bus_write).
+void k37e_bus_write(void *m, uint64_t addr, uint64_t data) {
+	Machine &machine = *static_cast<Machine *>(m);
+	machine.addr = addr;
+	machine.w_data = data;
+	machine.w_stb = true;
+	machine.step();
+	machine.w_stb = false;
+}
+
+// A host read cycle (as Backend.bus_read): the byte presented after it.
+uint64_t k37e_bus_read(void *m, uint64_t addr) {
+	return k37e::bus_read(*static_cast<Machine *>(m), addr);
+}
+
+// The closed forms of free.h, for tests that pin them to the reference models.
+uint64_t k37e_clocks_before_pulse(uint64_t count, uint64_t word, unsigned width) {
+	return k37e::clocks_before_pulse(count, word, width);
+}
+uint64_t k37e_cycles_within(uint64_t phase, uint64_t increment, int stb, unsigned width,
+                            uint64_t safe) {
+	return k37e::cycles_within(phase, increment, stb, width, safe);
+}
+uint64_t k37e_strobes_seen(uint64_t phase, uint64_t increment, int stb, unsigned width,
+                           uint64_t k) {
+	return k37e::strobes_seen(phase, increment, stb, width, k);
+}
+
+// CPU nanoseconds per cycle of one plant stepped `cycles` times at a changing D/A word (the
+// cost of stepping a plant per axis and cycle, for the performance page).
+double k37e_plant_ns(uint64_t cycles) {
+	k37e::Plant plant;
+	k37e::PlantInputs in;
+	in.gain = 1 << 20;
+	in.alpha = 1 << 14;
+	in.dac_zero = 2048;
+	timespec start, stop;
+	clock_gettime(CLOCK_THREAD_CPUTIME_ID, &start);
+	for (uint64_t i = 0; i < cycles; i++)
+		plant.rise(in, 2048 + (i >> 6 & 15), 0);
+	clock_gettime(CLOCK_THREAD_CPUTIME_ID, &stop);
+	volatile int64_t sink = plant.velocity;
+	(void)sink;
+	return (double(stop.tv_sec - start.tv_sec) * 1e9 + double(stop.tv_nsec - start.tv_nsec)) /
+	       double(cycles);
+}
+
+}  // extern "C"
+#pragma GCC visibility pop

@@ -1,0 +1,425 @@
+// The engine's machine: the two- or three-axis chipset (FEED, DECEL, an accel/decel circuit
+// of any shape before the K3701, one per axis after it, or none; the K3701, a K3702 and an
+// encoder interface per axis, the host bus decoding) with a first-order plant per axis and
+// the observation counters, composed as k37.sim.machine.system.System and
+// k37.hdl.chipset.chip.Chipset wire them; its ports by the System's names; its cycles (a falling edge, except in the first, then a rising edge, as
+// Amaranth's simulator clocks it); and its idle skipping: while nothing but the free-running
+// state (the dividers, the rate multiplier's counter, the accel/decel accumulator, the K3701's
+// latency or setup count) and the plants changes, cycles are advanced in closed form up to the
+// next event, the plants stepped alone, exactly as stepping the whole machine would.
+
+#pragma once
+
+#include <algorithm>
+#include <cstring>
+#include <utility>
+#include <vector>
+
+#include "blocks.h"
+#include "free.h"
+#include "k3701.h"
+#include "lag.h"
+
+namespace k37e {
+
+constexpr int MAX_AXES = 3;
+
+// Every port, by the System's name (a bus member, a top output or an axis's member).
+const char *const TOP_PORTS[] = {"bus__addr", "bus__w_stb", "bus__w_data", "bus__r_stb",
+                                 "bus__r_data", "irq", "irq_interp", "irq_alarm", "fp_total",
+                                 "quiet"};
+enum TopPort { BUS_ADDR, BUS_W_STB, BUS_W_DATA, BUS_R_STB, BUS_R_DATA, IRQ, IRQ_INTERP,
+               IRQ_ALARM, FP_TOTAL, QUIET, TOP_COUNT };
+const char *const AXIS_PORTS[] = {"gain", "alpha", "vmax", "kf", "dac_zero", "stall",
+                                  "glitch_a", "glitch_b", "break_a", "command", "error", "count",
+                                  "dac", "max_abs_error", "pulses_pos", "pulses_neg", "alarm_n"};
+enum AxisPort { GAIN, ALPHA, VMAX, KF, DAC_ZERO, STALL, GLITCH_A, GLITCH_B, BREAK_A, COMMAND,
+                ERROR, COUNT, DAC, MAX_ABS_ERROR, PULSES_POS, PULSES_NEG, ALARM_N, AXIS_COUNT };
+constexpr int PORT_COUNT = TOP_COUNT + MAX_AXES * AXIS_COUNT;
+
+struct Axis {
+	Circuit post;  // the accel/decel circuit after the K3701 (post placement)
+	K3702 ctrl;
+	Encoder enc;
+	Plant plant;
+	PlantInputs in;
+	uint64_t max_abs_error = 0;
+	uint32_t pulses_pos = 0, pulses_neg = 0;
+};
+
+// Where the accel/decel circuit is (k37.hdl.chipset.map.Accel): before the K3701, one per
+// axis after it, or none.
+enum class Placement { NONE, PRE, POST };
+
+struct Machine {
+	const int axes;
+	const Placement placement;
+	const bool accel_pre, accel_post;
+	Feed feed;
+	Decel decel;
+	Circuit accel;  // before the K3701 (pre placement)
+	K3701 interp;
+	Axis axis[MAX_AXES];
+	uint64_t addr = 0, w_data = 0;
+	bool w_stb = false, r_stb = false;
+	unsigned read_cs = 0;
+	bool read_a4 = false;  // select 7's window of the last read (three axes)
+	uint32_t fp_total = 0;
+	uint64_t cycle = 0, skipped = 0;
+	// Samples of some ports at every multiple of `every` cycles (k37e_record): each row the
+	// cycle and the ports' values; a skip ends at the next sample.
+	std::vector<int> record_ports;
+	uint64_t every = 0, next_sample = UINT64_MAX;
+	std::vector<uint64_t> rows;
+
+	// `shapes` and `bits`: the circuit before the K3701's, then each axis's (Circuit::Shape).
+	// `fa_axes`: bit k set if axis k's circuit has an addition clock of its own.
+	Machine(int chip_axes, Placement where, const int (&shapes)[1 + MAX_AXES],
+	        const unsigned (&bits)[1 + MAX_AXES], unsigned fa_axes)
+	    : axes(chip_axes), placement(where), accel_pre(where == Placement::PRE),
+	      accel_post(where == Placement::POST) {
+		accel.init(shapes[0], bits[0], false);
+		for (int k = 0; k < MAX_AXES; k++)
+			axis[k].post.init(shapes[1 + k], bits[1 + k], true);
+		feed.init(fa_axes);
+		decel.bank.init(DECEL_REGS, DECEL_REG_COUNT);
+		interp.init(axes);
+		for (Axis &a : axis) {
+			a.ctrl.bank.init(K3702_REGS, K3702_REG_COUNT);
+			a.enc.bank.init(ENCODER_REGS, ENCODER_REG_COUNT);
+		}
+	}
+	// The decel gate's output and the interpolator's FP in this cycle (combinational).
+	bool decel_out() const { return feed.out() && decel.gate_open(); }
+	bool fp() const { return accel_pre ? accel.out() != 0 : decel_out(); }
+	// The K3701's net step pulse on axis k, and the command pulse its K3702 counts (after the
+	// axis's accel/decel circuit in post placement).
+	int steps(int k) const { return interp.out.step[k]; }
+	int command(int k) const { return accel_post ? axis[k].post.out() : steps(k); }
+	bool irq_alarm() const {
+		for (int k = 0; k < axes; k++)
+			if (axis[k].ctrl.irq)
+				return true;
+		return false;
+	}
+	// Whether every accel/decel circuit is quiet (Circuit::quiet).
+	bool circuits_quiet() const {
+		if (accel_pre && !accel.quiet())
+			return false;
+		for (int k = 0; k < axes; k++)
+			if (accel_post && !axis[k].post.quiet())
+				return false;
+		return true;
+	}
+	bool quiet() const { return interp.quiet(fp()) && circuits_quiet(); }
+	uint8_t r_data() const {
+		switch (read_cs) {
+		case SELECT_K3701: return interp.bank.r_data;
+		case SELECT_K3702_X: return axis[0].ctrl.bank.r_data;
+		case SELECT_K3702_Y: return axis[1].ctrl.bank.r_data;
+		case SELECT_ENCODER_X: return axis[0].enc.bank.r_data;
+		case SELECT_ENCODER_Y: return axis[1].enc.bank.r_data;
+		case SELECT_FEED: return feed.bank.r_data;
+		case SELECT_DECEL: return decel.bank.r_data;
+		case SELECT_K3702_Z:  // and ENCODER_Z, told apart by A4
+			return axes < 3 ? 0 : read_a4 ? axis[2].enc.bank.r_data : axis[2].ctrl.bank.r_data;
+		default: return 0;
+		}
+	}
+
+	// One chip's bank edge: its strobes where the address selects it (no aliases: the
+	// address bits between the chip's map and the select are its window's).
+	template<class Chip>
+	BankEdge decode(const Chip &chip, unsigned select, unsigned window, unsigned width) const {
+		bool hit = (addr >> REG_BITS) == select &&
+		           (addr & low_bits(REG_BITS)) >> width == window >> width;
+		return chip.bank.decode(w_stb && hit, r_stb && hit, unsigned(addr & low_bits(width)),
+		                        uint8_t(w_data), [&](int reg) { return chip.read(reg); });
+	}
+
+	void fall() {
+		for (int k = 0; k < axes; k++) {
+			Axis &a = axis[k];
+			a.ctrl.fall(command(k), int(a.enc.fb_pos) - int(a.enc.fb_neg));
+		}
+	}
+
+	void rise() {
+		// Everything the edge reads, from the values before it.
+		bool gate = decel_out(), feed_pulse = fp();
+		bool add[1 + MAX_AXES];  // the addition clocks: the shared fa, then each axis's
+		for (int k = -1; k < axes; k++)
+			add[1 + k] = feed.clock(k).stb;
+		BankEdge e_feed = decode(feed, SELECT_FEED, WINDOW_FEED, FEED_ADDR_WIDTH);
+		BankEdge e_decel = decode(decel, SELECT_DECEL, WINDOW_DECEL, DECEL_ADDR_WIDTH);
+		BankEdge e_interp = decode(interp, SELECT_K3701, WINDOW_K3701,
+		                           axes == 3 ? K3701_3_ADDR_WIDTH : K3701_ADDR_WIDTH);
+		static constexpr unsigned CTRL_SELECTS[MAX_AXES][2] = {
+		    {SELECT_K3702_X, WINDOW_K3702_X}, {SELECT_K3702_Y, WINDOW_K3702_Y},
+		    {SELECT_K3702_Z, WINDOW_K3702_Z}};
+		static constexpr unsigned ENC_SELECTS[MAX_AXES][2] = {
+		    {SELECT_ENCODER_X, WINDOW_ENCODER_X}, {SELECT_ENCODER_Y, WINDOW_ENCODER_Y},
+		    {SELECT_ENCODER_Z, WINDOW_ENCODER_Z}};
+		BankEdge e_ctrl[MAX_AXES], e_enc[MAX_AXES];
+		int step[MAX_AXES], com[MAX_AXES];
+		for (int k = 0; k < axes; k++) {
+			e_ctrl[k] = decode(axis[k].ctrl, CTRL_SELECTS[k][0], CTRL_SELECTS[k][1],
+			                   K3702_ADDR_WIDTH);
+			e_enc[k] = decode(axis[k].enc, ENC_SELECTS[k][0], ENC_SELECTS[k][1],
+			                  ENCODER_ADDR_WIDTH);
+			step[k] = steps(k);
+			com[k] = command(k);
+		}
+		// The edge.
+		feed.rise();
+		decel.rise(gate);
+		if (accel_pre)
+			accel.rise(gate, add[0]);
+		interp.rise(feed_pulse);
+		for (int k = 0; k < axes; k++) {
+			Axis &a = axis[k];
+			a.enc.rise(a.plant.lines());
+			a.plant.rise(a.in, a.ctrl.dac, com[k]);
+			if (accel_post)
+				a.post.rise(step[k], add[1 + k]);
+			uint64_t magnitude = uint64_t(a.ctrl.error < 0 ? -a.ctrl.error : a.ctrl.error);
+			if (magnitude > a.max_abs_error)
+				a.max_abs_error = magnitude;
+			a.pulses_pos += step[k] > 0;
+			a.pulses_neg += step[k] < 0;
+		}
+		fp_total += feed_pulse;
+		if (r_stb) {
+			read_cs = unsigned(addr >> REG_BITS) & 7;
+			read_a4 = axes == 3 && bit(addr, REG_BITS - 1);
+		}
+		feed.bank.apply(e_feed);
+		decel.bank.apply(e_decel);
+		interp.bank.apply(e_interp);
+		for (int k = 0; k < axes; k++) {
+			axis[k].ctrl.bank.apply(e_ctrl[k]);
+			axis[k].enc.bank.apply(e_enc[k]);
+		}
+	}
+
+	void step() {
+		if (cycle)
+			fall();
+		rise();
+		count_cycles(1);
+	}
+
+	// Count n cycles run or skipped, and take the sample that is due, if one is.
+	void count_cycles(uint64_t n) {
+		cycle += n;
+		if (cycle == next_sample) {
+			rows.push_back(cycle);
+			for (int port : record_ports)
+				rows.push_back(get(port));
+			next_sample += every;
+		}
+	}
+
+	// Whether the cycles to come change nothing but the free-running state and the plants
+	// until an event of theirs (horizon): no bus cycle, no bank strobe, no step pulse, FP or
+	// accel/decel output pulse, K3702s and encoder interfaces at a fixed point, and the
+	// K3701 idle, counting down, or waiting for an FP it does not hold.
+	bool quiet_now() const {
+		if (w_stb || r_stb || !banks_quiet())
+			return false;
+		for (int k = 0; k < axes; k++)
+			if (steps(k))
+				return false;
+		if (interp.phase == K3701::Phase::RUN && interp.count == 0 && interp.held)
+			return false;
+		if (!circuits_quiet())
+			return false;
+		for (int k = 0; k < axes; k++) {
+			const Axis &a = axis[k];
+			const Encoder &e = a.enc;
+			const Plant &p = a.plant;
+			if (e.fb_pos || e.fb_neg || !e.started)
+				return false;
+			if (p.glitch_a != a.in.glitch_a || p.glitch_b != a.in.glitch_b ||
+			    p.break_a != a.in.break_a)
+				return false;
+			Lines in = p.lines();
+			const bool pins[2][2] = {{in.a, in.a_n}, {in.b, in.b_n}};
+			for (int i = 0; i < 2; i++) {
+				const EncoderLine &l = e.line[i];
+				if (pins[i][0] == pins[i][1] || l.held != pins[i][0] || l.level != pins[i][0] ||
+				    l.run || l.broken)
+					return false;
+			}
+		}
+		return true;
+	}
+	bool banks_quiet() const {
+		const Bank *banks[] = {&feed.bank, &decel.bank, &interp.bank};
+		for (const Bank *b : banks)
+			if (b->committed >= 0 || b->refused >= 0)
+				return false;
+		for (int k = 0; k < axes; k++)
+			for (const Bank *b : {&axis[k].ctrl.bank, &axis[k].enc.bank})
+				if (b->committed >= 0 || b->refused >= 0)
+					return false;
+		return true;
+	}
+
+	// The most cycles that can run before an event of the free-running state: a feed pulse
+	// through the open decel gate, an accel/decel carry, the K3701's step or the end of its
+	// setup (UINT64_MAX: none comes).
+	uint64_t horizon() const {
+		uint64_t h = UINT64_MAX;
+		if (interp.phase == K3701::Phase::SETUP)
+			h = uint64_t(interp.setup_left - 1);
+		else if (interp.phase == K3701::Phase::RUN && interp.count)
+			h = uint64_t(interp.count - 1);
+		if (decel.gate_open()) {
+			uint64_t clocks = clocks_before_pulse(feed.count, feed.bank.value[FEED_FEED], Feed::BITS);
+			if (clocks != UINT64_MAX)
+				h = std::min(h, cycles_within(feed.rm_clock.phase, feed.bank.value[FEED_RM_INC],
+				                              feed.rm_clock.stb, DIVIDER_WIDTH, clocks));
+		}
+		for (int k = -1; k < axes; k++) {
+			const Circuit &c = k < 0 ? accel : axis[k].post;
+			const Divider &clock = feed.clock(k);
+			if ((k < 0 ? accel_pre : accel_post) && c.safe_strobes() != UINT64_MAX)
+				h = std::min(h, cycles_within(clock.phase, feed.increment(k), clock.stb,
+				                              DIVIDER_WIDTH, c.safe_strobes()));
+		}
+		return h;
+	}
+
+	// Advance the free-running state by k cycles (k >= 1; no event on the way).
+	void advance_free(uint64_t k) {
+		uint64_t rm = strobes_seen(feed.rm_clock.phase, feed.bank.value[FEED_RM_INC],
+		                           feed.rm_clock.stb, DIVIDER_WIDTH, k);
+		uint64_t fa[1 + MAX_AXES];  // strobes of each circuit's addition clock
+		for (int i = -1; i < axes; i++)
+			fa[1 + i] = strobes_seen(feed.clock(i).phase, feed.increment(i), feed.clock(i).stb,
+			                         DIVIDER_WIDTH, k);
+		feed.count = (feed.count + rm) & low_bits(Feed::BITS);
+		std::pair<Divider *, uint64_t> dividers[2 + MAX_AXES] = {
+		    {&feed.rm_clock, feed.bank.value[FEED_RM_INC]},
+		    {&feed.fa_clock, feed.bank.value[FEED_FA_INC]}};
+		int n = 2;
+		for (int i = 0; i < 3; i++)
+			if (feed.own[i] >= 0)
+				dividers[n++] = {&feed.fa_axis[i], feed.bank.value[feed.own[i]]};
+		for (int i = 0; i < n; i++) {
+			auto [d, inc] = dividers[i];
+			u128 before_last = u128(d->phase) + u128(k - 1) * inc, total = before_last + inc;
+			d->stb = (total >> DIVIDER_WIDTH) != (before_last >> DIVIDER_WIDTH);
+			d->phase = uint64_t(total) & low_bits(DIVIDER_WIDTH);
+		}
+		if (accel_pre)
+			accel.advance(fa[0]);
+		if (accel_post)
+			for (int i = 0; i < axes; i++)
+				axis[i].post.advance(fa[1 + i]);
+		if (interp.phase == K3701::Phase::SETUP)
+			interp.setup_left -= int64_t(k);
+		else if (interp.phase == K3701::Phase::RUN && interp.count)
+			interp.count -= int64_t(k);
+	}
+
+	// Step the plants alone for at most h cycles (their D/A words and inputs held, no command
+	// pulse), up to and including the first cycle that changes an encoder count; the cycles
+	// run. In pieces, exactly (lag.h, as the compiled RTL backend's skips step its plants).
+	uint64_t advance_plants(uint64_t h) {
+		k37lag::Lag lags[MAX_AXES] = {lag(axis[0]), lag(axis[1]), lag(axis[2])};
+		int64_t steps[MAX_AXES];
+		bool crossed;
+		uint64_t k = k37lag::advance(lags, size_t(axes), steps, h, crossed);
+		for (int i = 0; i < axes; i++) {
+			axis[i].plant.velocity = lags[i].v;
+			axis[i].plant.before = lags[i].position - uint64_t(lags[i].v);
+		}
+		return k;
+	}
+	static k37lag::Lag lag(const Axis &a) {
+		const Plant &p = a.plant;
+		return k37lag::Lag(p.velocity, Plant::command(a.in, a.ctrl.dac, 0), int64_t(a.in.alpha),
+		                   p.before + uint64_t(p.velocity), a.in.stall, VC_BITS, ALPHA_BITS,
+		                   FRAC_BITS);
+	}
+
+	// After a cycle: skip up to `rest` cycles if the machine is quiet, to just before its next
+	// event (or just after a plant's count changes, or at the next sample); the cycles skipped.
+	uint64_t skip(uint64_t rest) {
+		if (rest == 0 || !quiet_now())
+			return 0;
+		uint64_t h = std::min({rest, horizon(), next_sample - cycle});
+		if (h == 0)
+			return 0;
+		uint64_t k = advance_plants(h);
+		advance_free(k);
+		skipped += k;
+		count_cycles(k);
+		return k;
+	}
+
+	uint64_t get(int port) const {
+		if (port < TOP_COUNT) {
+			switch (port) {
+			case BUS_ADDR: return addr;
+			case BUS_W_STB: return w_stb;
+			case BUS_W_DATA: return w_data;
+			case BUS_R_STB: return r_stb;
+			case BUS_R_DATA: return r_data();
+			case IRQ: return interp.out.irq || irq_alarm();
+			case IRQ_INTERP: return interp.out.irq;
+			case IRQ_ALARM: return irq_alarm();
+			case FP_TOTAL: return fp_total;
+			case QUIET: return quiet();
+			}
+		}
+		const Axis &a = axis[(port - TOP_COUNT) / AXIS_COUNT];
+		switch ((port - TOP_COUNT) % AXIS_COUNT) {
+		case GAIN: return a.in.gain;
+		case ALPHA: return a.in.alpha;
+		case VMAX: return a.in.vmax;
+		case KF: return a.in.kf;
+		case DAC_ZERO: return a.in.dac_zero;
+		case STALL: return a.in.stall;
+		case GLITCH_A: return a.in.glitch_a;
+		case GLITCH_B: return a.in.glitch_b;
+		case BREAK_A: return a.in.break_a;
+		case COMMAND: return uint64_t(a.ctrl.command) & low_bits(COUNTER_WIDTH);
+		case ERROR: return uint64_t(a.ctrl.error) & low_bits(COUNTER_WIDTH);
+		case COUNT: return uint32_t(a.plant.count());
+		case DAC: return a.ctrl.dac;
+		case MAX_ABS_ERROR: return a.max_abs_error;
+		case PULSES_POS: return a.pulses_pos;
+		case PULSES_NEG: return a.pulses_neg;
+		case ALARM_N: return a.ctrl.alarm_n;
+		}
+		return 0;
+	}
+
+	void set(int port, uint64_t v) {
+		switch (port) {
+		case BUS_ADDR: addr = v; return;
+		case BUS_W_STB: w_stb = v; return;
+		case BUS_W_DATA: w_data = v; return;
+		case BUS_R_STB: r_stb = v; return;
+		}
+		if (port < TOP_COUNT)
+			return;
+		PlantInputs &in = axis[(port - TOP_COUNT) / AXIS_COUNT].in;
+		switch ((port - TOP_COUNT) % AXIS_COUNT) {
+		case GAIN: in.gain = v; return;
+		case ALPHA: in.alpha = v; return;
+		case VMAX: in.vmax = v; return;
+		case KF: in.kf = v; return;
+		case DAC_ZERO: in.dac_zero = v; return;
+		case STALL: in.stall = v; return;
+		case GLITCH_A: in.glitch_a = v; return;
+		case GLITCH_B: in.glitch_b = v; return;
+		case BREAK_A: in.break_a = v; return;
+		}
+	}
+};
+
+}  // namespace k37e
