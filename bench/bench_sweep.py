@@ -1,11 +1,11 @@
 """Throughput of a study: ``k37 sweep`` against one ``k37 run`` process per run, in one run.
 
 Run with ``pytest bench/bench_sweep.py --benchmark-only -s``. The study is the example L16
-study (``examples/study_l16.toml``, sixteen circles: the issue's acceptance); the sweep runs on
+study (``examples/study_l16.toml``, sixteen circles); the sweep runs on
 two local worker processes, each building (or loading) its compiled machine once and
 resetting it between runs; the baseline starts one ``k37 run`` process per run, one after the
 other, each with its own imports, cache lookup and model load. Both write the same runs; the
-printed ratio is the issue's goal (2x or more on two cores).
+printed ratio should be 2x or more on two cores.
 """
 
 from __future__ import annotations
