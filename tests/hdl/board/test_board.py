@@ -211,6 +211,15 @@ def test_build_refuses_an_unwritable_folder_and_names_the_missing_extra(tmp_path
     assert "Traceback" not in done.stderr
 
 
+def test_synth_without_its_tools_says_so_in_one_line_and_exits_2(tmp_path):
+    env = {**os.environ, "PATH": str(tmp_path)}   # no tool anywhere
+    done = _k37("synth", "--block", "divider", env=env)
+    assert done.returncode == 2
+    assert done.stderr.startswith("k37: error: synthesis needs the fpga extra "
+                                  "(pip install -e '.[fpga]'): yosys is not installed")
+    assert len(done.stderr.splitlines()) == 1
+
+
 @needs_boards
 def test_every_board_k37_builds_has_its_platform_and_part():
     from k37.hdl.board.ulx3s import PLATFORMS
