@@ -92,7 +92,11 @@ def test_a_board_without_probe_reports_what_a_host_can_read(make_job):
         linked = run_linked(job, RunOptions(), f"tcp://127.0.0.1:{board.port}")
     report = linked.report
     assert report["link"]["probes"] is False
-    assert report["link"]["board_blocks"] == [None] * len(report["blocks"])
+    # the blocks' cycles on the board, from its bridge's counter: on a board without line
+    # time, the host's count
+    assert report["link"]["board_blocks"] == [[b["start_cycle"], b["end_cycle"]]
+                                              for b in report["blocks"]]
+    assert report["link"]["board_cycles"] == report["cycles"]
     for a, b in zip(here.report["blocks"], report["blocks"], strict=True):
         assert (b["fp_pulses"], b["steps"], b["end_command"]) == (None, None, None)
         assert (b["start_cycle"], b["end_cycle"]) == (a["start_cycle"], a["end_cycle"])
@@ -104,7 +108,10 @@ def test_a_board_without_probe_reports_what_a_host_can_read(make_job):
         assert seen["max_abs_error"] is None
         assert seen["flags"] == there["flags"]
     assert report["end_point"]["reached"] == here.report["end_point"]["reached"]
-    assert "max |error| unknown" in summary(linked)
+    text = summary(linked)
+    assert "max |error| unknown" in text
+    assert "machine time by the host's count" in text
+    assert f"the board's own count (its bridge's counter): {report['cycles']:,} cycles" in text
 
 
 def test_a_served_board_keeps_its_state_across_sessions_and_a_cut_frame_writes_nothing(
@@ -305,7 +312,7 @@ def test_line_time_lengthens_the_gaps_and_keeps_every_blocks_pulses(make_job):
     in_process_gap = here["blocks"][1]["start_cycle"] - here["blocks"][0]["end_cycle"]
     # every command of the gap now also costs its bytes (80 cycles each) and the host's 500
     assert start1 - end0 > in_process_gap + 500
-    assert linked["link"]["board_cycle"] > linked["cycles"]
+    assert linked["link"]["board_cycle"] > linked["link"]["board_cycles"] > linked["cycles"]
 
 
 def test_a_bad_line_is_refused(make_job):
