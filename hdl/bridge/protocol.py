@@ -14,7 +14,8 @@ sends it again, with the same sequence byte, after an error reply or a timeout. 
 answers a frame whose sequence byte is the last executed frame's with that frame's reply again,
 without executing it, so a retry never runs a command twice; IDENT clears that memory, so a
 host that connects starts with IDENT (the sync) whatever sequence byte a host before it used.
-The bridge buffers :data:`RX_FIFO_DEPTH` received bytes, more than the longest frame.
+The bridge buffers :data:`RX_FIFO_DEPTH` received bytes, as many as the longest frame on the
+line (an IDLE or WAIT with every payload byte escaped); its decoder takes one a cycle.
 
 Time is counted in chipset clock cycles. A command starts in cycle E, three cycles after its
 frame's :data:`END`'s stop bit is sampled (:func:`command_start`); :data:`COMMANDS`

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from k37.hdl.bridge.chip import UartBridge
 from k37.hdl.bridge.model import FRAMING, BridgeModel, LineTimed
 from k37.hdl.bridge.protocol import (
+    COMMANDS,
     END,
     ERROR,
     ESC,
@@ -20,6 +21,7 @@ from k37.hdl.bridge.protocol import (
     ESC_ESC,
     ESC_START,
     OK,
+    RX_FIFO_DEPTH,
     START,
     Error,
     Identity,
@@ -440,6 +442,8 @@ def test_frames_are_checked_and_the_fingerprint_tells_chipsets_apart():
                                     crc8(special), END])
     assert unstuff(stuff(special)[1:-1]) == special
     assert crc8(b"123456789") == 0xFB  # CRC-8 with polynomial 0x07 preset to 0xFF
+    # the longest frame on the line, START, every byte escaped and END, fits the receive FIFO
+    assert max(2 + 2 * c.frame_bytes for c in COMMANDS.values()) == RX_FIFO_DEPTH
     with pytest.raises(ValueError, match="WRITE takes 2 arguments, not 1"):
         encode(Op.WRITE, 1)
     with pytest.raises(ValueError, match=r"IDLE cycles must be in 0\.\.4294967295"):
