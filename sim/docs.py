@@ -4,11 +4,12 @@ from __future__ import annotations
 
 from k37.firmware_model.gcode.words import markdown as gcode_markdown
 from k37.hdl.bridge.protocol import markdown as bridge_markdown
+from k37.hdl.bus.descriptions import Chip, c_header, svd
 from k37.hdl.bus.registers import RegisterMap, registers_markdown
 from k37.hdl.chipset.map import CHIP_SELECTS, REG_BITS, SUB_WINDOWS, chip_selects, port
 from k37.hdl.feed.map.feed_rate import FEED_MAP, FEED_MAP_AXIS_FA
 
-__all__ = ["REGISTER_MAPS", "documents", "registers_document"]
+__all__ = ["REGISTER_MAPS", "chips", "documents", "registers_document"]
 
 #: The three-axis chipset's chips (the two-axis chipset's are the first seven, with the
 #: two-axis K3701), with the FEED chip's per-axis fa build.
@@ -40,6 +41,12 @@ def _chip_selects() -> str:
     return "\n".join(lines) + "\n"
 
 
+def chips() -> list[Chip]:
+    """The three-axis chipset's chips (:data:`_CHIPS`) with the port of each one's address 0."""
+    return [Chip(name, port(name, regmap.registers[0].name) - regmap.registers[0].addr, regmap)
+            for name, (_, regmap) in _CHIPS.items()]
+
+
 def registers_document() -> str:
     """The text of ``docs/registers.md``."""
     return registers_markdown(REGISTER_MAPS).replace(
@@ -53,4 +60,5 @@ def documents() -> dict[str, str]:
 
     return {"registers.md": registers_document(), "run-json.md": schema_markdown(),
             "job-keys.md": job_keys_markdown(), "gcode.md": gcode_markdown(),
-            "bridge-protocol.md": bridge_markdown()}
+            "bridge-protocol.md": bridge_markdown(), "k37_registers.h": c_header(chips()),
+            "k37_registers.svd": svd(chips())}

@@ -3,7 +3,7 @@ the chipset's 8-bit bus."""
 
 from __future__ import annotations
 
-from amaranth.hdl import Cat, Const, Module, Signal
+from amaranth.hdl import Cat, Const, Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.fifo import SyncFIFOBuffered
 from amaranth.lib.wiring import In, Out
@@ -12,10 +12,16 @@ from k37.hdl.bridge.protocol import (
     COMMANDS,
     COUNT_BITS,
     COUNTER_BITS,
+    CRC_INIT,
+    CRC_POLY,
+    END,
     ERROR,
+    ESC,
+    ESCAPES,
     OK,
     REPLY_MAX,
     RX_FIFO_DEPTH,
+    START,
     Error,
     Identity,
     Op,
@@ -31,13 +37,16 @@ class UartBridge(wiring.Component):
     """A UART to the chipset's host bus: a PC host in the 8085's place.
 
     Runs in the chipset's clock domain (``sync``, which may be clock-enabled): every timing
-    below is in its cycles. A command starts in cycle E, three cycles after its last byte's
-    stop bit is sampled (:func:`k37.hdl.bridge.protocol.command_start`); what it does in E and
-    after is :data:`k37.hdl.bridge.protocol.COMMANDS`'s. The reply's first start bit is on ``tx``
-    two cycles after the cycle the command ends in (E for WRITE, IDENT, STATUS and CYCLE, E + 1
-    for READ, E + N for an IDLE of N, E + n for a WAIT that returned n, E - 1 for an error),
-    each next start bit one cycle after the stop bit before
-    (:func:`k37.hdl.bridge.protocol.reply_end`).
+    below is in its cycles. Frames are unstuffed and checked byte by byte as they arrive (CRC,
+    escapes, framing errors, length); a frame is executed only when its closing END finds it
+    whole, and answered with its reply again, unexecuted, when its sequence byte is the last
+    executed frame's (:mod:`k37.hdl.bridge.protocol`). A command starts in cycle E, three cycles
+    after its closing END's stop bit is sampled (:func:`k37.hdl.bridge.protocol.command_start`);
+    what it does in E and after is :data:`k37.hdl.bridge.protocol.COMMANDS`'s. The reply's first
+    start bit is on ``tx`` two cycles after the cycle the command ends in (E for WRITE, IDENT,
+    STATUS and CYCLE, E + 1 for READ, E + N for an IDLE of N, E + n for a WAIT that returned n,
+    E - 1 for an error or a repeated reply), each next start bit one cycle after the stop bit
+    before (:func:`k37.hdl.bridge.protocol.reply_end`).
 
     Parameters
     ----------
@@ -82,52 +91,89 @@ class UartBridge(wiring.Component):
         m.d.sync += cycle.eq(cycle + 1)
         irq = Cat(self.irq_interp, self.irq_alarm)
 
-        op = Signal(8)
+        # the frame being received: its payload's bytes so far (saturating), their CRC, ...
+        length = Signal(range(16))
+        crc = Signal(8, init=CRC_INIT)
+        opened, escaped, framing_seen, bad_escape = Signal(), Signal(), Signal(), Signal()
+        op, seq = Signal(8), Signal(8)
         args = Signal(COUNT_BITS)
-        index = Signal(range(COUNT_BITS // 8))
-        count = Signal(COUNT_BITS)
-        reply = Signal(8 * REPLY_MAX)
-        reply_left = Signal(range(REPLY_MAX + 1))
+        # the last executed frame's sequence byte and reply (no reply after IDENT)
+        last_seq, has_last = Signal(8), Signal()
+        last = Signal(8 * REPLY_MAX)
+        last_len = Signal(range(REPLY_MAX + 1))
 
-        def answer(*fields) -> None:
-            """Send the reply ``fields`` (Cat order: the first byte first) next."""
-            value = Cat(*fields)
-            m.d.sync += [reply.eq(value), reply_left.eq(len(value) // 8)]
+        repeated = (op != Op.IDENT) & has_last & (seq == last_seq)
+
+        count = Signal(COUNT_BITS)
+        out = Signal(8 * REPLY_MAX)
+        out_len = Signal(range(REPLY_MAX + 1))
+
+        def answer(value, remember: bool) -> None:
+            """Send the reply payload ``value`` (Cat order: the first byte first) next."""
+            m.d.sync += [out.eq(value), out_len.eq(len(value) // 8)]
+            if remember:
+                m.d.sync += [last.eq(value), last_len.eq(len(value) // 8), last_seq.eq(seq),
+                             has_last.eq(op != Op.IDENT)]
             m.next = "Reply"
 
         def ok(*results) -> None:
-            answer(Const(OK, 8), *results)
+            answer(Cat(Const(OK, 8), seq, *results), remember=True)
 
         def error(code: Error) -> None:
-            answer(Const(ERROR, 8), Const(code, 8))
+            answer(Cat(Const(ERROR, 8), Const(code, 8)), remember=False)
 
+        def take(data) -> None:
+            m.d.sync += [crc.eq(_crc8_next(crc, data)), length.eq(length + (length != 15))]
+            with m.Switch(length):
+                with m.Case(0):
+                    m.d.sync += op.eq(data)
+                with m.Case(1):
+                    m.d.sync += seq.eq(data)
+                for k in range(COUNT_BITS // 8):
+                    with m.Case(2 + k):
+                        m.d.sync += args.word_select(k, 8).eq(data)
+
+        restart = [length.eq(0), crc.eq(CRC_INIT), escaped.eq(0), framing_seen.eq(0),
+                   bad_escape.eq(0)]
         with m.FSM():
-            with m.State("Opcode"):
+            with m.State("Receive"):
                 m.d.comb += fifo.r_en.eq(1)
-                with m.If(fifo.r_rdy):
-                    m.d.sync += [op.eq(byte), index.eq(0)]
+                with m.If(fifo.r_rdy & (opened | (byte == START) & ~framing)):
                     with m.If(framing):
-                        error(Error.FRAMING)
-                    with m.Else():
-                        with m.Switch(byte):
-                            for command in COMMANDS.values():
-                                with m.Case(command.op):
-                                    m.next = "Args" if command.args else "Execute"
-                            with m.Default():
-                                error(Error.OPCODE)
-            with m.State("Args"):
-                m.d.comb += fifo.r_en.eq(1)
-                with m.If(fifo.r_rdy):
-                    m.d.sync += [args.word_select(index, 8).eq(byte), index.eq(index + 1)]
-                    with m.If(framing):
-                        error(Error.FRAMING)
-                    with m.Else():
-                        with m.Switch(op):
-                            for command in COMMANDS.values():
-                                if command.args:
+                        m.d.sync += framing_seen.eq(1)
+                    with m.Elif(byte == START):  # drops a frame cut short
+                        m.d.sync += [*restart, opened.eq(1)]
+                    with m.Elif(byte == END):
+                        m.d.sync += [*restart, opened.eq(0)]
+                        with m.If(framing_seen):
+                            error(Error.FRAMING)
+                        with m.Elif(escaped | bad_escape | (crc != 0)):
+                            error(Error.CHECK)
+                        with m.Else():
+                            with m.Switch(op):
+                                for command in COMMANDS.values():
                                     with m.Case(command.op):
-                                        with m.If(index == command.frame_bytes - 2):
+                                        with m.If(length != command.frame_bytes):
+                                            error(Error.LENGTH)
+                                        with m.Elif(repeated):
+                                            m.d.sync += [out.eq(last), out_len.eq(last_len)]
+                                            m.next = "Reply"
+                                        with m.Else():
                                             m.next = "Execute"
+                                with m.Default():
+                                    error(Error.OPCODE)
+                    with m.Elif(escaped):
+                        m.d.sync += escaped.eq(0)
+                        with m.Switch(byte):
+                            for unescaped, code in ESCAPES.items():
+                                with m.Case(code):
+                                    take(Const(unescaped, 8))
+                            with m.Default():
+                                m.d.sync += bad_escape.eq(1)
+                    with m.Elif(byte == ESC):
+                        m.d.sync += escaped.eq(1)
+                    with m.Else():
+                        take(byte)
             with m.State("Execute"):  # cycle E
                 with m.Switch(op):
                     with m.Case(Op.IDENT):
@@ -163,9 +209,47 @@ class UartBridge(wiring.Component):
                 with m.Elif(irq.any() | (count == args)):
                     ok(count)
             with m.State("Reply"):
-                with m.If(reply_left == 0):
-                    m.next = "Opcode"
-                with m.Elif(~tx.busy):
-                    m.d.comb += [tx.data.eq(reply[:8]), tx.start.eq(1)]
-                    m.d.sync += [reply.eq(reply[8:]), reply_left.eq(reply_left - 1)]
+                self._send(m, tx, out, out_len)
         return m
+
+    def _send(self, m: Module, tx: UartTx, out, out_len) -> None:
+        """Send ``out_len`` bytes of ``out`` and their CRC, escaped, between START and END,
+        back to back; then receive the next frame."""
+        index = Signal(range(REPLY_MAX + 3))  # 0: START, then payload, CRC, END
+        crc = Signal(8, init=CRC_INIT)
+        pending = Signal()  # ESC was sent, the escaped byte is next
+        current = Signal(8)
+        # index k > 0 is payload byte k - 1: ``out`` after a byte for START
+        m.d.comb += current.eq(Mux(index > out_len, crc,
+                                   Cat(Const(0, 8), out).word_select(index, 8)))
+        special = Signal()
+        escape = Signal(8)
+        with m.Switch(current):
+            for byte, code in ESCAPES.items():
+                with m.Case(byte):
+                    m.d.comb += [special.eq(1), escape.eq(code)]
+        with m.If(~tx.busy):
+            m.d.comb += tx.start.eq(1)
+            with m.If(index == 0):
+                m.d.comb += tx.data.eq(START)
+                m.d.sync += [index.eq(1), crc.eq(CRC_INIT)]
+            with m.Elif(index == out_len + 2):
+                m.d.comb += tx.data.eq(END)
+                m.d.sync += index.eq(0)
+                m.next = "Receive"
+            with m.Elif(special & ~pending):
+                m.d.comb += tx.data.eq(ESC)
+                m.d.sync += pending.eq(1)
+            with m.Else():
+                m.d.comb += tx.data.eq(Mux(pending, escape, current))
+                m.d.sync += [pending.eq(0), index.eq(index + 1)]
+                with m.If(index <= out_len):
+                    m.d.sync += crc.eq(_crc8_next(crc, current))
+
+
+def _crc8_next(crc, data):
+    """The CRC-8 register after ``data`` (:func:`k37.hdl.bridge.protocol.crc8`, in gates)."""
+    value = crc ^ data
+    for _ in range(8):
+        value = Mux(value[7], (value << 1)[:8] ^ CRC_POLY, (value << 1)[:8])
+    return value

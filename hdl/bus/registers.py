@@ -122,6 +122,14 @@ class Register:
     def nbytes(self) -> int:
         return self.width // 8
 
+    @property
+    def reset(self) -> int | None:
+        """The value after reset as raw bits (two's complement): :attr:`init` for a register
+        the host writes; None for a read-only one, whose value is the chip's state."""
+        if self.access is Access.R:
+            return None
+        return self.init & ((1 << self.width) - 1)
+
     def field(self, name: str) -> Field:
         for f in self.fields:
             if f.name == name:
@@ -208,17 +216,18 @@ class RegisterMap:
         lines = [f"## {self.chip} (register map version {self.version})", ""]
         if self.doc:
             lines += [self.doc, ""]
-        lines += ["| addr | name | bits | access | meaning |", "|---|---|---|---|---|"]
+        lines += ["| addr | name | bits | access | reset | meaning |",
+                  "|---|---|---|---|---|---|"]
         for reg in self.registers:
             addrs = (f"{reg.addr:#04x}" if reg.nbytes == 1
                      else f"{reg.addr:#04x}-{reg.addr + reg.nbytes - 1:#04x}")
             kind = f"{reg.width}{' signed' if reg.signed else ''}"
             doc = reg.doc
-            if reg.init:
-                doc += f" Reset value {reg.init:#x}."
             if reg.valid is not None:
                 doc += f" Valid {reg.valid[0]}..{reg.valid[1]}; other values are ignored."
-            lines.append(f"| {addrs} | {reg.name} | {kind} | {reg.access.value} | {_cell(doc)} |")
+            reset = "-" if reg.reset is None else f"{reg.reset:#0{2 + 2 * reg.nbytes}x}"
+            lines.append(f"| {addrs} | {reg.name} | {kind} | {reg.access.value} | {reset} "
+                         f"| {_cell(doc)} |")
         for reg in self.registers:
             if reg.fields:
                 lines += ["", f"### {self.chip} {reg.name} fields", "",
@@ -242,6 +251,9 @@ def registers_markdown(maps: Iterable[RegisterMap]) -> str:
              "(do not edit by hand).", "",
              "Multi-byte registers are little-endian. A write takes effect when its last "
              "(most significant) byte is written; reading byte 0 (the least significant) "
-             "snapshots the whole register, so read it first.", ""]
+             "snapshots the whole register, so read it first. The reset column gives a "
+             "writable register's value after reset (raw bits); a read-only register (-) "
+             "shows the chip's state. The same maps are in `k37_registers.h` (C) and "
+             "`k37_registers.svd` (CMSIS-SVD) beside this page.", ""]
     parts += [rm.markdown() for rm in maps]
     return "\n".join(parts)

@@ -33,14 +33,14 @@ def _cmd_export_verilog(args: argparse.Namespace) -> int:
 
 
 def _cmd_synth(args: argparse.Namespace) -> int:
-    from k37.sim.fpga.synth import synthesize
+    from k37.sim.fpga.synth import MissingToolError, synthesize
 
     if not check(folders={"--work-dir": args.work_dir}):
         return 2
     try:
         report = synthesize(args.device, args.block or None,
                             work_dir=Path(args.work_dir) if args.work_dir else None)
-    except (ImportError, FileNotFoundError) as e:
+    except (ImportError, FileNotFoundError, MissingToolError) as e:
         print(f"k37: error: synthesis needs the fpga extra (pip install -e '.[fpga]'): {e}",
               file=sys.stderr)
         return 2
@@ -111,5 +111,6 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                         "space too; both with every K3701 mode)")
     p.add_argument("--plan-only", action="store_true",
                    help="write Amaranth's build plan, the pin map and no bitstream (no "
-                        "toolchain needed)")
+                        "Yosys or nextpnr needed; the board's definition, amaranth-boards, "
+                        "comes with the fpga extra)")
     p.set_defaults(func=_cmd_build)

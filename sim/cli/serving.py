@@ -106,8 +106,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                    help="with --uart: the host's time from a reply to its next frame "
                         "(default 0)")
     p.add_argument("--trace", metavar="PATH.csv", type=Path,
-                   help="write each session's samples as CSV when it ends (the columns of "
-                        "`k37 run --trace`; a later session replaces them)")
+                   help="write the machine's samples since it started as CSV when each "
+                        "session ends (the columns of `k37 run --trace`)")
     p.add_argument("--sample-every", type=positive_int, default=1000,
                    help="sample the machine every N cycles for --trace")
     p.add_argument("--no-probe", action="store_true",

@@ -3,7 +3,9 @@
 Each exported file holds two layers:
 
 * the **core**: Amaranth's own Verilog of the block (``amaranth.back.verilog.convert``),
-  unchanged, so the FPGA runs exactly the logic the project simulates and tests. Its module
+  unchanged but for its registers' power-up values, moved from their declarations to
+  ``initial`` statements (the same values at time 0), so the FPGA runs exactly the logic the
+  project simulates and tests. Its module
   is ``<block>_core`` (submodules ``<block>_core.<name>``), so the files of several blocks can
   share one FPGA project;
 * a thin **pin wrapper** ``<block>``, generated here, with the real chips' pin names: the
@@ -14,7 +16,8 @@ Each exported file holds two layers:
 
 The header names the block's parameters, its register map(s) and version, and the clocking
 and bus protocol; the port list gives each pin its datasheet name and meaning. Waivers for
-Verilator's ``-Wall`` lint are written inline, each with its reason (:data:`CORE_WAIVERS`).
+Verilator's ``-Wall`` lint are written inline, each with its reason (:data:`CORE_WAIVERS`),
+naming only rules that Debian's Verilator 5.006 knows as well as the newest.
 :data:`k37.sim.fpga.blocks.BLOCKS` is the registry of exportable blocks; adding one (the chipset
 top) is one line.
 """
@@ -188,14 +191,14 @@ def pins(name: str) -> list[Pin]:
 # --- the file ------------------------------------------------------------------------------
 
 #: The Verilator ``-Wall`` rules waived for the core (Amaranth's unchanged Verilog), and why.
+#: Only rules that Verilator 5.006 (Debian 12's) knows as well as the newest: WIDTH covers the
+#: WIDTHEXPAND and WIDTHTRUNC of later versions.
 CORE_WAIVERS = {
-    "WIDTHEXPAND": "Yosys's Verilog writer leaves operand sizing to Verilog's "
-                   "context-determined width rules, which give exactly its cells' semantics",
-    "WIDTHTRUNC": "likewise: results are truncated to the target's width as the cells define",
+    "WIDTH": "Yosys's Verilog writer leaves operand sizing to Verilog's context-determined "
+             "width rules, which give exactly its cells' semantics (results are truncated to "
+             "the target's width as the cells define)",
     "CASEINCOMPLETE": "each process assigns its default first, then a case without a default "
                       "branch overrides it; unlisted values keep the default",
-    "PROCASSINIT": "registers carry their power-up value as an initialiser (Amaranth's init=, "
-                   "the FPGA's initial state) and the synchronous reset in their process",
     "UNUSEDSIGNAL": "intermediate nets of which synthesis uses only some bits (an adder's "
                     "carry, a bus bit a submodule ignores); they are trimmed",
     "DECLFILENAME": "one file holds the wrapper and all its core modules (<block>_core...)",
@@ -220,7 +223,20 @@ def _core_verilog(entry: Exportable, component: wiring.Component) -> tuple[str, 
                          f"the signature; only the sync domain's clk and rst may be added")
     # The wrapper is the top: drop the core's top attribute (an attribute, not logic).
     text = text.replace("(* top =  1  *)\n", "", 1)
-    return text, extra
+    return _REG_INIT.sub(_initial_statement, text), extra
+
+
+#: A register declared with its power-up value: indent, width, name, value.
+_REG_INIT = re.compile(r"^( *)reg ((?:\[[^\]]*\] )?)(\S+) += ([^;]+);$", re.M)
+
+
+def _initial_statement(match: re.Match) -> str:
+    """A register's power-up value as an ``initial`` statement after its declaration (the
+    same value at time 0; Verilator's PROCASSINIT, which later versions raise for an
+    initialiser of a register a process assigns, then has nothing to say)."""
+    indent, width, name, value = match.groups()
+    end = " ;" if name.startswith("\\") else ";"  # an escaped name ends at a space
+    return f"{indent}reg {width}{name}{end}\n{indent}initial {name} = {value};"
 
 
 def _comment(text: str) -> list[str]:
@@ -338,8 +354,8 @@ def verilog_text(name: str) -> str:
         "",
         *_wrapper(entry, pins_, buses, direct, probes, clocks),
         "",
-        f"// ---- {entry.name}_core: Amaranth's Verilog of the block, unchanged (its top "
-        f"attribute aside) ----",
+        f"// ---- {entry.name}_core: Amaranth's Verilog of the block, unchanged but for its "
+        f"top attribute and its registers' power-up values, set by initial statements ----",
         "// Lint waivers for this machine-written part, each with its reason:",
         *waivers,
         core.rstrip("\n"),

@@ -31,7 +31,8 @@ from pathlib import Path
 
 from k37.sim.fpga.blocks import BLOCKS, Exportable, block
 
-__all__ = ["DEVICES", "TARGET_MHZ", "BlockResult", "Device", "SynthReport", "synthesize"]
+__all__ = ["DEVICES", "TARGET_MHZ", "BlockResult", "Device", "MissingToolError", "SynthReport",
+           "synthesize"]
 
 #: The timing every block must meet: 10x the paper's 1 MHz system clock.
 TARGET_MHZ = 10.0
@@ -119,10 +120,14 @@ class SynthReport:
         return "\n".join(lines) + "\n"
 
 
+class MissingToolError(RuntimeError):
+    """A tool of the fpga extra is not installed."""
+
+
 def _tool(yowasp: str, native: str, extra: str) -> list[str]:
     path = shutil.which(yowasp) or shutil.which(native)
     if path is None:
-        raise RuntimeError(f"{native} is not installed: pip install 'k37[fpga]' (the {extra} "
+        raise MissingToolError(f"{native} is not installed: pip install 'k37[fpga]' (the {extra} "
                            f"package), or put {native} on PATH")
     return [path]
 

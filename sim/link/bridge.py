@@ -6,7 +6,8 @@ One link, three transports, opened from a URL by :func:`open_link` with pyserial
 (``serial:///dev/ttyUSB0`` or a bare device path, at
 :data:`k37.hdl.bridge.protocol.DEFAULT_BAUD` unless the URL says ``?baud=N``) for the real
 board, and ``loop://`` for tests. Each command waits for its reply before the next is sent
-(:mod:`k37.hdl.bridge.protocol`).
+and is sent again after an error reply or a timeout (:mod:`k37.hdl.bridge.protocol`); the
+link's first command is IDENT, the sync that makes the bridge forget a host before it.
 
 The link's :attr:`BridgeLink.cycle` is the host's account of time: the cycles its commands
 took (a bus cycle each, an idle's, a wait's). On a simulated board that is the machine's clock
@@ -25,6 +26,7 @@ from k37.firmware_model.link import Interrupts
 from k37.hdl.bridge.protocol import (
     COUNT_BITS,
     DEFAULT_BAUD,
+    END,
     ERROR,
     IRQ_ALARM,
     IRQ_INTERP,
@@ -32,10 +34,12 @@ from k37.hdl.bridge.protocol import (
     PROBE_AXES,
     PROBE_BYTES,
     PROBE_FIELDS,
+    START,
     Error,
     Identity,
     Op,
     encode,
+    unstuff,
 )
 from k37.hdl.chipset.identity import chipset_identity
 
@@ -44,6 +48,9 @@ __all__ = ["BridgeLink", "LinkError", "Probe", "job_identity", "open_link"]
 #: Longest IDLE or WAIT sent at once, about 1 s at 1 MHz, so that every reply comes well within
 #: the link's timeout; longer ones are sent in parts (the same cycles on a simulated board).
 MAX_COUNT = 1 << 20
+#: Times a frame is sent before the link gives up: after an ERROR reply (the frame was not
+#: executed) or a timeout (the bridge repeats the reply of a frame it executed).
+ATTEMPTS = 3
 
 
 class LinkError(Exception):
@@ -77,6 +84,9 @@ class BridgeLink:
         self.port = port
         self.name = name
         self._cycle = 0
+        self._seq = 0
+        self._synced = False
+        self._received = bytearray()
         #: Whether the far end answers :attr:`Op.PROBE` (a simulated board); None: not asked.
         self.probes: bool | None = None
 
@@ -85,23 +95,78 @@ class BridgeLink:
         return self._cycle
 
     def _command(self, op: Op, *args: int, reply: int) -> bytes:
+        """Send ``op`` until it is answered OK (at most :data:`ATTEMPTS` times); its results."""
+        if not self._synced and op is not Op.IDENT:
+            self.identify()
+        seq = self._seq
+        self._seq = (seq + 1) % 256
+        frame = encode(op, *args, seq=seq)
+        refused: Error | bytes | None = None
         try:
-            self.port.write(encode(op, *args))
-            status = self.port.read(1)
-            if status == bytes([ERROR]):
-                code = self.port.read(1)
-                known = code and code[0] in {e.value for e in Error}
-                raise _RefusedError(self.name, op, Error(code[0]) if known else code)
-            if status != bytes([OK]):
-                raise LinkError(f"{self.name}: no reply to {op.name}" if not status else
-                                f"{self.name}: {op.name} answered {status!r}, not OK")
-            data = self.port.read(reply)
+            for _ in range(ATTEMPTS):
+                self.port.write(frame)
+                answer = self._answer(seq)
+                if answer is None:
+                    continue
+                status, data = answer
+                if status == ERROR:
+                    known = len(data) == 1 and data[0] in {e.value for e in Error}
+                    refused = Error(data[0]) if known else data
+                    if refused is Error.OPCODE:
+                        break  # an opcode the far end lacks is lacked on every attempt
+                    continue
+                if status != OK:
+                    raise LinkError(f"{self.name}: {op.name} answered {bytes([status])!r}, not OK")
+                if len(data) != reply:
+                    raise LinkError(f"{self.name}: {op.name}'s reply had {len(data)} bytes of "
+                                    f"results, not {reply}")
+                if op is Op.IDENT:
+                    self._synced = True
+                return data
         except OSError as e:
             raise LinkError(f"{self.name}: {e.strerror or e}") from None
-        if len(data) != reply:
-            raise LinkError(f"{self.name}: {op.name}'s reply stopped after {len(data) + 1} of "
-                            f"{reply + 1} bytes")
-        return data
+        if refused is not None:
+            raise _RefusedError(self.name, op, refused)
+        raise LinkError(f"{self.name}: no reply to {op.name} after {ATTEMPTS} attempts")
+
+    def _answer(self, seq: int) -> tuple[int, bytes] | None:
+        """The next reply to the frame with sequence byte ``seq``, as (status, what follows
+        the sequence byte, or the error code); None if none came in time. Replies that are
+        not whole, or that answer another frame, are skipped."""
+        while True:
+            body = self._reply_body()
+            if body is None:
+                return None
+            payload = unstuff(body)
+            if payload is None:
+                continue
+            if payload[0] == ERROR:
+                return ERROR, payload[1:]
+            if len(payload) >= 2 and payload[1] == seq:
+                return payload[0], payload[2:]
+            if payload[0] != OK:
+                return payload[0], payload[1:]
+
+    def _reply_body(self) -> bytes | None:
+        """The bytes between the next START and the END after it (a later START starts
+        again); None on a timeout."""
+        received = self._received
+        while True:
+            start = received.find(START)
+            if start < 0:
+                received.clear()  # bytes outside a reply
+            else:
+                del received[:start]
+                end = received.find(END)
+                if end >= 0:
+                    body = bytes(received[received.rfind(START, 0, end) + 1:end])
+                    del received[:end + 1]
+                    return body
+            # a whole short reply at once, then what is missing byte by byte
+            data = self.port.read(5 if not received else 1)
+            if not data:
+                return None
+            received += data
 
     def identify(self) -> Identity:
         """What the bridge tells of the chipset behind it."""

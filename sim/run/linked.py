@@ -23,6 +23,7 @@ from k37.firmware_model.feeds import check_program
 from k37.firmware_model.firmware import BlockRecord, Firmware
 from k37.firmware_model.host import Host8085
 from k37.firmware_model.job import Job
+from k37.hdl.bridge.protocol import COUNTER_BITS
 from k37.hdl.chipset.map import chip_register, port
 from k37.sim.link.bridge import BridgeLink, LinkError, Probe, job_identity, open_link
 from k37.sim.run.meter import BlockMeasure
@@ -57,22 +58,25 @@ class _ProbeMeter:
         self.link = link
         self.axes = axes
         self.measures: dict[int, BlockMeasure | None] = {}
-        #: Each block's start and end cycle on the board, where it answers PROBE.
-        self.board_cycles: dict[int, list[int | None]] = {}
+        #: Each block's start and end cycle on the board: from PROBE, else from the bridge's
+        #: cycle counter (a command more at each, no bus cycle).
+        self.board_cycles: dict[int, list[int]] = {}
         self._start: Probe | None = None
+
+    def _board_cycle(self, probe: Probe | None) -> int:
+        return probe.cycle if probe is not None else self.link.board_cycle()
 
     def block_started(self, record: BlockRecord) -> None:
         self._start = self.link.probe()
-        if self._start is not None:
-            self.board_cycles[record.index] = [self._start.cycle, None]
+        self.board_cycles[record.index] = [self._board_cycle(self._start), 0]
 
     def block_ended(self, record: BlockRecord) -> None:
         end = self.link.probe()
+        self.board_cycles[record.index][1] = self._board_cycle(end)
         if end is None or self._start is None:
             self.measures[record.index] = None
             return
         start = self._start
-        self.board_cycles[record.index][1] = end.cycle
         steps = {f"{axis}{sign}": end.axes[axis][name] - start.axes[axis][name]
                  for axis in self.axes for sign, name in (("+", "pulses_pos"),
                                                           ("-", "pulses_neg"))}
@@ -139,7 +143,9 @@ def _run(job: Job, options: RunOptions, link: BridgeLink, url: str) -> RunResult
     firmware = Firmware(host, job, budget_offset=options.budget_offset, observer=meter)
     limit, limit_name = cycle_limit(job, options)
     start = time.perf_counter()
+    board_start = link.board_cycle()
     firmware.run(limit)
+    board_end = link.board_cycle()
     wall = time.perf_counter() - start
     cycles = link.cycle
     status, reason = run_status(firmware, None, limit_name, cycles)
@@ -151,6 +157,7 @@ def _run(job: Job, options: RunOptions, link: BridgeLink, url: str) -> RunResult
         path={"max_contour_error": 0.0, "rms_contour_error": 0.0, "samples": 0})
     report["link"] = {"url": url, "probes": probe is not None,
                       "board_cycle": link.board_cycle(),
+                      "board_cycles": (board_end - board_start) % (1 << COUNTER_BITS),
                       "board_blocks": [meter.board_cycles.get(b.index)
                                        for b in firmware.blocks]}
     validate(report)

@@ -80,10 +80,17 @@ def _point(xy: list[int], lsb_mm: float) -> str:
     return f"({xy[0] * lsb_mm:.3f}, {xy[1] * lsb_mm:.3f}) mm = ({xy[0]}, {xy[1]}) LSB"
 
 
-def _link_line(link: dict) -> str:
+#: How a linked run's time line says whose count it is.
+_HOST_COUNT = " by the host's count"
+
+
+def _link_line(link: dict, clock_hz: float) -> str:
     """What a run over a link says instead of the path's figures."""
-    return (f"over {link['url']}, board at cycle {link['board_cycle']:,}; no samples here (the "
-            f"trace and the path's error are the board's)")
+    board = link.get("board_cycles")
+    own = ("" if board is None else f"; the board's own count (its bridge's counter): "
+           f"{board:,} cycles = {board / clock_hz:.3f} s")
+    return (f"over {link['url']}, board at cycle {link['board_cycle']:,}{own}; no samples "
+            f"here (the trace and the path's error are the board's)")
 
 
 def summary(result: RunResult) -> str:
@@ -101,12 +108,13 @@ def summary(result: RunResult) -> str:
         reached = (f"NOT reached: {why}actual {_point(end['actual'], lsb_mm)}, {off} LSB off "
                    f"(in-position zone {machine.in_position} LSB)")
     lines = [f"k37 run {result.job.name}: {r['status']}: {r['reason']}",
-             f"  time: {r['cycles']:,} cycles = {r['machine_seconds']:.3f} s machine time in "
+             f"  time: {r['cycles']:,} cycles = {r['machine_seconds']:.3f} s machine time"
+             f"{_HOST_COUNT if 'link' in r else ''} in "
              f"{r['wall_seconds']:.2f} s wall ({r['cycles_per_second']:,.0f} cycles/s on "
              f"{r['backend']}{skipped})",
              f"  end point {_point(end['programmed'], lsb_mm)}: {reached}",
              f"  {len(r['blocks'])} block{'s' if len(r['blocks']) != 1 else ''} run; "
-             + (_link_line(r["link"]) if "link" in r else
+             + (_link_line(r["link"], clock) if "link" in r else
                 f"contour error max "
                 f"{path['max_contour_error']:.2f} LSB ({_mm(path['max_contour_error'], lsb_mm)}), "
                 f"rms {path['rms_contour_error']:.2f} LSB "

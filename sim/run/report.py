@@ -167,9 +167,13 @@ RUN_SCHEMA["properties"]["link"] = _obj(
                                                      "board): the blocks' pulses are known"},
         "board_cycle": _int("the bridge's cycle counter at the end (modulo 2^40): ahead of "
                             "`cycles` by the time bytes spent on the line"),
+        "board_cycles": _int("the board's own count of the firmware's run, from its bridge's "
+                             "cycle counter: `cycles` is the host's count, which misses the "
+                             "time bytes spend on the line"),
         "board_blocks": {"type": "array", "items": {"type": ["array", "null"]},
-                         "description": "each block's start and end cycle on the board "
-                                        "(null: not known, a board without PROBE)"},
+                         "description": "each block's start and end cycle on the board, by "
+                                        "PROBE or, from a board without it, by its bridge's "
+                                        "cycle counter"},
     })
 #: Present only when asked for (ballbar), when there are some (events), with ``--link`` or
 #: when a backend was picked (backend_reason).

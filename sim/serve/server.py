@@ -1,8 +1,10 @@
 """``k37 serve``: the simulated machine behind a TCP socket, speaking the host bridge's protocol.
 
-Each connection is a session on a freshly reset machine: the bytes received go through the
-bridge's reference model (:class:`k37.hdl.bridge.model.BridgeModel`) onto the machine's bus,
-interrupt inputs and clock (:class:`k37.sim.link.simulated.SimulatedLink` over a
+The machine is reset once, when the board is made, and keeps its state and its bridge's from
+one connection to the next, as a board does while hosts come and go (a host's first frame ends
+whatever frame a host before it left cut). The bytes received go through the bridge's reference
+model (:class:`k37.hdl.bridge.model.BridgeModel`) onto the machine's bus, interrupt inputs and
+clock (:class:`k37.sim.link.simulated.SimulatedLink` over a
 :class:`k37.sim.run.sampler.Sampler`), and simulated time passes only as the host's commands say
 (and the line's, with a UART's line time), so a session is as deterministic as a run in
 process. The board answers :attr:`Op.PROBE` too: the observation counters a real board has no
@@ -32,7 +34,8 @@ __all__ = ["Session", "SimulatedBoard"]
 
 @dataclass
 class Session:
-    """What one connection did: its peer, the bytes it sent and the cycles it ran."""
+    """What one connection did: its peer, the bytes it sent and the cycles the machine ran
+    while it was connected."""
 
     peer: str
     received: int = 0
@@ -45,8 +48,8 @@ class SimulatedBoard:
 
     ``line``: (cycles per bit, host turnaround in cycles) to let the machine's time include a
     UART's as on a real board (:class:`k37.hdl.bridge.model.LineTimed`); None: time passes only as
-    the commands say. ``trace``: where each session's samples (one every ``sample_every``
-    cycles) are written as CSV when it ends, replacing the previous session's. ``probes``:
+    the commands say. ``trace``: where the machine's samples since it was reset (one every
+    ``sample_every`` cycles) are written as CSV when each session ends. ``probes``:
     False to answer as a real board does, without :attr:`Op.PROBE`.
     """
 
@@ -68,9 +71,16 @@ class SimulatedBoard:
         except BaseException:
             self.listener.close()
             raise
-        self.sample_every = sample_every
         self.identity = job_identity(job)
         self.stop = threading.Event()
+        self.backend.reset()
+        configure_plants(self.backend, job)
+        self.store = SampleStore(job.machine.dac_bits, job.machine.axis_names)
+        self.sampler = Sampler(self.backend, sample_every, self.store, skip_idle=True)
+        self.model: BridgeModel | LineTimed = BridgeModel(
+            SimulatedLink(self.sampler), self.identity, probe=self._probe if probes else None)
+        if line is not None:
+            self.model = LineTimed(self.model, *line)
 
     def _probe(self) -> list[int]:
         backend, axes = self.backend, self.job.machine.axis_names
@@ -79,16 +89,9 @@ class SimulatedBoard:
                   for axis in PROBE_AXES for name in PROBE_FIELDS)]
 
     def serve_one(self, conn: socket.socket, peer: str) -> Session:
-        """Serve one connection to its end, on the machine reset to cycle 0."""
+        """Serve one connection to its end."""
         session = Session(peer)
-        self.backend.reset()
-        configure_plants(self.backend, self.job)
-        store = SampleStore(self.job.machine.dac_bits, self.job.machine.axis_names)
-        sampler = Sampler(self.backend, self.sample_every, store, skip_idle=True)
-        model: BridgeModel | LineTimed = BridgeModel(
-            SimulatedLink(sampler), self.identity, probe=self._probe if self.probes else None)
-        if self.line is not None:
-            model = LineTimed(model, *self.line)
+        began = self.backend.cycle
         with conn:
             while not self.stop.is_set():
                 try:
@@ -98,17 +101,16 @@ class SimulatedBoard:
                 if not data:
                     break
                 session.received += len(data)
-                reply = b"".join(model.receive(byte) for byte in data)
+                reply = b"".join(self.model.receive(byte) for byte in data)
                 if reply:
                     try:
                         conn.sendall(reply)
                     except OSError:
                         break
-        sampler.flush()
-        session.cycles = self.backend.cycle
+        self.sampler.flush()
+        session.cycles = self.backend.cycle - began
         if self.trace is not None:
-            write_samples(store, self.trace)
-        store.close()
+            write_samples(self.store, self.trace)
         return session
 
     def serve(self, sessions: int | None = None,
@@ -131,4 +133,5 @@ class SimulatedBoard:
 
     def close(self) -> None:
         self.listener.close()
+        self.store.close()
         self.backend.close()

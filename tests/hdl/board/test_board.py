@@ -20,7 +20,7 @@ from k37.hdl.board.model.sigma_delta import SigmaDeltaModel
 from k37.hdl.board.pins import ulx3s_pins
 from k37.hdl.board.sigma_delta import SigmaDelta
 from k37.hdl.board.top import BoardTop
-from k37.hdl.bridge.protocol import OK, Identity, Op, encode
+from k37.hdl.bridge.protocol import OK, Op, encode, stuff
 from k37.hdl.chipset.identity import chipset_identity
 from k37.hdl.common.constants import CHIP_HZ
 from k37.sim.fpga.export import pins as export_pins
@@ -144,6 +144,7 @@ def test_the_host_identifies_the_chipset_through_the_boards_uart_pins():
     top = BoardTop(ulx3s_pins(2), axes=2, clock_hz=ratio * CHIP_HZ)
     bit = ratio * top.bridge.cycles_per_bit
     reply = []
+    expected = stuff(bytes([OK, 0]) + chipset_identity(axes=2).encode())
 
     async def bench(ctx):
         ctx.set(top.uart_rx, 1)
@@ -152,7 +153,7 @@ def test_the_host_identifies_the_chipset_through_the_boards_uart_pins():
             for level in [0, *((byte >> k) & 1 for k in range(8)), 1]:
                 ctx.set(top.uart_rx, level)
                 await ctx.tick().repeat(bit)
-        for _ in range(7):
+        for _ in range(len(expected)):
             waited = 0
             while ctx.get(top.uart_tx):
                 await ctx.tick()
@@ -168,8 +169,7 @@ def test_the_host_identifies_the_chipset_through_the_boards_uart_pins():
             reply.append(byte)
 
     simulate(top, bench)
-    assert reply[0] == OK
-    assert Identity.decode(bytes(reply[1:])) == chipset_identity(axes=2)
+    assert bytes(reply) == expected
 
 
 # --- the build plan -------------------------------------------------------------------------
@@ -210,6 +210,15 @@ def test_build_refuses_an_unwritable_folder_and_names_the_missing_extra(tmp_path
     assert done.returncode == 2
     assert "needs the fpga extra (pip install -e '.[fpga]')" in done.stderr
     assert "Traceback" not in done.stderr
+
+
+def test_synth_without_its_tools_says_so_in_one_line_and_exits_2(tmp_path):
+    env = {**os.environ, "PATH": str(tmp_path)}   # no tool anywhere
+    done = _k37("synth", "--block", "divider", env=env)
+    assert done.returncode == 2
+    assert done.stderr.startswith("k37: error: synthesis needs the fpga extra "
+                                  "(pip install -e '.[fpga]'): yosys is not installed")
+    assert len(done.stderr.splitlines()) == 1
 
 
 @needs_boards

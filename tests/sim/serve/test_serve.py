@@ -15,9 +15,9 @@ from contextlib import contextmanager
 import pytest
 
 from k37.firmware_model.job import Job, MachineConfig
-from k37.hdl.bridge.protocol import DEFAULT_BAUD, Identity
+from k37.hdl.bridge.protocol import DEFAULT_BAUD, OK, Identity, Op, encode, stuff
 from k37.hdl.chipset.identity import chipset_identity
-from k37.hdl.chipset.map import Accel
+from k37.hdl.chipset.map import Accel, port
 from k37.sim.link.bridge import (
     BridgeLink,
     LinkError,
@@ -92,7 +92,11 @@ def test_a_board_without_probe_reports_what_a_host_can_read(make_job):
         linked = run_linked(job, RunOptions(), f"tcp://127.0.0.1:{board.port}")
     report = linked.report
     assert report["link"]["probes"] is False
-    assert report["link"]["board_blocks"] == [None] * len(report["blocks"])
+    # the blocks' cycles on the board, from its bridge's counter: on a board without line
+    # time, the host's count
+    assert report["link"]["board_blocks"] == [[b["start_cycle"], b["end_cycle"]]
+                                              for b in report["blocks"]]
+    assert report["link"]["board_cycles"] == report["cycles"]
     for a, b in zip(here.report["blocks"], report["blocks"], strict=True):
         assert (b["fp_pulses"], b["steps"], b["end_command"]) == (None, None, None)
         assert (b["start_cycle"], b["end_cycle"]) == (a["start_cycle"], a["end_cycle"])
@@ -104,16 +108,28 @@ def test_a_board_without_probe_reports_what_a_host_can_read(make_job):
         assert seen["max_abs_error"] is None
         assert seen["flags"] == there["flags"]
     assert report["end_point"]["reached"] == here.report["end_point"]["reached"]
-    assert "max |error| unknown" in summary(linked)
+    text = summary(linked)
+    assert "max |error| unknown" in text
+    assert "machine time by the host's count" in text
+    assert f"the board's own count (its bridge's counter): {report['cycles']:,} cycles" in text
 
 
-def test_a_served_board_is_reset_for_each_session(make_job):
+def test_a_served_board_keeps_its_state_across_sessions_and_a_cut_frame_writes_nothing(
+        make_job):
     job = make_job("G21 G91 F900\nG01 X0.2 Y0.1\nM30")
-    with served(job, sessions=2) as board:
-        first, second = (run_linked(job, RunOptions(), f"tcp://127.0.0.1:{board.port}")
-                         for _ in range(2))
-    for key in SAME:
-        assert first.report[key] == second.report[key], key
+    zone = [port("K3702_X", "POSITION_ZONE", k) for k in range(3)]
+    with served(job, sessions=3) as board:
+        url = f"tcp://127.0.0.1:{board.port}"
+        link = open_link(url, timeout=5)
+        for k, address in enumerate(zone):
+            link.write(address, 0x12 + k)
+        link.close()
+        with socket.create_connection(("127.0.0.1", board.port)) as host:
+            host.sendall(encode(Op.WRITE, zone[0], 0x49, seq=9)[:-1])  # a host dies mid-frame
+        link = open_link(url, timeout=5)
+        assert [link.read(address) for address in zone] == [0x12, 0x13, 0x14]
+        assert link.board_cycle() > 3
+        link.close()
 
 
 def test_a_machine_with_other_axes_is_refused(make_job):
@@ -156,9 +172,10 @@ class Replies:
 
     def __init__(self, data: bytes):
         self.data = bytearray(data)
+        self.sent: list[bytes] = []
 
     def write(self, frame: bytes) -> None:
-        pass
+        self.sent.append(frame)
 
     def read(self, n: int) -> bytes:
         out = bytes(self.data[:n])
@@ -169,14 +186,26 @@ class Replies:
         pass
 
 
+IDENT_REPLY = stuff(bytes([OK, 0]) + chipset_identity().encode())
+
+
 def test_an_error_reply_or_a_short_one_is_named():
-    with pytest.raises(LinkError, match="far: the bridge answered READ with error FRAMING"):
-        BridgeLink(Replies(b"!\x02"), "far").read(3)
-    with pytest.raises(LinkError, match="far: IDENT's reply stopped after 2 of 7 bytes"):
-        BridgeLink(Replies(b"+\x01"), "far").identify()
-    real = BridgeLink(Replies(b"!\x01"), "far")  # no PROBE: a real board
+    with pytest.raises(LinkError, match="far: the bridge answered IDENT with error FRAMING"):
+        BridgeLink(Replies(stuff(b"!\x02") * 3), "far").identify()
+    with pytest.raises(LinkError, match="far: IDENT's reply had 1 bytes of results, not 6"):
+        BridgeLink(Replies(stuff(b"+\x00\x01")), "far").identify()
+    real = BridgeLink(Replies(IDENT_REPLY + stuff(b"!\x01")), "far")  # no PROBE: a real board
     assert real.probe() is None
     assert real.probes is False
+
+
+def test_a_frame_answered_with_an_error_or_a_broken_reply_is_sent_again():
+    far = Replies(stuff(b"!\x03") + b"\xc1+\x00\x00\xc0" + IDENT_REPLY
+                  + stuff(bytes([OK, 0]) + b"\x09") + stuff(bytes([OK, 1, 0x42])))
+    link = BridgeLink(far, "far")
+    assert link.identify() == chipset_identity()
+    assert link.read(7) == 0x42  # a stale reply with another sequence byte is skipped
+    assert far.sent == [encode(Op.IDENT, seq=0)] * 2 + [encode(Op.READ, 7, seq=1)]
 
 
 def test_urls_choose_the_transport():
@@ -283,7 +312,7 @@ def test_line_time_lengthens_the_gaps_and_keeps_every_blocks_pulses(make_job):
     in_process_gap = here["blocks"][1]["start_cycle"] - here["blocks"][0]["end_cycle"]
     # every command of the gap now also costs its bytes (80 cycles each) and the host's 500
     assert start1 - end0 > in_process_gap + 500
-    assert linked["link"]["board_cycle"] > linked["cycles"]
+    assert linked["link"]["board_cycle"] > linked["link"]["board_cycles"] > linked["cycles"]
 
 
 def test_a_bad_line_is_refused(make_job):
