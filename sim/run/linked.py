@@ -26,16 +26,10 @@ from k37.firmware_model.job import Job
 from k37.hdl.bridge.protocol import COUNTER_BITS
 from k37.hdl.chipset.map import chip_register, port
 from k37.sim.link.bridge import BridgeLink, LinkError, Probe, job_identity, open_link
+from k37.sim.run.assemble import report_document, run_status
 from k37.sim.run.meter import BlockMeasure
 from k37.sim.run.report import validate
-from k37.sim.run.runner import (
-    OptionError,
-    RunOptions,
-    RunResult,
-    cycle_limit,
-    report_document,
-    run_status,
-)
+from k37.sim.run.runner import OptionError, RunOptions, RunResult, cycle_limit
 from k37.sim.run.sampler import SampleStore
 
 __all__ = ["LinkError", "check_linked_options", "run_linked"]

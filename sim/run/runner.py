@@ -34,12 +34,11 @@ import numpy as np
 
 import k37.hdl
 import k37.sim.machine
-from k37.firmware_model.feeds import check_program, clamped_feeds, program_seconds
-from k37.firmware_model.firmware import BlockRecord, Firmware
+from k37.firmware_model.feeds import check_program, program_seconds
+from k37.firmware_model.firmware import Firmware
 from k37.firmware_model.host import Host8085
 from k37.firmware_model.job import Job
 from k37.firmware_model.motion.program import Dwell, Event
-from k37.hdl.chipset.map import chip_register, port
 from k37.sim.backends.contract import Backend
 from k37.sim.backends.engine.support import unsupported
 from k37.sim.backends.factory import BACKEND_NAMES, make_backend
@@ -49,18 +48,18 @@ if TYPE_CHECKING:
     from k37.sim.machine.system import System
 from k37.sim.link.simulated import SimulatedLink
 from k37.sim.machine.servo import axis_port, servo_ports
-from k37.sim.run.contour import contour_summary
+from k37.sim.run.assemble import measured_report, run_status
 from k37.sim.run.fst import convert_in_child
-from k37.sim.run.meter import BlockMeasure, BlockMeter
+from k37.sim.run.meter import BlockMeter
 from k37.sim.run.progress import ProgramPlan, Progress
-from k37.sim.run.report import SCHEMA_VERSION, validate
+from k37.sim.run.report import validate
 from k37.sim.run.sampler import Sampler, SampleStore
 from k37.sim.run.stall import RunStopped, StallWatch
 from k37.sim.run.waveform import is_fst
 
 __all__ = ["STOP_SIGNALS", "OptionError", "RunOptions", "RunResult", "RunStopped",
-           "build_backend", "check_options", "configure_plants", "cycle_limit", "report_document",
-           "reused_backend", "run_job", "run_status", "system_params"]
+           "build_backend", "check_options", "configure_plants", "cycle_limit", "reused_backend",
+           "run_job", "system_params"]
 
 
 @dataclass
@@ -348,7 +347,7 @@ def _run(job: Job, options: RunOptions, backend: Backend, traced: Path | None) -
     wall = time.perf_counter() - watch.start
     sampler.flush()
     status, reason = run_status(firmware, stopped, limit_name, backend.cycle)
-    report = _report(job, backend, firmware, meter, store, wall, status, reason)
+    report = measured_report(job, backend, firmware, meter, store, wall, status, reason)
     failures = []
     if options.vcd is not None and traced is not None:
         backend.stop_trace()
@@ -427,95 +426,3 @@ def cycle_limit(job: Job, options: RunOptions) -> tuple[int, str]:
     if cycles >= by_option[0]:
         return by_option
     return cycles, f"the job's limit, run.max_time_s = {seconds:g} s ({cycles:,} cycles),"
-
-
-def run_status(firmware: Firmware, stopped: RunStopped | None, limit_name: str,
-               cycles: int) -> tuple[str, str]:
-    """The run's status and why, in words."""
-    for alarm in firmware.alarms:
-        if alarm.kind == "alarm":
-            return "alarm", (f"K3702 alarm on axis {alarm.axis} at cycle {alarm.cycle:,} "
-                             f"(|error| beyond the alarm zone)")
-    if firmware.alarms:
-        fault = firmware.alarms[0]
-        axis = f" on axis {fault.axis}" if fault.axis else ""
-        return "fault", f"{fault.kind}{axis} at cycle {fault.cycle:,}"
-    if stopped is not None:
-        return stopped.status, stopped.reason
-    if firmware.timed_out:
-        return "timeout", f"{limit_name} ran out at cycle {cycles:,}"
-    return "ok", "the program ran to its end"
-
-
-def _block_report(b: BlockRecord, measure: BlockMeasure) -> dict:
-    return {"index": b.index, "line": b.line, "kind": b.kind, "start_cycle": b.start_cycle,
-            "end_cycle": b.end_cycle, "fp_budget": b.fp_budget,
-            "fp_pulses": measure.fp_pulses, "feed_word": b.feed_word, "steps": measure.steps,
-            "end_command": None if measure.end_command is None else list(measure.end_command)}
-
-
-def _axis_report(backend: Backend, axis: str) -> dict:
-    chip = f"K3702_{axis.upper()}"
-    status = chip_register(chip, "STATUS")
-    # Read after the run has been timed and counted: the reads cost a cycle each.
-    word = backend.bus_read(port(chip, "STATUS"))
-    return {"command": backend.get(f"{axis}__command"), "error": backend.get(f"{axis}__error"),
-            "actual": backend.get(f"{axis}__count"),
-            "max_abs_error": backend.get(f"{axis}__max_abs_error"),
-            "flags": {f.name: f.decode(word) for f in status.fields}}
-
-
-def _end_point(job: Job, firmware: Firmware, axes: dict[str, dict]) -> dict:
-    programmed = list(job.program.final_position)
-    actual = [axes[axis]["actual"] for axis in job.machine.axis_names]
-    zone = job.machine.in_position
-    moves = len(job.program.moves)
-    ran = len(firmware.blocks) == moves and all(b.end_cycle is not None for b in firmware.blocks)
-    return {"programmed": programmed, "actual": actual, "program_ran": ran,
-            "reached": ran and all(abs(a - p) <= zone
-                                   for a, p in zip(actual, programmed, strict=True))}
-
-
-def _report(job: Job, backend: Backend, firmware: Firmware, meter: BlockMeter,
-            store: SampleStore, wall: float, status: str, reason: str) -> dict:
-    max_contour, rms_contour = contour_summary(
-        job, [(b.index, b.start_cycle) for b in firmware.blocks], store)
-    return report_document(
-        job, firmware, status=status, reason=reason, backend=backend.name,
-        backend_reason=backend.reason, cycles=backend.cycle, wall=wall,
-        skipped=backend.skipped_cycles,
-        blocks=[_block_report(b, meter.of(b)) for b in firmware.blocks],
-        axes={axis: _axis_report(backend, axis) for axis in job.machine.axis_names},
-        path={"max_contour_error": max_contour, "rms_contour_error": rms_contour,
-              "samples": store.rows})
-
-
-def report_document(job: Job, firmware: Firmware, *, status: str, reason: str, backend: str,
-                    backend_reason: str = "", cycles: int, wall: float, skipped: int,
-                    blocks: list[dict], axes: dict[str, dict], path: dict) -> dict:
-    """The report of a run of ``job`` by ``firmware`` (:mod:`k37.sim.run.report`), from what was
-    measured of it."""
-    clock = job.machine.clock_hz
-    return {
-        "schema_version": SCHEMA_VERSION,
-        "job": job.to_dict(),
-        "status": status,
-        "reason": reason,
-        "backend": backend,
-        **({"backend_reason": backend_reason} if backend_reason else {}),
-        "cycles": cycles,
-        "clock_hz": clock,
-        "machine_seconds": cycles / clock,
-        "wall_seconds": wall,
-        "cycles_per_second": cycles / wall if wall > 0 else 0.0,
-        "skipped_cycles": skipped,
-        "blocks": blocks,
-        "axes": axes,
-        "end_point": _end_point(job, firmware, axes),
-        "path": path,
-        "alarms": [{"axis": a.axis, "cycle": a.cycle, "kind": a.kind} for a in firmware.alarms],
-        "warnings": [*job.program.notes, *clamped_feeds(job)],
-        **({"events": [{"line": r.event.line_no, "word": r.event.word, "kind": r.event.kind,
-                        "value": r.event.value, "cycle": r.cycle} for r in firmware.events]}
-           if job.program.events else {}),
-    }
