@@ -399,7 +399,8 @@ def _controlled_rows(sec: Section, controlled: dict[str, _Contour],
         "the paper leaves open: the VGCCC's gains are the CEC's PID (Kcp 7, Kci 50/s, "
         "Kcd 0.5 s), so the two differ only in their contour error model; the distributor "
         "applies the PID to the contour error vector component by component (the PID of the "
-        "error along the vector while its direction holds); the derivative is the plain "
+        "error along the vector while its direction holds), its integral keeping only its "
+        "part across the path's tangent (it turns with the path); the derivative is the plain "
         "difference over one sample; the computation takes no time (the paper's PC), the "
         "reads and writes take the 8085's.",
         "RMS is read as the root mean square of the contour error over the samples while the "
