@@ -16,7 +16,10 @@ contour-error paper's point: its controller is better because its error model is
 
 The vector then goes through a PID (gains ``kcp``, ``kci``, ``kcd``) taken component by
 component, which is the PID of the contour error distributed along the error vector while its
-direction holds; the result is the correction (LSB) the host adds to each axis's D/A word.
+direction holds; the integral keeps only its part across the path's tangent (at the tool's
+nearest point for the CEC, at the reference for the others), so it turns with the path. The
+result is the correction (LSB) the host adds to each axis's D/A word. Every controller lets
+go at a corner (:data:`CORNER_DEG`).
 """
 
 from __future__ import annotations
@@ -32,8 +35,8 @@ from k37.firmware_model.motion.program import Move
 
 __all__ = ["CORNER_DEG", "ContourController", "derivatives", "error_vector"]
 
-#: A junction whose tangent turns by more than this (degrees) is a corner: the CEC lets go
-#: of the tool from when the reference passes it until the tool's nearest point does.
+#: A junction whose tangent turns by more than this (degrees) is a corner: every controller
+#: lets go of the tool from when the reference passes it until the tool's nearest point does.
 CORNER_DEG = 30.0
 
 
@@ -102,21 +105,41 @@ class ContourController:
         ``move_index`` (its item index) running."""
         c = self.config
         running = self.index[move_index]
-        error = error_vector(c.controller, self.path, running,
-                             np.asarray(reference, dtype=float),
-                             np.asarray(actual, dtype=float), self.tracker)
-        if c.controller == "cec" and ((self.corners >= self.tracker.segment)
-                                      & (self.corners < running)).any():
-            # The reference has turned a corner the tool has not: the CEC lets go (the
+        actual = np.asarray(actual, dtype=float)
+        foot = self.tracker.track(actual[None],
+                                  np.array([min(running + 1, len(self.path.moves) - 1)]))
+        if ((self.corners >= self.tracker.segment) & (self.corners < running)).any():
+            # The reference has turned a corner the tool has not: the controller lets go (the
             # position loops turn the corner) and starts afresh once the tool's nearest point
             # is past it (no derivative kick, no integral of the stretch before).
             self.integral[:] = 0
             self.last = None
-            return np.zeros_like(error)
+            return np.zeros_like(actual)
+        error = (foot.point[0] - actual if c.controller == "cec" else
+                 error_vector(c.controller, self.path, running,
+                              np.asarray(reference, dtype=float), actual))
+        # The integral keeps only its part across the path (the contour error's part): as
+        # the path turns, its part along the new tangent is dropped, and the rest turns with
+        # the path (a component-wise integral of an error that turns with the path, round a
+        # circle, would keep a constant part that pushes the whole circle off centre).
+        if c.controller == "cec":
+            along = _unit_tangent(self.path.segments[int(foot.segment[0])], float(foot.param[0]))
+        else:
+            segment = self.path.segments[running]
+            along = _unit_tangent(segment, float(segment.foot(np.asarray(
+                reference, dtype=float)[None])[0][0]))
+        self.integral -= (self.integral @ along) * along
         self.integral += error * self.period_s
         change = np.zeros_like(error) if self.last is None else error - self.last
         self.last = error
         return c.kcp * error + c.kci * self.integral + c.kcd * change / self.period_s
+
+
+def _unit_tangent(segment: Segment, u: float) -> np.ndarray:
+    """The unit tangent of ``segment`` at ``u`` (zero where it has none)."""
+    d1 = derivatives(segment, u)[1]
+    size = float(np.sqrt(d1 @ d1))
+    return d1 / size if size else d1
 
 
 def _turn(before: Segment, after: Segment) -> float:

@@ -49,12 +49,12 @@ def section(runs: dict[str, RunData], specs: Specs, out: Path) -> Section:
     sec.row("accel/decel output reaches 63% of its final rate (Photo 1)",
             f"about 300 ms (tau = 2^15 / 109.227 kHz = {1e3 * PAPER_TAU_S:.0f} ms)",
             f"{1e3 * t63:.1f} ms at fi = {fi:.0f} FP/s (feed word {FEED_HIGH})",
-            "within 3% of 300 ms", abs(t63 - PAPER_TAU_S) <= 0.03 * PAPER_TAU_S)
+            "within 3% of 300 ms", abs(t63 - PAPER_TAU_S) <= 0.03 * PAPER_TAU_S, kind="number")
     deviation = np.abs(rate - rate_model).max() / fi
     sec.row("output rate follows fi (1 - exp(-t/tau)) up and the exponential decay down",
             "equation (1), an exponential curve",
             f"largest deviation {pct(deviation)} of fi (20 ms windows)",
-            "within 3% of fi at every sample", deviation <= 0.03)
+            "within 3% of fi at every sample", deviation <= 0.03, kind="number")
 
     scale_v = DAC_VOLTS / (1 << (machine.dac_bits - 1))
     half = 1 << (machine.dac_bits - 1)
@@ -72,7 +72,7 @@ def section(runs: dict[str, RunData], specs: Specs, out: Path) -> Section:
             f"X: peak {measured.max():.3f} V (model {volts['x'].max():.3f} V; v / Kp at the "
             f"full feed {steady:.3f} V), 63% of that at {1e3 * dac63:.0f} ms; largest "
             f"deviation from the model {pct(dac_dev)}",
-            "within 5% of the steady voltage at every sample", dac_dev <= 0.05)
+            "within 5% of the steady voltage at every sample", dac_dev <= 0.05, kind="trend")
 
     sec.text += [
         f"The paper ran the accel/decel circuit with n = 15 and fa = 109.227 kHz and read the "

@@ -37,7 +37,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
             f"block ends with the circuit empty ({left_exact} FP left, output 0 FP/s); "
             f"{eb['fp_pulses']} FP received; X at {exact.report['axes']['x']['actual']}",
             "exact", left_exact == 0 and eb["fp_pulses"] == need
-            and exact.report["axes"]["x"]["actual"] == end)
+            and exact.report["axes"]["x"]["actual"] == end, kind="trend")
 
     left = pb["fp_budget"] - pb["fp_pulses"]
     early = (eb["end_cycle"] - pb["end_cycle"]) / clock
@@ -50,7 +50,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
             f"later ({late_fp} FP) and is ignored: {plus.probes['x_steps']} steps, X command "
             f"{plus.probes['x_command']}",
             "exact counts", left == 1 and late_fp == 1 and plus.probes["x_steps"] == need
-            and plus.report["status"] == "ok")
+            and plus.report["status"] == "ok", kind="trend")
 
     waited = (minus.report["cycles"] - eb["end_cycle"]) / clock
     sec.row("budget one too low",
@@ -62,7 +62,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
             f"{minus.probes['fp_total']} FP delivered",
             "exact counts", minus.report["status"] == "timeout" and minus.probes["busy"] == 1
             and minus.probes["remaining_x"] == 1 and minus.probes["x_command"] == end - 1
-            and minus.probes["fp_total"] == need - 1)
+            and minus.probes["fp_total"] == need - 1, kind="trend")
     sec.text += [
         "The paper warns that under FP control the host's count of the FP a block needs must "
         "equal the interpolator's; the decel control's datasheet spells out the two ways it "

@@ -244,7 +244,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
             f"{mean:.3f} mm (max {bezier.error.max():.3f}); the linear plant on an exact "
             f"60 mm/s reference: {ideal:.3f} mm",
             "within 10% of the paper's",
-            abs(mean / TABLE3_MEAN - 1) <= 0.10)
+            abs(mean / TABLE3_MEAN - 1) <= 0.10, kind="number")
     cells = []
     ok = True
     for name, c in got.items():
@@ -256,7 +256,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
             "(G(s) = K / (s (1 + s tau) + K)) fed the machine's own command path",
             f"no P-only figure for the parabola (Table 2: variable-gain CCC mean "
             f"{TABLE2_VGCCC[1]} mm, max {TABLE2_VGCCC[0]})",
-            "; ".join(cells), "mean within 3% of the model's", ok)
+            "; ".join(cells), "mean within 3% of the model's", ok, kind="quoted")
     # Fig. 6(b) from the paper's printed points.
     curve = curves["parabola"]
     ref, tool = np.array(FIG6B["reference"]), np.array(FIG6B["tool"])
@@ -270,7 +270,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
             f"R {radius:.3f} mm, estimate {estimate:.3f} mm, contour error {nearest:.3f} mm",
             "each within 0.002 mm (the points are printed to 1 um)",
             max(abs(radius - FIG6B["radius"]), abs(estimate - FIG6B["estimate"]),
-                abs(nearest - FIG6B["error"])) <= 0.002)
+                abs(nearest - FIG6B["error"])) <= 0.002, kind="number")
     # The same geometry on the machine's run, when the command reaches that point.
     k = int(np.argmin(np.hypot(*(parabola.command - ref).T)))
     u_cmd = curve.nearest(parabola.command[k][None, :])[0][0]
@@ -283,7 +283,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
             f"{parabola.actual[k][1]:.3f}): estimate {mine:.3f} mm, contour error "
             f"{parabola.error[k]:.3f} mm",
             "the estimate off the contour error by more than half of it",
-            abs(mine - parabola.error[k]) > parabola.error[k] / 2)
+            abs(mine - parabola.error[k]) > parabola.error[k] / 2, kind="trend")
     controlled = {key: _contour(runs[key], curves[name])
                   for key, (name, _) in CONTOUR_RUNS.items()}
     controlled_text = _controlled_rows(sec, controlled, bezier)
@@ -376,7 +376,7 @@ def _controlled_rows(sec: Section, controlled: dict[str, _Contour],
             f"both ratios within a factor {RATIO_TOLERANCE} of the paper's (the absolute "
             "values are not checked)",
             all(1 / RATIO_TOLERANCE <= m / p <= RATIO_TOLERANCE
-                for m, p in zip(mine2, paper2, strict=True)))
+                for m, p in zip(mine2, paper2, strict=True)), kind="trend")
     paper3, mine3 = ratios("bezier", "none")
     table3 = TABLES["bezier"]
     sec.row("Table 3, Bezier curve: the P controller alone against the CEC, max/mean/RMS "
@@ -388,7 +388,7 @@ def _controlled_rows(sec: Section, controlled: dict[str, _Contour],
             f"CEC / P: max {mine3[0]:.3f}, mean {mine3[1]:.3f}",
             f"CEC mean at most 1/{TABLE3_FACTOR} of the P controller's (the text's factor), "
             "CEC max below P's",
-            mine3[1] <= 1 / TABLE3_FACTOR and mine3[0] < 1)
+            mine3[1] <= 1 / TABLE3_FACTOR and mine3[0] < 1, kind="trend")
     return [
         "Tables 2 and 3 run the host's contour controllers (`[contour] controller`, "
         "docs/guide/contour.md) on the same chords: every 1 ms the 8085 reads each axis's "
@@ -399,7 +399,8 @@ def _controlled_rows(sec: Section, controlled: dict[str, _Contour],
         "the paper leaves open: the VGCCC's gains are the CEC's PID (Kcp 7, Kci 50/s, "
         "Kcd 0.5 s), so the two differ only in their contour error model; the distributor "
         "applies the PID to the contour error vector component by component (the PID of the "
-        "error along the vector while its direction holds); the derivative is the plain "
+        "error along the vector while its direction holds), its integral keeping only its "
+        "part across the path's tangent (it turns with the path); the derivative is the plain "
         "difference over one sample; the computation takes no time (the paper's PC), the "
         "reads and writes take the 8085's.",
         "RMS is read as the root mean square of the contour error over the samples while the "

@@ -209,14 +209,15 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
     sec.row("exponential circuit (Fig. 2, the chip's) against the discrete recursion eq (35)",
             "f_o(k) = f_o(k-1) + [f_i(k) - f_o(k-1)] / 2^n per addition pulse",
             f"largest gap between the cumulative outputs: {gaps}",
-            "below 1 pulse at every addition", max(c.gap for c in checks) < 1)
+            "below 1 pulse at every addition", max(c.gap for c in checks) < 1, kind="number")
     misfit = max(abs(c.peak - c.model_peak) - 0.05 * c.model_peak for c in corners.values())
     peaks = ", ".join(f"{key[12:]}: {c.peak:.0f} (model {c.model_peak:.0f})"
                       for key, c in corners.items())
     sec.row("corner following error against the filters' model",
             "none (the paper has no model of it)",
             f"peak |command - actual| in LSB: {peaks}",
-            "within 5% + 2 LSB of the filter followed by the servo (Kf = 1)", misfit <= 2)
+            "within 5% + 2 LSB of the filter followed by the servo (Kf = 1)", misfit <= 2,
+            kind="quoted")
     for shape in SHAPES:
         short, long = (corners[_key(shape, tau)] for tau in CORNER_TAUS)
         um = PAPER_CORNER_UM[shape]
@@ -225,7 +226,8 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
                 f"+-{short.peak:.0f} -> +-{long.peak:.0f} LSB ({short.peak / long.peak:.2f}x "
                 f"smaller); the path cuts the corner by {short.inside:.0f} -> "
                 f"{long.inside:.0f} LSB",
-                "smaller at 30 ms (the trend; not the paper's ratio)", long.peak < short.peak)
+                "smaller at 30 ms (the trend; not the paper's ratio)", long.peak < short.peak,
+                kind="trend")
     drive = torque_params(MACHINE["post"], RESONANT_SERVO)
     assert isinstance(drive, TwoMassParams)
     for shape in SHAPES:
@@ -242,7 +244,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
                 f"+-{parts[0]:.0f} -> +-{parts[1]:.0f} LSB ({parts[0] / parts[1]:.2f}x)",
                 "smaller at 30 ms, and by more than on the rigid axis (the trend; the ratio "
                 "depends on a resonance the paper does not give)",
-                long < short and short / long > rigid[0] / rigid[1])
+                long < short and short / long > rigid[0] / rigid[1], kind="trend")
     sec.text += [
         "Eq (35) is the circuit of the paper's Fig. 2 (the KM3701's exponential accel/decel "
         "circuit) written per addition pulse: the output of period k is the counter x̂(k) / "

@@ -36,7 +36,7 @@ def section(runs: dict[str, RunData], circles: dict[str, Circle], specs: Specs,
             f"largest distance from the programmed line {np.abs(off).max():.2f} LSB; ends at "
             f"({final['x']['actual']}, {final['y']['actual']})",
             f"within 2 LSB (0.5 LSB of the steps' staircase + 1 encoder count); ends at "
-            f"({xe}, {ye}) exactly", np.abs(off).max() <= 2 and at_end)
+            f"({xe}, {ye}) exactly", np.abs(off).max() <= 2 and at_end, kind="trend")
     circle = circles["pre_circle"]
     axes = runs["pre_circle"].report["axes"]
     closed = all(axes[a][k] == 0 for a in AXES for k in ("command", "actual", "error"))
@@ -44,7 +44,7 @@ def section(runs: dict[str, RunData], circles: dict[str, Circle], specs: Specs,
                      f"{axes[a]['error']}" for a in AXES)
     sec.row("circular interpolation (Photo 6)", "a circle",
             f"ends {ends}; radial error only the servo's ({circle.worst:.1f} LSB, row 4d)",
-            "closes exactly at its start (0, 0)", closed)
+            "closes exactly at its start (0, 0)", closed, kind="trend")
     sec.text += [
         "Photos 5 and 6 show a line and a circle run under FP control. The emulator's are the "
         f"line of experiment 1 ({xe}, {ye}) LSB and the FP-control circle of experiment 4. "

@@ -57,7 +57,7 @@ def section(runs: dict[str, RunData], out: Path) -> Section:
                 f"R = {big})",
                 f"largest difference {worst[sqrt2]:.2f} FP over R = "
                 f"{', '.join(map(str, TABLE1_RADII))}; {counts[-1]} FP at 90 deg, R = {big}",
-                "within 1 FP", worst[sqrt2] <= 1.0)
+                "within 1 FP", worst[sqrt2] <= 1.0, kind="number")
     used = [(key, runs[key].report["blocks"][0]) for key in sec.runs]
     exact = all(b["fp_pulses"] == b["fp_budget"] and runs[k].report["status"] == "ok"
                 for k, b in used)
@@ -65,7 +65,7 @@ def section(runs: dict[str, RunData], out: Path) -> Section:
             "the host must compute the exact count (section 2 (2))",
             "; ".join(f"{k}: budget {b['fp_budget']}, received {b['fp_pulses']}, ended"
                       for k, b in used),
-            "exact (0 FP)", exact)
+            "exact (0 FP)", exact, kind="trend")
     sec.text += [
         "Table 1 of the paper gives the FP a circular block needs from the x axis through "
         "theta; its printed formulas are garbled, and the corrected Table 1 of the K3701's "

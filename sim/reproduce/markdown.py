@@ -1,7 +1,8 @@
 """The report of a reproduction: its rows and sections, ``report.md`` and the figures' plumbing.
 
 Each experiment fills a :class:`Section` with :class:`Row` s (the paper's figure, the
-emulator's, the tolerance, pass or fail) and a figure; :func:`report_markdown` writes them
+emulator's, the tolerance, pass or fail, and the row's kind, one of :data:`KINDS`) and a
+figure; :func:`report_markdown` writes them
 with what each scale shrank and the run times.
 """
 
@@ -19,8 +20,16 @@ from k37.sim.reproduce.paper import FEED_HIGH, FEED_LOW, PAPER_TAU_S
 from k37.sim.reproduce.runs import MACHINE, QUICK, SERVO, RunData, Scale, run_specs
 from k37.sim.reproduce.theory import fp_rate
 
-__all__ = ["Reproduction", "Row", "Section", "pct", "pyplot", "report_markdown", "save_figure",
-           "table_markdown"]
+__all__ = ["KINDS", "Reproduction", "Row", "Section", "pct", "pyplot", "report_markdown",
+           "save_figure", "scoreboard", "table_markdown"]
+
+
+#: What a row's pass means: the paper's number reproduced within the stated tolerance; the
+#: paper's trend, direction or observation in words only (its number, if it gives one, is not
+#: reached); or the paper's figure quoted where it has none comparable (the emulator is
+#: checked against its own model).
+KINDS = {"number": "reproduce the paper's number", "trend": "its trend or direction only",
+         "quoted": "have no comparable figure in the paper (the emulator against a model)"}
 
 
 @dataclass
@@ -32,6 +41,11 @@ class Row:
     emulator: str
     tolerance: str
     passed: bool
+    kind: str
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"a row's kind is one of {', '.join(KINDS)}, not {self.kind!r}")
 
 
 @dataclass
@@ -47,9 +61,9 @@ class Section:
     figure: str | None = None
 
     def row(self, what: str, paper: str, emulator: str, tolerance: str,
-            passed: bool | np.bool_) -> None:
-        """Add a row to the table."""
-        self.rows.append(Row(what, paper, emulator, tolerance, bool(passed)))
+            passed: bool | np.bool_, *, kind: str) -> None:
+        """Add a row of ``kind`` (one of :data:`KINDS`) to the table."""
+        self.rows.append(Row(what, paper, emulator, tolerance, bool(passed), kind))
 
 
 @dataclass
@@ -100,15 +114,24 @@ def _cell(text: str) -> str:
 
 def table_markdown(result: Reproduction) -> str:
     """The report's table: one row per observation, with its experiment and figure."""
-    lines = ["| # | observation | paper | emulator | tolerance | pass |",
-             "|---|---|---|---|---|---|"]
+    lines = ["| # | observation | paper | emulator | tolerance | kind | pass |",
+             "|---|---|---|---|---|---|---|"]
     for sec in result.sections:
         for k, row in enumerate(sec.rows):
             number = f"{sec.number}{'abcdefghijklmnopqrstuvwxyz'[k]}"
             lines.append(f"| {number} | {_cell(row.what)} | {_cell(row.paper)} | "
-                         f"{_cell(row.emulator)} | {_cell(row.tolerance)} | "
+                         f"{_cell(row.emulator)} | {_cell(row.tolerance)} | {row.kind} | "
                          f"{'pass' if row.passed else '**FAIL**'} |")
     return "\n".join(lines) + "\n"
+
+
+def scoreboard(rows: list[Row]) -> str:
+    """The headline: how many rows pass, counted by kind."""
+    passed = [row for row in rows if row.passed]
+    counts = [f"{sum(row.kind == kind for row in passed)} {text}"
+              for kind, text in KINDS.items()]
+    return (f"{len(passed)} of {len(rows)} rows pass: {counts[0]} within the stated "
+            f"tolerance, {counts[1]}, {counts[2]}")
 
 
 def _scaled_down(scale: Scale) -> list[str]:
@@ -144,10 +167,12 @@ def report_markdown(result: Reproduction) -> str:
     scale = result.scale
     lines = ["# Reproducing the paper on the emulator", "",
              f"Written by `k37 reproduce{' --quick' if scale is QUICK else ''}`: "
-             f"{sum(r.passed for r in result.rows)} of {len(result.rows)} rows pass. Each row "
+             f"{scoreboard(result.rows)}. Each row "
              f"compares an observation of the paper (its photos, section 2 and Table 1; "
              f"sections 1-7) or of one of the four companion papers (sections 8-11) with "
-             f"what the emulator does, within the tolerance given; the experiments ran on the "
+             f"what the emulator does, within the tolerance given (its kind: the paper's "
+             f"number, its trend only, or quoted where the paper has no comparable figure); "
+             f"the experiments ran on the "
              f"compiled (CXXRTL) backend of the whole machine: chipset gateware, 8085 firmware "
              f"model and servo plants.", "", table_markdown(result)]
     for sec in result.sections:

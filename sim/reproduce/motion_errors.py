@@ -118,7 +118,7 @@ def _l16_rows(sec: Section, shape: str, arcs: list[ArcLoss]) -> None:
             f"radius loss {min(losses):.1f} to {max(losses):.1f} LSB; against R (1 - |G_acc(jw)"
             f" G(jw)|): {_largest(arcs, lambda a: a.exact(shape))}",
             "every run within 5% + 0.5 LSB",
-            all(_gap(a.loss, a.exact(shape)) <= 0 for a in arcs))
+            all(_gap(a.loss, a.exact(shape)) <= 0 for a in arcs), kind="quoted")
     over = [a.paper(shape) / a.loss - 1 for a in arcs]
     sec.row(f"{shape} filter: each L16 run's radius error against eq {eq}",
             f"experiment within +-{pct(PAPER_AGREEMENT[shape])} of eq {eq} (Fig. "
@@ -127,7 +127,7 @@ def _l16_rows(sec: Section, shape: str, arcs: list[ArcLoss]) -> None:
             f"(it has no velocity lag Tm); with its servo term x (1 - 2 Kp Tm): "
             f"{_largest(arcs, lambda a: a.paper(shape, a.condition.tm))}",
             f"eq {eq} with (1 - 2 Kp Tm) within 5% + 0.5 LSB of every run",
-            all(_gap(a.loss, a.paper(shape, a.condition.tm)) <= 0 for a in arcs))
+            all(_gap(a.loss, a.paper(shape, a.condition.tm)) <= 0 for a in arcs), kind="trend")
 
 
 def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> Section:
@@ -156,7 +156,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
             "servo's phase); amplitude within 5% + 0.5 LSB of the exact form",
             _turn(measured.two_theta_angle, 45) <= 5
             and _turn(measured.two_theta_angle, exact.two_theta_angle) <= 1.5
-            and _gap(measured.two_theta_amplitude, exact.two_theta_amplitude) <= 0)
+            and _gap(measured.two_theta_amplitude, exact.two_theta_amplitude) <= 0, kind="number")
 
     centre = Condition(*(float(np.mean(levels)) for levels in LEVELS.values()))
     fits = {shape: _surface(arcs[shape]) for shape in SHAPES}
@@ -173,7 +173,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
                 f"{shape}: surface {p:.2f} vs exact {e:.2f} LSB"
                 for shape, (p, e) in predicted.items()) + ")",
             "within 10% + 0.5 LSB of the exact form at the centre",
-            all(abs(p - e) <= 0.1 * e + 0.5 for p, e in predicted.values()))
+            all(abs(p - e) <= 0.1 * e + 0.5 for p, e in predicted.values()), kind="quoted")
     _text(sec, scale, fits, measured)
     sec.text.append(loss_table(arcs))
     _figure(sec, out, arcs, measured, exact)

@@ -65,7 +65,7 @@ def section(runs: dict[str, RunData], specs: Specs, out: Path) -> Section:
             f"one G06 block: command path within {hw.command:.2f} LSB of the true parabola, "
             f"ends at {hw.end}",
             f"within 0.5 LSB + 1 encoder count; ends at {curve.end} exactly",
-            hw.command <= 1.5 and hw.end == curve.end)
+            hw.command <= 1.5 and hw.end == curve.end, kind="trend")
     sec.row("parabola block against G01 chords at the same feed "
             f"(F{PARABOLA_FEED:g})",
             "no figure (the contour-error paper tracks this parabola with its own controller)",
@@ -74,7 +74,7 @@ def section(runs: dict[str, RunData], specs: Specs, out: Path) -> Section:
             f"{cut.rms:.1f}), command path {cut.command:.1f} LSB off, {cut.fp} FP, "
             f"{cut.seconds:.2f} s",
             "the parabola block's contour error and run time below the chords'",
-            hw.actual < cut.actual and hw.seconds < cut.seconds)
+            hw.actual < cut.actual and hw.seconds < cut.seconds, kind="quoted")
     sec.text += [
         "The parabola of the contour-error paper, y = (x - 15)^2 / 15 - 15 mm from (0, 0) to "
         "(30, 0), runs "

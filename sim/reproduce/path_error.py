@@ -116,21 +116,21 @@ def section(circles: dict[str, Circle], scale: Scale, out: Path) -> Section:
             f"{high.worst:.0f} LSB = {pct(high.worst / high.radius)} of R = {high.radius} "
             f"(worst per quadrant: {quads} LSB): {second}",
             f"more than 10x the FP-control error ({pre.worst:.1f} LSB)",
-            high.worst > 10 * pre.worst)
+            high.worst > 10 * pre.worst, kind="trend")
     model_worst = float(np.abs(high.model).max())
     sec.row("... which is each axis's own exponential lag",
             "a race between the accel/decel input and the position controller's input when "
             "the long axis changes (the paper's explanation)",
             f"{high.worst:.0f} LSB vs {model_worst:.0f} LSB for two independent first-order "
             f"lags (tau) plus the servo, fed the K3701's ideal steps",
-            "within 5%", abs(high.worst - model_worst) <= 0.05 * model_worst)
+            "within 5%", abs(high.worst - model_worst) <= 0.05 * model_worst, kind="trend")
     rel_high, rel_low = high.worst / high.radius, low.worst / low.radius
     sec.row(f"post-interpolation accel/decel, feed word {FEED_LOW} (Photo 4)",
             "far less path error at the low feed",
             f"{low.worst:.1f} LSB = {pct(rel_low)} of R = {low.radius} (model "
             f"{np.abs(low.model).max():.1f} LSB)",
             f"relative error below 1/10 of the high feed's ({pct(rel_high)})",
-            rel_low < 0.1 * rel_high)
+            rel_low < 0.1 * rel_high, kind="trend")
     peak = float(np.abs(pre.model).max())
     misfit = float(np.abs(pre.radial - pre.model).max())
     sec.row(f"pre-interpolation accel/decel (FP control), feed word {FEED_HIGH}",
@@ -138,7 +138,7 @@ def section(circles: dict[str, Circle], scale: Scale, out: Path) -> Section:
             f"{pre.worst:.1f} LSB inward at the top speed = the servo's steady-state loss "
             f"R (1 - |G(jw)|) = {peak:.1f} LSB; every sample within {misfit:.1f} LSB of it",
             f"every sample within 10% of {peak:.1f} LSB + 1.5 LSB (encoder count) of "
-            f"R (1 - |G(jw)|) at its speed", misfit <= 0.1 * peak + 1.5)
+            f"R (1 - |G(jw)|) at its speed", misfit <= 0.1 * peak + 1.5, kind="trend")
     sec.text += [
         f"The paper ran the same circle with the accel/decel circuit after the interpolator "
         f"(one per axis) at the feeds {FEED_HIGH} and {FEED_LOW} (Photos 3 and 4): at the high "

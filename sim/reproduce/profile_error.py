@@ -138,7 +138,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
                 f"{1e3 * ts:.1f} ms, D / (Vg Kt) {d_ratio('x'):.5f}: {what}",
                 "e_t = ((D / (Vg Kt) + 1 - Kf) / Kp + Ts) F (no figure)",
                 f"{measured:.1f} LSB (Kf {kf:.5f}); eq. (9): {expected:.1f} LSB",
-                "within 1% + 2 LSB", abs(measured - expected) <= 0.01 * expected + 2)
+                "within 1% + 2 LSB", abs(measured - expected) <= 0.01 * expected + 2, kind="number")
     circles = {name: _ballbar(runs[f"s003_{name}"], specs[f"s003_{name}"])
                for name in ("kp_unequal", "ts_unequal", "equal")}
     equal = circles["equal"]
@@ -169,7 +169,7 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
                 f"{unequal.circularity:.1f}; {equal_cell} (1 LSB = 1 um)",
                 "unequal within 10% of (V / 2) |lag_x - lag_z|; equal below a third of it",
                 abs(unequal.two_theta_amplitude / model[name] - 1) <= 0.10
-                and equal.two_theta_amplitude < unequal.two_theta_amplitude / 3)
+                and equal.two_theta_amplitude < unequal.two_theta_amplitude / 3, kind="quoted")
     sec.text += [
         "The profile-error paper gives the steady following error of an axis as eq. (9), "
         "e_t = (Ka + Ts) F "

@@ -29,7 +29,7 @@ def section(runs: dict[str, RunData], specs: Specs) -> Section:
                 f"{probes[f'{name}_cycles']} cycles; one step per {blocks[name].latency} "
                 f"cycles)",
                 f"within {100 * tolerance:g}%; K3701 busy and FP in surplus (OVERRUN set)",
-                abs(rate - paper) <= tolerance * paper and running)
+                abs(rate - paper) <= tolerance * paper and running, kind="number")
     sec.text += [
         "The paper gives the K3701's maximum feed-pulse rates at CP = 1 MHz: 90.0 K/sec for "
         "linear and 47.6 K/sec for circular interpolation. The emulator measures them on the "

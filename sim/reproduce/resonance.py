@@ -111,7 +111,7 @@ def add_rows(sec: Section) -> JkStudy:
                 f"eq. (2) {row.eq2} Hz, eq. (3) {row.eq3} Hz, ratio {row.ratio}",
                 f"free {f_free:.1f} Hz (sqrt(Ks / M_eq) {free.free_hz:.1f}), held {f_held:.1f} "
                 f"Hz (sqrt(Ks / M) {held.held_hz:.1f}), ratio {f_held / f_free:.3f}",
-                "each within 2% of its formula; ratio within 0.01 of Table 1's", ok)
+                "each within 2% of its formula; ratio within 0.01 of Table 1's", ok, kind="number")
     base = table1_drive("x")
     j = base.ja * np.array(JK_J_SCALES)
     k = jk_curve("x", TABLE1["x"].eq2, j)
@@ -123,7 +123,7 @@ def add_rows(sec: Section) -> JkStudy:
             "K = omega^2 M (J / Ja): one natural frequency along the curve (a study; the "
             "paper's map is a figure)",
             "rings at " + ", ".join(f"{f:.1f}" for f in measured) + " Hz",
-            "each within 2% of 206.3 Hz", spread < 0.02)
+            "each within 2% of 206.3 Hz", spread < 0.02, kind="quoted")
     sec.text.append(
         "The feed drive of the paper's Fig. 1 runs as the two-mass drive (motor side J, the "
         "screw's axial stiffness Ks, table mass M) on Table 1's axes: M and M' = J / R^2 as "
