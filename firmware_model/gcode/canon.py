@@ -23,11 +23,11 @@ import re
 import shutil
 import subprocess
 import tempfile
-from collections.abc import Mapping
 from decimal import ROUND_HALF_UP, Decimal
 from pathlib import Path
 
 from k37.firmware_model.gcode.parser import GcodeError, parse
+from k37.firmware_model.gcode.tool_table import ToolTable, tool_entry
 from k37.firmware_model.gcode.units import (
     ARC_TOLERANCE_LIMIT,
     ARC_TOLERANCE_MM,
@@ -195,10 +195,10 @@ def parse_canon(canon: str, *, source: str = "<canon>", lsb_mm: float = 0.001,
 
 
 def rs274_canon(text: str, *, source: str = "<gcode>", origin: tuple[str, int] | None = None,
-                tools: Mapping[int, float] | None = None) -> str:
-    """Run LinuxCNC's ``rs274`` on a program; its canonical commands. ``tools``: tool lengths
-    (mm) by number, written as ``rs274``'s tool table (which it reads in inches); none: tools
-    0 to 999 of length zero, as the built-in front end's. Raises
+                tools: ToolTable | None = None) -> str:
+    """Run LinuxCNC's ``rs274`` on a program; its canonical commands. ``tools``: the tool
+    table (mm) by number, written as ``rs274``'s (which it reads in inches); none: tools 0 to
+    999 of length and diameter zero, as the built-in front end's. Raises
     :class:`~k37.firmware_model.gcode.parser.GcodeError` when it is not installed or refuses the
     program (its message, at the line of the block it quotes)."""
     name, first = origin or (source, 1)
@@ -211,9 +211,11 @@ def rs274_canon(text: str, *, source: str = "<gcode>", origin: tuple[str, int] |
         program, out = Path(tmp) / "program.ngc", Path(tmp) / "canon.txt"
         program.write_text(text.removeprefix("\ufeff"), encoding="utf-8")
         table = Path(tmp) / "tools.tbl"
-        table.write_text("".join(f"T{n} P{n} Z{Decimal(repr(length)) / INCH_MM} ;\n"
-                                 for n, length in (tools or dict.fromkeys(_DEFAULT_TOOLS, 0.0))
-                                 .items()))
+        table.write_text("".join(
+            f"T{n} P{n} Z{Decimal(repr(t.length)) / INCH_MM} "
+            f"D{Decimal(repr(t.diameter)) / INCH_MM} ;\n"
+            for n, t in ((n, tool_entry(v)) for n, v in
+                         (tools or dict.fromkeys(_DEFAULT_TOOLS, 0.0)).items())))
         try:
             # rs274 keeps its tool data in a file mapped from $HOME (.tool.mmap), which runs
             # at the same time would share and clobber: each run gets its own HOME
@@ -253,7 +255,7 @@ def _rs274_error(output: str, text: str) -> tuple[int, int, str]:
 
 
 def parse_linuxcnc(text: str, *, source: str = "<gcode>",
-                   tools: Mapping[int, float] | None = None, **kwargs) -> Program:
+                   tools: ToolTable | None = None, **kwargs) -> Program:
     """:func:`parse_canon` of ``rs274``'s output for the program ``text``; the keywords as
     :func:`k37.firmware_model.gcode.parser.parse`'s."""
     canon = rs274_canon(text, source=source, origin=kwargs.get("origin"), tools=tools)

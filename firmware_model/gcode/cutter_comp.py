@@ -1,5 +1,6 @@
-"""Cutter radius compensation, G41.1/G42.1 D (the cutter's diameter) and G40, in G17, as
-LinuxCNC's interpreter does it (a mixin of
+"""Cutter radius compensation, G41/G42 (the diameter of the loaded tool, or of tool D, from
+the job's tool table), G41.1/G42.1 D (the cutter's diameter) and G40, in G17, as LinuxCNC's
+interpreter does it (a mixin of
 :class:`k37.firmware_model.gcode.interpreter.Interpreter`).
 
 The tool runs at the cutter's radius to the left (G41.1) or right (G42.1) of the programmed
@@ -13,13 +14,15 @@ radius is its radius plus or minus the cutter's (an error when it is not positiv
 ends it: the held move runs to its square end and the next move (the exit) goes from there
 to its programmed point (``rs274`` also refuses some exits after a short move as gouging;
 K37 runs them). The program's position stays the programmed one (G91 and arc centres add
-to it). D0 runs the path as programmed.
+to it). G41.1/G42.1 D0 runs the path as programmed; G41/G42 D0 takes the loaded tool's
+diameter, as without D (no tool loaded: zero).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from decimal import Decimal
 
 from k37.firmware_model.gcode.block_words import BlockError, BlockWords, g_name
 from k37.firmware_model.gcode.lex import Word
@@ -110,12 +113,13 @@ class CutterComp:
         self.comp_arc_centre = (0.0, 0.0)
 
     def cutter_mode(self, b: BlockWords) -> None:
-        """G40, G41.1 and G42.1 D, after the block's other modal settings."""
+        """G40, G41/G42 (the diameter of the loaded tool, or of tool D, from the job's tool
+        table) and G41.1/G42.1 D, after the block's other modal settings."""
         d = b.word("D")
         mode = b.code("cutter")
-        if d is not None and mode not in (411, 421):
-            raise BlockError(d.col, f"{d.text}: D is only for G41.1/G42.1 (the cutter's "
-                                    f"diameter)")
+        if d is not None and mode not in (410, 420, 411, 421):
+            raise BlockError(d.col, f"{d.text}: D is only for G41/G42 (a tool number) and "
+                                    f"G41.1/G42.1 (the cutter's diameter)")
         if mode is None:
             return
         w = b.g["cutter"][1]
@@ -128,10 +132,16 @@ class CutterComp:
         if self.plane != 17:
             raise BlockError(w.col, f"{w.text} in G{self.plane}: cutter radius compensation "
                                     f"is in the XY plane (G17) here")
-        if d is None or d.value < 0:
+        if mode in (410, 420):
+            number = (0 if d is None else self.tool_number(d)) or self.tool  # D0: loaded
+            diameter = (Decimal(repr(self.table_tool(number, d or w).diameter))
+                        / self.lsb_size)
+        elif d is None or d.value < 0:
             raise BlockError(w.col, f"{w.text} needs D, the cutter's diameter (>= 0)")
-        self.comp_side = 1 if mode == 411 else -1
-        self.comp_radius = float(self.lsb_exact(d.value)) / 2
+        else:
+            diameter = self.lsb_exact(d.value)
+        self.comp_side = 1 if mode in (410, 411) else -1
+        self.comp_radius = float(diameter) / 2
         self.comp_entry = True
 
     def comp_centre(self, b: BlockWords, r: Word | None, first: int, second: int,

@@ -7,7 +7,6 @@ and exponentials, canned cycles and work offsets are in
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from decimal import ROUND_HALF_UP, Decimal
 
 from k37.firmware_model.gcode.block_words import BlockError, BlockWords, g_name
@@ -18,6 +17,7 @@ from k37.firmware_model.gcode.lex import Word
 from k37.firmware_model.gcode.modal_state import ModalState
 from k37.firmware_model.gcode.offsets import SYSTEMS, Offsets
 from k37.firmware_model.gcode.spline_motions import SplineMotions
+from k37.firmware_model.gcode.tool_table import Tool, ToolTable, tool_entry
 from k37.firmware_model.gcode.units import (
     ARC_TOLERANCE_MM,
     AXIS_LETTERS,
@@ -38,11 +38,11 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
     """The modal state of a program being read, and what each block does with it."""
 
     def __init__(self, planner: Planner, *, lsb_mm: float, tolerance: float | None,
-                 tools: Mapping[int, float] | None):
+                 tools: ToolTable | None):
         self.planner = planner
         self.lsb_size = Decimal(repr(lsb_mm))
         self.tolerance = tolerance
-        self.tools = tools
+        self.tools = {n: tool_entry(t) for n, t in (tools or {}).items()}
         self.end = False
         self.motion: int | None = None
         self.inch = False
@@ -316,15 +316,24 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
             self.tool_offset = self.tool_length(b.g["tool length"][1], h)
 
     def tool_length(self, g43: Word, h: Word | None) -> int:
-        if h is not None and (h.value < 0 or h.value != h.value.to_integral_value()):
-            raise BlockError(h.col, f"{h.text}: H must be a non-negative integer")
-        number = int(h.value) if h is not None else self.tool
+        number = self.tool if h is None else self.tool_number(h)
+        return self.lsb(Decimal(repr(self.table_tool(number, h or g43).length)), inch=False)
+
+    def tool_number(self, w: Word) -> int:
+        """The tool number a word (H, D) gives."""
+        if w.value < 0 or w.value != w.value.to_integral_value():
+            raise BlockError(w.col, f"{w.text}: {w.letter} must be a non-negative integer")
+        return int(w.value)
+
+    def table_tool(self, number: int | None, w: Word) -> Tool:
+        """The tool ``number`` of the job's tool table (``w`` names it in an error); no
+        table, no tool loaded or tool 0: a tool of length and diameter zero."""
         if not self.tools or number in (None, 0):
-            return 0
+            return Tool()
         if number not in self.tools:
-            raise BlockError((h or g43).col, f"{(h or g43).text}: tool {number} is not in the "
-                                        f"job's tool table ({sorted(self.tools)})")
-        return self.lsb(Decimal(repr(self.tools[number])), inch=False)
+            raise BlockError(w.col, f"{w.text}: tool {number} is not in the job's tool "
+                                    f"table ({sorted(self.tools)})")
+        return self.tools[number]
 
     def non_modal(self, b: BlockWords) -> None:
         if "non-modal" not in b.g:

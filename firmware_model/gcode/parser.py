@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import contextlib
 import gc
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator
 
 from k37.firmware_model.gcode import ngc
 from k37.firmware_model.gcode.block_words import BlockError
@@ -53,6 +53,7 @@ from k37.firmware_model.gcode.interpreter import Interpreter
 from k37.firmware_model.gcode.lex import LexError, Word, read_line
 from k37.firmware_model.gcode.ngc_state import InterpreterHost, TooManyErrors
 from k37.firmware_model.gcode.ngc_structure import NgcError
+from k37.firmware_model.gcode.tool_table import ToolTable
 from k37.firmware_model.gcode.units import ARC_TOLERANCE_LIMIT, AXES_LIMIT, LSB_MM_LIMIT, MAX_ERRORS
 from k37.firmware_model.motion.planner import Planner
 from k37.firmware_model.motion.program import Program
@@ -105,7 +106,7 @@ def _collector_paused() -> Iterator[None]:
 
 def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: bool = True,
           arc_tolerance: float | None = None, axes: int = 2,
-          tools: Mapping[int, float] | None = None,
+          tools: ToolTable | None = None,
           origin: tuple[str, int] | None = None) -> Program:
     """Parse a G-code program into K3701 blocks.
 
@@ -126,7 +127,9 @@ def parse(text: str, *, source: str = "<gcode>", lsb_mm: float = 0.001, sqrt2: b
     axes : int
         The machine's axes: 2 (X, Y) or 3 (X, Y, Z).
     tools : mapping or None
-        Tool lengths (mm) by tool number, for G43; None: every length is zero.
+        The tool table by tool number: each tool's length (G43) and diameter (G41/G42), a
+        :class:`~k37.firmware_model.gcode.tool_table.Tool` or a plain length (mm); None: every
+        length and diameter is zero.
     origin : (str, int) or None
         The file and line the text's first line is on, for error messages (a program inline
         in a job file); None: ``source``, line 1. Items keep the program's own lines.

@@ -70,10 +70,14 @@ G_CODES: dict[int, Code] = {
                               "programmed point first, moving only the named axes, if any)"),
     _g(30): Code("non-modal", "as G28 (the second home position is the origin too)"),
     _g(40): Code("cutter", "cutter radius compensation off (the initial state)"),
+    _g(41): Code("cutter", "cutter radius compensation, the tool left of the path, as G41.1 "
+                           "with the diameter of the loaded tool, or of tool D (D0: the "
+                           "loaded tool), from the job's tool table"),
     _g(41.1): Code("cutter", "cutter radius compensation, the tool left of the path: D the "
                              "cutter's diameter (XY plane, as LinuxCNC: an entry line, "
                              "outside corners as arcs, inside corners where the paths "
                              "cross)"),
+    _g(42): Code("cutter", "cutter radius compensation, the tool right of the path, as G41"),
     _g(42.1): Code("cutter", "cutter radius compensation, the tool right of the path, as "
                              "G41.1"),
     _g(43): Code("tool length", "tool length offset: H's length (or the loaded tool's) from "
@@ -153,16 +157,13 @@ LETTERS: dict[str, str] = {
     "P": "dwell seconds (G04, G82); G64's tolerance (ignored); G05: second control point "
          "along X; G05.2: a control point's weight; G10: the coordinate system",
     "Q": "peck depth (G83); G64's tolerance (ignored); G05: second control point along Y",
-    "D": "the cutter's diameter (G41.1/G42.1)",
+    "D": "the cutter's diameter (G41.1/G42.1); the tool number of the diameter (G41/G42)",
     "L": "order of a G05.2 NURBS (default 3); G10's form (L2, L20); canned cycles: repeats "
          "of the block (G91: each moved by X/Y or a polar step; G90: the same hole)",
 }
 
 #: G codes refused with a reason (by table key).
 REFUSED_G: dict[int, str] = {
-    **dict.fromkeys((410, 420), "cutter radius compensation from a tool table is "
-                                "unsupported: K37 has no tool diameters (G41.1/G42.1 D "
-                                "give the diameter)"),
     **dict.fromkeys((382, 383, 384, 385), "probing is unsupported: K37 has no probe input"),
     **dict.fromkeys((431, 432), "dynamic tool length offsets (tool-length sensing) are "
                                 "unsupported: lengths come from the job's program.tools"),

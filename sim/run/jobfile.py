@@ -21,7 +21,8 @@ TOML job::
     [program]                       # exactly one of gcode (inline) and file
     file = "square.ngc"             # relative to the TOML file
     arc_tolerance = 2.0             # LSB, optional (default: LinuxCNC's 0.028 mm)
-    tools = { 1 = 25.0 }            # tool lengths (mm) for G43, optional
+    tools = { 1 = 25.0, 2 = { length = 30.0, diameter = 6.0 } }   # optional: mm, lengths
+                                    # for G43, diameters for G41/G42
 
     [run]                           # optional
     max_time_s = 10.0
@@ -47,6 +48,7 @@ from os import PathLike
 from pathlib import Path
 from typing import Any, NoReturn
 
+from k37.firmware_model.gcode.tool_table import Tool
 from k37.firmware_model.gcode.units import ARC_TOLERANCE_LIMIT, ARC_TOLERANCE_MM
 from k37.firmware_model.job import (
     AxisAccelConfig,
@@ -68,6 +70,10 @@ from k37.sim.files import STDIO, InputError, read_input_text
 from k37.sim.machine.servo import check_servo, servo_limits
 
 __all__ = ["JobError", "job_from_data", "job_keys_markdown", "load_job", "read_toml"]
+
+#: A tool's diameter (mm) in ``program.tools``.
+TOOL_DIAMETER = Limit(low=0.0, unit="mm")
+
 
 class JobError(ValueError):
     """A job file the loader refuses; ``str()`` is one line naming the file."""
@@ -258,17 +264,25 @@ class _TomlJob:
                                  frontend=self.frontend, arc_tolerance=tolerance,
                                  origin=origin, tools=tools)
 
-    def tools(self, table: Any) -> dict[int, float]:
-        """``program.tools``: tool number -> length (mm)."""
+    def tools(self, table: Any) -> dict[int, Tool]:
+        """``program.tools``: tool number -> its length (mm), or a table of its ``length`` and
+        ``diameter`` (mm, each optional, default zero)."""
         if not isinstance(table, dict):
-            self.fail(f"program.tools must be a table of tool number = length (mm), not "
-                      f"{table!r}")
+            self.fail(f"program.tools must be a table of tool number = length (mm) or "
+                      f"{{ length, diameter }}, not {table!r}")
         tools = {}
-        for number, length in table.items():
+        for number, value in table.items():
+            key = f"program.tools.{number}"
             if not (number.isascii() and number.isdigit()):
-                self.fail(f"program.tools.{number}: a tool number is a non-negative integer")
+                self.fail(f"{key}: a tool number is a non-negative integer")
+            given = isinstance(value, dict)
+            entry = self.table(table, number, ("length", "diameter"), "program.tools.") \
+                if given else {"length": value}
             try:
-                tools[int(number)] = Limit(unit="mm").check(f"program.tools.{number}", length)
+                tools[int(number)] = Tool(
+                    Limit(unit="mm").check(f"{key}.length" if given else key,
+                                           entry.get("length", 0.0)),
+                    TOOL_DIAMETER.check(f"{key}.diameter", entry.get("diameter", 0.0)))
             except (TypeError, ValueError) as e:
                 self.fail(str(e))
         return tools
@@ -324,6 +338,8 @@ def job_keys_markdown() -> str:
              f"largest difference (LSB) between an arc's start and end radii; absent: "
              f"LinuxCNC's, {ARC_TOLERANCE_MM[False]:g} mm in G21, "
              f"{ARC_TOLERANCE_MM[True] / 25.4:g} in in G20 |",
-             "| program.tools | absent | a table of tool number = length (mm) | tool lengths "
-             "for G43 (a tool not in it is an error); absent: every length zero |"]
+             "| program.tools | absent | a table of tool number = length (mm), or = { length, "
+             f"diameter }} (mm, each optional, default 0; diameter {TOOL_DIAMETER.describe()}) "
+             "| the tool table: lengths for G43, diameters for G41/G42 (a tool not in it is "
+             "an error); absent: every length and diameter zero |"]
     return "\n".join(rows) + "\n"

@@ -28,6 +28,7 @@ from hypothesis import strategies as st
 
 from k37.firmware_model.gcode.canon import RS274, parse_linuxcnc
 from k37.firmware_model.gcode.parser import GcodeError, parse
+from k37.firmware_model.gcode.tool_table import Tool
 from k37.firmware_model.motion.program import Arc, Program
 from tests.paths import ROOT
 
@@ -37,7 +38,8 @@ FILES = sorted(p for p in CORPUS.iterdir() if p.is_file())
 LINUXCNC_NCFILES = next((p for p in (Path("/usr/share/linuxcnc/ncfiles"),
                                      Path("/usr/share/doc/linuxcnc/examples/nc_files"))
                          if p.is_dir()), Path("/usr/share/linuxcnc/ncfiles"))
-_COMP = "cutter radius compensation from a tool table is unsupported"
+_COMP_PLANE = "cutter radius compensation is in the XY plane (G17) here"
+_COMP_ARC = "the first move with cutter radius compensation is a line (the entry move)"
 _SET = "is the interpreter's: setting it (offsets, tool data) is unsupported"
 #: Every example program ``rs274`` accepts, and what the built-in front end does with it:
 #: None, it runs it as ``rs274`` does; else the unsupported feature its error names.
@@ -52,13 +54,15 @@ LINUXCNC_EXAMPLES: dict[str, str | None] = {
     "m6remap.ngc": None, "m75.ngc": None, "m76.ngc": None, "retval.ngc": None,
     "roparams.ngc": None, "testm6fail.ngc": None, "touchoff.ngc": None,
     "m70m72-demo.ngc": None, "m73-demo.ngc": None,
+    # cutter radius compensation with the tool table's diameters
+    "comp-g1.ngc": None, "comp311.ngc": None,
     # refused, naming what K37 does not have
     "b-index.ngc": "unsupported word B0 (K37's axes are X, Y and Z)",
     "daisy.ngc": "unsupported word A0 (K37's axes are X, Y and Z)",
-    "comp.ngc": _COMP, "comp-g1.ngc": _COMP, "comp311.ngc": _COMP, "comp311_2.ngc": _COMP,
-    "g76.ngc": _COMP, "lathe-g76.ngc": _COMP, "lathecomp.ngc": _COMP,
-    "useful-subroutines.ngc": _COMP,
-    "gmoccapy_2_tools_with_cutter_radius_compensation.ngc": _COMP,
+    "comp.ngc": _COMP_PLANE, "comp311_2.ngc": _COMP_ARC,
+    "g76.ngc": _COMP_PLANE, "lathe-g76.ngc": _COMP_PLANE, "lathecomp.ngc": _COMP_PLANE,
+    "useful-subroutines.ngc": "entry move is not longer than the cutter's radius",
+    "gmoccapy_2_tools_with_cutter_radius_compensation.ngc": _COMP_ARC,
     "gridprobe.ngc": "probing is unsupported", "smartprobe.ngc": f"#5070 {_SET}",
     "offsets.ngc": f"#5599 {_SET}",
     "lathe_g70_71_demo.ngc": "G71.1 is unsupported", "lathe_g7x_face_boring.ngc":
@@ -70,7 +74,8 @@ LINUXCNC_EXAMPLES: dict[str, str | None] = {
 #: of it does not take.
 LINUXCNC_NOT_COMPARED: dict[str, str] = {
     "cone.ngc": "Bad character 'w' used", "increment.ngc": "File ended with no percent sign",
-    "probe-hole.ngc": "File ended with no percent sign", "mmount.ngc": "Requested tool 15",
+    "probe-hole.ngc": "File ended with no percent sign",
+    "mmount.ngc": "Tool radius not less than arc radius with comp",
     "nestedcall.ngc": "Unexpected character after O-word",
     "tool-length-probe.ngc": "Start point too close to probe point",
     "x-trim.ngc": "seeking o-word: o<touchoff>",
@@ -81,8 +86,10 @@ RS274_INCH_ROUNDING_LSB = 0.00005 * 25.4 / 0.001
 HAVE_RS274 = shutil.which(RS274) is not None
 NEEDS_RS274 = pytest.mark.skipif(not HAVE_RS274, reason="LinuxCNC's rs274 is not installed "
                                  "(Debian: apt-get install linuxcnc-uspace): no comparison")
-#: The tool table both front ends get (mm; whole hundredths of an inch, as rs274 reads them).
-TOOLS = {1: 12.7, 2: 25.4, 3: 5.08, 4: 7.62, 5: 3.81, 7: 2.54, 9: 6.35, 10: 10.16}
+#: The tool table both front ends get (mm; lengths in whole hundredths of an inch, diameters in
+#: whole sixteenths, as rs274 reads them).
+TOOLS = {1: Tool(12.7, 3.175), 2: Tool(25.4, 6.35), 3: Tool(5.08, 1.5875), 4: Tool(7.62, 12.7),
+         5: 3.81, 7: 2.54, 9: 6.35, 10: 10.16}
 
 
 def programmed_ends(program: Program, *, targets: bool = False) -> list[tuple[int, ...]]:

@@ -1,4 +1,5 @@
-"""Cutter radius compensation (G41.1/G42.1 D, G40) in the built-in front end: the entry
+"""Cutter radius compensation (G41/G42 with the tool table's diameters, G41.1/G42.1 D, G40)
+in the built-in front end: the entry
 move, outside corners as arcs, inside corners where the compensated paths cross, arcs and
 the gouging errors, as LinuxCNC's ``rs274`` runs them (its canonical end points, in mm)."""
 
@@ -7,13 +8,17 @@ from __future__ import annotations
 import pytest
 
 from k37.firmware_model.gcode.parser import GcodeError, parse
+from k37.firmware_model.gcode.tool_table import Tool, ToolTable
 from k37.firmware_model.motion.program import Arc
 
+#: A tool table: tool 1 of diameter 4 mm, tool 2 of 2 mm, tool 3 a length only.
+TOOLS = {1: Tool(length=10.0, diameter=4.0), 2: Tool(diameter=2.0), 3: 5.0}
 
-def path(text: str) -> list[tuple[str, tuple[int, int]]]:
+
+def path(text: str, tools: ToolTable | None = None) -> list[tuple[str, tuple[int, int]]]:
     """Each move's kind and XY end (LSB, 1 um; an arc's programmed end)."""
     out = []
-    for m in parse(f"G21 G90 G17 F100\n{text}\nM30", axes=3).moves:
+    for m in parse(f"G21 G90 G17 F100\n{text}\nM30", axes=3, tools=tools).moves:
         if isinstance(m, Arc):
             out.append(("arc", (m.start[0] + m.xe, m.start[1] + m.ye)))
         elif not m.correction:
@@ -23,7 +28,7 @@ def path(text: str) -> list[tuple[str, tuple[int, int]]]:
 
 def error_of(text: str) -> str:
     with pytest.raises(GcodeError) as info:
-        parse(f"G21 G90 G17 F100\n{text}\nM30", source="t.ngc", axes=3)
+        parse(f"G21 G90 G17 F100\n{text}\nM30", source="t.ngc", axes=3, tools=TOOLS)
     return str(info.value)
 
 
@@ -62,6 +67,25 @@ def test_d0_runs_the_path_as_programmed():
     assert path("G41.1 D0\nG1 X10 Y5\nX20") == [("line", (10_000, 5000)), ("line", (20_000, 5000))]
 
 
+SQUARE = "G0 X-10 Y-10\n{on}\nG1 X0 Y0\nX20\nY20\nX0\nY0\nG40\nG0 X-10 Y-10"
+
+
+@pytest.mark.parametrize("on", ["T2 M6 G41", "G41 D2", "T1 M6 G41 D2", "T2 M6 G41 D0"])
+def test_g41_takes_the_loaded_tools_diameter_or_tool_ds(on):
+    assert path(SQUARE.format(on=on), TOOLS) == path(SQUARE.format(on="G41.1 D2"))
+
+
+def test_g42_turns_the_other_way_with_the_tools_diameter():
+    assert path(SQUARE.format(on="T1 M6 G42"), TOOLS) == path(SQUARE.format(on="G42.1 D4"))
+
+
+@pytest.mark.parametrize(("on", "tools"), [("G41", TOOLS), ("T3 M6 G41", TOOLS),
+                                           ("T1 M6 G41", None)])
+def test_g41_without_a_diameter_runs_the_path_as_programmed(on, tools):
+    # no tool loaded, a tool of length only, or no tool table: diameter zero
+    assert path(SQUARE.format(on=on), tools) == path(SQUARE.format(on="G41.1 D0"))
+
+
 @pytest.mark.parametrize(("text", "message"), [
     ("G41.1 D2\nG1 X1", "3:1: the cutter radius compensation entry move is not longer than "
                         "the cutter's radius"),
@@ -71,9 +95,11 @@ def test_d0_runs_the_path_as_programmed():
     ("G41.1 D2\nG42.1 D2", "3:1: G42.1: cutter radius compensation is already on (G40 first)"),
     ("G18 G41.1 D2", "2:5: G41.1 in G18: cutter radius compensation is in the XY plane (G17) "
                      "here"),
-    ("G1 X1 D2", "2:7: D2: D is only for G41.1/G42.1 (the cutter's diameter)"),
-    ("G41 D1", "2:1: G41: cutter radius compensation from a tool table is unsupported: K37 "
-               "has no tool diameters (G41.1/G42.1 D give the diameter)"),
+    ("G1 X1 D2", "2:7: D2: D is only for G41/G42 (a tool number) and G41.1/G42.1 (the "
+                 "cutter's diameter)"),
+    ("G41 D7", "2:5: D7: tool 7 is not in the job's tool table ([1, 2, 3])"),
+    ("T7 M6\nG42", "3:1: G42: tool 7 is not in the job's tool table ([1, 2, 3])"),
+    ("G41 D1.5", "2:5: D1.5: D must be a non-negative integer"),
     ("G41.1 D10\nG1 X20\nG1 X30\nG3 X38 R4", "5:1: the arc's radius 4.000 mm is not more than "
                                             "the cutter's: cutter radius compensation cannot "
                                             "follow it inside"),

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -402,3 +403,21 @@ def test_an_axis_with_its_own_addition_clock_sets_its_time_constant_freely(tmp_p
 ])
 def test_a_bad_per_axis_addition_clock_is_one_error_line(tmp_path, text, message):
     assert load_error(tmp_path, text + PROGRAM) == f": {message}"
+
+
+def test_a_tool_table_gives_lengths_and_diameters(tmp_path):
+    job = load_job(write(tmp_path, '[program]\ntools = { 1 = 25.0, 2 = { length = 30.0, '
+                                   'diameter = 6.0 }, 3 = { diameter = 2.0 } }\ngcode = """\n'
+                                   'G21 G90 F100\nT3 M6\nG41\nG1 X10\nG40\n"""\n'))
+    # G41 with tool 3's 2 mm diameter: the entry ends 1 mm left of X10
+    assert job.program.moves[0].end[:2] == (10_000, 1000)
+
+
+@pytest.mark.parametrize(("tools", "message"), [
+    ("{ 1 = { diameter = -1.0 } }", "program.tools.1.diameter must be >= 0 mm, not -1.0"),
+    ("{ 1 = { radius = 1.0 } }", "unknown key program.tools.1.radius"),
+    ("{ 1 = 'long' }", "program.tools.1 must be a number"),
+])
+def test_a_bad_tool_is_one_error_naming_its_key(tmp_path, tools, message):
+    with pytest.raises(JobError, match=re.escape(message)):
+        load_job(write(tmp_path, f'[program]\ntools = {tools}\ngcode = "G01 X1 F100"\n'))
