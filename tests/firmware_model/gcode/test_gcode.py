@@ -310,8 +310,7 @@ def test_motion_errors_name_line_and_column(text, message):
     ("#1 = [2", "1:8: expression not closed: ']' missing"),
     ("G95", "1:1: G95 is unsupported"),
     ("G33 Z-1 K1", "1:1: G33 is unsupported"),
-    ("G41 D1", "1:1: G41: cutter radius compensation from a tool table is unsupported: K37 "
-               "has no tool diameters (G41.1/G42.1 D give the diameter)"),
+    ("G41 D1.5", "1:5: D1.5: D must be a non-negative integer"),
     ("G01 X", "1:5: word X has no number"),
     ("G01 X1 (open", "1:8: comment '(' is not closed on its line"),
     ("G01 G00 X1", "1:5: G01 and G00 are in the same modal group (motion)"),
