@@ -1,11 +1,12 @@
 """Cutter radius compensation, G41/G42 (the diameter of the loaded tool, or of tool D, from
-the job's tool table), G41.1/G42.1 D (the cutter's diameter) and G40, in G17, as LinuxCNC's
-interpreter does it (a mixin of
+the job's tool table), G41.1/G42.1 D (the cutter's diameter) and G40, in G17 and G18 (not
+G19, as LinuxCNC), as LinuxCNC's interpreter does it (a mixin of
 :class:`k37.firmware_model.gcode.interpreter.Interpreter`).
 
 The tool runs at the cutter's radius to the left (G41.1) or right (G42.1) of the programmed
-path. The first move after turning it on (a line, longer than the radius) ends at the radius
-from its programmed end, square to the move. Each later move is held back until the next one
+path, in the plane's own coordinates (G18: Z, X; the plane cannot change while it is on).
+The first move after turning it on (a line, longer than the radius) ends at the radius from
+its programmed end, square to the move. Each later move is held back until the next one
 is known: where they meet at an outside corner the tool goes round the corner's point on an
 arc of the cutter's radius; at an inside corner the held move ends where the two compensated
 paths cross (one that would have to run backwards is an error: the tool would gouge);
@@ -27,6 +28,7 @@ from decimal import Decimal
 from k37.firmware_model.gcode.block_words import BlockError, BlockWords, g_name
 from k37.firmware_model.gcode.lex import Word
 from k37.firmware_model.motion.planner import PlanError
+from k37.hdl.common.constants import PLANE_AXES
 
 __all__ = ["CutterComp"]
 
@@ -106,6 +108,7 @@ class CutterComp:
 
     def init_cutter_comp(self) -> None:
         self.comp_side = 0
+        self.comp_plane = 17
         self.comp_radius = 0.0
         self.comp_held: _Move | None = None
         self.comp_entry = False
@@ -120,6 +123,11 @@ class CutterComp:
         if d is not None and mode not in (410, 420, 411, 421):
             raise BlockError(d.col, f"{d.text}: D is only for G41/G42 (a tool number) and "
                                     f"G41.1/G42.1 (the cutter's diameter)")
+        plane = b.g.get("plane")
+        if self.comp_side and plane is not None and self.plane != self.comp_plane:
+            self.plane = self.comp_plane
+            raise BlockError(plane[1].col, f"{plane[1].text}: the plane cannot change with "
+                                           f"cutter radius compensation on (G40 first)")
         if mode is None:
             return
         w = b.g["cutter"][1]
@@ -129,9 +137,9 @@ class CutterComp:
         if self.comp_side:
             raise BlockError(w.col, f"{w.text}: cutter radius compensation is already on (G40 "
                                     f"first)")
-        if self.plane != 17:
-            raise BlockError(w.col, f"{w.text} in G{self.plane}: cutter radius compensation "
-                                    f"is in the XY plane (G17) here")
+        if self.plane == 19:
+            raise BlockError(w.col, f"{w.text} in G19: cutter radius compensation is in the XY "
+                                    f"and XZ planes (G17, G18), as LinuxCNC's")
         if mode in (410, 420):
             number = (0 if d is None else self.tool_number(d)) or self.tool  # D0: loaded
             diameter = (Decimal(repr(self.table_tool(number, d or w).diameter))
@@ -141,6 +149,7 @@ class CutterComp:
         else:
             diameter = self.lsb_exact(d.value)
         self.comp_side = 1 if mode in (410, 411) else -1
+        self.comp_plane = self.plane
         self.comp_radius = float(diameter) / 2
         self.comp_entry = True
 
@@ -174,18 +183,28 @@ class CutterComp:
         """Plan ``move`` from the machine's position (the program's position kept)."""
         programmed = self.planner.programmed
         self.planner.programmed = self.planner.position
-        target = (round(move.end[0]), round(move.end[1]), move.z)
+        target = self.comp_point(round(move.end[0]), round(move.end[1]), move.z)
         try:
             if move.centre is None:
                 self.planner.line(move.line_no, target, move.feed, feed_source=move.feed_source)
             else:
-                self.planner.arc(move.line_no, target, move.centre, 17, move.cw, move.feed,
-                                 tolerance=move.tolerance, feed_source=move.feed_source,
-                                 exact=(move.end[0], move.end[1], float(move.z)))
+                self.planner.arc(move.line_no, target, move.centre, self.comp_plane, move.cw,
+                                 move.feed, tolerance=move.tolerance,
+                                 feed_source=move.feed_source,
+                                 exact=self.comp_point(move.end[0], move.end[1], float(move.z)))
         except PlanError as e:
             raise BlockError(move.col, str(e)) from None
         finally:
             self.planner.programmed = programmed
+
+    def comp_point(self, first: float, second: float, normal: float) -> tuple[float, ...]:
+        """The point (X, Y, Z) of the plane's coordinates ``first``, ``second`` and the
+        position ``normal`` along its normal axis."""
+        point = [0.0, 0.0, 0.0]
+        for axis, value in zip(PLANE_AXES[self.comp_plane], (first, second, normal),
+                               strict=True):
+            point[axis] = value
+        return tuple(point)
 
     def comp_normal(self, direction: tuple[float, float]) -> tuple[float, float]:
         """The unit vector from the path to the tool, for a path going ``direction``."""
@@ -198,26 +217,29 @@ class CutterComp:
                                                                self.planner.arc):
             name = "this move" if self.motion is None else g_name(self.motion)
             raise BlockError(col, f"{name} with cutter radius compensation: G40 first")
-        start = (float(self.exact_pos(0)), float(self.exact_pos(1)))
+        first, second, normal = PLANE_AXES[self.comp_plane]
+        start = (float(self.exact_pos(first)), float(self.exact_pos(second)))
         target = args[0]
-        end = self.exact_target()[:2]
+        exact_target = self.exact_target()
+        end = exact_target[first], exact_target[second]
         if call == self.planner.line:
             feed = args[1]
-            if (target[0], target[1]) == self.pos[:2]:  # along Z only
-                self.comp_flush()
-                self.comp_run(_Move(self.planner.position[:2], self.planner.position[:2],
-                                    target[2], feed, kwargs.get("feed_source"), self.line_no,
-                                    col))
+            if (target[first], target[second]) == (self.pos[first], self.pos[second]):
+                self.comp_flush()  # along the plane's normal only
+                here = self.planner.position[first], self.planner.position[second]
+                self.comp_run(_Move(here, here, target[normal], feed,
+                                    kwargs.get("feed_source"), self.line_no, col))
                 self.planner.programmed = target
                 return
-            move = _Move((0.0, 0.0), (0.0, 0.0), target[2], feed, kwargs.get("feed_source"),
-                         self.line_no, col)
+            move = _Move((0.0, 0.0), (0.0, 0.0), target[normal], feed,
+                         kwargs.get("feed_source"), self.line_no, col)
             along = _unit(end[0] - start[0], end[1] - start[1])
         else:
             centre, _, cw, feed = args[1:5]
             exact = self.comp_arc_centre
-            move = _Move((0.0, 0.0), (0.0, 0.0), target[2], feed, kwargs.get("feed_source"),
-                         self.line_no, col, centre, cw, kwargs["tolerance"], exact=exact)
+            move = _Move((0.0, 0.0), (0.0, 0.0), target[normal], feed,
+                         kwargs.get("feed_source"), self.line_no, col, centre, cw,
+                         kwargs["tolerance"], exact=exact)
             radial = _unit(start[0] - exact[0], start[1] - exact[1])
             along = (radial[1], -radial[0]) if cw else (-radial[1], radial[0])
         try:
@@ -324,17 +346,17 @@ class CutterComp:
         behind = [p for p in points if _back(held, p) >= -1e-6]
         point = min(behind, key=lambda p: _back(held, p)) if behind else None
         what = "line" if held.centre is None else "arc"
+        first, second, _ = PLANE_AXES[self.comp_plane]
+        at = (f"inside corner at {'XYZ'[first]}{self.planner.mm(corner[0])} "
+              f"{'XYZ'[second]}{self.planner.mm(corner[1])}")
         if point is not None and not held.entry and _back(held, point) > _back(
                 held, held.start) + 1e-6:
             raise BlockError(move.col, f"cutter radius compensation: the {what} before the "
-                                       f"inside corner at X{self.planner.mm(corner[0])} "
-                                       f"Y{self.planner.mm(corner[1])} is too short for a "
-                                       f"cutter of radius {self.planner.mm(r)} (it would "
-                                       f"gouge)")
+                                       f"{at} is too short for a cutter of radius "
+                                       f"{self.planner.mm(r)} (it would gouge)")
         if point is None:
-            raise BlockError(move.col, f"cutter radius compensation: the inside corner at "
-                                       f"X{self.planner.mm(corner[0])} "
-                                       f"Y{self.planner.mm(corner[1])} is too tight for a "
-                                       f"cutter of radius {self.planner.mm(r)} (it would gouge)")
+            raise BlockError(move.col, f"cutter radius compensation: the {at} is too tight "
+                                       f"for a cutter of radius {self.planner.mm(r)} (it "
+                                       f"would gouge)")
         return point
 

@@ -74,7 +74,7 @@ G_CODES: dict[int, Code] = {
                            "with the diameter of the loaded tool, or of tool D (D0: the "
                            "loaded tool), from the job's tool table"),
     _g(41.1): Code("cutter", "cutter radius compensation, the tool left of the path: D the "
-                             "cutter's diameter (XY plane, as LinuxCNC: an entry line, "
+                             "cutter's diameter (G17 and G18, as LinuxCNC: an entry line, "
                              "outside corners as arcs, inside corners where the paths "
                              "cross)"),
     _g(42): Code("cutter", "cutter radius compensation, the tool right of the path, as G41"),

@@ -38,7 +38,6 @@ FILES = sorted(p for p in CORPUS.iterdir() if p.is_file())
 LINUXCNC_NCFILES = next((p for p in (Path("/usr/share/linuxcnc/ncfiles"),
                                      Path("/usr/share/doc/linuxcnc/examples/nc_files"))
                          if p.is_dir()), Path("/usr/share/linuxcnc/ncfiles"))
-_COMP_PLANE = "cutter radius compensation is in the XY plane (G17) here"
 _COMP_ARC = "the first move with cutter radius compensation is a line (the entry move)"
 _SET = "is the interpreter's: setting it (offsets, tool data) is unsupported"
 #: Every example program ``rs274`` accepts, and what the built-in front end does with it:
@@ -54,13 +53,12 @@ LINUXCNC_EXAMPLES: dict[str, str | None] = {
     "m6remap.ngc": None, "m75.ngc": None, "m76.ngc": None, "retval.ngc": None,
     "roparams.ngc": None, "testm6fail.ngc": None, "touchoff.ngc": None,
     "m70m72-demo.ngc": None, "m73-demo.ngc": None,
-    # cutter radius compensation with the tool table's diameters
-    "comp-g1.ngc": None, "comp311.ngc": None,
+    # cutter radius compensation with the tool table's diameters, in G17 and G18
+    "comp-g1.ngc": None, "comp311.ngc": None, "comp.ngc": None, "lathecomp.ngc": None,
     # refused, naming what K37 does not have
     "b-index.ngc": "unsupported word B0 (K37's axes are X, Y and Z)",
     "daisy.ngc": "unsupported word A0 (K37's axes are X, Y and Z)",
-    "comp.ngc": _COMP_PLANE, "comp311_2.ngc": _COMP_ARC,
-    "g76.ngc": _COMP_PLANE, "lathe-g76.ngc": _COMP_PLANE, "lathecomp.ngc": _COMP_PLANE,
+    "comp311_2.ngc": _COMP_ARC, "g76.ngc": _COMP_ARC, "lathe-g76.ngc": _COMP_ARC,
     "useful-subroutines.ngc": "entry move is not longer than the cutter's radius",
     "gmoccapy_2_tools_with_cutter_radius_compensation.ngc": _COMP_ARC,
     "gridprobe.ngc": "probing is unsupported", "smartprobe.ngc": f"#5070 {_SET}",

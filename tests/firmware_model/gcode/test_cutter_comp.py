@@ -86,6 +86,16 @@ def test_g41_without_a_diameter_runs_the_path_as_programmed(on, tools):
     assert path(SQUARE.format(on=on), tools) == path(SQUARE.format(on="G41.1 D0"))
 
 
+def test_in_g18_the_geometry_is_the_same_in_the_zx_plane():
+    # G17's (X, Y) are G18's (Z, X); Y, the normal, moves as Z does in G17
+    xy = ("G0 X-10 Y-10 Z2\nG41.1 D2\nG1 X0 Y0\nX20\nG3 X30 Y10 R10\nG1 Y20 Z1\nX0\nY0\n"
+          "G40 X-10 Y-10")
+    zx = xy.translate(str.maketrans("XYZ", "ZXY"))
+    for m17, m18 in zip(parse(f"G21 G90 G17 F100\n{xy}\nM30", axes=3).moves,
+                        parse(f"G21 G90 G18 F100\n{zx}\nM30", axes=3).moves, strict=True):
+        assert m18.end == (m17.end[1], m17.end[2], m17.end[0])
+
+
 @pytest.mark.parametrize(("text", "message"), [
     ("G41.1 D2\nG1 X1", "3:1: the cutter radius compensation entry move is not longer than "
                         "the cutter's radius"),
@@ -93,8 +103,10 @@ def test_g41_without_a_diameter_runs_the_path_as_programmed(on, tools):
                             "(the entry move), not an arc"),
     ("G42.1\nG1 X10", "2:1: G42.1 needs D, the cutter's diameter (>= 0)"),
     ("G41.1 D2\nG42.1 D2", "3:1: G42.1: cutter radius compensation is already on (G40 first)"),
-    ("G18 G41.1 D2", "2:5: G41.1 in G18: cutter radius compensation is in the XY plane (G17) "
-                     "here"),
+    ("G19 G41.1 D2", "2:5: G41.1 in G19: cutter radius compensation is in the XY and XZ "
+                     "planes (G17, G18), as LinuxCNC's"),
+    ("G41.1 D2\nG1 X10\nG18 X20", "4:1: G18: the plane cannot change with cutter radius "
+                                   "compensation on (G40 first)"),
     ("G1 X1 D2", "2:7: D2: D is only for G41/G42 (a tool number) and G41.1/G42.1 (the "
                  "cutter's diameter)"),
     ("G41 D7", "2:5: D7: tool 7 is not in the job's tool table ([1, 2, 3])"),
