@@ -27,6 +27,7 @@ from decimal import Decimal
 
 from k37.firmware_model.gcode.block_words import BlockError, BlockWords, g_name
 from k37.firmware_model.gcode.lex import Word
+from k37.firmware_model.gcode.tool_table import table_tool, tool_number
 from k37.firmware_model.motion.planner import PlanError
 from k37.hdl.common.constants import PLANE_AXES
 
@@ -141,8 +142,8 @@ class CutterComp:
             raise BlockError(w.col, f"{w.text} in G19: cutter radius compensation is in the XY "
                                     f"and XZ planes (G17, G18), as LinuxCNC's")
         if mode in (410, 420):
-            number = (0 if d is None else self.tool_number(d)) or self.tool  # D0: loaded
-            diameter = (Decimal(repr(self.table_tool(number, d or w).diameter))
+            number = (0 if d is None else tool_number(d)) or self.tool  # D0: loaded
+            diameter = (Decimal(repr(table_tool(self.tools, number, d or w).diameter))
                         / self.lsb_size)
         elif d is None or d.value < 0:
             raise BlockError(w.col, f"{w.text} needs D, the cutter's diameter (>= 0)")

@@ -17,7 +17,12 @@ from k37.firmware_model.gcode.lex import Word
 from k37.firmware_model.gcode.modal_state import ModalState
 from k37.firmware_model.gcode.offsets import SYSTEMS, Offsets
 from k37.firmware_model.gcode.spline_motions import SplineMotions
-from k37.firmware_model.gcode.tool_table import Tool, ToolTable, tool_entry
+from k37.firmware_model.gcode.tool_table import (
+    ToolTable,
+    table_tool,
+    tool_entry,
+    tool_number,
+)
 from k37.firmware_model.gcode.units import (
     ARC_TOLERANCE_MM,
     AXIS_LETTERS,
@@ -316,24 +321,9 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
             self.tool_offset = self.tool_length(b.g["tool length"][1], h)
 
     def tool_length(self, g43: Word, h: Word | None) -> int:
-        number = self.tool if h is None else self.tool_number(h)
-        return self.lsb(Decimal(repr(self.table_tool(number, h or g43).length)), inch=False)
-
-    def tool_number(self, w: Word) -> int:
-        """The tool number a word (H, D) gives."""
-        if w.value < 0 or w.value != w.value.to_integral_value():
-            raise BlockError(w.col, f"{w.text}: {w.letter} must be a non-negative integer")
-        return int(w.value)
-
-    def table_tool(self, number: int | None, w: Word) -> Tool:
-        """The tool ``number`` of the job's tool table (``w`` names it in an error); no
-        table, no tool loaded or tool 0: a tool of length and diameter zero."""
-        if not self.tools or number in (None, 0):
-            return Tool()
-        if number not in self.tools:
-            raise BlockError(w.col, f"{w.text}: tool {number} is not in the job's tool "
-                                    f"table ({sorted(self.tools)})")
-        return self.tools[number]
+        number = self.tool if h is None else tool_number(h)
+        return self.lsb(Decimal(repr(table_tool(self.tools, number, h or g43).length)),
+                        inch=False)
 
     def non_modal(self, b: BlockWords) -> None:
         if "non-modal" not in b.g:

@@ -5,7 +5,10 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-__all__ = ["Tool", "ToolTable", "tool_entry"]
+from k37.firmware_model.gcode.block_words import BlockError
+from k37.firmware_model.gcode.lex import Word
+
+__all__ = ["Tool", "ToolTable", "table_tool", "tool_entry", "tool_number"]
 
 
 @dataclass(frozen=True)
@@ -23,3 +26,21 @@ ToolTable = Mapping[int, "float | Tool"]
 def tool_entry(value: float | Tool) -> Tool:
     """A table's entry as a :class:`Tool` (a plain number is the tool's length)."""
     return value if isinstance(value, Tool) else Tool(length=float(value))
+
+
+def tool_number(w: Word) -> int:
+    """The tool number a word (H, D) gives."""
+    if w.value < 0 or w.value != w.value.to_integral_value():
+        raise BlockError(w.col, f"{w.text}: {w.letter} must be a non-negative integer")
+    return int(w.value)
+
+
+def table_tool(tools: Mapping[int, Tool], number: int | None, w: Word) -> Tool:
+    """The tool ``number`` of the job's tool table ``tools`` (``w`` names it in an error); no
+    table, no tool loaded or tool 0: a tool of length and diameter zero."""
+    if not tools or number in (None, 0):
+        return Tool()
+    if number not in tools:
+        raise BlockError(w.col, f"{w.text}: tool {number} is not in the job's tool table "
+                                f"({sorted(tools)})")
+    return tools[number]
