@@ -7,6 +7,7 @@
 
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 
 #include "constants.h"
@@ -348,6 +349,27 @@ struct Encoder {
 		quad_error = (quad_error && !clear) || (change[0] && change[1]);
 		bad_config = (bad_config && !clear) || bank.err(ENCODER_FILTER) || bank.err(ENCODER_MODE);
 		started = true;
+	}
+	// While the lines `in` stay as they are (complementary, no bank strobe, started): the
+	// cycles that change no filtered level (each line's filter streak runs on towards its
+	// length or stays reset; UINT64_MAX: any number), and those cycles' advance (j >= 1; no
+	// count pulse, no fault on the way).
+	uint64_t steady_cycles(const Lines &in) const {
+		uint64_t k = bank.value[ENCODER_FILTER], cycles = UINT64_MAX;
+		for (int i = 0; i < 2; i++) {
+			const EncoderLine &l = line[i];
+			if ((i ? in.b : in.a) != l.level)
+				cycles = std::min(cycles, l.run + 1 < k ? k - 1 - l.run : 0);
+		}
+		return cycles;
+	}
+	void advance(const Lines &in, uint64_t j) {
+		for (int i = 0; i < 2; i++) {
+			EncoderLine &l = line[i];
+			bool pin = i ? in.b : in.a;
+			l.held = pin;
+			l.run = pin != l.level ? unsigned(l.run + j) : 0;
+		}
 	}
 	uint64_t read(int reg) const {
 		if (reg == ENCODER_STATUS)

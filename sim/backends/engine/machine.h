@@ -5,8 +5,9 @@
 // k37.hdl.chipset.chip.Chipset wire them; its ports by the System's names; its cycles (a falling edge, except in the first, then a rising edge, as
 // Amaranth's simulator clocks it); and its idle skipping: while nothing but the free-running
 // state (the dividers, the rate multiplier's counter, the accel/decel accumulator, the K3701's
-// latency or setup count) and the plants changes, cycles are advanced in closed form up to the
-// next event, the plants stepped alone, exactly as stepping the whole machine would.
+// latency or setup count), the plants and the encoder filters' streaks change, cycles are
+// advanced in closed form up to the next event, the plants stepped alone, exactly as
+// stepping the whole machine would.
 
 #pragma once
 
@@ -220,10 +221,11 @@ struct Machine {
 		}
 	}
 
-	// Whether the cycles to come change nothing but the free-running state and the plants
-	// until an event of theirs (horizon): no bus cycle, no bank strobe, no step pulse, FP or
-	// accel/decel output pulse, K3702s and encoder interfaces at a fixed point, and the
-	// K3701 idle, counting down, or waiting for an FP it does not hold.
+	// Whether the cycles to come change nothing but the free-running state, the plants and
+	// the encoder interfaces' filter streaks until an event of theirs (horizon, or a filter
+	// passing a change): no bus cycle, no bank strobe, no step pulse, FP or accel/decel output
+	// pulse, no count pulse, complementary encoder lines, the K3702s at a fixed point, and
+	// the K3701 idle, counting down, or waiting for an FP it does not hold.
 	bool quiet_now() const {
 		if (w_stb || r_stb || !banks_quiet())
 			return false;
@@ -244,13 +246,8 @@ struct Machine {
 			    p.break_a != a.in.break_a)
 				return false;
 			Lines in = p.lines();
-			const bool pins[2][2] = {{in.a, in.a_n}, {in.b, in.b_n}};
-			for (int i = 0; i < 2; i++) {
-				const EncoderLine &l = e.line[i];
-				if (pins[i][0] == pins[i][1] || l.held != pins[i][0] || l.level != pins[i][0] ||
-				    l.run || l.broken)
-					return false;
-			}
+			if (in.a == in.a_n || in.b == in.b_n || e.line[0].broken || e.line[1].broken)
+				return false;
 		}
 		return true;
 	}
@@ -324,19 +321,35 @@ struct Machine {
 			interp.count -= int64_t(k);
 	}
 
-	// Step the plants alone for at most h cycles (their D/A words and inputs held, no command
-	// pulse), up to and including the first cycle that changes an encoder count; the cycles
-	// run. In pieces, exactly (lag.h, as the compiled RTL backend's skips step its plants).
+	// Step the plants and the encoder interfaces alone for at most h cycles (the plants' D/A
+	// words and inputs held, no command pulse), up to the first cycle in which an encoder
+	// interface's filter would pass a change; the cycles run. The plants in pieces, exactly
+	// (lag.h, as the compiled RTL backend's skips step them), each ending at a count change;
+	// over each piece the encoders see the lines it started with, their filter streaks
+	// advanced in closed form (Encoder::advance).
 	uint64_t advance_plants(uint64_t h) {
-		k37lag::Lag lags[MAX_AXES] = {lag(axis[0]), lag(axis[1]), lag(axis[2])};
-		int64_t steps[MAX_AXES];
-		bool crossed;
-		uint64_t k = k37lag::advance(lags, size_t(axes), steps, h, crossed);
-		for (int i = 0; i < axes; i++) {
-			axis[i].plant.velocity = lags[i].v;
-			axis[i].plant.before = lags[i].position - uint64_t(lags[i].v);
+		uint64_t done = 0;
+		while (done < h) {
+			uint64_t piece = h - done;
+			Lines in[MAX_AXES];
+			for (int i = 0; i < axes; i++) {
+				in[i] = axis[i].plant.lines();
+				piece = std::min(piece, axis[i].enc.steady_cycles(in[i]));
+			}
+			if (piece == 0)
+				break;
+			k37lag::Lag lags[MAX_AXES] = {lag(axis[0]), lag(axis[1]), lag(axis[2])};
+			int64_t steps[MAX_AXES];
+			bool crossed;
+			uint64_t k = k37lag::advance(lags, size_t(axes), steps, piece, crossed);
+			for (int i = 0; i < axes; i++) {
+				axis[i].plant.velocity = lags[i].v;
+				axis[i].plant.before = lags[i].position - uint64_t(lags[i].v);
+				axis[i].enc.advance(in[i], k);
+			}
+			done += k;
 		}
-		return k;
+		return done;
 	}
 	static k37lag::Lag lag(const Axis &a) {
 		const Plant &p = a.plant;
@@ -354,6 +367,8 @@ struct Machine {
 		if (h == 0)
 			return 0;
 		uint64_t k = advance_plants(h);
+		if (k == 0)
+			return 0;
 		advance_free(k);
 		skipped += k;
 		count_cycles(k);
