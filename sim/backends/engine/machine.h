@@ -65,6 +65,7 @@ struct Machine {
 	bool w_stb = false, r_stb = false;
 	unsigned read_cs = 0;
 	bool read_a4 = false;  // select 7's window of the last read (three axes)
+	bool strobed = false;  // a bank holds a strobe (committed or refused) of the last edge
 	uint32_t fp_total = 0;
 	uint64_t cycle = 0, skipped = 0;
 	// Samples of some ports at every multiple of `every` cycles (k37e_record): each row the
@@ -146,11 +147,11 @@ struct Machine {
 	}
 
 	void rise() {
-		// Everything the edge reads, from the values before it.
-		bool gate = decel_out(), feed_pulse = fp();
-		bool add[1 + MAX_AXES];  // the addition clocks: the shared fa, then each axis's
-		for (int k = -1; k < axes; k++)
-			add[1 + k] = feed.clock(k).stb;
+		if (!(w_stb || r_stb || strobed)) {  // no bus cycle and no strobe to clear
+			edge();
+			return;
+		}
+		// The banks' edges, from the values before it.
 		BankEdge e_feed = decode(feed, SELECT_FEED, WINDOW_FEED, FEED_ADDR_WIDTH);
 		BankEdge e_decel = decode(decel, SELECT_DECEL, WINDOW_DECEL, DECEL_ADDR_WIDTH);
 		BankEdge e_interp = decode(interp, SELECT_K3701, WINDOW_K3701,
@@ -162,16 +163,38 @@ struct Machine {
 		    {SELECT_ENCODER_X, WINDOW_ENCODER_X}, {SELECT_ENCODER_Y, WINDOW_ENCODER_Y},
 		    {SELECT_ENCODER_Z, WINDOW_ENCODER_Z}};
 		BankEdge e_ctrl[MAX_AXES], e_enc[MAX_AXES];
-		int step[MAX_AXES], com[MAX_AXES];
 		for (int k = 0; k < axes; k++) {
 			e_ctrl[k] = decode(axis[k].ctrl, CTRL_SELECTS[k][0], CTRL_SELECTS[k][1],
 			                   K3702_ADDR_WIDTH);
 			e_enc[k] = decode(axis[k].enc, ENC_SELECTS[k][0], ENC_SELECTS[k][1],
 			                  ENCODER_ADDR_WIDTH);
+		}
+		edge();
+		if (r_stb) {
+			read_cs = unsigned(addr >> REG_BITS) & 7;
+			read_a4 = axes == 3 && bit(addr, REG_BITS - 1);
+		}
+		feed.bank.apply(e_feed);
+		decel.bank.apply(e_decel);
+		interp.bank.apply(e_interp);
+		for (int k = 0; k < axes; k++) {
+			axis[k].ctrl.bank.apply(e_ctrl[k]);
+			axis[k].enc.bank.apply(e_enc[k]);
+		}
+		strobed = !banks_quiet();
+	}
+	// The chips' and plants' rising edge (the banks' aside).
+	void edge() {
+		// Everything the edge reads, from the values before it.
+		bool gate = decel_out(), feed_pulse = fp();
+		bool add[1 + MAX_AXES];  // the addition clocks: the shared fa, then each axis's
+		for (int k = -1; k < axes; k++)
+			add[1 + k] = feed.clock(k).stb;
+		int step[MAX_AXES], com[MAX_AXES];
+		for (int k = 0; k < axes; k++) {
 			step[k] = steps(k);
 			com[k] = command(k);
 		}
-		// The edge.
 		feed.rise();
 		decel.rise(gate);
 		if (accel_pre)
@@ -190,17 +213,6 @@ struct Machine {
 			a.pulses_neg += step[k] < 0;
 		}
 		fp_total += feed_pulse;
-		if (r_stb) {
-			read_cs = unsigned(addr >> REG_BITS) & 7;
-			read_a4 = axes == 3 && bit(addr, REG_BITS - 1);
-		}
-		feed.bank.apply(e_feed);
-		decel.bank.apply(e_decel);
-		interp.bank.apply(e_interp);
-		for (int k = 0; k < axes; k++) {
-			axis[k].ctrl.bank.apply(e_ctrl[k]);
-			axis[k].enc.bank.apply(e_enc[k]);
-		}
 	}
 
 	void step() {
@@ -227,7 +239,7 @@ struct Machine {
 	// pulse, no count pulse, complementary encoder lines, the K3702s at a fixed point, and
 	// the K3701 idle, counting down, or waiting for an FP it does not hold.
 	bool quiet_now() const {
-		if (w_stb || r_stb || !banks_quiet())
+		if (w_stb || r_stb || strobed)
 			return false;
 		for (int k = 0; k < axes; k++)
 			if (steps(k))
