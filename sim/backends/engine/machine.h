@@ -350,18 +350,46 @@ struct Machine {
 			}
 			if (piece == 0)
 				break;
-			k37lag::Lag lags[MAX_AXES] = {lag(axis[0]), lag(axis[1]), lag(axis[2])};
-			int64_t steps[MAX_AXES];
-			bool crossed;
-			uint64_t k = k37lag::advance(lags, size_t(axes), steps, piece, crossed);
-			for (int i = 0; i < axes; i++) {
-				axis[i].plant.velocity = lags[i].v;
-				axis[i].plant.before = lags[i].position - uint64_t(lags[i].v);
+			uint64_t k = piece <= STEPPED_PIECE ? step_plants(piece) : lag_plants(piece);
+			for (int i = 0; i < axes; i++)
 				axis[i].enc.advance(in[i], k);
-			}
 			done += k;
 		}
 		return done;
+	}
+	// Pieces of at most this many cycles are stepped cycle by cycle (Plant::rise): cheaper
+	// than the closed forms' set-up over a few cycles, and the same update.
+	static constexpr uint64_t STEPPED_PIECE = 16;
+	// Step the plants alone for at most n cycles, up to and including the first cycle that
+	// changes a count; the cycles run. Cycle by cycle, or in pieces in closed form (lag.h).
+	uint64_t step_plants(uint64_t n) {
+		int64_t vc[MAX_AXES];
+		for (int i = 0; i < axes; i++)
+			vc[i] = Plant::command(axis[i].in, axis[i].ctrl.dac, 0);
+		for (uint64_t j = 1; j <= n; j++) {
+			bool crossed = false;
+			for (int i = 0; i < axes; i++) {
+				Plant &p = axis[i].plant;
+				uint64_t before = p.before + uint64_t(p.velocity);
+				p.before = before;
+				p.velocity = p.next_velocity(axis[i].in, vc[i]);
+				crossed |= (before ^ (before + uint64_t(p.velocity))) >> FRAC_BITS != 0;
+			}
+			if (crossed)
+				return j;
+		}
+		return n;
+	}
+	uint64_t lag_plants(uint64_t n) {
+		k37lag::Lag lags[MAX_AXES] = {lag(axis[0]), lag(axis[1]), lag(axis[2])};
+		int64_t steps[MAX_AXES];
+		bool crossed;
+		uint64_t k = k37lag::advance(lags, size_t(axes), steps, n, crossed);
+		for (int i = 0; i < axes; i++) {
+			axis[i].plant.velocity = lags[i].v;
+			axis[i].plant.before = lags[i].position - uint64_t(lags[i].v);
+		}
+		return k;
 	}
 	static k37lag::Lag lag(const Axis &a) {
 		const Plant &p = a.plant;
