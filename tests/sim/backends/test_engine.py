@@ -113,6 +113,25 @@ def test_engine_equals_the_rtl_on_three_axis_cam_programs(program):
     assert same_on_engine_and_rtl(job)["status"] == "ok"
 
 
+@settings(max_examples=6, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(seed=st.integers(0, 10**6), accel=st.sampled_from(["pre", "post", "none"]),
+       length=st.integers(5, 255))
+def test_engine_equals_the_rtl_with_long_encoder_filters(seed, accel, length, random_moves):
+    """Every count waits out a filter streak of up to 255 samples, which the engine's skips
+    jump; at the longer lengths the encoders miss counts and the servo runs away."""
+    job, faults, _ = random_moves(seed, accel, dwell=True)
+    job = replace(job, machine=replace(job.machine, encoder_filter=length))
+    same_on_engine_and_rtl(job, faults, sample_every=97)
+
+
+def test_lockstep_runs_a_long_encoder_filter_without_a_difference():
+    machine = replace(demo_job().machine, encoder_filter=40)
+    job = replace(demo_job(), machine=machine)
+    report = run_job(job, RunOptions(backend="lockstep", max_cycles=300_000)).report
+    assert report["backend"] == "lockstep" and report["cycles"] == 300_000
+
+
 def test_lockstep_runs_the_demo_without_a_difference():
     report = run_job(demo_job(), RunOptions(backend="lockstep", max_cycles=400_000)).report
     assert report["backend"] == "lockstep" and report["cycles"] == 400_000
