@@ -362,23 +362,28 @@ struct Machine {
 	static constexpr uint64_t STEPPED_PIECE = 16;
 	// Step the plants alone for at most n cycles, up to and including the first cycle that
 	// changes a count; the cycles run. Cycle by cycle, or in pieces in closed form (lag.h).
+	uint64_t step_plants(uint64_t n) { return axes == 3 ? step_plants<3>(n) : step_plants<2>(n); }
+	template<int N>
 	uint64_t step_plants(uint64_t n) {
-		int64_t vc[MAX_AXES];
-		for (int i = 0; i < axes; i++)
+		Plant p[N];
+		int64_t vc[N];
+		for (int i = 0; i < N; i++) {
+			p[i] = axis[i].plant;
 			vc[i] = Plant::command(axis[i].in, axis[i].ctrl.dac, 0);
-		for (uint64_t j = 1; j <= n; j++) {
-			bool crossed = false;
-			for (int i = 0; i < axes; i++) {
-				Plant &p = axis[i].plant;
-				uint64_t before = p.before + uint64_t(p.velocity);
-				p.before = before;
-				p.velocity = p.next_velocity(axis[i].in, vc[i]);
-				crossed |= (before ^ (before + uint64_t(p.velocity))) >> FRAC_BITS != 0;
-			}
-			if (crossed)
-				return j;
 		}
-		return n;
+		uint64_t j = 0;
+		for (bool crossed = false; j < n && !crossed;) {
+			j++;
+			for (int i = 0; i < N; i++) {
+				uint64_t before = p[i].before + uint64_t(p[i].velocity);
+				p[i].before = before;
+				p[i].velocity = p[i].next_velocity(axis[i].in, vc[i]);
+				crossed |= (before ^ (before + uint64_t(p[i].velocity))) >> FRAC_BITS != 0;
+			}
+		}
+		for (int i = 0; i < N; i++)
+			axis[i].plant = p[i];
+		return j;
 	}
 	uint64_t lag_plants(uint64_t n) {
 		k37lag::Lag lags[MAX_AXES] = {lag(axis[0]), lag(axis[1]), lag(axis[2])};
