@@ -139,10 +139,13 @@ struct Machine {
 		                        uint8_t(w_data), [&](int reg) { return chip.read(reg); });
 	}
 
+	// A K3702 without a pulse or a strobe is at a fixed point: its falling edge is skipped.
 	void fall() {
 		for (int k = 0; k < axes; k++) {
 			Axis &a = axis[k];
-			a.ctrl.fall(command(k), int(a.enc.fb_pos) - int(a.enc.fb_neg));
+			int com = command(k), fb = int(a.enc.fb_pos) - int(a.enc.fb_neg);
+			if (com || fb || strobed)
+				a.ctrl.fall(com, fb);
 		}
 	}
 
