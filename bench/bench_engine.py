@@ -4,11 +4,14 @@ Run with ``pytest bench/bench_engine.py --benchmark-only -s``. Each job runs on 
 (built or loaded before the timing; the faster of ``ROUNDS`` runs for the short jobs), and
 the reports must be equal (the fields of how a run was computed aside). Printed per job:
 machine seconds per wall second on each backend, the engine's speed-up, the cycles each
-evaluated (the rest skipped in closed form), and the process CPU time (steadier than wall
-time on a shared machine). The jobs: the demo, the K3701's top feed on a 100 mm line, a
-dwell-heavy job, the paper's low feed, fourteen programs of the G-code corpus in several
-writers' styles (two and three axes) on the default machine (exact stop after every block),
-and :mod:`bench_cam`'s pocket (three axes, accel/decel after the K3701).
+evaluated (the rest skipped in closed form), the process CPU time (steadier than wall time on
+a shared machine), and what stepping every axis's plant every cycle would cost against the
+engine's CPU time (one plant's update timed alone, times the cycles and the axes: the floor
+of an engine that keeps the plant's update as it is). The jobs: the demo, the K3701's top
+feed on a 100 mm line, a dwell-heavy job, the paper's low feed, fourteen programs of the
+G-code corpus in several writers' styles (two and three axes) on the default machine (exact
+stop after every block), and :mod:`bench_cam`'s pocket (three axes, accel/decel after the
+K3701).
 """
 
 from __future__ import annotations
@@ -59,10 +62,22 @@ def timed(job: Job, kind: str, rounds: int) -> tuple[dict, float, float]:
     return best
 
 
+def plant_ns() -> float:
+    """CPU nanoseconds of one plant's update per cycle, stepped alone (the faster of three)."""
+    backend = build_backend(demo_job(), "engine")
+    try:
+        return min(backend.plant_ns(10**7) for _ in range(ROUNDS))
+    finally:
+        backend.close()
+
+
 def compare_all() -> list[str]:
+    plant = plant_ns()
+    print(f"a plant's update: {plant:.2f} ns per cycle")
     rows = ["| job | machine s | cxxrtl x real time | engine x real time | engine / cxxrtl "
-            "| evaluated cycles cxxrtl / engine | CPU s cxxrtl / engine |",
-            "|---|---:|---:|---:|---:|---:|---:|"]
+            "| evaluated cycles cxxrtl / engine | CPU s cxxrtl / engine "
+            "| plants stepped every cycle / engine CPU |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|"]
     for name, job in jobs().items():
         runs = {}
         for kind in ("cxxrtl", "engine"):
@@ -76,7 +91,8 @@ def compare_all() -> list[str]:
                     f"{machine / eng_wall:,.0f} | {rtl_wall / eng_wall:.1f} | "
                     f"{rtl['cycles'] - rtl['skipped_cycles']:,} / "
                     f"{eng['cycles'] - eng['skipped_cycles']:,} | "
-                    f"{rtl_cpu:.2f} / {eng_cpu:.2f} |")
+                    f"{rtl_cpu:.2f} / {eng_cpu:.2f} | "
+                    f"{rtl['cycles'] * job.machine.axes * plant * 1e-9 / eng_cpu:.0%} |")
         print(rows[-1], flush=True)
     return rows
 
