@@ -337,11 +337,12 @@ struct Machine {
 	}
 
 	// Step the plants and the encoder interfaces alone for at most h cycles (the plants' D/A
-	// words and inputs held, no command pulse), up to the first cycle in which an encoder
-	// interface's filter would pass a change; the cycles run. The plants in pieces, exactly
-	// (lag.h, as the compiled RTL backend's skips step them), each ending at a count change;
-	// over each piece the encoders see the lines it started with, their filter streaks
-	// advanced in closed form (Encoder::advance).
+	// words and inputs held, no command pulse), up to and including the first cycle in which
+	// an encoder interface's filter passes a change; the cycles run. The plants in pieces,
+	// exactly (lag.h, as the compiled RTL backend's skips step them), each ending at a count
+	// change; over each piece the encoders see the lines it started with, their filter
+	// streaks advanced in closed form (Encoder::advance); the cycle in which a filter passes a
+	// change runs the encoders' whole edge (its count pulse ends the skip).
 	uint64_t advance_plants(uint64_t h) {
 		uint64_t done = 0;
 		while (done < h) {
@@ -351,8 +352,11 @@ struct Machine {
 				in[i] = axis[i].plant.lines();
 				piece = std::min(piece, axis[i].enc.steady_cycles(in[i]));
 			}
-			if (piece == 0)
-				break;
+			if (piece == 0) {
+				for (int i = 0; i < axes; i++)
+					axis[i].enc.rise(in[i]);
+				return done + step_plants(1);
+			}
 			uint64_t k = piece <= STEPPED_PIECE ? step_plants(piece) : lag_plants(piece);
 			for (int i = 0; i < axes; i++)
 				axis[i].enc.advance(in[i], k);
@@ -406,8 +410,9 @@ struct Machine {
 		                   FRAC_BITS);
 	}
 
-	// After a cycle: skip up to `rest` cycles if the machine is quiet, to just before its next
-	// event (or just after a plant's count changes, or at the next sample); the cycles skipped.
+	// After a cycle: skip up to `rest` cycles if the machine is quiet, to just before the
+	// chips' next event, or just after the cycle in which an encoder interface's filter
+	// passes a change, or to the next sample; the cycles skipped.
 	uint64_t skip(uint64_t rest) {
 		if (rest == 0 || !quiet_now())
 			return 0;
@@ -415,8 +420,6 @@ struct Machine {
 		if (h == 0)
 			return 0;
 		uint64_t k = advance_plants(h);
-		if (k == 0)
-			return 0;
 		advance_free(k);
 		skipped += k;
 		count_cycles(k);
