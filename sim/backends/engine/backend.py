@@ -51,6 +51,7 @@ def load(path: str) -> ctypes.CDLL:
         "k37e_create": (handle, [c_int, c_int, ctypes.POINTER(c_int),
                                  ctypes.POINTER(ctypes.c_uint), ctypes.c_uint]),
         "k37e_destroy": (None, [handle]),
+        "k37e_drive": (None, [handle, c_int, c_int]),
         "k37e_port": (c_int, [ctypes.c_char_p]),
         "k37e_get": (u64, [handle, c_int]),
         "k37e_set": (None, [handle, c_int, u64]),
@@ -124,18 +125,20 @@ class EngineBackend(Backend):
         fa_axes = sum(1 << "xyz".index(axis) for axis in params["axis_fa"])
         self._machine = (params["axes"], placement, (ctypes.c_int * 4)(*shapes),
                          (ctypes.c_uint * 4)(*(bits for _, bits in circuits)), fa_axes)
+        #: Each axis's drive, by the engine's code (``DriveKind``: the order of DRIVES).
+        self._drives = [list(DRIVES).index(params["drives"][axis]) for axis in system.axes]
         self._index = {name: lib.k37e_port(name.encode()) for name in ports}
-        missing = [name for name, i in self._index.items() if i < 0 and not ports[name].is_input]
+        missing = [name for name, i in self._index.items() if i < 0]
         if missing:
-            raise RuntimeError(f"the engine has no output {', '.join(missing)}")
-        # Inputs the engine's machine leaves unconnected (other drives' parameters): held here.
-        self._held = {name: port.init for name, port in ports.items() if self._index[name] < 0}
+            raise RuntimeError(f"the engine has no port {', '.join(missing)}")
         self._batches: dict[tuple[str, ...], tuple[list[Port], ctypes.Array, ctypes.Array]] = {}
         self._recording: list[Port] | None = None  # the ports k37e_record samples
         self._create()
 
     def _create(self) -> None:
         self._handle = self._lib.k37e_create(*self._machine)
+        for axis, kind in enumerate(self._drives):
+            self._lib.k37e_drive(self._handle, axis, kind)
         self._destroy = weakref.finalize(self, self._lib.k37e_destroy, self._handle)
         for name, port in self.ports.items():
             if port.is_input and port.init:
@@ -144,25 +147,17 @@ class EngineBackend(Backend):
     def reset(self) -> None:
         self._destroy()
         self._recording = None
-        self._held = {name: self.ports[name].init for name in self._held}
         self._create()
 
     def _set_raw(self, port: Port, raw: int) -> None:
-        index = self._index[port.name]
-        if index < 0:
-            self._held[port.name] = raw
-        else:
-            self._lib.k37e_set(self._handle, index, raw)
+        self._lib.k37e_set(self._handle, self._index[port.name], raw)
 
     def _get_raw(self, port: Port) -> int:
-        index = self._index[port.name]
-        return self._held[port.name] if index < 0 else self._lib.k37e_get(self._handle, index)
+        return self._lib.k37e_get(self._handle, self._index[port.name])
 
     def get_many(self, port_names: tuple[str, ...]) -> list[int]:
         if port_names not in self._batches:
             ports = [self.port(name) for name in port_names]
-            if any(self._index[port.name] < 0 for port in ports):
-                return super().get_many(port_names)
             indices = (ctypes.c_int * len(ports))(*(self._index[p.name] for p in ports))
             self._batches[port_names] = (ports, indices, (ctypes.c_uint64 * len(ports))())
         ports, indices, out = self._batches[port_names]
@@ -186,10 +181,7 @@ class EngineBackend(Backend):
         self._check_blocks()
 
     def _output(self, port_name: str) -> int:
-        index = self._index[self.port(port_name).name]
-        if index < 0:
-            raise ValueError(f"port {port_name} is an input the engine leaves unconnected")
-        return index
+        return self._index[self.port(port_name).name]
 
     def run_until(self, port_name: str, max_cycles: int, *, skip_idle: bool = False) -> int:
         check_count("max_cycles", max_cycles)
@@ -225,7 +217,7 @@ class EngineBackend(Backend):
         if not isinstance(every, int) or every < 1:
             raise ValueError(f"every must be a positive number of cycles, not {every!r}")
         ports = [self.port(name) for name in port_names]
-        if any(self._index[port.name] < 0 or port.width > 63 for port in ports):
+        if any(port.width > 63 for port in ports):
             return False
         indices = [self._index[port.name] for port in ports]
         self._lib.k37e_record(self._handle, (ctypes.c_int * len(ports))(*indices), len(ports),

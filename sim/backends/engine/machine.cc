@@ -116,8 +116,17 @@ int k37e_port(const char *name) {
 			for (int i = 0; i < k37e::AXIS_COUNT; i++)
 				if (!strcmp(name + 3, k37e::AXIS_PORTS[i]))
 					return k37e::TOP_COUNT + k * k37e::AXIS_COUNT + i;
+	for (int k = 0; k < k37e::MAX_AXES; k++)
+		if (!strncmp(name, axes[k], 3))
+			for (int i = 0; i < k37e::DRIVE_PORT_COUNT; i++)
+				if (!strcmp(name + 3, k37e::DRIVE_PORTS[i]))
+					return k37e::DRIVE_PORT_BASE + k * k37e::DRIVE_PORT_COUNT + i;
 	return -1;
 }
+
+// Axis k's drive: 0 the first-order plant, 1 the torque drive, 2 the two-mass drive
+// (k37e::DriveKind); every axis's is first-order until set.
+void k37e_drive(void *m, int axis, int kind) { static_cast<Machine *>(m)->set_drive(axis, kind); }
 
 uint64_t k37e_get(void *m, int port) { return static_cast<Machine *>(m)->get(port); }
 void k37e_set(void *m, int port, uint64_t v) { static_cast<Machine *>(m)->set(port, v); }

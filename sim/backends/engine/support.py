@@ -21,9 +21,7 @@ def unsupported(params: Mapping[str, Any], kinds: Iterable[object] = ()) -> str 
     :class:`k37.sim.machine.system.System`) that the engine does not run, in words naming
     the job's key, or else the first block kind of ``kinds`` (:func:`unsupported_blocks`);
     None if it runs them all."""
-    for axis, drive in sorted((params.get("drives") or {}).items()):
-        if drive != "first_order":
-            return f"servo.{axis}.drive = \"{drive}\" (the engine runs the first-order drive)"
+    del params  # every machine option: each drive on every axis, every accel/decel circuit
     return unsupported_blocks(kinds)
 
 
