@@ -68,7 +68,8 @@ def _cmd_serve(args: argparse.Namespace) -> int:
               f"{session.cycles:,} cycles run", file=sys.stderr, flush=True)
 
     print(f"k37 serve: the {job.machine.axes}-axis machine of {job.name} on "
-          f"tcp://{args.host}:{board.port} ({board.backend.name}); Ctrl-C ends",
+          f"tcp://{args.host}:{board.port} ({board.backend.name}, {board.backend.reason}); "
+          f"Ctrl-C ends",
           file=sys.stderr, flush=True)
     try:
         board.serve(args.sessions, report)

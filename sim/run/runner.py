@@ -41,7 +41,7 @@ from k37.firmware_model.job import Job
 from k37.firmware_model.motion.program import Dwell, Event
 from k37.sim.backends.contract import Backend
 from k37.sim.backends.engine.support import unsupported
-from k37.sim.backends.factory import BACKEND_NAMES, make_backend
+from k37.sim.backends.factory import BACKEND_NAMES, choose_backend, make_backend
 from k37.sim.files import OutputFailure, discard_temporary, keep_temporary, temporary_beside, why
 
 if TYPE_CHECKING:
@@ -207,15 +207,19 @@ _REUSED: dict[str, Backend] = {}
 
 
 def reused_backend(job: Job) -> Backend:
-    """This process's compiled machine for ``job``, built once per design (:func:`design_key`)
-    and reset to cycle 0 for each later job: what a process running many jobs (a study's or
-    a reproduction's worker) runs them on."""
-    key = design_key(job)
+    """This process's machine for ``job`` on the backend ``auto`` picks for it (the engine
+    where it runs the job, else the compiled RTL), built once per design (:func:`design_key`)
+    and backend and reset to cycle 0 for each later job: what a process running many jobs (a
+    study's or a reproduction's worker) runs them on. Its ``reason`` says why for ``job``."""
+    kind, reason = choose_backend("auto", system_params(job),
+                                  kinds={move.block.kind for move in job.program.moves})
+    key = f"{kind} {design_key(job)}"
     backend = _REUSED.get(key)
     if backend is None:
-        backend = _REUSED[key] = build_backend(job, "cxxrtl")
+        backend = _REUSED[key] = build_backend(job, kind)
     else:
         backend.reset()
+    backend.reason = reason
     return backend
 
 

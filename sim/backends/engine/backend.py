@@ -2,10 +2,11 @@
 (:mod:`.build`) through ctypes, with the ports of :class:`k37.sim.machine.system.System`.
 
 It runs what :func:`k37.sim.backends.engine.support.unsupported` accepts and refuses the rest
-when it is built (:class:`UnsupportedMachineError`, naming the option). It has no internal
-signals to probe and writes no waveform: those are the RTL backends'. With ``skip_idle`` it
-advances the cycles in which only its free-running state and its plants change in closed form
-(``skipped_cycles``); the host's polling wait and the sampler's samples run in the library.
+when it is built (:class:`UnsupportedMachineError`, naming the option). Of the internal
+signals it probes only :data:`PROBES`, and it writes no waveform: those are the RTL backends'.
+With ``skip_idle`` it advances the cycles in which only its free-running state and its plants
+change in closed form (``skipped_cycles``); the host's polling wait and the sampler's samples
+run in the library.
 """
 
 from __future__ import annotations
@@ -31,9 +32,12 @@ from k37.sim.backends.engine.build import build
 from k37.sim.backends.engine.support import unsupported
 from k37.sim.machine.system import DRIVES, System
 
-__all__ = ["EngineBackend", "UnsupportedMachineError", "load", "machine_params"]
+__all__ = ["PROBES", "EngineBackend", "UnsupportedMachineError", "load", "machine_params"]
 
 
+#: The internal signals the engine can probe (where its machine has them), by the RTL's names:
+#: one-bit flags that the reproduction's runs read.
+PROBES = ("chipset.accel.idle", "chipset.k3701.busy", "chipset.k3701.overrun")
 #: The accel/decel shapes by the engine's code (``Circuit::Shape``).
 _SHAPES = ("exponential", "linear", "bell")
 
@@ -58,6 +62,7 @@ def load(path: str) -> ctypes.CDLL:
         "k37e_get_many": (None, [handle, ctypes.POINTER(c_int), ctypes.c_size_t,
                                  ctypes.POINTER(u64)]),
         "k37e_cycle": (u64, [handle]),
+        "k37e_probe": (c_int, [handle, ctypes.c_char_p, words]),
         "k37e_unsupported": (c_int, [handle]),
         "k37e_skipped": (u64, [handle]),
         "k37e_step": (None, [handle, u64, c_int]),
@@ -165,10 +170,15 @@ class EngineBackend(Backend):
         return [port.decode(raw) for port, raw in zip(ports, out, strict=True)]
 
     def _probe_raw(self, path: str) -> tuple[int, int, bool]:
-        raise KeyError(path)
+        value = ctypes.c_uint64()
+        if self._lib.k37e_probe(self._handle, path.encode(), ctypes.byref(value)) < 0:
+            raise KeyError(path)
+        return value.value, 1, False
 
     def probe_names(self) -> list[str]:
-        return []
+        value = ctypes.c_uint64()
+        return [path for path in PROBES
+                if self._lib.k37e_probe(self._handle, path.encode(), ctypes.byref(value)) == 0]
 
     def _check_blocks(self) -> None:
         if self._lib.k37e_unsupported(self._handle):

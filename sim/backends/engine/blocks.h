@@ -277,6 +277,11 @@ struct Circuit {
 		exp.bidirectional = lin.bidirectional = bidirectional;
 	}
 	int out() const { return shape == Shape::LINEAR ? lin.out() : exp.out(); }
+	// The circuit's `idle`: every stage drained (k37.hdl.accel's idle outputs).
+	bool idle() const {
+		bool exp_idle = shape == Shape::LINEAR || (exp.x == 0 && exp.pending == 0);
+		return exp_idle && (shape == Shape::EXPONENTIAL || lin.idle());
+	}
 	// The circuit's `quiet`: no output pulse pending, a linear stage drained (then static).
 	bool quiet() const {
 		bool drained = shape == Shape::EXPONENTIAL || lin.idle();

@@ -136,6 +136,22 @@ void k37e_get_many(void *m, const int *ports, size_t n, uint64_t *out) {
 		out[i] = static_cast<Machine *>(m)->get(ports[i]);
 }
 
+// The internal signal at `path` (the RTL's name), of those the engine has: the K3701's busy
+// and overrun flags, and the accel/decel circuit's idle before it; 0 with its value in *value, or -1 if the
+// engine has no such signal in this machine.
+int k37e_probe(void *m, const char *path, uint64_t *value) {
+	const Machine &machine = *static_cast<Machine *>(m);
+	if (!strcmp(path, "chipset.k3701.busy"))
+		*value = machine.interp.out.busy;
+	else if (!strcmp(path, "chipset.k3701.overrun"))
+		*value = machine.interp.out.overrun;
+	else if (!strcmp(path, "chipset.accel.idle") && machine.accel_pre)
+		*value = machine.accel.idle();
+	else
+		return -1;
+	return 0;
+}
+
 uint64_t k37e_cycle(void *m) { return static_cast<Machine *>(m)->cycle; }
 uint64_t k37e_skipped(void *m) { return static_cast<Machine *>(m)->skipped; }
 // Whether a block the engine does not run (parabolic, exponential) was started.

@@ -165,22 +165,6 @@ def test_engine_constants_come_from_the_register_maps():
             f'{(1 << alarm.width) - 1}LL, {alarm.init}ULL}},') in text
 
 
-#: The torque drive with every term (a 1 ms velocity loop, so that any Kp is stable).
-TORQUE = {"drive": "torque", "vg": 2.0, "kf": 0.6, "ti": 0.01, "d": 0.02, "fc": 0.002,
-          "load": 0.001}
-
-
-@pytest.mark.parametrize("servo", [TORQUE, {**TORQUE, "drive": "two_mass", "cs": 2000.0}])
-def test_engine_names_the_first_option_it_does_not_run(servo, random_moves):
-    job, _, _ = random_moves(7, "post", dwell=False, servo=servo)
-    named = f'servo.x.drive = "{servo["drive"]}"'
-    why = unsupported(system_params(job))
-    assert why is not None and why.startswith(named)
-    with pytest.raises(OptionError, match=f"--backend engine: the engine does not run {named}"):
-        build_backend(job, "engine")
-    assert choose_backend("auto", system_params(job))[0] == "cxxrtl"
-
-
 def test_engine_refuses_a_program_with_a_parabola(make_job):
     job = make_job("G21 G91 F600\nG06 X0.03 Y0 I0.015 J0.002\nM30")
     with pytest.raises(OptionError, match="a parabolic block"):
