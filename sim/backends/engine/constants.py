@@ -23,8 +23,8 @@ CHIPS = ("K3701", "K3702_X", "K3702_Y", "K3702_Z", "ENCODER_X", "ENCODER_Y", "EN
 
 
 def _datapath_stages() -> dict[str, int]:
-    """The decision stages of the K3701's linear and circular datapaths, two- and three-axis
-    (what its ``quiet`` looks at)."""
+    """The decision stages of the K3701's linear and circular datapaths, two- and three-axis,
+    and of its curves' (what its ``quiet`` looks at)."""
     from k37.hdl.k3701.block import Kind
     from k37.hdl.k3701.datapaths.circular import CircularDatapath
     from k37.hdl.k3701.datapaths.linear import LinearDatapath3
@@ -32,7 +32,8 @@ def _datapath_stages() -> dict[str, int]:
 
     return {"LINEAR_STAGES": DATAPATHS[Kind.LINEAR].STAGES,
             "CIRCULAR_STAGES": DATAPATHS[Kind.CIRCULAR].STAGES,
-            "LINEAR3_STAGES": LinearDatapath3.STAGES, "CIRCULAR3_STAGES": CircularDatapath.STAGES}
+            "LINEAR3_STAGES": LinearDatapath3.STAGES, "CIRCULAR3_STAGES": CircularDatapath.STAGES,
+            "CURVE_STAGES": DATAPATHS[Kind.PARABOLIC].STAGES}
 
 
 def _accel_defaults() -> dict[str, int]:
@@ -88,6 +89,9 @@ def header() -> str:
         **_accel_defaults(),
         "LATENCY_LINEAR": block.LATENCY_LINEAR, "LATENCY_CIRCULAR": block.LATENCY_CIRCULAR,
         "CIRCLE_SETUP_CYCLES": block.CIRCLE_SETUP_CYCLES, "COORD_MAX": block.COORD_MAX,
+        "PARABOLA_SETUP_CYCLES": block.PARABOLA_SETUP_CYCLES,
+        "EXPONENTIAL_SETUP_CYCLES": block.EXPONENTIAL_SETUP_CYCLES,
+        "EXPONENTIAL_R2_BITS": block.EXPONENTIAL_R2_BITS,
         **_datapath_stages(),
         **{name: getattr(plant_model, name) for name in (
             "FRAC_BITS", "ALPHA_BITS", "VC_BITS", "COUNT_BITS", "POSITION_BITS", "PRODUCT_BITS",

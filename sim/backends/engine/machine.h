@@ -1,6 +1,6 @@
 // The engine's machine: the two- or three-axis chipset (FEED, DECEL, an accel/decel circuit
 // of any shape before the K3701, one per axis after it, or none; the K3701, a K3702 and an
-// encoder interface per axis, the host bus decoding) with a first-order plant per axis and
+// encoder interface per axis, the host bus decoding) with a servo drive per axis and
 // the observation counters, composed as k37.sim.machine.system.System and
 // k37.hdl.chipset.chip.Chipset wire them; its ports by the System's names; its cycles (a falling edge, except in the first, then a rising edge, as
 // Amaranth's simulator clocks it); and its idle skipping: while nothing but the free-running

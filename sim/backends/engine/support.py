@@ -2,10 +2,11 @@
 
 The engine runs the two- and three-axis machines with accel/decel circuits of every shape in
 every placement (``machine.accel``: before the K3701, one per axis after it, each of its own
-shape, ``accel_bits`` and addition clock, or none), first-order servo drives on every axis,
-and programs of lines, arcs and helices. :func:`unsupported` names the first option outside
-that (None: the engine runs the machine); it reads the parameters the simulated machine is
-built with (:func:`k37.sim.run.runner.system_params`), so it needs no Amaranth.
+shape, ``accel_bits`` and addition clock, or none), every servo drive on every axis
+(first-order, torque, two-mass), and programs of lines, arcs and helices.
+:func:`unsupported` names the first option outside that (None: the engine runs the machine);
+it reads the parameters the simulated machine is built with
+(:func:`k37.sim.run.runner.system_params`), so it needs no Amaranth.
 """
 
 from __future__ import annotations
@@ -30,6 +31,6 @@ def unsupported_blocks(kinds: Iterable[object]) -> str | None:
     words; None if it runs them all (lines and arcs, helices among them)."""
     for kind in kinds:
         name = str(getattr(kind, "name", kind)).lower()
-        if name not in ("linear", "circular"):
+        if name not in ("linear", "circular", "parabolic", "exponential"):
             return f"a {name} block (the engine runs lines, arcs and helices)"
     return None
