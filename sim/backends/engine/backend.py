@@ -1,9 +1,8 @@
 """The engine behind the backend contract: :class:`EngineBackend` drives the engine's library
 (:mod:`.build`) through ctypes, with the ports of :class:`k37.sim.machine.system.System`.
 
-It runs what :func:`k37.sim.backends.engine.support.unsupported` accepts and refuses the rest
-when it is built (:class:`UnsupportedMachineError`, naming the option). Of the internal
-signals it probes only :data:`PROBES`, and it writes no waveform: those are the RTL backends'.
+It runs every option of the simulated machine and every block. Of the internal signals it
+probes only :data:`PROBES`, and it writes no waveform: those are the RTL backends'.
 With ``skip_idle`` it advances the cycles in which only its free-running state and its plants
 change in closed form (``skipped_cycles``); the host's polling wait and the sampler's samples
 run in the library.
@@ -29,10 +28,9 @@ from k37.sim.backends.contract import (
     instantiate,
 )
 from k37.sim.backends.engine.build import build
-from k37.sim.backends.engine.support import unsupported
 from k37.sim.machine.system import DRIVES, System
 
-__all__ = ["PROBES", "EngineBackend", "UnsupportedMachineError", "load", "machine_params"]
+__all__ = ["PROBES", "EngineBackend", "load", "machine_params"]
 
 
 #: The internal signals the engine can probe (where its machine has them), by the RTL's names:
@@ -40,10 +38,6 @@ __all__ = ["PROBES", "EngineBackend", "UnsupportedMachineError", "load", "machin
 PROBES = ("chipset.accel.idle", "chipset.k3701.busy", "chipset.k3701.overrun")
 #: The accel/decel shapes by the engine's code (``Circuit::Shape``).
 _SHAPES = ("exponential", "linear", "bell")
-
-
-class UnsupportedMachineError(ValueError):
-    """A machine option the engine does not run (one line naming it)."""
 
 
 def load(path: str) -> ctypes.CDLL:
@@ -63,7 +57,6 @@ def load(path: str) -> ctypes.CDLL:
                                  ctypes.POINTER(u64)]),
         "k37e_cycle": (u64, [handle]),
         "k37e_probe": (c_int, [handle, ctypes.c_char_p, words]),
-        "k37e_unsupported": (c_int, [handle]),
         "k37e_skipped": (u64, [handle]),
         "k37e_step": (None, [handle, u64, c_int]),
         "k37e_run_until": (u64, [handle, c_int, u64, c_int]),
@@ -112,9 +105,6 @@ class EngineBackend(Backend):
                             f"{type(system).__name__}")
         mark_elaborated(system)
         params = machine_params(system)
-        why = unsupported(params)
-        if why is not None:
-            raise UnsupportedMachineError(f"the engine does not run {why}; use --backend cxxrtl")
         ports = {name: port for name, (port, _) in component_ports(system).items()}
         super().__init__(ports, type(system).__name__)
         self._period = period
@@ -180,25 +170,17 @@ class EngineBackend(Backend):
         return [path for path in PROBES
                 if self._lib.k37e_probe(self._handle, path.encode(), ctypes.byref(value)) == 0]
 
-    def _check_blocks(self) -> None:
-        if self._lib.k37e_unsupported(self._handle):
-            raise RuntimeError("the engine does not run parabolic or exponential blocks; "
-                               "use --backend cxxrtl")
-
     def step(self, n: int = 1, *, skip_idle: bool = False) -> None:
         check_count("n", n)
         self._lib.k37e_step(self._handle, n, skip_idle)
-        self._check_blocks()
 
     def _output(self, port_name: str) -> int:
         return self._index[self.port(port_name).name]
 
     def run_until(self, port_name: str, max_cycles: int, *, skip_idle: bool = False) -> int:
         check_count("max_cycles", max_cycles)
-        done = self._lib.k37e_run_until(self._handle, self._output(port_name), max_cycles,
+        return self._lib.k37e_run_until(self._handle, self._output(port_name), max_cycles,
                                         skip_idle)
-        self._check_blocks()
-        return done
 
     def wait_polling(self, port_name: str, max_cycles: int, pause: int, period: int,
                      ports: Sequence[int], stops: Sequence[int], idles: Sequence[int], *,
@@ -219,7 +201,6 @@ class EngineBackend(Backend):
             (u64 * n)(*(addr.encode(a) for a in ports)), (u64 * n)(*stops), n,
             (u64 * len(idles))(*idles), len(idles) // (n + 1), due, skip_idle,
             ctypes.byref(done), read)
-        self._check_blocks()
         # The ends of the compiled RTL backend's wait (WaitEnd): 1 stopped, 2 and 3 go on.
         return done.value, list(read) if end == 1 else None, {2: 1, 3: 2}.get(end, 0)
 

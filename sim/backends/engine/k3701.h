@@ -199,7 +199,7 @@ struct K3701 {
 	K3701Out out;
 	Phase phase = Phase::IDLE;
 	Kind kind = Kind::LINEAR;
-	bool sqrt2 = false, held = false, unsupported = false;
+	bool sqrt2 = false, held = false;
 	int64_t setup_left = 0, count = 0, credit = 0;
 	int64_t xe = 0, ye = 0, ze = 0, i = 0, j = 0, e = 0, helix_steps = 0;
 	bool cw = false, swap = false;

@@ -154,8 +154,6 @@ int k37e_probe(void *m, const char *path, uint64_t *value) {
 
 uint64_t k37e_cycle(void *m) { return static_cast<Machine *>(m)->cycle; }
 uint64_t k37e_skipped(void *m) { return static_cast<Machine *>(m)->skipped; }
-// Whether a block the engine does not run (parabolic, exponential) was started.
-int k37e_unsupported(void *m) { return static_cast<Machine *>(m)->interp.unsupported; }
 
 void k37e_step(void *m, uint64_t n, int skip_idle) {
 	k37e::run(*static_cast<Machine *>(m), n, skip_idle);
