@@ -51,14 +51,16 @@ def drive_job(seed: int, accel: str, servo: dict, random_moves, *, axes: int = 2
 @settings(max_examples=10, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(seed=st.integers(0, 10**6), accel=st.sampled_from(["pre", "post"]), servo=drive_values,
-       step=st.one_of(st.none(), st.tuples(st.floats(-0.004, 0.004), st.floats(0.0, 0.2))))
+       step=st.one_of(st.none(), st.tuples(st.floats(0.0005, 0.004), st.sampled_from([1, -1]),
+                                           st.floats(0.0, 0.2))))
 def test_engine_equals_the_rtl_on_generated_jobs_with_torque_and_two_mass_drives(
         seed, accel, servo, step, random_moves):
     if servo["drive"] == "torque":
         servo = {k: v for k, v in servo.items() if k not in ("cs", "scale")}
     job, faults = drive_job(seed, accel, servo, random_moves)
     if step is not None:
-        faults.setdefault("x", {}).update(load_step_fault(job, "x", *step))
+        torque, sign, at_s = step
+        faults.setdefault("x", {}).update(load_step_fault(job, "x", sign * torque, at_s))
     assert choose_backend("auto", system_params(job))[0] == "engine"
     report = same_on_engine_and_rtl(job, faults, sample_every=97)
     assert report["blocks"] or report["status"] != "ok"
