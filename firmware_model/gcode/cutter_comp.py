@@ -41,8 +41,11 @@ SMALL = 0.05
 class _Move:
     """A compensated move held back: its start and end (LSB, XY), its Z, and, for an arc,
     its centre (on the LSB grid for the planner, and ``exact``) and direction; a line's
-    ``along`` is its programmed direction (an inside corner moves its end back along it);
-    ``entry``: the entry move (rs274 lets an inside corner move its end back past its start)."""
+    ``along`` is its programmed direction (an inside corner moves its end back along it).
+    rs274's gouge check of a moved end: a line's must not be behind its start seen along
+    ``gouge_dir`` (its programmed direction; the entry line's: the side the tool goes to),
+    an arc's must not make it turn more than ``sweep`` (radians: the programmed arc's; the
+    entry arc's own)."""
 
     start: tuple[float, float]
     end: tuple[float, float]
@@ -56,7 +59,8 @@ class _Move:
     tolerance: float = 0.0
     along: tuple[float, float] = (1.0, 0.0)
     exact: tuple[float, float] = (0.0, 0.0)
-    entry: bool = False
+    gouge_dir: tuple[float, float] = (1.0, 0.0)
+    sweep: float = 0.0
 
 
 def _unit(dx: float, dy: float) -> tuple[float, float]:
@@ -90,6 +94,15 @@ def _circles(c0: tuple[float, float], r0: float, c1: tuple[float, float],
     return [(mx - h * uy, my + h * ux), (mx + h * uy, my - h * ux)]
 
 
+def _sweep(start: tuple[float, float], centre: tuple[float, float], cw: bool,
+           end: tuple[float, float]) -> float:
+    """How far an arc from ``start`` to ``end`` turns (radians, more than 0, up to a full
+    turn), as rs274's ``find_turn``."""
+    turn = (math.atan2(end[1] - centre[1], end[0] - centre[0])
+            - math.atan2(start[1] - centre[1], start[0] - centre[0]))
+    return (-turn if cw else turn) % (2 * math.pi) or 2 * math.pi
+
+
 def _back(held: _Move, point: tuple[float, float]) -> float:
     """How far back along the held move from its end ``point`` is (LSB along a line, radians
     around an arc); negative: ahead of its end."""
@@ -113,6 +126,8 @@ class CutterComp:
         self.comp_radius = 0.0
         self.comp_held: _Move | None = None
         self.comp_entry = False
+        #: G40 ended compensation and no line has run since (the next move cannot be an arc).
+        self.comp_exited = False
         #: The exact centre of the arc being planned (set by the interpreter's arc).
         self.comp_arc_centre = (0.0, 0.0)
 
@@ -133,7 +148,7 @@ class CutterComp:
             return
         w = b.g["cutter"][1]
         if mode == 400:
-            self.comp_off()
+            self.comp_off(w)
             return
         if self.comp_side:
             raise BlockError(w.col, f"{w.text}: cutter radius compensation is already on (G40 "
@@ -175,10 +190,41 @@ class CutterComp:
         if held is not None:
             self.comp_run(held)
 
-    def comp_off(self) -> None:
-        """The end of compensation: the held move runs as it is."""
+    def comp_off(self, w: Word) -> None:
+        """The end of compensation (by ``w``, G40 or the program's end): the held move runs
+        as it is, unless it would gouge; the next move is a line."""
+        held = self.comp_held
+        if held is not None and self.comp_gouges(held, held.end):
+            self.comp_held, self.comp_entry = None, True
+            raise BlockError(w.col, self.comp_gouge_message(held, w.text))
+        self.comp_exited = self.comp_exited or (self.comp_side != 0 and self.comp_radius > 0
+                                                and not self.comp_entry)
         self.comp_flush()
         self.comp_side = 0
+
+    def comp_exit_rule(self, col: int) -> None:
+        """rs274's rule after G40: the move that follows it is a line, not an arc."""
+        if self.motion in (0, 10):
+            self.comp_exited = False
+        elif self.motion in (20, 30) and self.comp_exited:
+            raise BlockError(col, f"{g_name(self.motion)} just after G40: the move after the "
+                                  f"end of cutter radius compensation is a line (G00/G01)")
+
+    def comp_gouges(self, held: _Move, point: tuple[float, float]) -> bool:
+        """Whether ending the held move at ``point`` would gouge, by rs274's test: a line
+        that would run backwards, an arc that would turn further than it was programmed to
+        (by 0.0254 rad in G21, 0.001 rad in G20)."""
+        if held.centre is None:
+            return ((point[0] - held.start[0]) * held.gouge_dir[0]
+                    + (point[1] - held.start[1]) * held.gouge_dir[1]) < -1e-6
+        turned = _sweep(held.start, held.exact, held.cw, point)
+        return turned > held.sweep + (0.001 if self.inch else 0.0254)
+
+    def comp_gouge_message(self, held: _Move, where: str) -> str:
+        """The error of a held move too short to reach ``where`` without gouging."""
+        what = "line" if held.centre is None else "arc"
+        return (f"cutter radius compensation: the {what} before {where} is too short for a "
+                f"cutter of radius {self.planner.mm(self.comp_radius)} (it would gouge)")
 
     def comp_run(self, move: _Move) -> None:
         """Plan ``move`` from the machine's position (the program's position kept)."""
@@ -225,22 +271,24 @@ class CutterComp:
         end = exact_target[first], exact_target[second]
         if call == self.planner.line:
             feed = args[1]
-            if (target[first], target[second]) == (self.pos[first], self.pos[second]):
+            if (target[first], target[second]) == (self.pos[first], self.pos[second]) and (
+                    not self.comp_entry):  # (the entry move is in the plane: see comp_enter)
                 self.comp_flush()  # along the plane's normal only
                 here = self.planner.position[first], self.planner.position[second]
                 self.comp_run(_Move(here, here, target[normal], feed,
                                     kwargs.get("feed_source"), self.line_no, col))
                 self.planner.programmed = target
                 return
+            along = _unit(end[0] - start[0], end[1] - start[1]) if end != start else (1.0, 0.0)
             move = _Move((0.0, 0.0), (0.0, 0.0), target[normal], feed,
-                         kwargs.get("feed_source"), self.line_no, col)
-            along = _unit(end[0] - start[0], end[1] - start[1])
+                         kwargs.get("feed_source"), self.line_no, col, gouge_dir=along)
         else:
             centre, _, cw, feed = args[1:5]
             exact = self.comp_arc_centre
             move = _Move((0.0, 0.0), (0.0, 0.0), target[normal], feed,
                          kwargs.get("feed_source"), self.line_no, col, centre, cw,
-                         kwargs["tolerance"], exact=exact)
+                         kwargs["tolerance"], exact=exact,
+                         sweep=_sweep(start, exact, cw, end))
             radial = _unit(start[0] - exact[0], start[1] - exact[1])
             along = (radial[1], -radial[0]) if cw else (-radial[1], radial[0])
         try:
@@ -255,17 +303,36 @@ class CutterComp:
 
     def comp_enter(self, move: _Move, tool: tuple[float, float], target: tuple[float, float],
                    col: int) -> None:
-        """The entry move, from the tool's position ``tool`` (the programmed one)."""
-        if move.centre is not None:
-            raise BlockError(col, "the first move with cutter radius compensation is a line "
-                                  "(the entry move), not an arc")
-        if math.dist(tool, target) <= self.comp_radius:
+        """The entry move, from the tool's position ``tool`` (the programmed one): a line
+        ends square to its direction; an arc ends square to its programmed end, on an arc
+        from the tool's position whose centre is on the line from that end to the programmed
+        centre (as rs274's)."""
+        r = self.comp_radius
+        if math.dist(tool, target) <= r:
             raise BlockError(col, "the cutter radius compensation entry move is not longer "
-                                  "than the cutter's radius")
-        n = self.comp_normal(_unit(target[0] - tool[0], target[1] - tool[1]))
-        end = (target[0] + self.comp_radius * n[0], target[1] + self.comp_radius * n[1])
-        self.comp_held = replace(move, start=tool, end=end, entry=True,
-                                 along=_unit(target[0] - tool[0], target[1] - tool[1]))
+                                  "than the cutter's radius" if move.centre is None else
+                                  "the cutter radius compensation entry arc ends within the "
+                                  "cutter's radius of its start")
+        if move.centre is None:
+            along = _unit(target[0] - tool[0], target[1] - tool[1])
+            n = self.comp_normal(along)
+            self.comp_held = replace(move, start=tool, end=(target[0] + r * n[0],
+                                                            target[1] + r * n[1]),
+                                     along=along, gouge_dir=n)
+            self.comp_entry = False
+            return
+        end = self.comp_end(move, tool, target)
+        c = move.exact
+        toward = math.atan2(c[1] - end[1], c[0] - end[0])
+        cos_a = math.cos(math.atan2(tool[1] - end[1], tool[0] - end[0]) - toward)
+        if abs(cos_a) < 1e-6:
+            raise BlockError(col, "the cutter radius compensation entry arc cannot start at "
+                                  "the tool: its compensated centre is at infinity")
+        reach = math.dist(tool, end) / 2 / cos_a
+        centre = (end[0] + reach * math.cos(toward), end[1] + reach * math.sin(toward))
+        self.comp_held = replace(move, start=tool, end=end, exact=centre,
+                                 centre=(round(centre[0]), round(centre[1])),
+                                 sweep=_sweep(tool, centre, move.cw, end))
         self.comp_entry = False
 
     def comp_end(self, move: _Move, start: tuple[float, float],
@@ -315,6 +382,9 @@ class CutterComp:
             self.comp_run(replace(held, end=corner))
             self.comp_held = replace(move, start=corner, end=end)
             return
+        if beta > SMALL and move.centre is None and self.comp_gouges(held, held.end):
+            raise BlockError(move.col, self.comp_gouge_message(
+                held, f"the {self.comp_corner_name('outside', start)}"))
         self.comp_run(held)
         if beta > SMALL:  # outside: round the corner's point
             self.comp_run(_Move(tool, mid, held.z, move.feed, move.feed_source, move.line_no,
@@ -346,18 +416,17 @@ class CutterComp:
         # the held move's end moves back to the nearest crossing behind it
         behind = [p for p in points if _back(held, p) >= -1e-6]
         point = min(behind, key=lambda p: _back(held, p)) if behind else None
-        what = "line" if held.centre is None else "arc"
-        first, second, _ = PLANE_AXES[self.comp_plane]
-        at = (f"inside corner at {'XYZ'[first]}{self.planner.mm(corner[0])} "
-              f"{'XYZ'[second]}{self.planner.mm(corner[1])}")
-        if point is not None and not held.entry and _back(held, point) > _back(
-                held, held.start) + 1e-6:
-            raise BlockError(move.col, f"cutter radius compensation: the {what} before the "
-                                       f"{at} is too short for a cutter of radius "
-                                       f"{self.planner.mm(r)} (it would gouge)")
+        at = self.comp_corner_name("inside", corner)
+        if point is not None and self.comp_gouges(held, point):
+            raise BlockError(move.col, self.comp_gouge_message(held, f"the {at}"))
         if point is None:
             raise BlockError(move.col, f"cutter radius compensation: the {at} is too tight "
                                        f"for a cutter of radius {self.planner.mm(r)} (it "
                                        f"would gouge)")
         return point
 
+    def comp_corner_name(self, kind: str, corner: tuple[float, float]) -> str:
+        """``kind`` corner at the programmed point ``corner``, named by its coordinates."""
+        first, second, _ = PLANE_AXES[self.comp_plane]
+        return (f"{kind} corner at {'XYZ'[first]}{self.planner.mm(corner[0])} "
+                f"{'XYZ'[second]}{self.planner.mm(corner[1])}")

@@ -209,7 +209,7 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
         if "stop" in b.m:
             key, w = b.m["stop"]
             if key in (2, 30):
-                self.comp_off()
+                self.comp_off(w)
                 self.end = True
             else:
                 self.event(w, M_CODES[key].event)
@@ -386,6 +386,7 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
             raise BlockError(axes[0].col, f"{axes[0].text} without a motion mode "
                                            f"(G00/G01/G02/G03)")
         anchor = g[1] if g is not None else axes[0]
+        self.comp_exit_rule(anchor.col)
         if self.motion not in (0, 10, 20, 30):
             self.inverse_time_feed(anchor, 0.0)  # refused in G93
         if self.motion != 0 and self.feed is None and not self.inverse_time:
