@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from decimal import Decimal
+from decimal import ROUND_HALF_UP, Decimal
 
 from k37.firmware_model.gcode.block_words import BlockError, BlockWords, g_name
 from k37.firmware_model.gcode.lex import Word
@@ -32,6 +32,11 @@ from k37.firmware_model.motion.planner import PlanError
 from k37.hdl.common.constants import PLANE_AXES
 
 __all__ = ["CutterComp"]
+
+#: rs274 reads a tool table's diameters in inches, converting them with its external length
+#: unit, 0.03937007874016 in per mm (a hair over 1/25.4): a table tool's radius is this much
+#: under its nominal, and a move or an arc exactly as long as the radius passes its tests.
+RS274_TABLE_SCALE = Decimal("25.4") * Decimal("0.03937007874016")
 
 #: Corners within this angle (radians) of straight join without an arc or an intersection.
 SMALL = 0.05
@@ -128,6 +133,8 @@ class CutterComp:
         self.comp_entry = False
         #: G40 ended compensation and no line has run since (the next move cannot be an arc).
         self.comp_exited = False
+        #: Where G40 left the tool (its exact point in the plane, and the machine's position).
+        self.comp_exit: tuple[tuple[float, float], tuple[int, ...]] | None = None
         #: The exact centre of the arc being planned (set by the interpreter's arc).
         self.comp_arc_centre = (0.0, 0.0)
 
@@ -159,7 +166,7 @@ class CutterComp:
         if mode in (410, 420):
             number = (0 if d is None else tool_number(d)) or self.tool  # D0: loaded
             diameter = (Decimal(repr(table_tool(self.tools, number, d or w).diameter))
-                        / self.lsb_size)
+                        / self.lsb_size / RS274_TABLE_SCALE)
         elif d is None or d.value < 0:
             raise BlockError(w.col, f"{w.text} needs D, the cutter's diameter (>= 0)")
         else:
@@ -197,10 +204,27 @@ class CutterComp:
         if held is not None and self.comp_gouges(held, held.end):
             self.comp_held, self.comp_entry = None, True
             raise BlockError(w.col, self.comp_gouge_message(held, w.text))
-        self.comp_exited = self.comp_exited or (self.comp_side != 0 and self.comp_radius > 0
-                                                and not self.comp_entry)
+        active = self.comp_side != 0 and self.comp_radius > 0 and not self.comp_entry
+        self.comp_exited = self.comp_exited or active
+        first, second, _ = PLANE_AXES[self.comp_plane]
+        tool = held.end if held is not None else (self.planner.position[first],
+                                                  self.planner.position[second])
         self.comp_flush()
+        if active:
+            self.comp_exit = tool, self.planner.position
         self.comp_side = 0
+
+    def comp_tool_change(self) -> None:
+        """After a tool change, rs274 rereads the program's position from the machine's: one
+        where G40 left the tool (no move since) is the tool's, off the programmed path."""
+        exit_, self.comp_exit = self.comp_exit, None
+        if exit_ is None or exit_[1] != self.planner.position:
+            return
+        programmed = list(self.planner.programmed)
+        for axis, value in zip(PLANE_AXES[self.comp_plane][:2], exit_[0], strict=True):
+            self.exact[axis] = Decimal(repr(value))
+            programmed[axis] = int(self.exact[axis].to_integral_value(rounding=ROUND_HALF_UP))
+        self.planner.programmed = tuple(programmed)
 
     def comp_exit_rule(self, col: int) -> None:
         """rs274's rule after G40: the move that follows it is a line, not an arc."""

@@ -216,7 +216,9 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
 
     def resync_after_tool_change(self) -> None:
         """At the end of an M06 block the program position is re-read from the last move's,
-        as ``rs274`` does: a tool length set since moves the next move's Z by the change."""
+        as ``rs274`` does: a tool length set since moves the next move's Z by the change (and
+        one where G40 left the tool is the tool's)."""
+        self.comp_tool_change()
         shift = self.tool_offset - self.move_tool_offset
         if shift and self.planner.axes == 3:
             x, y, z = self.planner.programmed

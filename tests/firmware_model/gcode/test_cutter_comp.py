@@ -63,6 +63,24 @@ def test_an_arc_is_offset_by_the_radius_and_its_corners_cross_or_round():
         ("arc", (31_000, 0)), ("line", (31_000, -10_000)), ("line", (40_000, -20_000))]
 
 
+def test_an_entry_arc_ends_square_to_its_programmed_end_on_an_arc_from_the_tool():
+    # rs274: the arc's end moves by the radius along the arc's radius (outside the arc on the
+    # left of a CW arc); its centre moves along the line from that end to the programmed one
+    assert path("G0 X-10 Y0\nG41.1 D2\nG2 X10 Y0 R10\nG1 X20\nG40 G1 X30 Y-5") == [
+        ("line", (-10_000, 0)), ("arc", (10_952, 1000)), ("line", (20_000, 1000)),
+        ("line", (30_000, -5000))]
+    # inside the arc (right of a CW arc): the end moves towards the centre (then round the
+    # outside corner)
+    assert path("G0 X-10 Y0\nG42.1 D2\nG2 X10 Y0 R10\nG1 X20\nG40 G1 X30 Y-5") == [
+        ("line", (-10_000, 0)), ("arc", (9000, 0)), ("arc", (10_000, -1000)),
+        ("line", (20_000, -1000)), ("line", (30_000, -5000))]
+
+
+def test_an_arc_may_follow_the_line_after_g40():
+    assert path("G41.1 D2\nG1 X10\nG40\nG1 X0 Y10\nG2 X10 Y10 R5") == [
+        ("line", (10_000, 1000)), ("line", (0, 10_000)), ("arc", (10_000, 10_000))]
+
+
 def test_d0_runs_the_path_as_programmed():
     assert path("G41.1 D0\nG1 X10 Y5\nX20") == [("line", (10_000, 5000)), ("line", (20_000, 5000))]
 
@@ -99,8 +117,17 @@ def test_in_g18_the_geometry_is_the_same_in_the_zx_plane():
 @pytest.mark.parametrize(("text", "message"), [
     ("G41.1 D2\nG1 X1", "3:1: the cutter radius compensation entry move is not longer than "
                         "the cutter's radius"),
-    ("G41.1 D2\nG2 X10 R5", "3:1: the first move with cutter radius compensation is a line "
-                            "(the entry move), not an arc"),
+    ("G41.1 D2\nG2 X1 R5", "3:1: the cutter radius compensation entry arc ends within the "
+                           "cutter's radius of its start"),
+    ("G0 Z1\nG41.1 D2\nG1 Z0", "4:1: the cutter radius compensation entry move is not longer "
+                                "than the cutter's radius"),
+    ("G41.1 D4\nG1 X10\nY0.5\nG40 G1 X0 Y20", "5:1: cutter radius compensation: the line "
+                                              "before G40 is too short for a cutter of radius "
+                                              "2.000 mm (it would gouge)"),
+    ("G41.1 D4\nG1 X10\nY0.5", "5:1: cutter radius compensation: the line before M30 is too "
+                               "short for a cutter of radius 2.000 mm (it would gouge)"),
+    ("G41.1 D2\nG1 X10\nG40\nG2 X20 R5", "5:1: G02 just after G40: the move after the end of "
+                                         "cutter radius compensation is a line (G00/G01)"),
     ("G42.1\nG1 X10", "2:1: G42.1 needs D, the cutter's diameter (>= 0)"),
     ("G41.1 D2\nG42.1 D2", "3:1: G42.1: cutter radius compensation is already on (G40 first)"),
     ("G19 G41.1 D2", "2:5: G41.1 in G19: cutter radius compensation is in the XY and XZ "
