@@ -129,6 +129,8 @@ class CutterComp:
         self.comp_side = 0
         self.comp_plane = 17
         self.comp_radius = 0.0
+        #: A lathe tool's shift (LSB, the plane's coordinates) from its orientation (L).
+        self.comp_shift = (0.0, 0.0)
         self.comp_held: _Move | None = None
         self.comp_entry = False
         #: G40 ended compensation and no line has run since (the next move cannot be an arc).
@@ -171,10 +173,29 @@ class CutterComp:
             raise BlockError(w.col, f"{w.text} needs D, the cutter's diameter (>= 0)")
         else:
             diameter = self.lsb_exact(d.value)
+        self.comp_shift = self.comp_orientation(b, mode, float(diameter) / 2)
         self.comp_side = 1 if mode in (410, 411) else -1
         self.comp_plane = self.plane
         self.comp_radius = float(diameter) / 2
         self.comp_entry = True
+
+    def comp_orientation(self, b: BlockWords, mode: int, r: float) -> tuple[float, float]:
+        """G41.1/G42.1's L, a lathe tool's orientation (1-9, LinuxCNC's, in G18 only): the
+        path is that of the point the tool's length is set to, ``r`` (the cutter's radius)
+        off the cutter's centre in Z for orientations 1-5 and 7, in X for 1-4, 6 and 8, as
+        rs274 shifts it."""
+        w = b.word("L")
+        if w is None or mode in (410, 420):  # G41/G42: the table's tools have none
+            return 0.0, 0.0
+        if self.plane != 18:
+            raise BlockError(w.col, f"{w.text}: G41.1/G42.1's L (a lathe tool's orientation) "
+                                    f"is for G18")
+        if w.value != w.value.to_integral_value():
+            raise BlockError(w.col, f"{w.text}: L must be an integer")
+        o = int(w.value)
+        z = -r if o in (2, 7, 3) else r if o in (1, 5, 4) else 0.0
+        x = -r if o in (2, 6, 1) else r if o in (3, 8, 4) else 0.0
+        return z, x
 
     def comp_centre(self, b: BlockWords, r: Word | None, first: int, second: int,
                     cw: bool) -> tuple[float, float]:
@@ -207,8 +228,9 @@ class CutterComp:
         active = self.comp_side != 0 and self.comp_radius > 0 and not self.comp_entry
         self.comp_exited = self.comp_exited or active
         first, second, _ = PLANE_AXES[self.comp_plane]
-        tool = held.end if held is not None else (self.planner.position[first],
-                                                  self.planner.position[second])
+        tool = ((held.end[0] + self.comp_shift[0], held.end[1] + self.comp_shift[1])
+                if held is not None else (self.planner.position[first],
+                                          self.planner.position[second]))
         self.comp_flush()
         if active:
             self.comp_exit = tool, self.planner.position
@@ -254,15 +276,19 @@ class CutterComp:
         """Plan ``move`` from the machine's position (the program's position kept)."""
         programmed = self.planner.programmed
         self.planner.programmed = self.planner.position
-        target = self.comp_point(round(move.end[0]), round(move.end[1]), move.z)
+        sa, sb = self.comp_shift  # a lathe tool's
+        end = move.end[0] + sa, move.end[1] + sb
+        target = self.comp_point(round(end[0]), round(end[1]), move.z)
         try:
             if move.centre is None:
                 self.planner.line(move.line_no, target, move.feed, feed_source=move.feed_source)
             else:
-                self.planner.arc(move.line_no, target, move.centre, self.comp_plane, move.cw,
+                centre = move.centre if self.comp_shift == (0.0, 0.0) else (
+                    round(move.exact[0] + sa), round(move.exact[1] + sb))
+                self.planner.arc(move.line_no, target, centre, self.comp_plane, move.cw,
                                  move.feed, tolerance=move.tolerance,
                                  feed_source=move.feed_source,
-                                 exact=self.comp_point(move.end[0], move.end[1], float(move.z)))
+                                 exact=self.comp_point(end[0], end[1], float(move.z)))
         except PlanError as e:
             raise BlockError(move.col, str(e)) from None
         finally:
@@ -298,7 +324,8 @@ class CutterComp:
             if (target[first], target[second]) == (self.pos[first], self.pos[second]) and (
                     not self.comp_entry):  # (the entry move is in the plane: see comp_enter)
                 self.comp_flush()  # along the plane's normal only
-                here = self.planner.position[first], self.planner.position[second]
+                here = (self.planner.position[first] - self.comp_shift[0],
+                        self.planner.position[second] - self.comp_shift[1])
                 self.comp_run(_Move(here, here, target[normal], feed,
                                     kwargs.get("feed_source"), self.line_no, col))
                 self.planner.programmed = target
@@ -345,6 +372,11 @@ class CutterComp:
                                      along=along, gouge_dir=n)
             self.comp_entry = False
             return
+        if self.comp_shift != (0.0, 0.0):
+            # (rs274 runs a line to the tool's point first, and then moves that line's end
+            # with the arc's wherever the arc's end moves)
+            raise BlockError(col, "an entry arc with a lathe tool's orientation (G41.1/G42.1 "
+                                  "L1-L8) is unsupported: enter with a line")
         end = self.comp_end(move, tool, target)
         c = move.exact
         toward = math.atan2(c[1] - end[1], c[0] - end[0])

@@ -357,9 +357,11 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
         g = b.g.get("motion")
         order = b.word("L")
         g10 = b.code("non-modal") == 100
-        if order is not None and not g10 and (g is None or g[0] != 52 or self.nurbs is not None):
+        comp = b.code("cutter") in (410, 411, 420, 421)  # L: a lathe tool's orientation
+        if order is not None and not (g10 or comp) and (g is None or g[0] != 52
+                                                        or self.nurbs is not None):
             raise BlockError(order.col, f"{order.text}: L is only for G05.2 (a NURBS's order), "
-                                        f"G10 and canned cycles (repeats)")
+                                        f"G10, G41/G42 and canned cycles (repeats)")
         if self.nurbs is not None or (g is not None and g[0] in (52, 53)):
             for letter in "IJKRQ":
                 w = b.word(letter)

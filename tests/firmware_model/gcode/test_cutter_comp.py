@@ -81,6 +81,21 @@ def test_an_arc_may_follow_the_line_after_g40():
         ("line", (10_000, 1000)), ("line", (0, 10_000)), ("arc", (10_000, 10_000))]
 
 
+@pytest.mark.parametrize(("orientation", "shift"), [
+    (0, (0, 0)), (1, (-1000, 1000)), (2, (-1000, -1000)), (3, (1000, -1000)), (4, (1000, 1000)),
+    (5, (0, 1000)), (6, (-1000, 0)), (7, (0, -1000)), (8, (1000, 0)), (9, (0, 0))])
+def test_a_lathe_tools_orientation_shifts_the_compensated_path_in_g18(orientation, shift):
+    # rs274: the path of the tool's point, a radius off the cutter's centre (X, Z); the
+    # exit move goes from there to its programmed point
+    def ends(text):
+        return [m.end for m in parse(f"G21 G90 G18 F100\n{text}\nM30", axes=3).moves]
+    program = "G0 X5 Z5\nG41.1 D2 L{}\nG1 Z-10\nX10\nG3 X15 Z-15 R5\nG40 G1 X20"
+    shifted = ends(program.format(orientation))
+    plain = ends(program.format(0))
+    assert shifted[-1] == plain[-1] == (20_000, 0, -15_000)
+    assert shifted[1:-1] == [(x + shift[0], y, z + shift[1]) for x, y, z in plain[1:-1]]
+
+
 def test_d0_runs_the_path_as_programmed():
     assert path("G41.1 D0\nG1 X10 Y5\nX20") == [("line", (10_000, 5000)), ("line", (20_000, 5000))]
 
@@ -134,6 +149,12 @@ def test_in_g18_the_geometry_is_the_same_in_the_zx_plane():
                      "planes (G17, G18), as LinuxCNC's"),
     ("G41.1 D2\nG1 X10\nG18 X20", "4:1: G18: the plane cannot change with cutter radius "
                                    "compensation on (G40 first)"),
+    ("G41.1 D2 L3\nG1 X10", "2:10: L3: G41.1/G42.1's L (a lathe tool's orientation) is for "
+                            "G18"),
+    ("G18 G41.1 D2 L2.5\nG1 X10", "2:14: L2.5: L must be an integer"),
+    ("G18 G0 X-5 Z5\nG41.1 D2 L2\nG2 X5 Z5 R5", "4:1: an entry arc with a lathe tool's "
+                                                "orientation (G41.1/G42.1 L1-L8) is "
+                                                "unsupported: enter with a line"),
     ("G1 X1 D2", "2:7: D2: D is only for G41/G42 (a tool number) and G41.1/G42.1 (the "
                  "cutter's diameter)"),
     ("G41 D7", "2:5: D7: tool 7 is not in the job's tool table ([1, 2, 3])"),
