@@ -1,22 +1,25 @@
 """Cutter radius compensation, G41/G42 (the diameter of the loaded tool, or of tool D, from
-the job's tool table), G41.1/G42.1 D (the cutter's diameter) and G40, in G17 and G18 (not
-G19, as LinuxCNC), as LinuxCNC's interpreter does it (a mixin of
-:class:`k37.firmware_model.gcode.interpreter.Interpreter`).
+the job's tool table), G41.1/G42.1 D (the cutter's diameter; L, a lathe tool's orientation,
+in G18) and G40, in G17 and G18 (not G19, as LinuxCNC), as LinuxCNC's interpreter does it
+(a mixin of :class:`k37.firmware_model.gcode.interpreter.Interpreter`).
 
 The tool runs at the cutter's radius to the left (G41.1) or right (G42.1) of the programmed
 path, in the plane's own coordinates (G18: Z, X; the plane cannot change while it is on).
-The first move after turning it on (a line, longer than the radius) ends at the radius from
-its programmed end, square to the move. Each later move is held back until the next one
-is known: where they meet at an outside corner the tool goes round the corner's point on an
+The first move after turning it on (its end farther than the radius from its start) ends at
+the radius from its programmed end, square to the path there: a line straight to it, an arc
+on an arc from the tool's position. Each later move is held back until the next one is
+known: where they meet at an outside corner the tool goes round the corner's point on an
 arc of the cutter's radius; at an inside corner the held move ends where the two compensated
-paths cross (one that would have to run backwards is an error: the tool would gouge);
-corners within 0.05 rad of straight join directly, as LinuxCNC's. An arc's compensated
-radius is its radius plus or minus the cutter's (an error when it is not positive). G40
-ends it: the held move runs to its square end and the next move (the exit) goes from there
-to its programmed point (``rs274`` also refuses some exits after a short move as gouging;
-K37 runs them). The program's position stays the programmed one (G91 and arc centres add
-to it). G41.1/G42.1 D0 runs the path as programmed; G41/G42 D0 takes the loaded tool's
-diameter, as without D (no tool loaded: zero).
+paths cross; corners within 0.05 rad of straight join directly, as LinuxCNC's. An arc's
+compensated radius is its radius plus or minus the cutter's (an error when it is not
+positive). G40 ends it: the held move runs to its square end and the next move (the exit,
+a line) goes from there to its programmed point. Wherever rs274 moves or flushes a held
+move's end (an inside corner, an outside corner before a line, G40, the program's end) it
+checks it as rs274 does: a line must not run backwards, an arc not turn further than
+programmed, else the tool would gouge (an error at that block). The program's position
+stays the programmed one (G91 and arc centres add to it). G41.1/G42.1 D0 runs the path as
+programmed; G41/G42 D0 takes the loaded tool's diameter, as without D (no tool loaded:
+zero).
 """
 
 from __future__ import annotations

@@ -351,7 +351,8 @@ def test_random_inverse_time_modal_state_and_bolt_circles_run_as_rs274_runs_them
 
 def random_comp_program(rng: random.Random) -> str:
     """A random path of lines, arcs and helices under G41.1/G42.1 D or G41/G42 (a diameter
-    of :data:`TOOLS`), with its entry and exit, in G17 or (its X, Y, Z as Z, X, Y) G18."""
+    of :data:`TOOLS`), with its entry (a line or an arc) and exit, in G17 or (its X, Y, Z as
+    Z, X, Y) G18."""
     def num(low: float = -30, high: float = 30) -> str:
         return f"{rng.uniform(low, high):.{rng.choice([0, 1, 3])}f}"
 
@@ -359,8 +360,10 @@ def random_comp_program(rng: random.Random) -> str:
                        f"{rng.choice(['0.5', '1', '2', '3.175'])}",
                        f"{rng.choice(['G41', 'G42'])} D{rng.choice('13')}",
                        f"T{rng.choice('13')} M6\n{rng.choice(['G41', 'G42'])}"])
+    entry = rng.choice([f"G1 X{num()} Y{num()} Z0",
+                         f"G{rng.choice('23')} X{num()} Y{num()} Z0 R{num(15, 40)}"])
     lines = [f"{rng.choice(['G20', 'G21'])} G90 G17 F100", f"G0 X{num()} Y{num()} Z1", comp,
-             f"G1 X{num()} Y{num()} Z0"]
+             entry]
     for _ in range(rng.randint(2, 8)):
         lines.append(rng.choice([
             f"G1 X{num()} Y{num()}", f"G{rng.choice('23')} X{num()} Y{num()} R{num(15, 40)}",
