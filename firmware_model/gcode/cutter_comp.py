@@ -53,7 +53,9 @@ class _Move:
     rs274's gouge check of a moved end: a line's must not be behind its start seen along
     ``gouge_dir`` (its programmed direction; the entry line's: the side the tool goes to),
     an arc's must not make it turn more than ``sweep`` (radians: the programmed arc's; the
-    entry arc's own)."""
+    entry arc's own). ``then``: the moves along the plane's normal after it (their end, feed,
+    feed's source, line and column), held with it: they run where it ends, as rs274 moves the
+    end of each move it holds."""
 
     start: tuple[float, float]
     end: tuple[float, float]
@@ -69,6 +71,12 @@ class _Move:
     exact: tuple[float, float] = (0.0, 0.0)
     gouge_dir: tuple[float, float] = (1.0, 0.0)
     sweep: float = 0.0
+    then: tuple[tuple[int, float | None, tuple[int, int, str] | None, int, int], ...] = ()
+
+    @property
+    def last_z(self) -> int:
+        """The position along the plane's normal after it and the moves ``then``."""
+        return self.then[-1][0] if self.then else self.z
 
 
 def _unit(dx: float, dy: float) -> tuple[float, float]:
@@ -296,6 +304,8 @@ class CutterComp:
             raise BlockError(move.col, str(e)) from None
         finally:
             self.planner.programmed = programmed
+        for z, feed, feed_source, line_no, col in move.then:
+            self.comp_run(_Move(move.end, move.end, z, feed, feed_source, line_no, col))
 
     def comp_point(self, first: float, second: float, normal: float) -> tuple[float, ...]:
         """The point (X, Y, Z) of the plane's coordinates ``first``, ``second`` and the
@@ -326,11 +336,10 @@ class CutterComp:
             feed = args[1]
             if (target[first], target[second]) == (self.pos[first], self.pos[second]) and (
                     not self.comp_entry):  # (the entry move is in the plane: see comp_enter)
-                self.comp_flush()  # along the plane's normal only
-                here = (self.planner.position[first] - self.comp_shift[0],
-                        self.planner.position[second] - self.comp_shift[1])
-                self.comp_run(_Move(here, here, target[normal], feed,
-                                    kwargs.get("feed_source"), self.line_no, col))
+                held = self.comp_held  # along the plane's normal only: held with it
+                assert held is not None
+                self.comp_held = replace(held, then=(*held.then, (
+                    target[normal], feed, kwargs.get("feed_source"), self.line_no, col)))
                 self.planner.programmed = target
                 return
             along = _unit(end[0] - start[0], end[1] - start[1]) if end != start else (1.0, 0.0)
@@ -446,7 +455,7 @@ class CutterComp:
                 held, f"the {self.comp_corner_name('outside', start)}"))
         self.comp_run(held)
         if beta > SMALL:  # outside: round the corner's point
-            self.comp_run(_Move(tool, mid, held.z, move.feed, move.feed_source, move.line_no,
+            self.comp_run(_Move(tool, mid, held.last_z, move.feed, move.feed_source, move.line_no,
                                 move.col, (round(start[0]), round(start[1])),
                                 self.comp_side > 0, self.arc_tolerance(), exact=start))
             tool = mid

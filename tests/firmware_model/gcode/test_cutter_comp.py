@@ -96,6 +96,15 @@ def test_a_lathe_tools_orientation_shifts_the_compensated_path_in_g18(orientatio
     assert shifted[1:-1] == [(x + shift[0], y, z + shift[1]) for x, y, z in plain[1:-1]]
 
 
+def test_a_move_along_z_is_held_with_the_move_before_it_and_follows_its_end():
+    # rs274: the inside corner after it moves the line's end and the Z move's with it
+    def ends(text):
+        return [m.end for m in parse(f"G21 G90 G17 F100\n{text}\nM30", axes=3).moves]
+    assert ends("G41.1 D2\nG1 X10\nG1 Z-1\nG1 Y10\nX0\nG40 G1 X-10 Y0") == [
+        (9000, 1000, 0), (9000, 1000, -1000), (9000, 9000, -1000), (0, 9000, -1000),
+        (-10_000, 0, -1000)]
+
+
 def test_d0_runs_the_path_as_programmed():
     assert path("G41.1 D0\nG1 X10 Y5\nX20") == [("line", (10_000, 5000)), ("line", (20_000, 5000))]
 
