@@ -215,7 +215,7 @@ class CutterComp:
         start = tuple(float(self.exact_pos(axis)) for axis in range(3))
         end = self.exact_target()
         if r is not None:
-            return self.centre_from_radius(r, start, end, first, second, cw)
+            return self.centre_from_radius(r, start, end, first, second, cw, exact=True)
         centre = []
         for axis in (first, second):
             w = b.word("IJK"[axis])

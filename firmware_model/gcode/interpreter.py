@@ -477,13 +477,13 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
         self.keep_exact()
 
     def centre_from_radius(self, r: Word, start, target, first: int, second: int,
-                           cw: bool) -> tuple[float, float]:
+                           cw: bool, exact: bool = False) -> tuple[float, float]:
         """RS-274's R form: the centre on the chord's bisector, left of the chord for CCW,
-        right for CW (R < 0: the other side, the arc over 180 degrees). A centre beyond the
-        K3701's registers runs as chords, as an I/J arc's."""
+        right for CW (R < 0: the other side, the arc over 180 degrees; ``exact``: R before its
+        rounding to the LSB). A centre beyond the K3701's registers runs as chords."""
         sx, sy = start[first], start[second]
         ex, ey = target[first], target[second]
-        radius = self.lsb(r.value)
+        radius = float(self.lsb_exact(r.value)) if exact else self.lsb(r.value)
         if abs(radius) > MAX_R_LSB:
             raise BlockError(r.col, f"{r.text}: the radius is outside -(2^40)..2^40 LSB "
                                     f"(+-{self.planner.mm(MAX_R_LSB)})")

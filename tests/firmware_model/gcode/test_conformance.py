@@ -350,9 +350,9 @@ def test_random_inverse_time_modal_state_and_bolt_circles_run_as_rs274_runs_them
 
 
 def random_comp_program(rng: random.Random) -> str:
-    """A random path of lines, arcs and helices under G41.1/G42.1 D or G41/G42 (a diameter
-    of :data:`TOOLS`), with its entry (a line or an arc) and exit, in G17 or (its X, Y, Z as
-    Z, X, Y) G18."""
+    """A random path of lines, arcs, helices and Z moves under G41.1/G42.1 D or G41/G42 (a
+    diameter of :data:`TOOLS`), with its entry (a line or an arc) and exit, in G17 or (its
+    X, Y, Z as Z, X, Y) G18."""
     def num(low: float = -30, high: float = 30) -> str:
         return f"{rng.uniform(low, high):.{rng.choice([0, 1, 3])}f}"
 
@@ -368,7 +368,8 @@ def random_comp_program(rng: random.Random) -> str:
         lines.append(rng.choice([
             f"G1 X{num()} Y{num()}", f"G{rng.choice('23')} X{num()} Y{num()} R{num(15, 40)}",
             f"G91 G1 X{num(-10, 10)} Y{num(-10, 10)}\nG90",
-            f"G{rng.choice('23')} X{num()} Y{num()} Z{num(-2, 0)} R{num(20, 40)}"]))
+            f"G{rng.choice('23')} X{num()} Y{num()} Z{num(-2, 0)} R{num(20, 40)}",
+            f"G1 Z{num(-2, 0)}"]))
     text = "\n".join([*lines, f"G40 G1 X{num()} Y{num()}", "M2"])
     return text if rng.random() < 0.5 else text.translate(str.maketrans("XYZ", "ZXY")).replace(
         "G17", "G18")
