@@ -29,6 +29,13 @@ from dataclasses import dataclass, replace
 from decimal import ROUND_HALF_UP, Decimal
 
 from k37.firmware_model.gcode.block_words import BlockError, BlockWords, g_name
+from k37.firmware_model.gcode.comp_geometry import (
+    arc_line_corner,
+    circles,
+    line_circle,
+    sweep,
+    unit,
+)
 from k37.firmware_model.gcode.lex import Word
 from k37.firmware_model.gcode.tool_table import table_tool, tool_number
 from k37.firmware_model.motion.planner import PlanError
@@ -77,46 +84,6 @@ class _Move:
     def last_z(self) -> int:
         """The position along the plane's normal after it and the moves ``then``."""
         return self.then[-1][0] if self.then else self.z
-
-
-def _unit(dx: float, dy: float) -> tuple[float, float]:
-    length = math.hypot(dx, dy)
-    return dx / length, dy / length
-
-
-def _line_circle(a: tuple[float, float], b: tuple[float, float], c: tuple[float, float],
-                 radius: float) -> list[tuple[float, float]]:
-    """Where the line through ``a`` and ``b`` crosses the circle."""
-    dx, dy = b[0] - a[0], b[1] - a[1]
-    fx, fy = a[0] - c[0], a[1] - c[1]
-    qa, qb, qc = dx * dx + dy * dy, 2 * (fx * dx + fy * dy), fx * fx + fy * fy - radius ** 2
-    disc = qb * qb - 4 * qa * qc
-    if qa == 0 or disc < 0:
-        return []
-    return [(a[0] + t * dx, a[1] + t * dy)
-            for t in ((-qb - math.sqrt(disc)) / (2 * qa), (-qb + math.sqrt(disc)) / (2 * qa))]
-
-
-def _circles(c0: tuple[float, float], r0: float, c1: tuple[float, float],
-             r1: float) -> list[tuple[float, float]]:
-    """Where two circles cross."""
-    d = math.dist(c0, c1)
-    if d == 0 or d > r0 + r1 or d < abs(r0 - r1):
-        return []
-    a = (r0 * r0 - r1 * r1 + d * d) / (2 * d)
-    h = math.sqrt(max(0.0, r0 * r0 - a * a))
-    ux, uy = (c1[0] - c0[0]) / d, (c1[1] - c0[1]) / d
-    mx, my = c0[0] + a * ux, c0[1] + a * uy
-    return [(mx - h * uy, my + h * ux), (mx + h * uy, my - h * ux)]
-
-
-def _sweep(start: tuple[float, float], centre: tuple[float, float], cw: bool,
-           end: tuple[float, float]) -> float:
-    """How far an arc from ``start`` to ``end`` turns (radians, more than 0, up to a full
-    turn), as rs274's ``find_turn``."""
-    turn = (math.atan2(end[1] - centre[1], end[0] - centre[0])
-            - math.atan2(start[1] - centre[1], start[0] - centre[0]))
-    return (-turn if cw else turn) % (2 * math.pi) or 2 * math.pi
 
 
 def _back(held: _Move, point: tuple[float, float]) -> float:
@@ -274,7 +241,7 @@ class CutterComp:
         if held.centre is None:
             return ((point[0] - held.start[0]) * held.gouge_dir[0]
                     + (point[1] - held.start[1]) * held.gouge_dir[1]) < -1e-6
-        turned = _sweep(held.start, held.exact, held.cw, point)
+        turned = sweep(held.start, held.exact, held.cw, point)
         return turned > held.sweep + (0.001 if self.inch else 0.0254)
 
     def comp_gouge_message(self, held: _Move, where: str) -> str:
@@ -342,7 +309,7 @@ class CutterComp:
                     target[normal], feed, kwargs.get("feed_source"), self.line_no, col)))
                 self.planner.programmed = target
                 return
-            along = _unit(end[0] - start[0], end[1] - start[1]) if end != start else (1.0, 0.0)
+            along = unit(end[0] - start[0], end[1] - start[1]) if end != start else (1.0, 0.0)
             move = _Move((0.0, 0.0), (0.0, 0.0), target[normal], feed,
                          kwargs.get("feed_source"), self.line_no, col, gouge_dir=along)
         else:
@@ -351,8 +318,8 @@ class CutterComp:
             move = _Move((0.0, 0.0), (0.0, 0.0), target[normal], feed,
                          kwargs.get("feed_source"), self.line_no, col, centre, cw,
                          kwargs["tolerance"], exact=exact,
-                         sweep=_sweep(start, exact, cw, end))
-            radial = _unit(start[0] - exact[0], start[1] - exact[1])
+                         sweep=sweep(start, exact, cw, end))
+            radial = unit(start[0] - exact[0], start[1] - exact[1])
             along = (radial[1], -radial[0]) if cw else (-radial[1], radial[0])
         try:
             if self.comp_entry:
@@ -377,7 +344,7 @@ class CutterComp:
                                   "the cutter radius compensation entry arc ends within the "
                                   "cutter's radius of its start")
         if move.centre is None:
-            along = _unit(target[0] - tool[0], target[1] - tool[1])
+            along = unit(target[0] - tool[0], target[1] - tool[1])
             n = self.comp_normal(along)
             self.comp_held = replace(move, start=tool, end=(target[0] + r * n[0],
                                                             target[1] + r * n[1]),
@@ -400,7 +367,7 @@ class CutterComp:
         centre = (end[0] + reach * math.cos(toward), end[1] + reach * math.sin(toward))
         self.comp_held = replace(move, start=tool, end=end, exact=centre,
                                  centre=(round(centre[0]), round(centre[1])),
-                                 sweep=_sweep(tool, centre, move.cw, end))
+                                 sweep=sweep(tool, centre, move.cw, end))
         self.comp_entry = False
 
     def comp_end(self, move: _Move, start: tuple[float, float],
@@ -409,7 +376,7 @@ class CutterComp:
         arc's compensated radius is not positive)."""
         r = self.comp_radius
         if move.centre is None:
-            n = self.comp_normal(_unit(target[0] - start[0], target[1] - start[1]))
+            n = self.comp_normal(unit(target[0] - start[0], target[1] - start[1]))
             return target[0] + r * n[0], target[1] + r * n[1]
         c = move.exact
         radius = math.hypot(start[0] - c[0], start[1] - c[1])
@@ -419,7 +386,7 @@ class CutterComp:
             raise BlockError(move.col, f"the arc's radius {self.planner.mm(radius)} is not more "
                                        f"than the cutter's: cutter radius compensation cannot "
                                        f"follow it inside")
-        u = _unit(target[0] - c[0], target[1] - c[1])
+        u = unit(target[0] - c[0], target[1] - c[1])
         return c[0] + compensated * u[0], c[1] + compensated * u[1]
 
     def comp_corner(self, move: _Move, start: tuple[float, float],
@@ -474,15 +441,19 @@ class CutterComp:
             denom = ux * vy - uy * vx
             s = ((cx - bx) * vy - (cy - by) * vx) / denom if denom else 1.0
             points = [(bx + s * ux, by + s * uy)]
-        elif move.centre is None:
-            points = _line_circle(mid, end, held.exact, math.dist(held.end, held.exact))
+        elif move.centre is None:  # rs274's construction, not the crossing
+            point = arc_line_corner(held.exact, math.dist(held.end, held.exact), not held.cw,
+                                    held.cw != (self.comp_side > 0), corner,
+                                    math.atan2(move.along[1], move.along[0]), r)
+            points = [] if point is None else [point]
         elif held.centre is None:
-            points = _line_circle(back, held.end, move.exact, math.dist(end, move.exact))
+            points = line_circle(back, held.end, move.exact, math.dist(end, move.exact))
         else:
-            points = _circles(held.exact, math.dist(held.end, held.exact), move.exact,
+            points = circles(held.exact, math.dist(held.end, held.exact), move.exact,
                               math.dist(end, move.exact))
         # the held move's end moves back to the nearest crossing behind it
-        behind = [p for p in points if _back(held, p) >= -1e-6]
+        behind = [p for p in points if _back(held, p) >= -1e-6 or (
+            held.centre is not None and move.centre is None)]
         point = min(behind, key=lambda p: _back(held, p)) if behind else None
         at = self.comp_corner_name("inside", corner)
         if point is not None and self.comp_gouges(held, point):
