@@ -8,7 +8,8 @@ nextpnr-ecp5 and ecppack. :func:`build` writes the plan to a folder and, unless
 ``plan_only``, runs it with YoWASP's tools from PyPI (``pip install 'k37[fpga]'``) or native
 ones on PATH; nextpnr fails the build when the design misses the board clock. Next to the
 bitstream it writes the pin map (``pins.md``) and the timing and utilisation report
-(``report.md``), all named after the design (``k37_<board>``).
+(``report.md``), the others named after the design (:func:`design_name`:
+``k37_<board>_<axes>axis``).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from pathlib import Path
 from k37.hdl.board.pins import BoardPin, ulx3s_pins
 from k37.sim.fpga.synth import _tool, _tools_versions
 
-__all__ = ["BOARDS", "BoardReport", "build", "pin_map"]
+__all__ = ["BOARDS", "BoardReport", "build", "design_name", "pin_map"]
 
 #: The boards ``k37 build`` knows: name -> FPGA part.
 BOARDS = {"ulx3s-25f": "LFE5U-25F", "ulx3s-85f": "LFE5U-85F"}
@@ -112,6 +113,13 @@ def _environment() -> dict[str, str]:
     return env
 
 
+def design_name(board: str, axes: int) -> str:
+    """The design's name, which names the bitstream and every file of the plan:
+    ``k37_<board>_<axes>axis`` (``k37_ulx3s_25f_3axis``), so the two- and three-axis builds
+    of a board never take each other's files."""
+    return f"k37_{board.replace('-', '_')}_{axes}axis"
+
+
 def build(board: str, folder: Path, *, axes: int = 3, plan_only: bool = False,
           progress: Callable[[str], None] | None = None) -> BoardReport:
     """Write ``board``'s build plan of the ``axes``-axis chipset to ``folder`` and, unless
@@ -128,7 +136,7 @@ def build(board: str, folder: Path, *, axes: int = 3, plan_only: bool = False,
     except ImportError as e:
         raise ImportError(f"amaranth-boards is not installed: pip install 'k37[fpga]' ({e})"
                           ) from e
-    name = f"k37_{board.replace('-', '_')}"
+    name = design_name(board, axes)
     plat = platform(board, axes)
     say(f"elaborating the {axes}-axis chipset for {board}")
     plan = plat.prepare(OnBoard(axes), name=name,
