@@ -41,6 +41,7 @@ from amaranth.lib import wiring
 from k37.hdl.board.core import BoardCore
 from k37.hdl.board.pins import BoardPin
 from k37.hdl.bus.hostbus import HostBus
+from k37.hdl.bus.wishbone import WishboneBus
 from k37.hdl.chipset.map import SUB_WINDOWS
 from k37.hdl.common.constants import CHIP_HZ
 from k37.sim.files import atomic_open
@@ -319,6 +320,14 @@ def _header(entry: Exportable, buses: list[_Bus], probes: list[str]) -> list[str
             "cycle t is driven on D in cycle t+1. Multi-byte registers are little-endian: "
             "the last (most significant) byte commits a write, reading byte 0 snapshots the "
             "whole register for the bytes after it.",
+        ]
+    if any(m.is_signature and isinstance(m.signature, WishboneBus)
+           for m in entry.component().signature.members.values()):
+        text += [
+            "Wishbone bus (wb_*): a classic (B4) target, 8-bit data, one register byte per "
+            "address (chip select << 5 | register address). A transfer requested in cycle t "
+            "(cyc, stb and sel high) is the chip's bus access of cycle t; ack is high in "
+            "t + 1 with a read's byte on dat_r. The register semantics above hold unchanged.",
         ]
     if probes:
         text += [f"Probe outputs of the core, not chip pins, left unconnected here: "
