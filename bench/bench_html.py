@@ -16,13 +16,11 @@ and a five-million-sample run's page is at most 25 MB and opens in at most 30 s.
 
 from __future__ import annotations
 
-import sys
 import time
 from pathlib import Path
 
-from k37.sim.run.jobfile import load_job
+from bench.output_timing import benchmark_measure, main, timed_run
 from k37.sim.run.output import write_html
-from k37.sim.run.runner import RunOptions, RunResult, run_job
 from tests.programs import surface_finish
 
 #: Debian's Chromium and the switches the browser tests use (nothing fetched).
@@ -65,13 +63,10 @@ def opening_seconds(page: Path) -> float | None:
 
 
 def _timed(job: Path, sample_every: int, page: Path) -> dict[str, float]:
+    result, timing = timed_run(job, sample_every)
     start = time.perf_counter()
-    result: RunResult = run_job(load_job(job), RunOptions(sample_every=sample_every))
-    ran = time.perf_counter()
     write_html(result, page)
-    done = time.perf_counter()
-    return {"blocks": len(result.report["blocks"]), "samples": result.report["path"]["samples"],
-            "run": ran - start, "page": done - ran, "mb": page.stat().st_size / 1e6,
+    return {**timing, "page": time.perf_counter() - start, "mb": page.stat().st_size / 1e6,
             "open": opening_seconds(page)}
 
 
@@ -94,11 +89,8 @@ def measure(folder: Path) -> list[str]:
 
 
 def test_html_of_a_3d_cam_program_costs_a_fraction_of_its_run(benchmark, tmp_path: Path):
-    lines = benchmark.pedantic(measure, args=(tmp_path,), rounds=1, iterations=1)
-    print("\n" + "\n".join(lines))
+    benchmark_measure(benchmark, measure, tmp_path)
 
 
 if __name__ == "__main__":
-    out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path.cwd()
-    out.mkdir(parents=True, exist_ok=True)
-    print("\n".join(measure(out)))
+    main(measure)

@@ -14,13 +14,11 @@ three-block demo's figure costs too (printed beside it).
 from __future__ import annotations
 
 import math
-import sys
 import time
 from pathlib import Path
 
-from k37.sim.run.jobfile import load_job
+from bench.output_timing import benchmark_measure, main, timed_run
 from k37.sim.run.plot import figure
-from k37.sim.run.runner import RunOptions, RunResult, run_job
 
 HERE = Path(__file__).resolve().parent
 DEMO = HERE.parent / "examples" / "circle.toml"
@@ -45,16 +43,14 @@ def pocket_job(folder: Path) -> Path:
 
 
 def _timed(job: Path, sample_every: int, png: Path) -> dict[str, float]:
+    result, timing = timed_run(job, sample_every)
     start = time.perf_counter()
-    result: RunResult = run_job(load_job(job), RunOptions(sample_every=sample_every))
-    ran = time.perf_counter()
     fig = figure(result)
     built = time.perf_counter()
     fig.savefig(png, dpi=100)
     done = time.perf_counter()
-    return {"blocks": len(result.report["blocks"]), "samples": result.report["path"]["samples"],
-            "run": ran - start, "figure": built - ran, "draw": done - built,
-            "plot": done - ran, "kib": png.stat().st_size / 1024}
+    return {**timing, "figure": built - start, "draw": done - built, "plot": done - start,
+            "kib": png.stat().st_size / 1024}
 
 
 def measure(folder: Path) -> list[str]:
@@ -75,11 +71,8 @@ def measure(folder: Path) -> list[str]:
 
 
 def test_plot_of_a_cam_program_costs_a_fraction_of_its_run(benchmark, tmp_path: Path):
-    lines = benchmark.pedantic(measure, args=(tmp_path,), rounds=1, iterations=1)
-    print("\n" + "\n".join(lines))
+    benchmark_measure(benchmark, measure, tmp_path)
 
 
 if __name__ == "__main__":
-    out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path.cwd()
-    out.mkdir(parents=True, exist_ok=True)
-    print("\n".join(measure(out)))
+    main(measure)

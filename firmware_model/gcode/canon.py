@@ -87,6 +87,8 @@ class _Canon:
         self.inch = False
         self.plane = 17
         self.feed: float | None = None
+        #: A SET_FEED_RATE's number not yet given its units (see :meth:`command`).
+        self.feed_number: Decimal | None = None
         self.g5x = [Decimal(0)] * 3
         self.g92 = [Decimal(0)] * 3
         self.tool = [Decimal(0)] * 3
@@ -106,9 +108,12 @@ class _Canon:
         planner = self.planner
         if name == "USE_LENGTH_UNITS":
             self.inch = "INCH" in args
+            self.units_of_feed()
         elif name == "SET_FEED_RATE":
-            value = _numbers(args)[0]
-            self.feed = float(value * INCH_MM if self.inch else value)
+            # rs274 writes a block's F before its G20/G21: the number is in the units of the
+            # first USE_LENGTH_UNITS after it, or of the move that comes first
+            self.units_of_feed()
+            self.feed_number = _numbers(args)[0]
         elif name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED"):
             xyz = _numbers(args)[:3]
             target = tuple(self.machine(a, v) for a, v in enumerate(xyz))
@@ -139,7 +144,15 @@ class _Canon:
         elif name not in _SKIPPED:
             raise _CanonError(f"canonical command {name} is unsupported")
 
+    def units_of_feed(self) -> None:
+        """The feed rate (mm/min) of the SET_FEED_RATE number waiting for its units, in the
+        units now."""
+        if self.feed_number is not None:
+            self.feed = float(self.mm(self.feed_number))
+            self.feed_number = None
+
     def positive_feed(self) -> float:
+        self.units_of_feed()
         if not self.feed:
             raise _CanonError("a feed move with feed rate 0")
         return self.feed

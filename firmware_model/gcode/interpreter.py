@@ -209,14 +209,16 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
         if "stop" in b.m:
             key, w = b.m["stop"]
             if key in (2, 30):
-                self.comp_off()
+                self.comp_off(w)
                 self.end = True
             else:
                 self.event(w, M_CODES[key].event)
 
     def resync_after_tool_change(self) -> None:
         """At the end of an M06 block the program position is re-read from the last move's,
-        as ``rs274`` does: a tool length set since moves the next move's Z by the change."""
+        as ``rs274`` does: a tool length set since moves the next move's Z by the change (and
+        one where G40 left the tool is the tool's)."""
+        self.comp_tool_change()
         shift = self.tool_offset - self.move_tool_offset
         if shift and self.planner.axes == 3:
             x, y, z = self.planner.programmed
@@ -355,9 +357,11 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
         g = b.g.get("motion")
         order = b.word("L")
         g10 = b.code("non-modal") == 100
-        if order is not None and not g10 and (g is None or g[0] != 52 or self.nurbs is not None):
+        comp = b.code("cutter") in (410, 411, 420, 421)  # L: a lathe tool's orientation
+        if order is not None and not (g10 or comp) and (g is None or g[0] != 52
+                                                        or self.nurbs is not None):
             raise BlockError(order.col, f"{order.text}: L is only for G05.2 (a NURBS's order), "
-                                        f"G10 and canned cycles (repeats)")
+                                        f"G10, G41/G42 and canned cycles (repeats)")
         if self.nurbs is not None or (g is not None and g[0] in (52, 53)):
             for letter in "IJKRQ":
                 w = b.word(letter)
@@ -386,6 +390,7 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
             raise BlockError(axes[0].col, f"{axes[0].text} without a motion mode "
                                            f"(G00/G01/G02/G03)")
         anchor = g[1] if g is not None else axes[0]
+        self.comp_exit_rule(anchor.col)
         if self.motion not in (0, 10, 20, 30):
             self.inverse_time_feed(anchor, 0.0)  # refused in G93
         if self.motion != 0 and self.feed is None and not self.inverse_time:
@@ -472,13 +477,13 @@ class Interpreter(SplineMotions, CurveMotions, CannedCycles, Offsets, ModalState
         self.keep_exact()
 
     def centre_from_radius(self, r: Word, start, target, first: int, second: int,
-                           cw: bool) -> tuple[float, float]:
+                           cw: bool, exact: bool = False) -> tuple[float, float]:
         """RS-274's R form: the centre on the chord's bisector, left of the chord for CCW,
-        right for CW (R < 0: the other side, the arc over 180 degrees). A centre beyond the
-        K3701's registers runs as chords, as an I/J arc's."""
+        right for CW (R < 0: the other side, the arc over 180 degrees; ``exact``: R before its
+        rounding to the LSB). A centre beyond the K3701's registers runs as chords."""
         sx, sy = start[first], start[second]
         ex, ey = target[first], target[second]
-        radius = self.lsb(r.value)
+        radius = float(self.lsb_exact(r.value)) if exact else self.lsb(r.value)
         if abs(radius) > MAX_R_LSB:
             raise BlockError(r.col, f"{r.text}: the radius is outside -(2^40)..2^40 LSB "
                                     f"(+-{self.planner.mm(MAX_R_LSB)})")

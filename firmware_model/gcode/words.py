@@ -63,7 +63,8 @@ G_CODES: dict[int, Code] = {
     _g(5.3): Code("motion", "end of a G05.2 NURBS block (a motion code must follow)"),
     _g(17): Code("plane", "XY plane (arcs take I, J)"),
     _g(18): Code("plane", "ZX plane (arcs take K, I; three-axis machines)"),
-    _g(19): Code("plane", "YZ plane (arcs take J, K; three-axis machines)"),
+    _g(19): Code("plane", "YZ plane (arcs take J, K; three-axis machines; no cutter radius "
+                          "compensation, as LinuxCNC)"),
     _g(20): Code("units", "inch"),
     _g(21): Code("units", "millimetre"),
     _g(28): Code("non-modal", "rapid to the home position, the machine origin (through the "
@@ -74,9 +75,9 @@ G_CODES: dict[int, Code] = {
                            "with the diameter of the loaded tool, or of tool D (D0: the "
                            "loaded tool), from the job's tool table"),
     _g(41.1): Code("cutter", "cutter radius compensation, the tool left of the path: D the "
-                             "cutter's diameter (G17 and G18, as LinuxCNC: an entry line, "
-                             "outside corners as arcs, inside corners where the paths "
-                             "cross)"),
+                             "cutter's diameter, L a lathe tool's orientation (G18) (G17 and "
+                             "G18, as LinuxCNC: an entry line or arc, outside corners as arcs, "
+                             "inside corners where the paths cross, rs274's gouge checks)"),
     _g(42): Code("cutter", "cutter radius compensation, the tool right of the path, as G41"),
     _g(42.1): Code("cutter", "cutter radius compensation, the tool right of the path, as "
                              "G41.1"),
@@ -159,7 +160,8 @@ LETTERS: dict[str, str] = {
     "Q": "peck depth (G83); G64's tolerance (ignored); G05: second control point along Y",
     "D": "the cutter's diameter (G41.1/G42.1); the tool number of the diameter (G41/G42)",
     "L": "order of a G05.2 NURBS (default 3); G10's form (L2, L20); canned cycles: repeats "
-         "of the block (G91: each moved by X/Y or a polar step; G90: the same hole)",
+         "of the block (G91: each moved by X/Y or a polar step; G90: the same hole); "
+         "G41.1/G42.1 in G18: a lathe tool's orientation (1-9)",
 }
 
 #: G codes refused with a reason (by table key).

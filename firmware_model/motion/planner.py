@@ -196,7 +196,9 @@ class Planner:
             exact: tuple[float, float, float] | None = None) -> None:
         """An arc (a helix if the normal axis moves) from the position to ``target`` around
         ``centre`` (absolute, in the plane's (first, second) coordinates). An end equal to
-        the start in the plane is a full circle. ``exact``: the programmed end before its
+        the start in the plane is a full circle (around a centre at the start, radius 0: a
+        line along the plane's normal, as a cutter as wide as the hole it follows runs).
+        ``exact``: the programmed end before its
         rounding to ``target`` (None: ``target``); a correction line follows where the chip
         ends more than :data:`CORRECTION_MAX` from it on any axis."""
         target = self._check_target(target)
@@ -209,6 +211,9 @@ class Planner:
         end = (target[first] - start[first], target[second] - start[second])
         if (target[first], target[second]) == (self.programmed[first], self.programmed[second]):
             end = (0, 0)  # a full circle from wherever the machine is
+        if i == 0 and j == 0 and end == (0, 0):  # a helix of radius 0: the normal axis only
+            self.line(line_no, target, feed, feed_source=feed_source)
+            return
         if i == 0 and j == 0:
             raise PlanError("the arc's centre is its start point (radius 0)")
         r0, r1 = math.hypot(i, j), math.hypot(end[0] - i, end[1] - j)

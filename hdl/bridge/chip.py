@@ -3,6 +3,9 @@ the chipset's 8-bit bus."""
 
 from __future__ import annotations
 
+import operator
+from functools import reduce
+
 from amaranth.hdl import Cat, Const, Module, Mux, Signal
 from amaranth.lib import wiring
 from amaranth.lib.fifo import SyncFIFOBuffered
@@ -13,7 +16,6 @@ from k37.hdl.bridge.protocol import (
     COUNT_BITS,
     COUNTER_BITS,
     CRC_INIT,
-    CRC_POLY,
     END,
     ERROR,
     ESC,
@@ -26,6 +28,7 @@ from k37.hdl.bridge.protocol import (
     Identity,
     Op,
     check_cycles_per_bit,
+    crc8,
 )
 from k37.hdl.bridge.uart import UartRx, UartTx
 from k37.hdl.bus.hostbus import HostBus
@@ -248,8 +251,12 @@ class UartBridge(wiring.Component):
 
 
 def _crc8_next(crc, data):
-    """The CRC-8 register after ``data`` (:func:`k37.hdl.bridge.protocol.crc8`, in gates)."""
+    """The CRC-8 register after ``data`` (:func:`k37.hdl.bridge.protocol.crc8`, in gates).
+
+    The step is linear over GF(2) in ``crc ^ data``: each bit of the result is the XOR of the
+    bits of ``crc ^ data`` whose own step sets it (one XOR tree a bit, not eight nested muxes).
+    """
     value = crc ^ data
-    for _ in range(8):
-        value = Mux(value[7], (value << 1)[:8] ^ CRC_POLY, (value << 1)[:8])
-    return value
+    columns = [crc8([1 << i], 0) for i in range(8)]
+    return Cat(*(reduce(operator.xor, [value[i] for i in range(8) if columns[i] >> j & 1],
+                        Const(0, 1)) for j in range(8)))

@@ -4,11 +4,10 @@ picks for a machine (and why), and their classes."""
 from __future__ import annotations
 
 import sys
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 from k37.sim.backends.contract import CLOCK_PERIOD, Backend, Design, instantiate
-from k37.sim.backends.engine.support import unsupported
 from k37.sim.backends.toolchain import find_compiler
 
 __all__ = ["BACKENDS", "BACKEND_NAMES", "choose_backend", "make_backend"]
@@ -23,15 +22,14 @@ BACKEND_NAMES = ("auto", *BACKENDS)
 
 
 def choose_backend(kind: str, params: Mapping[str, Any] | None = None, *,
-                   kinds: Iterable[object] = (), internals: bool = False) -> tuple[str, str]:
+                   internals: bool = False) -> tuple[str, str]:
     """The backend ``kind`` runs a machine built with ``params`` (the keyword arguments of
-    :class:`k37.sim.machine.system.System`; None: unknown) on, for a program of blocks of
-    ``kinds``, and why, in words.
+    :class:`k37.sim.machine.system.System`; None: not that machine) on, and why, in words.
 
-    ``auto`` picks the engine where it runs the machine and the program
-    (:func:`k37.sim.backends.engine.support.unsupported`) and the caller reads no internal
-    signals (``internals``: a waveform, probes), which only the RTL has; else the compiled RTL
-    backend; and Amaranth's simulator when there is no C++ compiler.
+    ``auto`` picks the engine for the simulated machine (it runs every option of it and every
+    block) where the caller reads no internal signals (``internals``: a waveform, probes),
+    which only the RTL has; else the compiled RTL backend; and Amaranth's simulator when there
+    is no C++ compiler.
     """
     if kind not in BACKEND_NAMES:
         raise ValueError(f"backend kind must be one of {', '.join(BACKEND_NAMES)}, "
@@ -42,18 +40,17 @@ def choose_backend(kind: str, params: Mapping[str, Any] | None = None, *,
         return "pysim", "auto: no C++ compiler (g++) on PATH"
     if internals:
         return "cxxrtl", "auto: internal signals (a waveform, probes) need the RTL"
-    why = "the machine is not known" if params is None else unsupported(params, kinds)
-    if why is not None:
-        return "cxxrtl", f"auto: the engine does not run {why}"
+    if params is None:
+        return "cxxrtl", "auto: the engine runs only the simulated machine (System)"
     return "engine", "auto: the engine runs this machine and program"
 
 
 def make_backend(design: Design, kind: str = BACKEND_NAMES[0], *,
                  period: float = CLOCK_PERIOD, design_key: str | None = None,
-                 params: Mapping[str, Any] | None = None, kinds: Iterable[object] = (),
+                 params: Mapping[str, Any] | None = None,
                  internals: bool = False) -> Backend:
     """A backend of kind ``kind`` (one of :data:`BACKEND_NAMES`, ``auto`` as
-    :func:`choose_backend` picks with ``params``, ``kinds`` and ``internals``) for ``design``: a
+    :func:`choose_backend` picks with ``params`` and ``internals``) for ``design``: a
     component, or a function that makes one (called only if the design must be elaborated).
     The backend's ``reason`` says why it was picked.
 
@@ -61,7 +58,7 @@ def make_backend(design: Design, kind: str = BACKEND_NAMES[0], *,
     parameters): the compiled backend then finds a model built before without elaborating
     the design (:func:`k37.sim.backends.cxxrtl.build.remember_design`).
     """
-    chosen, reason = choose_backend(kind, params, kinds=kinds, internals=internals)
+    chosen, reason = choose_backend(kind, params, internals=internals)
     if chosen == "pysim" and kind == "auto":
         print("k37: no C++ compiler (g++) on PATH; using Amaranth's simulator (about 500x "
               "slower)", file=sys.stderr)

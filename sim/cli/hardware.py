@@ -13,23 +13,20 @@ __all__ = ["add_commands"]
 
 
 def _cmd_export_verilog(args: argparse.Namespace) -> int:
-    from k37.sim.files import atomic_open, why
+    from k37.sim.files import why
     from k37.sim.fpga.export import export_verilog
-    from k37.sim.fpga.fusesoc import core_text
+    from k37.sim.fpga.fusesoc import write_core
 
     if not check(folders={"-o": args.output}):
         return 2
     try:
         paths = export_verilog(args.block or None, Path(args.output))
-        core = Path(args.output) / "k37.core"
-        with atomic_open(core, "w") as f:
-            f.write(core_text(paths))
+        paths += write_core(paths, Path(args.output))
     except OSError as e:
         print(f"k37: error: {e.filename or args.output}: not written: {why(e)}",
               file=sys.stderr)
         return EXIT_OUTPUT
-    return stdout(lambda: print("\n".join(f"k37 export-verilog: wrote {p}"
-                                          for p in [*paths, core])))
+    return stdout(lambda: print("\n".join(f"k37 export-verilog: wrote {p}" for p in paths)))
 
 
 def _cmd_synth(args: argparse.Namespace) -> int:

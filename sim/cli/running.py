@@ -184,9 +184,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="run a job (TOML or G-code); no job: the built-in demo")
     p.add_argument("job", nargs="?", help="job file: .toml, or G-code run on the default machine")
     p.add_argument("--backend", choices=BACKEND_NAMES, default=BACKEND_NAMES[0],
-                   help="simulation backend (auto: the engine where it runs the job and no "
-                        "waveform is asked for, else the compiled RTL when a C++ compiler "
-                        "exists; lockstep: the engine checked against the compiled RTL)")
+                   help="simulation backend (auto: the engine when a C++ compiler exists "
+                        "and no waveform is asked for, else the compiled RTL, or pysim "
+                        "without a compiler; lockstep: the engine checked against the "
+                        "compiled RTL)")
     p.add_argument("--max-cycles", type=positive_int, default=None,
                    help="stop after this many clock cycles (default: twice the program's "
                         "planned machine time and 10 s)")

@@ -68,7 +68,8 @@ def _cmd_serve(args: argparse.Namespace) -> int:
               f"{session.cycles:,} cycles run", file=sys.stderr, flush=True)
 
     print(f"k37 serve: the {job.machine.axes}-axis machine of {job.name} on "
-          f"tcp://{args.host}:{board.port} ({board.backend.name}); Ctrl-C ends",
+          f"tcp://{args.host}:{board.port} ({board.backend.name}, {board.backend.reason}); "
+          f"Ctrl-C ends",
           file=sys.stderr, flush=True)
     try:
         board.serve(args.sessions, report)
@@ -94,9 +95,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--host", default="127.0.0.1",
                    help="address to listen on (default 127.0.0.1: this computer only)")
     p.add_argument("--backend", choices=BACKEND_NAMES, default=BACKEND_NAMES[0],
-                   help="simulation backend (auto: the engine where it runs the job and no "
-                        "waveform is asked for, else the compiled RTL when a C++ compiler "
-                        "exists; lockstep: the engine checked against the compiled RTL)")
+                   help="simulation backend (auto: the engine when a C++ compiler exists "
+                        "and no waveform is asked for, else the compiled RTL, or pysim "
+                        "without a compiler; lockstep: the engine checked against the "
+                        "compiled RTL)")
     p.add_argument("--sessions", type=positive_int, default=None, metavar="N",
                    help="end after serving N connections (default: serve until Ctrl-C)")
     p.add_argument("--uart", type=_cycles_per_bit, default=None, metavar="CYCLES_PER_BIT",

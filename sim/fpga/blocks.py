@@ -15,8 +15,11 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
+from k37.hdl.board.pins import ulx3s_pins
+from k37.hdl.bridge.protocol import DEFAULT_BAUD
 from k37.hdl.bus.registers import RegisterMap
-from k37.hdl.common.constants import ALL_AXES
+from k37.hdl.chipset.identity import chipset_identity
+from k37.hdl.common.constants import ALL_AXES, CHIP_HZ
 
 if TYPE_CHECKING:
     from amaranth.lib import wiring
@@ -31,8 +34,10 @@ class Exportable:
     ``factory`` is ``"module:Class"``; ``params`` are constructor arguments (the defaults, the
     paper's values, otherwise); ``top`` marks the chipset top (synthesis reports it as the
     total); ``ice40``: the iCE40 fit check synthesises it (the three-axis builds are the ECP5
-    board's). The block's own ``probes`` name its output ports that are not pins of the chip;
-    its register maps are found in its module (every :class:`RegisterMap` there).
+    board's); ``cosim``: the co-simulation against a chip's reference model covers it (a block
+    made of chips has the system simulation and its own tests instead). The block's own
+    ``probes`` name its output ports that are not pins of the chip; its register maps are
+    found in its module (every :class:`RegisterMap` there).
     """
 
     name: str
@@ -41,6 +46,7 @@ class Exportable:
     params: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))
     top: bool = False
     ice40: bool = True
+    cosim: bool = True
 
     def component(self) -> wiring.Component:
         """A new instance of the block."""
@@ -123,13 +129,24 @@ BLOCKS: tuple[Exportable, ...] = (
     Exportable("feed_rate_axis_fa", "k37.hdl.feed.feed_rate:FeedRate",
                "feed-rate generator, per-axis fa build (an addition clock for each axis)",
                params=_params(axis_fa=ALL_AXES)),
-    Exportable("chipset", "k37.hdl.chipset.chip:Chipset", "two-axis chipset top", top=True),
+    Exportable("chipset", "k37.hdl.chipset.chip:Chipset", "two-axis chipset top", top=True,
+               cosim=False),
     Exportable("k3701_3axis", "k37.hdl.k3701.chip:K3701",
                "KM3701 three-axis build (3-D lines, planes, helices, parabolas, exponentials)",
                params=_params(axes=3), ice40=False),
     Exportable("chipset_3axis", "k37.hdl.chipset.chip:Chipset",
                "three-axis chipset top (machine.axes = 3)", params=_params(axes=3), top=True,
-               ice40=False),
+               ice40=False, cosim=False),
+    Exportable("chipset_wishbone", "k37.hdl.chipset.wishbone:WishboneChipset",
+               "two-axis chipset behind an 8-bit Wishbone classic target (for an SoC's bus)",
+               ice40=False, cosim=False),
+    Exportable("bridge", "k37.hdl.bridge.chip:UartBridge",
+               "UART host bridge of the three-axis chipset (the board's, at 125 kBd)",
+               params=_params(cycles_per_bit=CHIP_HZ // DEFAULT_BAUD,
+                              identity=chipset_identity(axes=3)), ice40=False, cosim=False),
+    Exportable("board_ulx3s", "k37.hdl.board.top:BoardTop",
+               "ULX3S board top: three-axis chipset, clock enable, UART bridge, sigma-delta D/As",
+               params=_params(pins=ulx3s_pins(3)), ice40=False, cosim=False),
 )
 
 

@@ -8,7 +8,8 @@ nextpnr-ecp5 and ecppack. :func:`build` writes the plan to a folder and, unless
 ``plan_only``, runs it with YoWASP's tools from PyPI (``pip install 'k37[fpga]'``) or native
 ones on PATH; nextpnr fails the build when the design misses the board clock. Next to the
 bitstream it writes the pin map (``pins.md``) and the timing and utilisation report
-(``report.md``), all named after the design (``k37_<board>``).
+(``report.md``, naming the path that limits fmax: :mod:`k37.sim.fpga.timing`); every other
+file is named after the design (:func:`design_name`: ``k37_<board>_<axes>axis``).
 """
 
 from __future__ import annotations
@@ -25,8 +26,9 @@ from pathlib import Path
 
 from k37.hdl.board.pins import BoardPin, ulx3s_pins
 from k37.sim.fpga.synth import _tool, _tools_versions
+from k37.sim.fpga.timing import CriticalPath, critical_path
 
-__all__ = ["BOARDS", "BoardReport", "build", "pin_map"]
+__all__ = ["BOARDS", "BoardReport", "build", "design_name", "pin_map"]
 
 #: The boards ``k37 build`` knows: name -> FPGA part.
 BOARDS = {"ulx3s-25f": "LFE5U-25F", "ulx3s-85f": "LFE5U-85F"}
@@ -58,6 +60,8 @@ class BoardReport:
     fmax_mhz: float | None = None
     clock_mhz: float = 25.0
     tools: str = ""
+    #: The path that limits fmax (nextpnr's timing report).
+    critical: CriticalPath | None = None
 
     def format(self) -> str:
         """The report as Markdown (what ``report.md`` holds)."""
@@ -73,6 +77,7 @@ class BoardReport:
             f"{self.seconds:.0f} s with {self.tools}.", "",
             f"fmax {self.fmax_mhz or 0:.1f} MHz against the {self.clock_mhz:g} MHz board clock; "
             f"the chipset's cycle is one in {round(self.clock_mhz)} of them (1 MHz).", "",
+            *([self.critical.format(), ""] if self.critical else []),
             "| resource | used | available |", "|---|---:|---:|",
             *(f"| {kind} | {n} | {of} |" for kind, (n, of) in used.items() if n),
             "", "Yosys cells: " + ", ".join(f"{k} {v}" for k, v in sorted(cells.items())
@@ -112,6 +117,13 @@ def _environment() -> dict[str, str]:
     return env
 
 
+def design_name(board: str, axes: int) -> str:
+    """The design's name, which names the bitstream and every file of the plan:
+    ``k37_<board>_<axes>axis`` (``k37_ulx3s_25f_3axis``), so the two- and three-axis builds
+    of a board never take each other's files."""
+    return f"k37_{board.replace('-', '_')}_{axes}axis"
+
+
 def build(board: str, folder: Path, *, axes: int = 3, plan_only: bool = False,
           progress: Callable[[str], None] | None = None) -> BoardReport:
     """Write ``board``'s build plan of the ``axes``-axis chipset to ``folder`` and, unless
@@ -128,7 +140,7 @@ def build(board: str, folder: Path, *, axes: int = 3, plan_only: bool = False,
     except ImportError as e:
         raise ImportError(f"amaranth-boards is not installed: pip install 'k37[fpga]' ({e})"
                           ) from e
-    name = f"k37_{board.replace('-', '_')}"
+    name = design_name(board, axes)
     plat = platform(board, axes)
     say(f"elaborating the {axes}-axis chipset for {board}")
     plan = plat.prepare(OnBoard(axes), name=name,
@@ -160,6 +172,6 @@ def build(board: str, folder: Path, *, axes: int = 3, plan_only: bool = False,
         utilisation={kind: (u["used"], u["available"])
                      for kind, u in timing["utilization"].items()},
         fmax_mhz=min(fmax) if fmax else None, clock_mhz=plat.default_clk_frequency / 1e6,
-        tools=_tools_versions("ecp5"))
+        tools=_tools_versions("ecp5"), critical=critical_path(timing))
     (folder / "report.md").write_text(report.format())
     return report

@@ -24,6 +24,7 @@ top) is one line.
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import inspect
 import re
@@ -37,8 +38,12 @@ from amaranth.back import verilog
 from amaranth.hdl import Shape
 from amaranth.lib import wiring
 
+from k37.hdl.board.core import BoardCore
+from k37.hdl.board.pins import BoardPin
 from k37.hdl.bus.hostbus import HostBus
+from k37.hdl.bus.wishbone import WishboneBus
 from k37.hdl.chipset.map import SUB_WINDOWS
+from k37.hdl.common.constants import CHIP_HZ
 from k37.sim.files import atomic_open
 from k37.sim.fpga.blocks import BLOCKS, Exportable, block
 
@@ -110,7 +115,8 @@ def _members_doc(cls: type) -> dict[str, str]:
 
 def _walk(signature: wiring.Signature, component: Any, docs: dict[str, str],
           path: tuple[str, ...] = ()):
-    """(path, member, value, doc) of each port; each HostBus is one (path, signature, None, "").
+    """(path, member, value, doc) of each port; each HostBus the block is the target of is one
+    (path, signature, None, ""), one it drives (a bridge's) its ports.
 
     ``docs`` are the port descriptions of ``signature``'s class; a nested signature's ports
     take theirs from its own class's "Members" section.
@@ -118,10 +124,8 @@ def _walk(signature: wiring.Signature, component: Any, docs: dict[str, str],
     for name, member in signature.members.items():
         here = (*path, name)
         value = getattr(component, name)
-        if member.is_signature and isinstance(member.signature, HostBus):
-            if member.flow != wiring.In:
-                raise ValueError(f"host bus {'.'.join(here)} must be an In member (the chip "
-                                 f"is the target)")
+        if member.is_signature and isinstance(member.signature, HostBus) \
+                and member.flow == wiring.In:
             yield here, member.signature, None, ""
         elif member.is_signature:
             inner = member.signature
@@ -138,6 +142,22 @@ def _check_name(name: str, where: str) -> str:
     return name
 
 
+def _board_pins(component: wiring.Component) -> dict[str, tuple[str, str]]:
+    """A board top's pins (its ``pins``, :class:`k37.hdl.board.pins.BoardPin`): the board's
+    label and the description of each, by signal."""
+    return {pin.signal: (pin.label, pin.doc) for pin in getattr(component, "pins", ())
+            if isinstance(pin, BoardPin)}
+
+
+def _clock_text(component: wiring.Component) -> str:
+    """What clk is: the chips' CP, or a board's clock with the chipset under a clock enable."""
+    core = getattr(component, "core", None)
+    if isinstance(core, BoardCore):
+        return (f"the board's {core.clock_hz / 1e6:g} MHz clock; the chipset inside runs at "
+                f"{CHIP_HZ / 1e6:g} MHz, one cycle of every {core.ratio}, by a clock enable")
+    return "the paper's CP, 1 MHz"
+
+
 def _plan(entry: Exportable, component: wiring.Component
           ) -> tuple[list[Pin], list[_Bus], dict[str, str], list[str]]:
     """The wrapper's pins, buses, core port -> pin connections and unconnected probes."""
@@ -145,8 +165,9 @@ def _plan(entry: Exportable, component: wiring.Component
     buses: list[_Bus] = []
     direct: dict[str, str] = {}
     probes: list[str] = []
-    for path, member, value, doc in _walk(component.signature, component,
-                                          _members_doc(type(component))):
+    board = _board_pins(component)
+    docs = _members_doc(type(component)) | {name: doc for name, (_, doc) in board.items()}
+    for path, member, value, doc in _walk(component.signature, component, docs):
         core = "__".join(path)
         if value is None:  # a host bus
             stem = path[:-1] if path[-1] == "bus" else path
@@ -166,7 +187,8 @@ def _plan(entry: Exportable, component: wiring.Component
         name = _check_name("_".join(path), entry.name)
         width = Shape.cast(value.shape()).width
         direction = "input" if member.flow == wiring.In else "output"
-        pins_.append(Pin(name, direction, width, SPEC_LABELS.get(path[-1], ""), doc))
+        label = board[name][0] if name in board else SPEC_LABELS.get(path[-1], "")
+        pins_.append(Pin(name, direction, width, label, doc))
         direct[core] = name
     names = [p.name for p in pins_]
     if len(set(names)) != len(names) or {"clk", "rst"} & set(names):
@@ -250,9 +272,13 @@ def _comment(text: str) -> list[str]:
 
 
 def _literal(value: Any) -> str:
-    """A parameter value as Python source (an enum member by its name)."""
+    """A parameter value as Python source (an enum member by its name; a tuple of records,
+    such as a board's pins, by their first fields)."""
     if isinstance(value, enum.Enum):
         return f"{type(value).__name__}.{value.name}"
+    if isinstance(value, tuple) and value and all(map(dataclasses.is_dataclass, value)):
+        first = [getattr(v, dataclasses.fields(v)[0].name) for v in value]
+        return f"{len(value)} {type(value[0]).__name__} ({', '.join(map(str, first))})"
     return repr(value)
 
 
@@ -285,7 +311,7 @@ def _header(entry: Exportable, buses: list[_Bus], probes: list[str]) -> list[str
         f"Module {entry.name} gives the chip's pins (datasheet names in the port comments; active "
         f"low where the chips are) to {entry.name}_core, Amaranth's unchanged Verilog of the "
         f"block, so every cycle matches the project's simulation and reference models. All "
-        f"inputs are sampled at the rising edge of clk (the paper's CP, 1 MHz).",
+        f"inputs are sampled at the rising edge of clk ({_clock_text(entry.component())}).",
     ]
     if buses:
         text += [
@@ -294,6 +320,14 @@ def _header(entry: Exportable, buses: list[_Bus], probes: list[str]) -> list[str
             "cycle t is driven on D in cycle t+1. Multi-byte registers are little-endian: "
             "the last (most significant) byte commits a write, reading byte 0 snapshots the "
             "whole register for the bytes after it.",
+        ]
+    if any(m.is_signature and isinstance(m.signature, WishboneBus)
+           for m in entry.component().signature.members.values()):
+        text += [
+            "Wishbone bus (wb_*): a classic (B4) target, 8-bit data, one register byte per "
+            "address (chip select << 5 | register address). A transfer requested in cycle t "
+            "(cyc, stb and sel high) is the chip's bus access of cycle t; ack is high in "
+            "t + 1 with a read's byte on dat_r. The register semantics above hold unchanged.",
         ]
     if probes:
         text += [f"Probe outputs of the core, not chip pins, left unconnected here: "

@@ -11,7 +11,7 @@ from amaranth.lib.wiring import In, Out
 
 from k37.hdl.bus.hostbus import HostBus
 from k37.hdl.chipset.chip import Chipset
-from k37.hdl.chipset.map import Accel, AccelShape
+from k37.hdl.chipset.map import Accel, AccelShape, axis_names
 from k37.hdl.common.observation import FreeRunning, Observed
 from k37.hdl.k3702.map import COUNTER_WIDTH
 from k37.sim.machine.plant import ServoPlant
@@ -108,14 +108,14 @@ class System(Observed, wiring.Component):
                  accel_shape: AccelShape | str = AccelShape.EXPONENTIAL,
                  axis_accel: dict[str, tuple[AccelShape | str, int]] | None = None,
                  axis_fa: tuple[str, ...] = (), drives: dict[str, str] | None = None):
+        drives = drives or {}
+        for axis, drive in drives.items():
+            if axis not in axis_names(axes) or drive not in DRIVES:
+                raise ValueError(f"drives: {axis!r}: {drive!r} is not an axis's drive "
+                                 f"({', '.join(DRIVES)})")
         self.chipset = Chipset(accel=accel, accel_bits=accel_bits, axes=axes,
                                accel_shape=accel_shape, axis_accel=axis_accel, axis_fa=axis_fa)
         self.axes = self.chipset.axes
-        drives = drives or {}
-        for axis, drive in drives.items():
-            if axis not in self.axes or drive not in DRIVES:
-                raise ValueError(f"drives: {axis!r}: {drive!r} is not an axis's drive "
-                                 f"({', '.join(DRIVES)})")
         self.drives = {axis: DRIVES[drives.get(axis, "first_order")] for axis in self.axes}
         super().__init__({
             "bus": In(HostBus(8)), "irq": Out(1), "irq_interp": Out(1), "irq_alarm": Out(1),

@@ -172,9 +172,10 @@ def report_markdown(result: Reproduction) -> str:
              f"sections 1-7) or of one of the four companion papers (sections 8-11) with "
              f"what the emulator does, within the tolerance given (its kind: the paper's "
              f"number, its trend only, or quoted where the paper has no comparable figure); "
-             f"the experiments ran on the "
-             f"compiled (CXXRTL) backend of the whole machine: chipset gateware, 8085 firmware "
-             f"model and servo plants.", "", table_markdown(result)]
+             f"the experiments ran on the whole machine (chipset, 8085 firmware model and servo "
+             f"plants) on the backend the run-time table names for each run: the event-level "
+             f"engine where it runs the run, else the compiled (CXXRTL) gateware.", "",
+             table_markdown(result)]
     for sec in result.sections:
         lines += [f"## {sec.number}. {sec.title}", ""]
         for paragraph in sec.text:
@@ -188,10 +189,11 @@ def report_markdown(result: Reproduction) -> str:
               f"time (builds: one per machine design, compiled in parallel and cached under "
               f"`~/.cache/k37`; a cached build still converts the design, a few seconds). The "
               f"analysis and figures took {result.model_seconds:.0f} s.", "",
-              "| run | experiments | machine cycles | wall (s) |", "|---|---|---|---|"]
+              "| run | experiments | backend | machine cycles | wall (s) |",
+              "|---|---|---|---|---|"]
     for key, data in result.runs.items():
         cycles = data.report.get("cycles")
         used = ", ".join(str(s.number) for s in result.sections if key in s.runs) or "all"
-        lines.append(f"| {key} | {used} | {f'{cycles:,}' if cycles else '-'} | "
-                     f"{data.seconds:.1f} |")
+        lines.append(f"| {key} | {used} | {data.report.get('backend', '-')} | "
+                     f"{f'{cycles:,}' if cycles else '-'} | {data.seconds:.1f} |")
     return "\n".join(lines) + "\n"

@@ -1,8 +1,9 @@
 """The experiments' runs in worker processes: :func:`run_all`.
 
 The closed-loop runs are independent, so they run in worker processes (two by default, one
-per core), all on the compiled (CXXRTL) backend; the runs of one machine design share one
-compiled model, built once per process and reset between runs.
+per core), each on the backend ``auto`` picks for it (the event-level engine where it runs the
+run's machine and program, else the compiled RTL); the runs of one machine design share one
+built backend, built once per process and reset between runs.
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ def _run(spec: RunSpec) -> RunData:
     start = time.perf_counter()
     job = spec.job()
     backend = reused_backend(job)
-    result = run_job(job, RunOptions(backend="cxxrtl", sample_every=spec.sample_every,
+    result = run_job(job, RunOptions(sample_every=spec.sample_every,
                                      max_cycles=spec.max_cycles,
                                      budget_offset=spec.budget_offset), backend)
     probes = {"busy": backend.probe("chipset.k3701.busy"),
@@ -62,9 +63,10 @@ def _max_rates(spec: RateSpec) -> RunData:
     """Step rates of the K3701 gateware with FP offered every cycle (``docs/chips/k3701.md``)."""
     start = time.perf_counter()
     probes: dict[str, int] = {}
-    cycles = 0
+    cycles, used = 0, set()
     for name, block, counter, steps in spec.blocks:
         backend = reused_backend(spec.job())
+        used.add(backend.name)
         host = Host8085(SimulatedLink(backend))
         host.command("K3701", ack=1, clear=1)
         for register, value in block_registers(block).items():
@@ -83,8 +85,8 @@ def _max_rates(spec: RateSpec) -> RunData:
         probes[f"{name}_busy"] = backend.probe("chipset.k3701.busy")
         probes[f"{name}_overrun"] = backend.probe("chipset.k3701.overrun")
         cycles += backend.cycle
-    return RunData(spec.key, {"cycles": cycles}, np.zeros(0), probes,
-                   time.perf_counter() - start)
+    return RunData(spec.key, {"cycles": cycles, "backend": ", ".join(sorted(used))},
+                   np.zeros(0), probes, time.perf_counter() - start)
 
 
 def _execute(task: RunSpec | RateSpec | tuple[str, RunSpec | RateSpec]) -> RunData:

@@ -40,7 +40,6 @@ from k37.firmware_model.host import Host8085
 from k37.firmware_model.job import Job
 from k37.firmware_model.motion.program import Dwell, Event
 from k37.sim.backends.contract import Backend
-from k37.sim.backends.engine.support import unsupported
 from k37.sim.backends.factory import BACKEND_NAMES, make_backend
 from k37.sim.files import OutputFailure, discard_temporary, keep_temporary, temporary_beside, why
 
@@ -183,23 +182,15 @@ def build_backend(job: Job, kind: str, *, internals: bool = False) -> Backend:
     """The simulated machine of ``job`` on backend ``kind`` (one of ``BACKEND_NAMES``; ``auto``
     as :func:`k37.sim.backends.factory.choose_backend` picks, with ``internals``: the caller
     reads internal signals); the machine (and Amaranth) is only made if the backend has no
-    model of it yet.
-    Raises :class:`OptionError` if ``kind`` names the engine and the engine does not run the
-    job's machine or program."""
+    model of it yet."""
     params = system_params(job)
-    kinds = {move.block.kind for move in job.program.moves}
-    if kind in ("engine", "lockstep"):
-        why = unsupported(params, kinds)
-        if why is not None:
-            raise OptionError(f"--backend {kind}: the engine does not run {why}; use "
-                              f"--backend cxxrtl")
 
     def machine() -> System:
         from k37.sim.machine.system import System
 
         return System(**params)
 
-    return make_backend(machine, kind, design_key=design_key(job), params=params, kinds=kinds,
+    return make_backend(machine, kind, design_key=design_key(job), params=params,
                         internals=internals)
 
 
@@ -207,13 +198,14 @@ _REUSED: dict[str, Backend] = {}
 
 
 def reused_backend(job: Job) -> Backend:
-    """This process's compiled machine for ``job``, built once per design (:func:`design_key`)
-    and reset to cycle 0 for each later job: what a process running many jobs (a study's or
-    a reproduction's worker) runs them on."""
+    """This process's machine for ``job`` on the backend ``auto`` picks for it
+    (:func:`k37.sim.backends.factory.choose_backend`: the engine, given a C++ compiler),
+    built once per design (:func:`design_key`) and reset to cycle 0 for each later job: what a
+    process running many jobs (a study's or a reproduction's worker) runs them on."""
     key = design_key(job)
     backend = _REUSED.get(key)
     if backend is None:
-        backend = _REUSED[key] = build_backend(job, "cxxrtl")
+        backend = _REUSED[key] = build_backend(job, "auto")
     else:
         backend.reset()
     return backend

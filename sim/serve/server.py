@@ -67,7 +67,7 @@ class SimulatedBoard:
         self.listener = socket.create_server((host, port))  # first: a port in use fails fast
         self.port: int = self.listener.getsockname()[1]
         try:
-            self.backend: Backend = build_backend(job, kind, internals=trace is not None)
+            self.backend: Backend = build_backend(job, kind)
         except BaseException:
             self.listener.close()
             raise

@@ -48,7 +48,7 @@ __all__ = ["METRICS", "OUTSIDE", "WORKER_STOP_SECONDS", "SweepError", "check_stu
            "end_with_parent", "run_one", "stop_workers", "sweep"]
 
 #: The columns each run fills after its factors.
-METRICS = ("status", "reason", "cycles", "machine_seconds", "wall_seconds",
+METRICS = ("status", "reason", "cycles", "machine_seconds", "wall_seconds", "backend",
            "max_contour_error", "rms_contour_error", "x_max_following_error",
            "y_max_following_error", "end_reached", *FIGURES)
 
@@ -72,7 +72,7 @@ def run_one(study: Study, run: StudyRun, pages: Path | None = None) -> dict[str,
     row: dict[str, Any] = {"run": run.number, **dict(run.levels)}
     try:
         job = study.job(run)
-        result = run_job(job, RunOptions(backend="cxxrtl", max_cycles=study.max_cycles,
+        result = run_job(job, RunOptions(max_cycles=study.max_cycles,
                                          sample_every=study.sample_every), reused_backend(job))
     except (JobError, OptionError, ValueError) as e:
         return row | {"status": "error", "reason": str(e)}
@@ -82,7 +82,7 @@ def run_one(study: Study, run: StudyRun, pages: Path | None = None) -> dict[str,
         return row | {"status": "error", "reason": f"{type(e).__name__}: {e}"}
     report = result.report
     row |= {"status": report["status"], "reason": report["reason"], "cycles": report["cycles"],
-            "machine_seconds": report["machine_seconds"],
+            "machine_seconds": report["machine_seconds"], "backend": report["backend"],
             "max_contour_error": report["path"]["max_contour_error"],
             "rms_contour_error": report["path"]["rms_contour_error"],
             "end_reached": report["end_point"]["reached"]}

@@ -17,7 +17,7 @@ from k37.firmware_model.job import ContourConfig, Job, MachineConfig, ServoConfi
 from k37.sim.reproduce.contour_error import BEZIER_MM, Curve
 from k37.sim.run.contour import contour_errors
 from k37.sim.run.runner import RunOptions, run_job
-from tests.sim.backends.test_backend_equivalence import same_on_both_backends
+from tests.sim.backends.test_backend_equivalence import same_on_every_backend
 from tests.sim.backends.test_idle_skip import skipped_equals_stepped
 
 #: The contour-error paper's Table 1 plant at its 60 mm/s, on a 5 um LSB.
@@ -84,7 +84,7 @@ def test_ccc_removes_the_steady_contour_error_of_unequal_gains():
 def test_backends_agree_with_a_contour_controller(controller, random_moves):
     job, faults, _ = random_moves(11, "none", dwell=False)
     job = replace(job, contour=ContourConfig(controller=controller, period_ms=0.2))
-    same_on_both_backends(job, faults)
+    same_on_every_backend(job, faults)
 
 
 @pytest.mark.parametrize("controller", ["vgccc", "cec"])

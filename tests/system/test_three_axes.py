@@ -1,6 +1,7 @@
 """The three-axis machine (``machine.axes = 3``) end to end: 3-D lines, arcs in the G17, G18
-and G19 planes and helices through firmware, chipset and plants; the compiled backend equal to
-Amaranth's simulator, idle skipping exact; the job key and the automatic choice of axes."""
+and G19 planes and helices through firmware, chipset and plants; the compiled backend and the
+engine equal to Amaranth's simulator, idle skipping exact; the job key and the automatic
+choice of axes."""
 
 from __future__ import annotations
 
@@ -101,11 +102,12 @@ def test_backends_give_identical_reports_and_traces_on_three_axes(accel, random_
     job, faults, _ = random_moves(7 + len(accel), accel, dwell=False, axes=3)
     results = {backend: run_job(job, RunOptions(backend=backend, max_cycles=4000,
                                                 sample_every=25, faults=faults))
-               for backend in ("pysim", "cxxrtl")}
-    py, cc = results["pysim"], results["cxxrtl"]
-    assert comparable(py.report) == comparable(cc.report)
+               for backend in ("pysim", "cxxrtl", "engine")}
+    py, cc, engine = results["pysim"], results["cxxrtl"], results["engine"]
+    assert comparable(py.report) == comparable(cc.report) == comparable(engine.report)
     assert "z" in py.report["axes"] and len(py.samples) >= 20
     assert np.array_equal(py.samples, cc.samples)
+    assert np.array_equal(py.samples, engine.samples)
 
 
 @pytest.mark.parametrize("seed", [13, pytest.param(18, marks=pytest.mark.slow)])
@@ -116,11 +118,12 @@ def test_backends_give_identical_reports_and_traces_on_three_axes_with_curves(se
     assert {"Parabola", "Exponential"} <= kinds and job.machine.axes == 3
     results = {backend: run_job(job, RunOptions(backend=backend, max_cycles=60_000,
                                                 sample_every=25, faults=faults))
-               for backend in ("pysim", "cxxrtl")}
-    py, cc = results["pysim"], results["cxxrtl"]
-    assert comparable(py.report) == comparable(cc.report)
+               for backend in ("pysim", "cxxrtl", "engine")}
+    py, cc, engine = results["pysim"], results["cxxrtl"], results["engine"]
+    assert comparable(py.report) == comparable(cc.report) == comparable(engine.report)
     assert [b["kind"] for b in py.report["blocks"]][-2:] == ["parabolic", "exponential"]
     assert np.array_equal(py.samples, cc.samples)
+    assert np.array_equal(py.samples, engine.samples)
 
 
 @pytest.mark.parametrize(("accel", "seed"), [

@@ -1,11 +1,11 @@
 """The engine behind the backend contract: :class:`EngineBackend` drives the engine's library
 (:mod:`.build`) through ctypes, with the ports of :class:`k37.sim.machine.system.System`.
 
-It runs what :func:`k37.sim.backends.engine.support.unsupported` accepts and refuses the rest
-when it is built (:class:`UnsupportedMachineError`, naming the option). It has no internal
-signals to probe and writes no waveform: those are the RTL backends'. With ``skip_idle`` it
-advances the cycles in which only its free-running state and its plants change in closed form
-(``skipped_cycles``); the host's polling wait and the sampler's samples run in the library.
+It runs every option of the simulated machine and every block. Of the internal signals it
+probes only :data:`PROBES`, and it writes no waveform: those are the RTL backends'.
+With ``skip_idle`` it advances the cycles in which only its free-running state and its plants
+change in closed form (``skipped_cycles``); the host's polling wait and the sampler's samples
+run in the library.
 """
 
 from __future__ import annotations
@@ -28,18 +28,16 @@ from k37.sim.backends.contract import (
     instantiate,
 )
 from k37.sim.backends.engine.build import build
-from k37.sim.backends.engine.support import unsupported
 from k37.sim.machine.system import DRIVES, System
 
-__all__ = ["EngineBackend", "UnsupportedMachineError", "load", "machine_params"]
+__all__ = ["PROBES", "EngineBackend", "load", "machine_params"]
 
 
+#: The internal signals the engine can probe (where its machine has them), by the RTL's names:
+#: one-bit flags that the reproduction's runs read.
+PROBES = ("chipset.accel.idle", "chipset.k3701.busy", "chipset.k3701.overrun")
 #: The accel/decel shapes by the engine's code (``Circuit::Shape``).
 _SHAPES = ("exponential", "linear", "bell")
-
-
-class UnsupportedMachineError(ValueError):
-    """A machine option the engine does not run (one line naming it)."""
 
 
 def load(path: str) -> ctypes.CDLL:
@@ -51,13 +49,14 @@ def load(path: str) -> ctypes.CDLL:
         "k37e_create": (handle, [c_int, c_int, ctypes.POINTER(c_int),
                                  ctypes.POINTER(ctypes.c_uint), ctypes.c_uint]),
         "k37e_destroy": (None, [handle]),
+        "k37e_drive": (None, [handle, c_int, c_int]),
         "k37e_port": (c_int, [ctypes.c_char_p]),
         "k37e_get": (u64, [handle, c_int]),
         "k37e_set": (None, [handle, c_int, u64]),
         "k37e_get_many": (None, [handle, ctypes.POINTER(c_int), ctypes.c_size_t,
                                  ctypes.POINTER(u64)]),
         "k37e_cycle": (u64, [handle]),
-        "k37e_unsupported": (c_int, [handle]),
+        "k37e_probe": (c_int, [handle, ctypes.c_char_p, words]),
         "k37e_skipped": (u64, [handle]),
         "k37e_step": (None, [handle, u64, c_int]),
         "k37e_run_until": (u64, [handle, c_int, u64, c_int]),
@@ -106,9 +105,6 @@ class EngineBackend(Backend):
                             f"{type(system).__name__}")
         mark_elaborated(system)
         params = machine_params(system)
-        why = unsupported(params)
-        if why is not None:
-            raise UnsupportedMachineError(f"the engine does not run {why}; use --backend cxxrtl")
         ports = {name: port for name, (port, _) in component_ports(system).items()}
         super().__init__(ports, type(system).__name__)
         self._period = period
@@ -124,18 +120,20 @@ class EngineBackend(Backend):
         fa_axes = sum(1 << "xyz".index(axis) for axis in params["axis_fa"])
         self._machine = (params["axes"], placement, (ctypes.c_int * 4)(*shapes),
                          (ctypes.c_uint * 4)(*(bits for _, bits in circuits)), fa_axes)
+        #: Each axis's drive, by the engine's code (``DriveKind``: the order of DRIVES).
+        self._drives = [list(DRIVES).index(params["drives"][axis]) for axis in system.axes]
         self._index = {name: lib.k37e_port(name.encode()) for name in ports}
-        missing = [name for name, i in self._index.items() if i < 0 and not ports[name].is_input]
+        missing = [name for name, i in self._index.items() if i < 0]
         if missing:
-            raise RuntimeError(f"the engine has no output {', '.join(missing)}")
-        # Inputs the engine's machine leaves unconnected (other drives' parameters): held here.
-        self._held = {name: port.init for name, port in ports.items() if self._index[name] < 0}
+            raise RuntimeError(f"the engine has no port {', '.join(missing)}")
         self._batches: dict[tuple[str, ...], tuple[list[Port], ctypes.Array, ctypes.Array]] = {}
         self._recording: list[Port] | None = None  # the ports k37e_record samples
         self._create()
 
     def _create(self) -> None:
         self._handle = self._lib.k37e_create(*self._machine)
+        for axis, kind in enumerate(self._drives):
+            self._lib.k37e_drive(self._handle, axis, kind)
         self._destroy = weakref.finalize(self, self._lib.k37e_destroy, self._handle)
         for name, port in self.ports.items():
             if port.is_input and port.init:
@@ -144,25 +142,17 @@ class EngineBackend(Backend):
     def reset(self) -> None:
         self._destroy()
         self._recording = None
-        self._held = {name: self.ports[name].init for name in self._held}
         self._create()
 
     def _set_raw(self, port: Port, raw: int) -> None:
-        index = self._index[port.name]
-        if index < 0:
-            self._held[port.name] = raw
-        else:
-            self._lib.k37e_set(self._handle, index, raw)
+        self._lib.k37e_set(self._handle, self._index[port.name], raw)
 
     def _get_raw(self, port: Port) -> int:
-        index = self._index[port.name]
-        return self._held[port.name] if index < 0 else self._lib.k37e_get(self._handle, index)
+        return self._lib.k37e_get(self._handle, self._index[port.name])
 
     def get_many(self, port_names: tuple[str, ...]) -> list[int]:
         if port_names not in self._batches:
             ports = [self.port(name) for name in port_names]
-            if any(self._index[port.name] < 0 for port in ports):
-                return super().get_many(port_names)
             indices = (ctypes.c_int * len(ports))(*(self._index[p.name] for p in ports))
             self._batches[port_names] = (ports, indices, (ctypes.c_uint64 * len(ports))())
         ports, indices, out = self._batches[port_names]
@@ -170,33 +160,27 @@ class EngineBackend(Backend):
         return [port.decode(raw) for port, raw in zip(ports, out, strict=True)]
 
     def _probe_raw(self, path: str) -> tuple[int, int, bool]:
-        raise KeyError(path)
+        value = ctypes.c_uint64()
+        if self._lib.k37e_probe(self._handle, path.encode(), ctypes.byref(value)) < 0:
+            raise KeyError(path)
+        return value.value, 1, False
 
     def probe_names(self) -> list[str]:
-        return []
-
-    def _check_blocks(self) -> None:
-        if self._lib.k37e_unsupported(self._handle):
-            raise RuntimeError("the engine does not run parabolic or exponential blocks; "
-                               "use --backend cxxrtl")
+        value = ctypes.c_uint64()
+        return [path for path in PROBES
+                if self._lib.k37e_probe(self._handle, path.encode(), ctypes.byref(value)) == 0]
 
     def step(self, n: int = 1, *, skip_idle: bool = False) -> None:
         check_count("n", n)
         self._lib.k37e_step(self._handle, n, skip_idle)
-        self._check_blocks()
 
     def _output(self, port_name: str) -> int:
-        index = self._index[self.port(port_name).name]
-        if index < 0:
-            raise ValueError(f"port {port_name} is an input the engine leaves unconnected")
-        return index
+        return self._index[self.port(port_name).name]
 
     def run_until(self, port_name: str, max_cycles: int, *, skip_idle: bool = False) -> int:
         check_count("max_cycles", max_cycles)
-        done = self._lib.k37e_run_until(self._handle, self._output(port_name), max_cycles,
+        return self._lib.k37e_run_until(self._handle, self._output(port_name), max_cycles,
                                         skip_idle)
-        self._check_blocks()
-        return done
 
     def wait_polling(self, port_name: str, max_cycles: int, pause: int, period: int,
                      ports: Sequence[int], stops: Sequence[int], idles: Sequence[int], *,
@@ -217,7 +201,6 @@ class EngineBackend(Backend):
             (u64 * n)(*(addr.encode(a) for a in ports)), (u64 * n)(*stops), n,
             (u64 * len(idles))(*idles), len(idles) // (n + 1), due, skip_idle,
             ctypes.byref(done), read)
-        self._check_blocks()
         # The ends of the compiled RTL backend's wait (WaitEnd): 1 stopped, 2 and 3 go on.
         return done.value, list(read) if end == 1 else None, {2: 1, 3: 2}.get(end, 0)
 
@@ -225,7 +208,7 @@ class EngineBackend(Backend):
         if not isinstance(every, int) or every < 1:
             raise ValueError(f"every must be a positive number of cycles, not {every!r}")
         ports = [self.port(name) for name in port_names]
-        if any(self._index[port.name] < 0 or port.width > 63 for port in ports):
+        if any(port.width > 63 for port in ports):
             return False
         indices = [self._index[port.name] for port in ports]
         self._lib.k37e_record(self._handle, (ctypes.c_int * len(ports))(*indices), len(ports),

@@ -278,6 +278,11 @@ struct Circuit {
 		exp.bidirectional = lin.bidirectional = bidirectional;
 	}
 	int out() const { return shape == Shape::LINEAR ? lin.out() : exp.out(); }
+	// The circuit's `idle`: every stage drained (k37.hdl.accel's idle outputs).
+	bool idle() const {
+		bool exp_idle = shape == Shape::LINEAR || (exp.x == 0 && exp.pending == 0);
+		return exp_idle && (shape == Shape::EXPONENTIAL || lin.idle());
+	}
 	// The circuit's `quiet`: no output pulse pending, a linear stage drained (then static).
 	bool quiet() const {
 		bool drained = shape == Shape::EXPONENTIAL || lin.idle();
@@ -441,8 +446,9 @@ struct Plant {
 	bool glitch_a = false, glitch_b = false, break_a = false;
 
 	int32_t count() const { return int32_t((before + uint64_t(velocity)) >> FRAC_BITS); }
-	Lines lines() const {
-		uint32_t c = uint32_t(count());
+	Lines lines() const { return lines_at(uint32_t(count())); }
+	// The encoder lines at count c (the fault inputs as registered).
+	Lines lines_at(uint32_t c) const {
 		bool a = (bit(c, 0) != bit(c, 1)) != glitch_a, b = bit(c, 1) != glitch_b;
 		return {a, break_a ? a : !a, b, !b};
 	}
@@ -462,9 +468,12 @@ struct Plant {
 		return in.stall ? 0 : step == 0 ? vc : wrap(velocity + step, VC_BITS + 1);
 	}
 	void rise(const PlantInputs &in, uint64_t dac, int com) {
-		int64_t vc = command(in, dac, com);
+		take(in, next_velocity(in, command(in, dac, com)));
+	}
+	// The edge's registers: the position takes the velocity, which becomes `next`.
+	void take(const PlantInputs &in, int64_t next) {
 		before += uint64_t(velocity);
-		velocity = next_velocity(in, vc);
+		velocity = next;
 		glitch_a = in.glitch_a;
 		glitch_b = in.glitch_b;
 		break_a = in.break_a;

@@ -3,7 +3,7 @@
 // k37.hdl.k3701.datapaths.model: linear, circular and helix): BUSY, the radius
 // check's setup cycles, the FP credit (half-FP units, quarter-FP on three axes), the one-FP
 // hold and the overrun bit, the step latency count, the step pulses routed by CTRL.plane. Lines,
-// arcs and helices; a parabolic or exponential block is refused (`unsupported`), not run.
+// arcs, helices, and the parabolas and exponentials of curves.h.
 
 #pragma once
 
@@ -11,6 +11,7 @@
 #include <cstdlib>
 
 #include "blocks.h"
+#include "curves.h"
 
 namespace k37e {
 
@@ -198,14 +199,16 @@ struct K3701 {
 	K3701Out out;
 	Phase phase = Phase::IDLE;
 	Kind kind = Kind::LINEAR;
-	bool sqrt2 = false, held = false, unsupported = false;
+	bool sqrt2 = false, held = false;
 	int64_t setup_left = 0, count = 0, credit = 0;
-	int64_t xe = 0, ye = 0, ze = 0, i = 0, j = 0, helix_steps = 0;
-	bool cw = false;
+	int64_t xe = 0, ye = 0, ze = 0, i = 0, j = 0, e = 0, helix_steps = 0;
+	bool cw = false, swap = false;
 	int quadrant = 1, plane = 0;
 	LinePath line;
 	ArcPath arc;
 	HelixPath helix;  // an arc's third axis (ze != 0)
+	CurvePath curve;  // a parabola or an exponential
+	bool curve_kind() const { return kind == Kind::PARABOLIC || kind == Kind::EXPONENTIAL; }
 
 	void init(int chip_axes) {
 		axes = chip_axes;
@@ -220,6 +223,11 @@ struct K3701 {
 	Move peek() const {
 		if (kind == Kind::LINEAR)
 			return line.peek();
+		if (curve_kind()) {
+			Move m;
+			curve.peek(m.dx, m.dy);
+			return m;
+		}
 		Move m = arc.peek();
 		m.dz = ze ? helix.peek() : 0;
 		return m;
@@ -228,6 +236,11 @@ struct K3701 {
 		error = false;
 		if (kind == Kind::LINEAR)
 			return line.advance(final);
+		if (curve_kind()) {
+			Move m;
+			curve.advance(m.dx, m.dy, final, error);
+			return m;
+		}
 		Move m = arc.advance(final, error);
 		m.dz = ze ? helix.advance() : 0;
 		return m;
@@ -238,6 +251,7 @@ struct K3701 {
 	// count waiting or past the running datapath's decision stages.
 	bool quiet(bool fp) const {
 		int64_t stages = kind == Kind::LINEAR ? (axes == 3 ? LINEAR3_STAGES : LINEAR_STAGES)
+		                 : curve_kind()       ? CURVE_STAGES
 		                                      : (axes == 3 ? CIRCULAR3_STAGES : CIRCULAR_STAGES);
 		bool past = stages == 0 || count <= latency() - 1 - stages;
 		return !fp && (count == 0 || (count >= 2 && past));
@@ -273,7 +287,9 @@ struct K3701 {
 			if (fp)
 				hold(nxt);
 			if (--setup_left == 0) {
-				if (arc.init(xe, ye, i, j, cw, quadrant) && (ze == 0 || helix.init(ze, helix_steps)))
+				if (curve_kind() ? init_curve()
+				                 : arc.init(xe, ye, i, j, cw, quadrant) &&
+				                       (ze == 0 || helix.init(ze, helix_steps)))
 					phase = Phase::RUN;
 				else
 					finish(nxt, true);
@@ -288,6 +304,14 @@ struct K3701 {
 				start(nxt);
 		}
 		out = nxt;
+	}
+	// At the end of a curve's setup: its path, or false for data the chip refuses (and for a
+	// curve with a third coordinate, on three axes).
+	bool init_curve() {
+		if (ze != 0)
+			return false;
+		return kind == Kind::PARABOLIC ? curve.init_parabola(xe, ye, i, j, swap)
+		                               : curve.init_exponential(xe, ye, i, cw, j, e, swap);
 	}
 	void hold(K3701Out &nxt) {
 		if (held)
@@ -311,10 +335,6 @@ struct K3701 {
 		kind = bit(modes, exponential) ? Kind::EXPONENTIAL
 		       : bit(modes, parabolic) ? Kind::PARABOLIC
 		       : bit(word, K3701_CTRL_CIRCULAR) ? Kind::CIRCULAR : Kind::LINEAR;
-		if (kind == Kind::PARABOLIC || kind == Kind::EXPONENTIAL) {
-			unsupported = true;
-			return;
-		}
 		xe = bank.get(K3701_X);
 		ye = bank.get(K3701_Y);
 		ze = axes == 3 ? bank.get(K3701_3_Z) : 0;
@@ -331,9 +351,13 @@ struct K3701 {
 		nxt.xm = xe;
 		nxt.ym = ye;
 		nxt.zm = ze;
-		if (kind == Kind::CIRCULAR) {
+		swap = bit(modes, axes == 3 ? K3701_3_MODE_SWAP : K3701_CTRL_SWAP);
+		e = bank.get(axes == 3 ? int(K3701_3_E) : int(K3701_E));
+		if (kind != Kind::LINEAR) {
 			phase = Phase::SETUP;
-			setup_left = CIRCLE_SETUP_CYCLES;
+			setup_left = kind == Kind::CIRCULAR   ? CIRCLE_SETUP_CYCLES
+			             : kind == Kind::PARABOLIC ? PARABOLA_SETUP_CYCLES
+			                                       : EXPONENTIAL_SETUP_CYCLES;
 			nxt.busy = true;
 			return;
 		}

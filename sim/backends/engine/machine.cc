@@ -116,8 +116,17 @@ int k37e_port(const char *name) {
 			for (int i = 0; i < k37e::AXIS_COUNT; i++)
 				if (!strcmp(name + 3, k37e::AXIS_PORTS[i]))
 					return k37e::TOP_COUNT + k * k37e::AXIS_COUNT + i;
+	for (int k = 0; k < k37e::MAX_AXES; k++)
+		if (!strncmp(name, axes[k], 3))
+			for (int i = 0; i < k37e::DRIVE_PORT_COUNT; i++)
+				if (!strcmp(name + 3, k37e::DRIVE_PORTS[i]))
+					return k37e::DRIVE_PORT_BASE + k * k37e::DRIVE_PORT_COUNT + i;
 	return -1;
 }
+
+// Axis k's drive: 0 the first-order plant, 1 the torque drive, 2 the two-mass drive
+// (k37e::DriveKind); every axis's is first-order until set.
+void k37e_drive(void *m, int axis, int kind) { static_cast<Machine *>(m)->set_drive(axis, kind); }
 
 uint64_t k37e_get(void *m, int port) { return static_cast<Machine *>(m)->get(port); }
 void k37e_set(void *m, int port, uint64_t v) { static_cast<Machine *>(m)->set(port, v); }
@@ -127,10 +136,24 @@ void k37e_get_many(void *m, const int *ports, size_t n, uint64_t *out) {
 		out[i] = static_cast<Machine *>(m)->get(ports[i]);
 }
 
+// The internal signal at `path` (the RTL's name), of those the engine has: the K3701's busy
+// and overrun flags, and the accel/decel circuit's idle before it; 0 with its value in *value, or -1 if the
+// engine has no such signal in this machine.
+int k37e_probe(void *m, const char *path, uint64_t *value) {
+	const Machine &machine = *static_cast<Machine *>(m);
+	if (!strcmp(path, "chipset.k3701.busy"))
+		*value = machine.interp.out.busy;
+	else if (!strcmp(path, "chipset.k3701.overrun"))
+		*value = machine.interp.out.overrun;
+	else if (!strcmp(path, "chipset.accel.idle") && machine.accel_pre)
+		*value = machine.accel.idle();
+	else
+		return -1;
+	return 0;
+}
+
 uint64_t k37e_cycle(void *m) { return static_cast<Machine *>(m)->cycle; }
 uint64_t k37e_skipped(void *m) { return static_cast<Machine *>(m)->skipped; }
-// Whether a block the engine does not run (parabolic, exponential) was started.
-int k37e_unsupported(void *m) { return static_cast<Machine *>(m)->interp.unsupported; }
 
 void k37e_step(void *m, uint64_t n, int skip_idle) {
 	k37e::run(*static_cast<Machine *>(m), n, skip_idle);

@@ -1,6 +1,6 @@
 // The engine's machine: the two- or three-axis chipset (FEED, DECEL, an accel/decel circuit
 // of any shape before the K3701, one per axis after it, or none; the K3701, a K3702 and an
-// encoder interface per axis, the host bus decoding) with a first-order plant per axis and
+// encoder interface per axis, the host bus decoding) with a servo drive per axis and
 // the observation counters, composed as k37.sim.machine.system.System and
 // k37.hdl.chipset.chip.Chipset wire them; its ports by the System's names; its cycles (a falling edge, except in the first, then a rising edge, as
 // Amaranth's simulator clocks it); and its idle skipping: while nothing but the free-running
@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "blocks.h"
+#include "drives.h"
 #include "free.h"
 #include "k3701.h"
 #include "lag.h"
@@ -36,13 +37,15 @@ const char *const AXIS_PORTS[] = {"gain", "alpha", "vmax", "kf", "dac_zero", "st
                                   "dac", "max_abs_error", "pulses_pos", "pulses_neg", "alarm_n"};
 enum AxisPort { GAIN, ALPHA, VMAX, KF, DAC_ZERO, STALL, GLITCH_A, GLITCH_B, BREAK_A, COMMAND,
                 ERROR, COUNT, DAC, MAX_ABS_ERROR, PULSES_POS, PULSES_NEG, ALARM_N, AXIS_COUNT };
-constexpr int PORT_COUNT = TOP_COUNT + MAX_AXES * AXIS_COUNT;
+// The drives' inputs (drives.h, DRIVE_PORTS) are numbered after every axis's ports.
+constexpr int DRIVE_PORT_BASE = TOP_COUNT + MAX_AXES * AXIS_COUNT;
+constexpr int PORT_COUNT = DRIVE_PORT_BASE + MAX_AXES * DRIVE_PORT_COUNT;
 
 struct Axis {
 	Circuit post;  // the accel/decel circuit after the K3701 (post placement)
 	K3702 ctrl;
 	Encoder enc;
-	Plant plant;
+	Drive plant;
 	PlantInputs in;
 	uint64_t max_abs_error = 0;
 	uint32_t pulses_pos = 0, pulses_neg = 0;
@@ -68,6 +71,7 @@ struct Machine {
 	bool strobed = false;  // a bank holds a strobe (committed or refused) of the last edge
 	uint32_t fp_total = 0;
 	uint64_t cycle = 0, skipped = 0;
+	bool drives = false;  // an axis has a torque or two-mass drive (set_drive)
 	// Samples of some ports at every multiple of `every` cycles (k37e_record): each row the
 	// cycle and the ports' values; a skip ends at the next sample.
 	std::vector<int> record_ports;
@@ -254,7 +258,7 @@ struct Machine {
 		for (int k = 0; k < axes; k++) {
 			const Axis &a = axis[k];
 			const Encoder &e = a.enc;
-			const Plant &p = a.plant;
+			const Drive &p = a.plant;
 			if (e.fb_pos || e.fb_neg || !e.started)
 				return false;
 			if (p.glitch_a != a.in.glitch_a || p.glitch_b != a.in.glitch_b ||
@@ -355,9 +359,11 @@ struct Machine {
 			if (piece == 0) {
 				for (int i = 0; i < axes; i++)
 					axis[i].enc.rise(in[i]);
-				return done + step_plants(1);
+				return done + (drives ? advance_drives(1) : step_plants(1));
 			}
-			uint64_t k = piece <= STEPPED_PIECE ? step_plants(piece) : lag_plants(piece);
+			uint64_t k = drives                   ? advance_drives(piece)
+			             : piece <= STEPPED_PIECE ? step_plants(piece)
+			                                      : lag_plants(piece);
 			for (int i = 0; i < axes; i++)
 				axis[i].enc.advance(in[i], k);
 			done += k;
@@ -389,7 +395,7 @@ struct Machine {
 			}
 		}
 		for (int i = 0; i < N; i++)
-			axis[i].plant = p[i];
+			static_cast<Plant &>(axis[i].plant) = p[i];
 		return j;
 	}
 	uint64_t lag_plants(uint64_t n) {
@@ -402,6 +408,18 @@ struct Machine {
 			axis[i].plant.before = lags[i].position - uint64_t(lags[i].v);
 		}
 		return k;
+	}
+	// advance_plants with a torque or two-mass drive (drives.h).
+	uint64_t advance_drives(uint64_t h) {
+		Drive *plants[MAX_AXES];
+		const PlantInputs *ins[MAX_AXES];
+		uint64_t dacs[MAX_AXES];
+		for (int i = 0; i < axes; i++) {
+			plants[i] = &axis[i].plant;
+			ins[i] = &axis[i].in;
+			dacs[i] = axis[i].ctrl.dac;
+		}
+		return k37e::advance_drives(plants, ins, dacs, axes, h);
 	}
 	static k37lag::Lag lag(const Axis &a) {
 		const Plant &p = a.plant;
@@ -426,7 +444,16 @@ struct Machine {
 		return k;
 	}
 
+	// Axis k's drive (a DriveKind).
+	void set_drive(int k, int kind) {
+		axis[k].plant.kind = DriveKind(kind);
+		drives |= kind != int(DriveKind::FIRST_ORDER);
+	}
+
 	uint64_t get(int port) const {
+		if (port >= DRIVE_PORT_BASE)
+			return axis[(port - DRIVE_PORT_BASE) / DRIVE_PORT_COUNT]
+			    .plant.port[(port - DRIVE_PORT_BASE) % DRIVE_PORT_COUNT];
 		if (port < TOP_COUNT) {
 			switch (port) {
 			case BUS_ADDR: return addr;
@@ -465,6 +492,11 @@ struct Machine {
 	}
 
 	void set(int port, uint64_t v) {
+		if (port >= DRIVE_PORT_BASE) {
+			axis[(port - DRIVE_PORT_BASE) / DRIVE_PORT_COUNT]
+			    .plant.port[(port - DRIVE_PORT_BASE) % DRIVE_PORT_COUNT] = v;
+			return;
+		}
 		switch (port) {
 		case BUS_ADDR: addr = v; return;
 		case BUS_W_STB: w_stb = v; return;

@@ -38,7 +38,6 @@ FILES = sorted(p for p in CORPUS.iterdir() if p.is_file())
 LINUXCNC_NCFILES = next((p for p in (Path("/usr/share/linuxcnc/ncfiles"),
                                      Path("/usr/share/doc/linuxcnc/examples/nc_files"))
                          if p.is_dir()), Path("/usr/share/linuxcnc/ncfiles"))
-_COMP_ARC = "the first move with cutter radius compensation is a line (the entry move)"
 _SET = "is the interpreter's: setting it (offsets, tool data) is unsupported"
 #: Every example program ``rs274`` accepts, and what the built-in front end does with it:
 #: None, it runs it as ``rs274`` does; else the unsupported feature its error names.
@@ -55,12 +54,11 @@ LINUXCNC_EXAMPLES: dict[str, str | None] = {
     "m70m72-demo.ngc": None, "m73-demo.ngc": None,
     # cutter radius compensation with the tool table's diameters, in G17 and G18
     "comp-g1.ngc": None, "comp311.ngc": None, "comp.ngc": None, "lathecomp.ngc": None,
+    "comp311_2.ngc": None, "gmoccapy_2_tools_with_cutter_radius_compensation.ngc": None,
+    "useful-subroutines.ngc": None,
     # refused, naming what K37 does not have
     "b-index.ngc": "unsupported word B0 (K37's axes are X, Y and Z)",
     "daisy.ngc": "unsupported word A0 (K37's axes are X, Y and Z)",
-    "comp311_2.ngc": _COMP_ARC, "g76.ngc": _COMP_ARC, "lathe-g76.ngc": _COMP_ARC,
-    "useful-subroutines.ngc": "entry move is not longer than the cutter's radius",
-    "gmoccapy_2_tools_with_cutter_radius_compensation.ngc": _COMP_ARC,
     "gridprobe.ngc": "probing is unsupported", "smartprobe.ngc": f"#5070 {_SET}",
     "offsets.ngc": f"#5599 {_SET}",
     "lathe_g70_71_demo.ngc": "G71.1 is unsupported", "lathe_g7x_face_boring.ngc":
@@ -73,11 +71,21 @@ LINUXCNC_EXAMPLES: dict[str, str | None] = {
 LINUXCNC_NOT_COMPARED: dict[str, str] = {
     "cone.ngc": "Bad character 'w' used", "increment.ngc": "File ended with no percent sign",
     "probe-hole.ngc": "File ended with no percent sign",
-    "mmount.ngc": "Tool radius not less than arc radius with comp",
     "nestedcall.ngc": "Unexpected character after O-word",
     "tool-length-probe.ngc": "Start point too close to probe point",
     "x-trim.ngc": "seeking o-word: o<touchoff>",
     "systems.ngc": "NURBS_FEED: canonical command NURBS_FEED is unsupported",
+}
+#: The example programs both front ends refuse at the same line: (the line, rs274's message,
+#: the built-in front end's).
+LINUXCNC_BOTH_REFUSE: dict[str, tuple[int, str, str]] = {
+    "g76.ngc": (26, "Length of cutter compensation entry move is not greater than the tool "
+                    "radius", "entry move is not longer than the cutter's radius"),
+    "lathe-g76.ngc": (26, "Length of cutter compensation entry move is not greater than the "
+                          "tool radius", "entry move is not longer than the cutter's radius"),
+    "mmount.ngc": (89, "Tool radius not less than arc radius with comp",
+                   "is not more than the cutter's: cutter radius compensation cannot follow it "
+                   "inside"),
 }
 #: rs274 writes coordinates with four decimals: in G20, up to 0.00005 in from the value.
 RS274_INCH_ROUNDING_LSB = 0.00005 * 25.4 / 0.001
@@ -201,12 +209,29 @@ def test_the_examples_not_compared_are_those_rs274_or_its_reader_refuses(name):
         parse_linuxcnc(path.read_text(errors="replace"), source=name, axes=3, tools=TOOLS)
 
 
+@NEEDS_RS274
+@pytest.mark.parametrize("name", LINUXCNC_BOTH_REFUSE)
+def test_the_examples_rs274_refuses_are_refused_at_the_same_line(name):
+    path = LINUXCNC_NCFILES / name
+    if not path.is_file():
+        pytest.skip(f"{path} is not installed (Debian: apt-get install linuxcnc-uspace)")
+    line, theirs, ours = LINUXCNC_BOTH_REFUSE[name]
+    text = path.read_text(errors="replace")
+    with pytest.raises(GcodeError) as info:
+        parse_linuxcnc(text, source=name, axes=3, tools=TOOLS)
+    assert info.value.errors[0][0] == line and theirs in info.value.message
+    with pytest.raises(GcodeError) as info:
+        parse(text, source=name, axes=3, tools=TOOLS)
+    assert info.value.errors[0][0] == line and ours in info.value.errors[0][2]
+
+
 def test_every_installed_example_is_classified():
     if not LINUXCNC_NCFILES.is_dir():
         pytest.skip(f"{LINUXCNC_NCFILES} is not installed (Debian: apt-get install "
                     f"linuxcnc-uspace)")
     installed = {p.name for p in LINUXCNC_NCFILES.glob("*.ngc")}
-    assert installed == LINUXCNC_EXAMPLES.keys() | LINUXCNC_NOT_COMPARED.keys()
+    assert installed == (LINUXCNC_EXAMPLES.keys() | LINUXCNC_NOT_COMPARED.keys()
+                         | LINUXCNC_BOTH_REFUSE.keys())
 
 
 def assert_ends_as_rs274s(text: str, theirs: list[tuple[int, ...]], tolerance: int) -> None:
@@ -325,8 +350,9 @@ def test_random_inverse_time_modal_state_and_bolt_circles_run_as_rs274_runs_them
 
 
 def random_comp_program(rng: random.Random) -> str:
-    """A random path of lines, arcs and helices under G41.1/G42.1 D or G41/G42 (a diameter
-    of :data:`TOOLS`), with its entry and exit, in G17 or (its X, Y, Z as Z, X, Y) G18."""
+    """A random path of lines, arcs, helices and Z moves under G41.1/G42.1 D or G41/G42 (a
+    diameter of :data:`TOOLS`), with its entry (a line or an arc) and exit, in G17 or (its
+    X, Y, Z as Z, X, Y) G18."""
     def num(low: float = -30, high: float = 30) -> str:
         return f"{rng.uniform(low, high):.{rng.choice([0, 1, 3])}f}"
 
@@ -334,13 +360,16 @@ def random_comp_program(rng: random.Random) -> str:
                        f"{rng.choice(['0.5', '1', '2', '3.175'])}",
                        f"{rng.choice(['G41', 'G42'])} D{rng.choice('13')}",
                        f"T{rng.choice('13')} M6\n{rng.choice(['G41', 'G42'])}"])
+    entry = rng.choice([f"G1 X{num()} Y{num()} Z0",
+                         f"G{rng.choice('23')} X{num()} Y{num()} Z0 R{num(15, 40)}"])
     lines = [f"{rng.choice(['G20', 'G21'])} G90 G17 F100", f"G0 X{num()} Y{num()} Z1", comp,
-             f"G1 X{num()} Y{num()} Z0"]
+             entry]
     for _ in range(rng.randint(2, 8)):
         lines.append(rng.choice([
             f"G1 X{num()} Y{num()}", f"G{rng.choice('23')} X{num()} Y{num()} R{num(15, 40)}",
             f"G91 G1 X{num(-10, 10)} Y{num(-10, 10)}\nG90",
-            f"G{rng.choice('23')} X{num()} Y{num()} Z{num(-2, 0)} R{num(20, 40)}"]))
+            f"G{rng.choice('23')} X{num()} Y{num()} Z{num(-2, 0)} R{num(20, 40)}",
+            f"G1 Z{num(-2, 0)}"]))
     text = "\n".join([*lines, f"G40 G1 X{num()} Y{num()}", "M2"])
     return text if rng.random() < 0.5 else text.translate(str.maketrans("XYZ", "ZXY")).replace(
         "G17", "G18")
@@ -350,13 +379,18 @@ def random_comp_program(rng: random.Random) -> str:
 @NEEDS_RS274
 @settings(max_examples=80, deadline=None, derandomize=True)
 @given(seed=st.integers(0, 2**32))
-def test_random_compensated_paths_run_as_rs274_runs_them(seed):
+def test_random_compensated_paths_run_or_are_refused_as_rs274_does(seed):
     text = random_comp_program(random.Random(seed))
     try:
         theirs = programmed_ends(parse_linuxcnc(text, axes=3, tools=TOOLS), targets=True)
-    except GcodeError:
-        return  # rs274 refuses it (gouging, an R arc too short...)
-    assert_ends_as_rs274s(text, theirs, tolerance_lsb(text))
+    except GcodeError as e:  # gouging, an R arc too short...: refused at the same line
+        refused = e
+    else:
+        assert_ends_as_rs274s(text, theirs, tolerance_lsb(text))
+        return
+    with pytest.raises(GcodeError) as info:
+        parse(text, axes=3, tools=TOOLS)
+    assert info.value.line == refused.line, (info.value.message, refused.message)
 
 
 def example_row(name: str) -> tuple[str, str, int | None]:
@@ -375,8 +409,8 @@ def _cause(outcome: str) -> str:
 
 
 if __name__ == "__main__":
-    rows = [*map(corpus_row, FILES), *map(example_row, sorted(LINUXCNC_EXAMPLES.keys()
-                                                              | LINUXCNC_NOT_COMPARED.keys()))]
+    rows = [*map(corpus_row, FILES), *map(example_row, sorted(
+        LINUXCNC_EXAMPLES.keys() | LINUXCNC_NOT_COMPARED.keys() | LINUXCNC_BOTH_REFUSE.keys()))]
     print("| file | built-in front end | largest difference to rs274 (LSB) |")
     print("|---|---|---|")
     for name, outcome, diff in rows:

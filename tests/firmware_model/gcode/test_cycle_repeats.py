@@ -56,8 +56,8 @@ def test_g91_cycles_take_r_from_the_initial_level_until_another_motion_mode():
                              "to 10,000"),
     ("G91 G81 X1 R1 Z-1 L1.5", "3:19: L1.5: a canned cycle's L (repeats) is a whole number "
                                "from 1 to 10,000"),
-    ("G1 X1 L2", "3:7: L2: L is only for G05.2 (a NURBS's order), G10 and canned cycles "
-                 "(repeats)"),
+    ("G1 X1 L2", "3:7: L2: L is only for G05.2 (a NURBS's order), G10, G41/G42 and canned "
+                 "cycles (repeats)"),
 ])
 def test_a_bad_repeat_count_is_an_error_naming_it(line, message):
     with pytest.raises(GcodeError) as info:

@@ -181,6 +181,7 @@ def test_the_build_plan_places_every_pin_and_constrains_the_board_clock(tmp_path
 
     report = build("ulx3s-25f", tmp_path, plan_only=True, progress=lambda _: None)
     name = report.name
+    assert name == "k37_ulx3s_25f_3axis"
     for suffix in (".il", ".lpf", ".ys"):
         assert (tmp_path / f"{name}{suffix}").stat().st_size > 0
     assert (tmp_path / f"build_{name}.sh").exists()
@@ -192,6 +193,14 @@ def test_the_build_plan_places_every_pin_and_constrains_the_board_clock(tmp_path
     balls = [re.split(r"\s*\|\s*", row)[4] for row in rows]
     assert all(re.fullmatch(r"[A-Y]\d{1,2}", ball) for ball in balls)
     assert "z_dac" in table and "Build plan only" in (tmp_path / "report.md").read_text()
+
+
+def test_the_two_and_three_axis_builds_of_a_board_have_distinct_names():
+    from k37.sim.fpga.build import design_name
+
+    names = {design_name(board, axes) for board in ("ulx3s-25f", "ulx3s-85f") for axes in (2, 3)}
+    assert names == {"k37_ulx3s_25f_2axis", "k37_ulx3s_25f_3axis", "k37_ulx3s_85f_2axis",
+                     "k37_ulx3s_85f_3axis"}
 
 
 def _k37(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:

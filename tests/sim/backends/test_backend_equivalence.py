@@ -1,7 +1,8 @@
-"""The compiled backend is bit-identical to Amaranth's simulator on whole closed-loop jobs.
+"""The compiled backend and the engine are bit-identical to Amaranth's simulator on whole
+closed-loop jobs.
 
-Random short jobs (lines and arcs, every accel/decel placement, faults injected) run on both
-backends; the JSON reports (wall-clock fields aside) and every trace sample must be equal.
+Random short jobs (lines and arcs, every accel/decel placement, faults injected) run on every
+backend; the JSON reports (wall-clock fields aside) and every trace sample must be equal.
 Amaranth's simulator manages a few thousand cycles/s on the whole machine, so each job is
 cut off after a few thousand cycles (a "timeout" report, compared like any other).
 """
@@ -23,7 +24,7 @@ def comparable(report: dict) -> dict:
 @pytest.mark.parametrize("seed", [pytest.param(1, marks=pytest.mark.slow), 2])
 def test_backends_give_identical_reports_and_traces(accel, seed, random_moves):
     job, faults, _ = random_moves(seed * 10 + len(accel), accel, dwell=False)
-    same_on_both_backends(job, faults)
+    same_on_every_backend(job, faults)
 
 
 #: The torque drive with every term (a 1 ms velocity loop, so that any Kp is stable).
@@ -39,14 +40,14 @@ def test_backends_agree_with_linear_and_bell_circuits_feedforward_and_the_torque
         accel, shape, axis_shapes, servo, random_moves):
     job, faults, _ = random_moves(3, accel, dwell=False, shape=shape, axis_shapes=axis_shapes,
                                   servo=servo)
-    same_on_both_backends(job, faults)
+    same_on_every_backend(job, faults)
 
 
 def test_backends_agree_with_each_axis_on_its_own_addition_clock(random_moves):
     job, faults, _ = random_moves(7, "post", dwell=False, axis_shapes={"y": "linear"},
                                   axis_fa=("x", "y"))
     assert job.fa_axes() == ("x", "y")
-    same_on_both_backends(job, faults)
+    same_on_every_backend(job, faults)
 
 
 #: The two-mass drive with every term, its encoder a linear scale on the table (138 Hz free).
@@ -57,17 +58,20 @@ TWO_MASS = {**TORQUE, "drive": "two_mass", "cs": 2000.0, "scale": True}
 def test_backends_agree_with_the_two_mass_drive(servo, random_moves):
     job, faults, _ = random_moves(5, "pre", dwell=False, servo=servo)
     assert job.servo["x"].drive == "two_mass"
-    same_on_both_backends(job, faults)
+    same_on_every_backend(job, faults)
 
 
-def same_on_both_backends(job, faults) -> None:
+def same_on_every_backend(job, faults) -> None:
+    """``job`` gives equal reports and samples on Amaranth's simulator, the compiled RTL and
+    the engine."""
     results = {}
-    for backend in ("pysim", "cxxrtl"):
+    for backend in ("pysim", "cxxrtl", "engine"):
         results[backend] = run_job(job, RunOptions(backend=backend, max_cycles=4000,
                                                    sample_every=25, faults=faults))
-    py, cc = results["pysim"], results["cxxrtl"]
-    assert py.report["backend"] == "pysim" and cc.report["backend"] == "cxxrtl"
-    assert comparable(py.report) == comparable(cc.report)
-    assert py.samples.shape == cc.samples.shape
+        assert results[backend].report["backend"] == backend
+    py = results["pysim"]
     assert len(py.samples) >= 20, "the job must run long enough to compare"
-    assert np.array_equal(py.samples, cc.samples)
+    for other in (results["cxxrtl"], results["engine"]):
+        assert comparable(py.report) == comparable(other.report)
+        assert py.samples.shape == other.samples.shape
+        assert np.array_equal(py.samples, other.samples)

@@ -4,9 +4,9 @@ first cycle where two backends differ.
 Whole jobs run on ``--backend engine`` and ``--backend cxxrtl``: the reports (the fields of how
 a run was computed aside) and every sample must be equal. The jobs are the demo and
 hypothesis-drawn short programs of lines, arcs, helices and dwells on random small machines
-within what the engine runs (two and three axes; accel/decel circuits of every shape before
-the K3701, after it or none; random widths and servos; faults), every example it runs and
-three-axis CAM programs.
+(two and three axes; accel/decel circuits of every shape before the K3701, after it or none;
+random widths and servos; faults), every example and three-axis CAM programs. The drives and
+the curves have modules of their own (``test_engine_drives.py``, ``test_engine_curves.py``).
 """
 
 from __future__ import annotations
@@ -25,12 +25,10 @@ from k37.hdl.k3702.map import K3702_MAP
 from k37.sim.backends.engine import build as engine_build
 from k37.sim.backends.engine.constants import header
 from k37.sim.backends.engine.lockstep import DivergenceError, LockstepBackend
-from k37.sim.backends.engine.support import unsupported
 from k37.sim.backends.factory import choose_backend
 from k37.sim.run.jobfile import load_job
 from k37.sim.run.report import HOW_FIELDS
 from k37.sim.run.runner import (
-    OptionError,
     RunOptions,
     build_backend,
     run_job,
@@ -67,7 +65,6 @@ def test_engine_equals_the_rtl_on_the_demo_report_and_samples():
        dwell=st.booleans())
 def test_engine_equals_the_rtl_on_generated_jobs(seed, accel, dwell, random_moves):
     job, faults, _ = random_moves(seed, accel, dwell=dwell)
-    assert unsupported(system_params(job)) is None
     same_on_engine_and_rtl(job, faults, sample_every=97)
 
 
@@ -88,10 +85,9 @@ EXAMPLES = ROOT / "examples"
 
 @pytest.mark.parametrize(("example", "faults"), [
     ("circle.toml", {}), ("circle_post.toml", {}), ("dwell.toml", {}), ("square.toml", {}),
-    ("stall.toml", {"x": {"stall": 1}})])
-def test_engine_equals_the_rtl_on_every_example_it_runs(example, faults):
+    ("stall.toml", {"x": {"stall": 1}}), ("square.ngc", {})])
+def test_engine_equals_the_rtl_on_every_example(example, faults):
     job = load_job(EXAMPLES / example)
-    assert unsupported(system_params(job)) is None
     same_on_engine_and_rtl(job, faults)
 
 
@@ -184,28 +180,6 @@ def test_engine_constants_come_from_the_register_maps():
             f'{(1 << alarm.width) - 1}LL, {alarm.init}ULL}},') in text
 
 
-#: The torque drive with every term (a 1 ms velocity loop, so that any Kp is stable).
-TORQUE = {"drive": "torque", "vg": 2.0, "kf": 0.6, "ti": 0.01, "d": 0.02, "fc": 0.002,
-          "load": 0.001}
-
-
-@pytest.mark.parametrize("servo", [TORQUE, {**TORQUE, "drive": "two_mass", "cs": 2000.0}])
-def test_engine_names_the_first_option_it_does_not_run(servo, random_moves):
-    job, _, _ = random_moves(7, "post", dwell=False, servo=servo)
-    named = f'servo.x.drive = "{servo["drive"]}"'
-    why = unsupported(system_params(job))
-    assert why is not None and why.startswith(named)
-    with pytest.raises(OptionError, match=f"--backend engine: the engine does not run {named}"):
-        build_backend(job, "engine")
-    assert choose_backend("auto", system_params(job))[0] == "cxxrtl"
-
-
-def test_engine_refuses_a_program_with_a_parabola(make_job):
-    job = make_job("G21 G91 F600\nG06 X0.03 Y0 I0.015 J0.002\nM30")
-    with pytest.raises(OptionError, match="a parabolic block"):
-        build_backend(job, "engine")
-
-
 def test_auto_picks_the_engine_where_it_runs_the_job_and_no_internal_signal_is_read(
         make_job):
     params = system_params(demo_job())
@@ -214,6 +188,8 @@ def test_auto_picks_the_engine_where_it_runs_the_job_and_no_internal_signal_is_r
     assert choose_backend("auto", params, internals=True) == (
         "cxxrtl", "auto: internal signals (a waveform, probes) need the RTL")
     assert choose_backend("engine", params) == ("engine", "--backend engine")
+    assert choose_backend("auto", None) == (
+        "cxxrtl", "auto: the engine runs only the simulated machine (System)")
     report = run_job(make_job("G21 G91 F600\nG01 X0.05\nM30")).report
     assert (report["backend"], report["backend_reason"]) == (
         "engine", "auto: the engine runs this machine and program")

@@ -192,3 +192,18 @@ def test_every_lint_waiver_gives_its_reason_and_is_closed():
             assert len(reason.removeprefix("  // ").split()) >= 6, f"{name}: {rule} has no reason"
             assert f"/* verilator lint_on {rule} */" in source
         assert {rule for rule, _ in offs} >= set(CORE_WAIVERS)
+
+
+def test_the_soc_and_board_blocks_have_their_buses_and_the_boards_pins():
+    wishbone = {p.name: p.direction for p in pins("chipset_wishbone")}
+    assert {k: wishbone[k] for k in ("wb_adr", "wb_dat_r", "wb_ack", "wb_cyc")} == \
+        {"wb_adr": "input", "wb_dat_r": "output", "wb_ack": "output", "wb_cyc": "input"}
+    assert "d" not in wishbone and "Wishbone bus (wb_*): a classic (B4) target" in \
+        text("chipset_wishbone")
+    bridge = {p.name: p.direction for p in pins("bridge")}
+    assert {k: bridge[k] for k in ("rx", "tx", "bus_addr", "bus_w_stb", "bus_r_data")} == \
+        {"rx": "input", "tx": "output", "bus_addr": "output", "bus_w_stb": "output",
+         "bus_r_data": "input"}
+    board = {p.name: p for p in pins("board_ulx3s")}
+    assert (board["x_dac"].label, board["uart_rx"].direction) == ("GP4", "input")
+    assert "reset" not in board and "the board's 25 MHz clock" in text("board_ulx3s")

@@ -1,7 +1,9 @@
 """The gate-level netlists on a Lattice ECP5 in Icarus Verilog, cycle by cycle: the chipset
 after Yosys's ``synth_ecp5`` against Amaranth's simulator, and the three-axis K3701 after it
 against its reference model, on the random bus traffic and turning encoders of
-:mod:`test_export_cosim`.
+:mod:`test_export_cosim`; the ULX3S board's top (three-axis chipset, clock enable, UART bridge,
+sigma-delta D/As) after it against Amaranth's simulator, a host's frame on its UART pin and
+turning encoders, every board cycle.
 
 The netlists' cells run on the simulation models that ship with Yosys
 (:func:`k37.sim.fpga.netlist.ecp5_cell_models`). The tests skip, saying so, where Icarus or the
@@ -13,7 +15,13 @@ from __future__ import annotations
 import shutil
 
 import pytest
+from amaranth.hdl import ClockDomain, Module
+from amaranth.sim import Simulator
 
+from k37.hdl.bridge.protocol import Op, encode
+from k37.hdl.chipset.map import port
+from k37.sim.fpga.blocks import block
+from k37.sim.fpga.export import pins as export_pins
 from k37.sim.fpga.export import verilog_text
 from k37.sim.fpga.icarus import HOST_DRIVES, simulate
 from k37.sim.fpga.netlist import ecp5_cell_models, ecp5_netlist
@@ -56,3 +64,72 @@ def test_the_three_axis_k3701s_ecp5_netlist_matches_its_reference_model():
     got = simulate("k3701_3axis", netlist, rows, libraries=ecp5_cell_models())
     for t, (g, e) in enumerate(zip(got, expect, strict=True)):
         assert {k: g[k] for k in e} == e, f"netlist cycle {t}: Icarus {g} != model {e}"
+
+
+# --- the board's top: chipset, clock enable, bridge, D/As ------------------------------------
+
+#: Board cycles per chipset cycle on the ULX3S.
+RATIO = 25
+
+
+def _board_stimulus() -> list[dict[str, int]]:
+    """Board-clock rows: reset, then a WRITE frame on ``uart_rx`` (the X axis's DAC_BITS to 16,
+    so its D/A runs the full swing) at the bridge's 125 kBd, while X's encoder turns forward and
+    Y's backward; long enough for the bridge's reply to go out on ``uart_tx``."""
+    bit = RATIO * 8
+    frame = encode(Op.WRITE, port("K3702_X", "DAC_BITS"), 16, seq=1)
+    rx = [1] * (20 * RATIO)
+    for byte in frame:
+        rx += [level for b in (0, *((byte >> k) & 1 for k in range(8)), 1) for level in [b] * bit]
+    rx += [1] * (70 * bit)                  # the reply: 5 bytes, and the command before them
+    quadrature = ((0, 0), (1, 0), (1, 1), (0, 1))
+    rows = []
+    for t, level in enumerate(rx):
+        x = quadrature[(t // (6 * RATIO)) % 4]
+        y = quadrature[-(t // (9 * RATIO)) % 4]
+        rows.append({"rst": int(t == 0), "uart_rx": level, "x_a": x[0], "x_b": x[1],
+                     "y_a": y[0], "y_b": y[1], "z_a": 0, "z_b": 0})
+    return rows
+
+
+def _amaranth_board(rows: list[dict[str, int]]) -> list[dict[str, int]]:
+    """The board top's output pins per board cycle in Amaranth's simulator (the component the
+    export converts), read before each rising edge as the Icarus bench reads them."""
+    dut = block("board_ulx3s").component()
+    outputs = [p.name for p in export_pins("board_ulx3s") if p.direction == "output"]
+    seen: list[dict[str, int]] = []
+
+    async def bench(ctx):
+        for row in rows:
+            ctx.set(sync.rst, row["rst"])
+            for name, value in row.items():
+                if name != "rst":
+                    ctx.set(getattr(dut, name), value)
+            seen.append({name: ctx.get(getattr(dut, name)) for name in outputs})
+            await ctx.tick()
+
+    top = Module()
+    top.domains.sync = sync = ClockDomain("sync")
+    top.submodules.dut = dut
+    sim = Simulator(top)
+    sim.add_clock(1 / 25e6)
+    sim.add_testbench(bench)
+    sim.run()
+    return seen
+
+
+@needs_icarus
+@needs_yosys
+@pytest.mark.slow
+def test_the_board_tops_ecp5_netlist_matches_amaranths_simulator():
+    rows = _board_stimulus()
+    expect = _amaranth_board(rows)
+    sent = [e["uart_tx"] for e in expect]
+    assert 0 in sent[len(rows) // 2:]      # the bridge replied within the stimulus
+    moving = {k for k in expect[0] if len({e[k] for e in expect}) > 1}
+    assert {"uart_tx", "x_dac", "y_dac"} <= moving
+    netlist = ecp5_netlist("board_ulx3s", verilog_text("board_ulx3s"))
+    assert "TRELLIS_FF" in netlist and "board_ulx3s_core" not in netlist
+    got = simulate("board_ulx3s", netlist, rows, libraries=ecp5_cell_models())
+    for t, (g, e) in enumerate(zip(got, expect, strict=True)):
+        assert g == e, f"board netlist cycle {t}: Icarus {g} != Amaranth {e}"

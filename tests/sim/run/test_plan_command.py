@@ -124,6 +124,17 @@ def test_canonical_offsets_keep_their_length_when_the_units_change():
     assert line.end == (25_400 - 1_000, -2_000) and line.line_no == 4
 
 
+@pytest.mark.parametrize(("program", "feeds"), [
+    ("G21\nG20 G1 X1 F10\nG21 G1 X30 F100\nM2", [254.0, 100.0]),  # F in its block's units
+    ("G21 F100\nG20\nG1 X1\nM2", [100.0]),  # a later G20 keeps it
+    ("G20 F10\nG1 X1\nG21 F600 G1 X50\nG20 G2 X1 Y0 R2 F5\nM2", [254.0, 600.0, 127.0])])
+def test_a_feed_is_in_the_units_of_its_block_in_both_front_ends(program, feeds):
+    # rs274 writes a block's SET_FEED_RATE before its USE_LENGTH_UNITS
+    assert [m.feed_mm_min for m in parse(program, axes=3).moves] == feeds
+    if HAVE_RS274:
+        assert [m.feed_mm_min for m in canon.parse_linuxcnc(program, axes=3).moves] == feeds
+
+
 _WORDS = st.sampled_from(
     ["G0", "G1", "G2", "G3", "G4", "G17", "G18", "G19", "G20", "G21", "G28", "G30", "G40",
      "G43", "G49", "G53", "G54", "G61", "G64", "G80", "G81", "G82", "G83", "G90", "G91",

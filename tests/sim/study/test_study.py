@@ -165,6 +165,7 @@ def test_a_sweep_writes_one_row_per_run_and_resumes_where_it_stopped(tmp_path):
         rows = list(csv.DictReader(f))
     assert [int(r["run"]) for r in rows] == [0, 1, 2, 3]
     assert all(r["status"] == "ok" and r["end_reached"] == "True" for r in rows)
+    assert {r["backend"] for r in rows} == {"engine"}  # auto's pick, as k37 run's
     # each run's radius loss is the servo's frequency response at w = V/R: R (|G(jw)| - 1),
     # G(s) = Kp / (Tm s^2 + s + Kp) for the position loop around the velocity lag Tm
     for r in rows:

@@ -1,0 +1,1 @@
+"""Tests of the chipset on an SoC bus."""
