@@ -65,8 +65,9 @@ class BoardTop(wiring.Component):
         if names != ports:
             raise ValueError(f"pins must be exactly {sorted(ports)}; missing "
                              f"{sorted(ports - names)}, unknown {sorted(names - ports)}")
-        super().__init__({pin.signal: In(1) if pin.direction == "i" else Out(1)
-                          for pin in pins})
+        # a fail-safe input idles released (high) in simulation, as when its contacts are closed
+        super().__init__({pin.signal: In(1, init=int(pin.pull_down)) if pin.direction == "i"
+                          else Out(1) for pin in pins})
 
     def elaborate(self, platform) -> Module:
         m = Module()
@@ -80,5 +81,6 @@ class BoardTop(wiring.Component):
             if name in ("bus", "tick"):
                 continue
             port, inner = getattr(self, name), getattr(core, name)
-            m.d.comb += inner.eq(port) if name.endswith(("_a", "_b")) else port.eq(inner)
+            flow = core.signature.members[name].flow
+            m.d.comb += inner.eq(port) if flow is wiring.In else port.eq(inner)
         return m
