@@ -62,6 +62,9 @@ class BoardCore(wiring.Component):
         The chipset's host bus (chip select and register address), sampled at the edge ending
         a tick cycle; a read's byte is on ``r_data`` from the board cycle after that edge until
         the next read.
+    feed : In(1)
+        The host is there (the bridge took a whole frame), under the same enable: the
+        watchdog's feed (:class:`~k37.hdl.board.machine_io.MachineIO`).
     tick : Out(1)
         The chipset's clock enable: high in one board cycle of every ``clock_hz / CHIP_HZ``.
     irq_interp, irq_alarm : Out(1)
@@ -90,7 +93,7 @@ class BoardCore(wiring.Component):
         #: The chipset inside (its ports are observable in simulation).
         self.chipset = Chipset(axes=axes, **chipset)
         super().__init__({
-            "bus": In(HostBus(8)), "tick": Out(1),
+            "bus": In(HostBus(8)), "feed": In(1), "tick": Out(1),
             "irq_interp": Out(1), "irq_alarm": Out(1),
             **{f"{axis}_{line}": In(1) for axis in self.axes for line in ("a", "b")},
             **{f"{axis}_{pin}": Out(1) for axis in self.axes for pin in ("dac", "alarm")},
@@ -115,7 +118,8 @@ class BoardCore(wiring.Component):
             MachineIO(len(self.axes)))
         connect(m, flipped(self.bus), machine_io.host)
         connect(m, machine_io.chip, chipset.bus)
-        m.d.comb += self.drive_enable.eq(machine_io.drive_enable)
+        m.d.comb += [machine_io.feed.eq(self.feed),
+                     self.drive_enable.eq(machine_io.drive_enable)]
         for name in ("estop_n", *(f"{axis}_limit_n" for axis in self.axes)):
             m.submodules[f"{name}_sync"] = FFSynchronizer(
                 getattr(self, name), getattr(machine_io, name), init=1, stages=2)

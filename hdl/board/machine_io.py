@@ -31,9 +31,9 @@ class MachineIO(wiring.Component):
 
     Runs in the chipset's cycle (its ``sync`` domain is clock-enabled as the chipset's). Host
     accesses to the board's ports (:data:`k37.hdl.board.map.BOARD_MAP`) go to its registers,
-    every other one on to ``chip`` unchanged. ``silent`` counts the cycles since the last host
-    access (a read or write of any port); the watchdog trips at the edge ending a cycle in
-    which WATCHDOG is not 0 and ``silent`` has reached it, so with the last access in cycle
+    every other one on to ``chip`` unchanged. ``silent`` counts the cycles since ``feed`` was
+    last high (the bridge took a whole frame); the watchdog trips at the edge ending a cycle
+    in which WATCHDOG is not 0 and ``silent`` has reached it, so with the last frame in cycle
     *t* the STATUS bit is set from cycle *t* + WATCHDOG + 2. At the same edge an active E-stop
     input or limit input sets its bit. A latched bit makes the board hold: in the first cycle
     after a bit rises from none in which the host makes no access, the board writes 1 to the
@@ -47,6 +47,8 @@ class MachineIO(wiring.Component):
     -------
     host : In(HostBus(8))
         The host's bus (the bridge's).
+    feed : In(1)
+        The host is there: the bridge took a whole frame in this cycle.
     chip : Out(HostBus(8))
         The chipset's bus.
     estop_n : In(1)
@@ -64,7 +66,8 @@ class MachineIO(wiring.Component):
     def __init__(self, axes: int = 3):
         self.axes = axis_names(axes)
         super().__init__({
-            "host": In(HostBus(8)), "chip": Out(HostBus(8)), "estop_n": In(1, init=1),
+            "host": In(HostBus(8)), "feed": In(1), "chip": Out(HostBus(8)),
+            "estop_n": In(1, init=1),
             **{f"{axis}_limit_n": In(1, init=1) for axis in self.axes},
             **{f"{axis}_dac_in": In(16) for axis in self.axes},
             **{f"{axis}_dac": Out(16) for axis in self.axes},
@@ -108,7 +111,7 @@ class MachineIO(wiring.Component):
         new = (latched & ~clear) | set_bits
         m.d.sync += [latched.eq(new),
                      pending.eq((pending & ~inject) | (new.any() & ~held)),
-                     silent.eq(Mux(access, 0, Mux(silent.all(), silent, silent + 1)))]
+                     silent.eq(Mux(self.feed, 0, Mux(silent.all(), silent, silent + 1)))]
 
         m.d.comb += [
             regs.watchdog.r_data.eq(watchdog), regs.dac_zero.r_data.eq(regs.dac_zero.w_data),

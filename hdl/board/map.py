@@ -23,16 +23,14 @@ BOARD_WINDOW = 0x10
 DECEL_CTRL_PORT = port("DECEL", "CTRL")
 
 _LIMITS = tuple(Field(f"limit_{axis}", 2 + k, 1,
-                      f"latched: the {axis.upper()} limit input was active (three-axis "
-                      f"boards only for z)" if axis == "z" else
                       f"latched: the {axis.upper()} limit input was active")
                 for k, axis in enumerate(axis_names(3)))
 
 BOARD_MAP = RegisterMap("BOARD", 1, (
     Register("WATCHDOG", 0x00, WATCHDOG_BITS, Access.RW,
-             "Watchdog time in chipset cycles: when this many cycles pass without a host bus "
-             "access (a READ or WRITE of any port; IDLE and WAIT are none), the watchdog trips. "
-             "0: off (reads back)"),
+             "Watchdog time in chipset cycles: when this many cycles pass without a whole "
+             "frame from the host (any command; a frame answered with an error is none), the "
+             "watchdog trips. 0: off (reads back)"),
     Register("DAC_ZERO", 0x03, 16, Access.RW,
              "The D/A word of 0 V, put out on every axis while the board stops the drives "
              "(2^(N-1) for the K3702's N-bit word; the reset value is the K3702's reset N = 12; "

@@ -2,7 +2,7 @@
 and limits, one chipset cycle at a time, and by whole spans of cycles for a simulated board.
 
 In a cycle the model takes what the host puts on the bus (a byte write or read, or nothing),
-the E-stop and limit inputs as the synchronisers give them and each axis's D/A word, and gives
+whether the bridge took a whole frame (the watchdog's feed), the E-stop and limit inputs as the synchronisers give them and each axis's D/A word, and gives
 what goes on to the chipset's bus, the D/A words to the pins, drive-enable and the byte a read
 of the cycle before returns. The register semantics are the host bus's (a write commits on its
 last byte, a read snapshots on its first: :mod:`k37.hdl.bus.hostbus`).
@@ -65,7 +65,7 @@ class MachineIOModel:
         self.committed: str | None = None  # the register committed at the last edge
         self.bank_r_data = 0
         self.read_board = False
-        #: Cycles since the last host bus access (saturating), the latched STATUS bits and
+        #: Cycles since the last whole frame (saturating), the latched STATUS bits and
         #: whether the board's hold write is due.
         self.silent = 0
         self.latched = 0
@@ -83,21 +83,21 @@ class MachineIOModel:
         return self.latched | _STATUS.encode(**fields)
 
     def trips(self) -> bool:
-        """Whether the watchdog trips at the edge ending the current cycle, if the host makes
-        no access in it."""
+        """Whether the watchdog trips at the edge ending the current cycle."""
         watchdog = self.values["WATCHDOG"]
         return watchdog != 0 and self.silent >= watchdog
 
     def cycles_to_trip(self) -> int | None:
         """Cycles from the current one until the cycle whose ending edge trips the watchdog, if
-        the host stays silent (0: this one); None if it is off or already tripped."""
+        no frame comes (0: this one); None if it is off or already tripped."""
         watchdog = self.values["WATCHDOG"]
         if watchdog == 0 or self.latched & 1:
             return None
         return max(0, watchdog - self.silent)
 
-    def step(self, host: BusCycle, estop_n: bool = True, limit_n: tuple[bool, ...] | None = None,
-             dac: tuple[int, ...] | None = None, chip_r_data: int = 0) -> MachineIOOutputs:
+    def step(self, host: BusCycle, feed: bool = False, estop_n: bool = True,
+             limit_n: tuple[bool, ...] | None = None, dac: tuple[int, ...] | None = None,
+             chip_r_data: int = 0) -> MachineIOOutputs:
         """One cycle: its outputs, then the edge that ends it."""
         limit_n = limit_n if limit_n is not None else (True,) * len(self.axes)
         dac = dac if dac is not None else (0,) * len(self.axes)
@@ -124,7 +124,7 @@ class MachineIOModel:
         latched = (self.latched & ~clear) | set_bits
         self.pending = (self.pending and not inject) or (latched != 0 and self.latched == 0)
         self.latched = latched
-        self.silent = 0 if access else min(self.silent + 1, _SILENT_MAX)
+        self.silent = 0 if feed else min(self.silent + 1, _SILENT_MAX)
         self.committed = None
         if host.r_stb:
             self.read_board = hit

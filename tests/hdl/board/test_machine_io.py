@@ -25,7 +25,9 @@ def _read(name: str) -> list[BusCycle]:
     return [BusCycle(board_port(name, k), r_stb=True) for k in range(BOARD_MAP[name].nbytes)]
 
 
-Cycle = tuple[BusCycle, bool, tuple[bool, ...], tuple[int, ...], int]
+#: A cycle's inputs: the host's bus, the feed (a whole frame), E-stop, limits, D/A words and
+#: the chipset's read data.
+Cycle = tuple[BusCycle, bool, bool, tuple[bool, ...], tuple[int, ...], int]
 
 
 def _run_gateware(axes: int, cycles: list[Cycle]) -> list[MachineIOOutputs]:
@@ -34,7 +36,8 @@ def _run_gateware(axes: int, cycles: list[Cycle]) -> list[MachineIOOutputs]:
     seen: list[MachineIOOutputs] = []
 
     async def bench(ctx):
-        for host, estop_n, limit_n, dac, chip_r_data in cycles:
+        for host, feed, estop_n, limit_n, dac, chip_r_data in cycles:
+            ctx.set(dut.feed, feed)
             ctx.set(dut.host.addr, host.addr)
             ctx.set(dut.host.w_data, host.w_data)
             ctx.set(dut.host.w_stb, host.w_stb)
@@ -57,8 +60,7 @@ def _run_gateware(axes: int, cycles: list[Cycle]) -> list[MachineIOOutputs]:
 
 def _run_model(axes: int, cycles: list[Cycle]) -> list[MachineIOOutputs]:
     model = MachineIOModel(axes)
-    return [model.step(host, estop_n, limit_n, dac, r) for host, estop_n, limit_n, dac, r
-            in cycles]
+    return [model.step(*cycle) for cycle in cycles]
 
 
 def _normalised(outputs: list[MachineIOOutputs]) -> list[tuple]:
@@ -73,16 +75,21 @@ def _check(axes: int, cycles: list[Cycle]) -> list[MachineIOOutputs]:
     return model
 
 
-def _quiet(host: list[BusCycle], axes: int = 2, estop_n: bool = True) -> list[Cycle]:
-    return [(h, estop_n, (True,) * axes, (0x1234,) * axes, 0x5A) for h in host]
+def _fed(host: BusCycle) -> bool:
+    """A frame for each bus access (the bridge's WRITE and READ)."""
+    return host.w_stb or host.r_stb
+
+
+def _quiet(host: list[BusCycle], axes: int = 2) -> list[Cycle]:
+    return [(h, _fed(h), True, (True,) * axes, (0x1234,) * axes, 0x5A) for h in host]
 
 
 def test_a_silent_host_trips_the_watchdog_which_zeroes_the_dac_and_drops_drive_enable():
     host = [*_write("DAC_ZERO", 0x8000), *_write("WATCHDOG", 20), *[IDLE] * 30,
             *_read("STATUS"), IDLE]
     out = _check(2, _quiet(host))
-    last_access = 4  # the WATCHDOG write's committing byte
-    trip = last_access + 20 + 2  # the first cycle the drives are stopped
+    last_frame = 4  # the WATCHDOG write's committing byte
+    trip = last_frame + 20 + 2  # the first cycle the drives are stopped
     assert all(o.drive_enable and o.dac == (0x1234, 0x1234) for o in out[:trip])
     assert all(not o.drive_enable and o.dac == (0x8000, 0x8000) for o in out[trip:])
     hold = out[trip]  # the board's own write: DECEL CTRL hold, no host access pending
@@ -91,7 +98,7 @@ def test_a_silent_host_trips_the_watchdog_which_zeroes_the_dac_and_drops_drive_e
     assert status["watchdog"] == 1 and status["drive_enable"] == 0 and status["held"] == 1
 
 
-def test_a_host_that_keeps_reading_keeps_the_watchdog_from_tripping():
+def test_a_host_that_keeps_sending_frames_keeps_the_watchdog_from_tripping():
     host = [*_write("WATCHDOG", 10)]
     for _ in range(12):
         host += [*[IDLE] * 8, *_read("STATUS")]
@@ -101,8 +108,8 @@ def test_a_host_that_keeps_reading_keeps_the_watchdog_from_tripping():
 
 
 def test_the_estop_latches_until_cleared_once_released():
-    cycles = [(IDLE, False, (True, True), (7, 7), 0)] * 3
-    cycles += [(c, True, (True, True), (7, 7), 0) for c in
+    cycles = [(IDLE, False, False, (True, True), (7, 7), 0)] * 3
+    cycles += [(c, _fed(c), True, (True, True), (7, 7), 0) for c in
                [IDLE, *_read("STATUS"), IDLE, *_write("CLEAR", 0x02), IDLE, IDLE,
                 *_read("STATUS"), IDLE]]
     out = _check(2, cycles)
@@ -114,21 +121,21 @@ def test_the_estop_latches_until_cleared_once_released():
 
 
 def test_a_limit_holds_the_feed_but_keeps_the_drives_on():
-    cycles = [(IDLE, True, (True, False), (9, 9), 0)] * 4
+    cycles = [(IDLE, False, True, (True, False), (9, 9), 0)] * 4
     out = _check(2, cycles)
     assert all(o.drive_enable and o.dac == (9, 9) for o in out)
     assert out[1].chip == BusCycle(DECEL_CTRL_PORT, 1, w_stb=True)
 
 
 def test_while_held_a_host_write_to_decel_ctrl_keeps_the_hold_bit():
-    cycles = [(IDLE, True, (False, True), (0, 0), 0)] * 2
+    cycles = [(IDLE, False, True, (False, True), (0, 0), 0)] * 2
     cycles += _quiet([BusCycle(DECEL_CTRL_PORT, 0, w_stb=True), IDLE])
     out = _check(2, cycles)
     assert out[2].chip == BusCycle(DECEL_CTRL_PORT, 1, w_stb=True)
 
 
 def test_board_ports_never_reach_the_chipset():
-    out = _check(3, [(c, True, (True,) * 3, (0,) * 3, 0xEE) for c in
+    out = _check(3, [(c, _fed(c), True, (True,) * 3, (0,) * 3, 0xEE) for c in
                      [*_write("WATCHDOG", 0x123456), *_read("WATCHDOG"), IDLE]])
     assert not any(o.chip.w_stb or o.chip.r_stb for o in out)
     assert [o.r_data for o in out[4:]] == [0x56, 0x34, 0x12]
@@ -148,7 +155,7 @@ _INPUT = st.integers(0, 9).map(lambda n: n != 0)  # an input mostly inactive (hi
 
 @settings(max_examples=25, deadline=None)
 @given(st.integers(2, 3).flatmap(lambda axes: st.tuples(st.just(axes), st.lists(st.tuples(
-    _BUS, _INPUT, st.lists(_INPUT, min_size=axes, max_size=axes).map(tuple),
+    _BUS, st.booleans(), _INPUT, st.lists(_INPUT, min_size=axes, max_size=axes).map(tuple),
     st.lists(st.integers(0, 0xFFFF), min_size=axes, max_size=axes).map(tuple),
     st.integers(0, 255)), min_size=1, max_size=120))))
 def test_machine_io_matches_its_model_cycle_by_cycle(case):
