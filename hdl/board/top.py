@@ -30,8 +30,8 @@ class BoardTop(wiring.Component):
 
     The bridge runs under the core's clock enable, like the chipset: its UART bit time is
     ``CHIP_HZ / baud`` chipset cycles, and it drives the chipset's bus one byte access per
-    chipset cycle, as the 8085 did; each whole frame it takes feeds the board's watchdog. The ``sync`` domain's reset resets the chipset, the
-    bridge and the clock enable.
+    chipset cycle, as the 8085 did; each whole frame it takes feeds the board's watchdog.
+    The ``sync`` domain's reset resets the chipset, the bridge and the clock enable.
 
     Parameters
     ----------

@@ -2,10 +2,11 @@
 and limits, one chipset cycle at a time, and by whole spans of cycles for a simulated board.
 
 In a cycle the model takes what the host puts on the bus (a byte write or read, or nothing),
-whether the bridge took a whole frame (the watchdog's feed), the E-stop and limit inputs as the synchronisers give them and each axis's D/A word, and gives
-what goes on to the chipset's bus, the D/A words to the pins, drive-enable and the byte a read
-of the cycle before returns. The register semantics are the host bus's (a write commits on its
-last byte, a read snapshots on its first: :mod:`k37.hdl.bus.hostbus`).
+whether the bridge took a whole frame (the watchdog's feed), the E-stop and limit inputs as
+the synchronisers give them and each axis's D/A word, and gives what goes on to the chipset's
+bus, the D/A words to the pins, drive-enable and the byte a read of the cycle before returns.
+The register semantics are the host bus's (a write commits on its last byte, a read
+snapshots on its first: :mod:`k37.hdl.bus.hostbus`).
 """
 
 from __future__ import annotations
@@ -94,6 +95,20 @@ class MachineIOModel:
         if watchdog == 0 or self.latched & 1:
             return None
         return max(0, watchdog - self.silent)
+
+    def settled(self, estop_n: bool, limit_n: tuple[bool, ...]) -> bool:
+        """Whether cycles without a bus access or a frame, with these inputs, change nothing
+        but the watchdog's count until it trips: :meth:`skip` may pass them."""
+        active = int(not estop_n) << 1 | sum(int(not v) << (2 + k) for k, v in enumerate(limit_n))
+        return not self.pending and self.committed is None and active & ~self.latched == 0
+
+    def skip(self, cycles: int) -> None:
+        """Pass ``cycles`` cycles that change nothing but the watchdog's count (:meth:`settled`,
+        and at most :meth:`cycles_to_trip` of them): as many :meth:`step` calls would."""
+        left = self.cycles_to_trip()
+        if cycles < 0 or (left is not None and cycles > left):
+            raise ValueError(f"cannot skip {cycles} cycles: the watchdog trips after {left}")
+        self.silent = min(self.silent + cycles, _SILENT_MAX)
 
     def step(self, host: BusCycle, feed: bool = False, estop_n: bool = True,
              limit_n: tuple[bool, ...] | None = None, dac: tuple[int, ...] | None = None,
