@@ -36,8 +36,8 @@ BOARD_MAP = RegisterMap("BOARD", 1, (
              "(2^(N-1) for the K3702's N-bit word; the reset value is the K3702's reset N = 12; "
              "reads back)", init=1 << 11),
     Register("STATUS", 0x05, 8, Access.R,
-             "Why the board holds: the latched bits stay set until cleared by CLEAR; 0x40 after "
-             "reset with the E-stop input released", fields=(
+             "Why the board holds: the latched bits stay set until cleared by CLEAR",
+             after_reset=0x40, fields=(
                  Field("watchdog", 0, 1, "latched: the watchdog tripped"),
                  Field("estop", 1, 1, "latched: the E-stop input was active"),
                  *_LIMITS,
