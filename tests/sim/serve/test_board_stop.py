@@ -16,6 +16,7 @@ from k37.sim.link.bridge import BridgeLink, open_link
 from k37.sim.machine.plant_model import dac_zero
 from k37.sim.run import linked
 from k37.sim.run.linked import run_linked
+from k37.sim.run.output import summary
 from k37.sim.run.report import validate
 from k37.sim.run.runner import RunOptions
 from tests.sim.serve.test_serve import PROGRAM, served
@@ -140,6 +141,8 @@ def test_a_link_lost_mid_run_reports_link_lost_with_nulls(make_job, monkeypatch)
     assert all(a["command"] is None and a["actual"] is None for a in report["axes"].values())
     assert report["end_point"]["reached"] is False
     assert report["link"]["board_cycle"] is None and report["link"]["board"] is None
+    text = summary(result)
+    assert "link-lost" in text and "x: unknown (the link was lost)" in text
 
 
 @pytest.mark.parametrize("seconds", [0.0, 20.0])
