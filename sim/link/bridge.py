@@ -236,6 +236,11 @@ class BridgeLink:
         self._write_board("WATCHDOG", cycles)
         self.max_count = MAX_COUNT if cycles == 0 else max(1, min(MAX_COUNT, cycles // 4))
 
+    def disarm_watchdog(self) -> None:
+        """Turn the board's watchdog off (its latched stops stay)."""
+        self._write_board("WATCHDOG", 0)
+        self.max_count = MAX_COUNT
+
     def board_status(self) -> dict[str, int]:
         """The board's STATUS, by field (:data:`k37.hdl.board.map.BOARD_MAP`)."""
         return BOARD_MAP["STATUS"].decode(self.read(board_port("STATUS")))

@@ -187,7 +187,7 @@ def _run(job: Job, options: RunOptions, link: BridgeLink, url: str,
             axes = _axes(link, job, probe)
             seen["board"] = link.board_status()
             if watchdog:
-                link.arm_watchdog(0, dac_zero(job.machine.dac_bits))
+                link.disarm_watchdog()
             seen["board_cycle"] = link.board_cycle()
         except LinkError as e:
             lost = str(e)
