@@ -107,6 +107,14 @@ def test_a_host_that_keeps_sending_frames_keeps_the_watchdog_from_tripping():
     assert not any(o.chip.w_stb and o.chip.addr == DECEL_CTRL_PORT for o in out)
 
 
+def test_frames_without_a_bus_access_feed_the_watchdog_too():
+    """IDLE and WAIT frames: the bridge takes a whole frame, the bus stays idle."""
+    cycles = _quiet(_write("WATCHDOG", 10))
+    cycles += [(IDLE, k % 8 == 0, True, (True, True), (5, 5), 0) for k in range(100)]
+    out = _check(2, cycles)
+    assert all(o.drive_enable for o in out)
+
+
 def test_the_estop_latches_until_cleared_once_released():
     cycles = [(IDLE, False, False, (True, True), (7, 7), 0)] * 3
     cycles += [(c, _fed(c), True, (True, True), (7, 7), 0) for c in
