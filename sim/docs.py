@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from k37.firmware_model.gcode.words import markdown as gcode_markdown
+from k37.hdl.board.map import BOARD_MAP, BOARD_SELECT, BOARD_WINDOW, board_port
 from k37.hdl.bridge.protocol import markdown as bridge_markdown
 from k37.hdl.bus.descriptions import Chip, c_header, svd
 from k37.hdl.bus.registers import RegisterMap, registers_markdown
@@ -16,8 +17,8 @@ __all__ = ["REGISTER_MAPS", "chips", "documents", "registers_document"]
 _CHIPS = {**chip_selects(3), "FEED": (CHIP_SELECTS["FEED"][0], FEED_MAP_AXIS_FA)}
 #: Every distinct register map, in chip-select order (the K3701's is the three-axis build's,
 #: the FEED chip's the per-axis fa build's: each a superset of the plain one).
-REGISTER_MAPS: tuple[RegisterMap, ...] = tuple(
-    {id(m): m for _, m in sorted(_CHIPS.values(), key=lambda v: v[0])}.values())
+REGISTER_MAPS: tuple[RegisterMap, ...] = (*{
+    id(m): m for _, m in sorted(_CHIPS.values(), key=lambda v: v[0])}.values(), BOARD_MAP)
 
 
 def _chip_selects() -> str:
@@ -38,13 +39,19 @@ def _chip_selects() -> str:
         offset = f" (A4 = 1: offset {SUB_WINDOWS[chip]:#04x})" if chip in SUB_WINDOWS else ""
         lines.append(f"| {chip} | {cs}{offset} | {first:#04x}-{first + regmap.size - 1:#04x} "
                      f"| {regmap.chip} | {which} |")
+    board = board_port(BOARD_MAP.registers[0].name)
+    lines += [f"| BOARD | {BOARD_SELECT} (A4 = 1, A3 = 0: offset {BOARD_WINDOW:#04x}) "
+              f"| {board:#04x}-{board + BOARD_MAP.size - 1:#04x} | BOARD | the FPGA board's "
+              f"own, not the chipset's |"]
     return "\n".join(lines) + "\n"
 
 
 def chips() -> list[Chip]:
-    """The three-axis chipset's chips (:data:`_CHIPS`) with the port of each one's address 0."""
-    return [Chip(name, port(name, regmap.registers[0].name) - regmap.registers[0].addr, regmap)
-            for name, (_, regmap) in _CHIPS.items()]
+    """The three-axis chipset's chips (:data:`_CHIPS`) and the FPGA board's registers, with
+    the port of each one's address 0."""
+    return [*(Chip(name, port(name, regmap.registers[0].name) - regmap.registers[0].addr,
+                   regmap) for name, (_, regmap) in _CHIPS.items()),
+            Chip("BOARD", board_port(BOARD_MAP.registers[0].name), BOARD_MAP)]
 
 
 def registers_document() -> str:

@@ -35,6 +35,7 @@ def _rst_to_md(text: str) -> str:
 # --- register maps -------------------------------------------------------------------------
 
 def _maps() -> dict:
+    from k37.hdl.board.map import BOARD_MAP
     from k37.hdl.encoder.map import ENCODER_MAP
     from k37.hdl.feed.map.decel_control import DECEL_MAP
     from k37.hdl.feed.map.feed_rate import FEED_MAP
@@ -42,7 +43,7 @@ def _maps() -> dict:
     from k37.hdl.k3702.map import K3702_MAP
 
     return {"K3701": K3701_MAP, "K3701_3": K3701_MAP_3, "K3702": K3702_MAP,
-            "ENCODER": ENCODER_MAP, "FEED": FEED_MAP, "DECEL": DECEL_MAP}
+            "ENCODER": ENCODER_MAP, "FEED": FEED_MAP, "DECEL": DECEL_MAP, "BOARD": BOARD_MAP}
 
 
 def register_tables(name: str) -> str:

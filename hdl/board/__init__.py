@@ -1,1 +1,2 @@
-"""The chipset on an FPGA board: clock enable, synchronisers, sigma-delta D/A and the pin map."""
+"""The chipset on an FPGA board: clock enable, synchronisers, sigma-delta D/A, the watchdog and
+machine I/O (E-stop, limits, drive-enable) and the pin map."""

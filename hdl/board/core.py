@@ -3,7 +3,9 @@
 
 Everything a board adds around :class:`k37.hdl.chipset.chip.Chipset`, whatever the board: the
 clock enable that keeps the chipset's cycle at the paper's 1 MHz, the synchronisers of the
-encoder lines, one sigma-delta D/A per axis and the alarm outputs. The board's top
+encoder lines, one sigma-delta D/A per axis, the alarm outputs and the machine I/O (the
+watchdog, E-stop, limits and drive-enable of :class:`k37.hdl.board.machine_io.MachineIO`,
+between the bus and the chipset). The board's top
 (:mod:`k37.hdl.board.ulx3s`) puts it on pins with the host bridge. (The first line of this file
 lets a core be built for its signature and chipset parameters alone, without Amaranth's
 unused-elaboratable warning for the chipset it holds.)
@@ -16,6 +18,7 @@ from amaranth.lib import wiring
 from amaranth.lib.cdc import FFSynchronizer
 from amaranth.lib.wiring import In, Out, connect, flipped
 
+from k37.hdl.board.machine_io import MachineIO
 from k37.hdl.board.sigma_delta import SigmaDelta
 from k37.hdl.bus.hostbus import HostBus
 from k37.hdl.chipset.chip import Chipset
@@ -41,6 +44,8 @@ class BoardCore(wiring.Component):
     chipset sees a line at most 2 board cycles plus one chipset cycle after it changes, and
     takes ``a_n = ~a``, ``b_n = ~b`` (single-ended encoders; its line-break check never fires).
     The D/A outputs run at the full board clock (:class:`~k37.hdl.board.sigma_delta.SigmaDelta`).
+    The E-stop and limit inputs pass two flip-flops as the encoder lines do into the machine
+    I/O, which runs under the same enable as the chipset and sits between ``bus`` and it.
 
     Parameters
     ----------
@@ -57,6 +62,9 @@ class BoardCore(wiring.Component):
         The chipset's host bus (chip select and register address), sampled at the edge ending
         a tick cycle; a read's byte is on ``r_data`` from the board cycle after that edge until
         the next read.
+    feed : In(1)
+        The host is there (the bridge took a whole frame), under the same enable: the
+        watchdog's feed (:class:`~k37.hdl.board.machine_io.MachineIO`).
     tick : Out(1)
         The chipset's clock enable: high in one board cycle of every ``clock_hz / CHIP_HZ``.
     irq_interp, irq_alarm : Out(1)
@@ -67,6 +75,11 @@ class BoardCore(wiring.Component):
         An axis's D/A word as a sigma-delta bit stream at the board clock.
     <axis>_alarm : Out(1)
         An axis's ALARM, active high (an LED lights on alarm).
+    estop_n, <axis>_limit_n : In(1)
+        E-stop and an axis's limit input, active low, asynchronous to the board clock.
+    drive_enable : Out(1)
+        Drive-enable (servo-on) of every axis: low while a watchdog trip or the E-stop is
+        latched.
     """
 
     def __init__(self, *, axes: int = 3, clock_hz: int = 25_000_000, **chipset):
@@ -80,10 +93,12 @@ class BoardCore(wiring.Component):
         #: The chipset inside (its ports are observable in simulation).
         self.chipset = Chipset(axes=axes, **chipset)
         super().__init__({
-            "bus": In(HostBus(8)), "tick": Out(1),
+            "bus": In(HostBus(8)), "feed": In(1), "tick": Out(1),
             "irq_interp": Out(1), "irq_alarm": Out(1),
             **{f"{axis}_{line}": In(1) for axis in self.axes for line in ("a", "b")},
             **{f"{axis}_{pin}": Out(1) for axis in self.axes for pin in ("dac", "alarm")},
+            "estop_n": In(1, init=1), **{f"{axis}_limit_n": In(1, init=1) for axis in self.axes},
+            "drive_enable": Out(1),
         })
 
     def elaborate(self, platform) -> Module:
@@ -99,7 +114,15 @@ class BoardCore(wiring.Component):
         # local domain "neg"): the falling edge of the tick cycle stands for the middle of the
         # chipset's cycle.
         m.submodules.chipset = EnableInserter({"sync": self.tick, "neg": self.tick})(chipset)
-        connect(m, flipped(self.bus), chipset.bus)
+        m.submodules.machine_io = machine_io = EnableInserter(self.tick)(
+            MachineIO(len(self.axes)))
+        connect(m, flipped(self.bus), machine_io.host)
+        connect(m, machine_io.chip, chipset.bus)
+        m.d.comb += [machine_io.feed.eq(self.feed),
+                     self.drive_enable.eq(machine_io.drive_enable)]
+        for name in ("estop_n", *(f"{axis}_limit_n" for axis in self.axes)):
+            m.submodules[f"{name}_sync"] = FFSynchronizer(
+                getattr(self, name), getattr(machine_io, name), init=1, stages=2)
         m.d.comb += [self.irq_interp.eq(chipset.irq_interp),
                      self.irq_alarm.eq(chipset.irq_alarm)]
         for axis in self.axes:
@@ -111,6 +134,8 @@ class BoardCore(wiring.Component):
                 m.d.comb += [getattr(pins, line).eq(synced),
                              getattr(pins, f"{line}_n").eq(~synced)]
             m.submodules[f"{axis}_dac"] = dac = SigmaDelta(len(pins.dac))
-            m.d.comb += [dac.word.eq(pins.dac), getattr(self, f"{axis}_dac").eq(dac.out),
+            m.d.comb += [getattr(machine_io, f"{axis}_dac_in").eq(pins.dac),
+                         dac.word.eq(getattr(machine_io, f"{axis}_dac")),
+                         getattr(self, f"{axis}_dac").eq(dac.out),
                          getattr(self, f"{axis}_alarm").eq(~pins.alarm_n)]
         return m

@@ -22,7 +22,8 @@ class BoardPin:
     the pin is either on the board's expansion connector (``connector_pin``, the Amaranth
     platform's name on connector ``gpio`` 0, e.g. ``"0+"``) or one of the platform's own
     resources (``resource``: name and number, e.g. ``("led", 0)``); ``label`` is the board's
-    silkscreen name.
+    silkscreen name; an input is pulled up unless ``pull_down`` (a fail-safe input that reads
+    active, low, when its wire is cut).
     """
 
     signal: str
@@ -31,6 +32,7 @@ class BoardPin:
     doc: str
     connector_pin: str | None = None
     resource: tuple[str, int] | None = None
+    pull_down: bool = False
 
 
 def ulx3s_pins(axes: int = 3) -> tuple[BoardPin, ...]:
@@ -42,6 +44,13 @@ def ulx3s_pins(axes: int = 3) -> tuple[BoardPin, ...]:
                  resource=("uart", 0)),
         BoardPin("reset", "i", "BTN1 (F1)", "Resets the chipset and the bridge while held",
                  resource=("button_fire", 0)),
+    ]
+    out += [
+        BoardPin("estop_n", "i", "GP3", "E-stop, active low: the E-stop chain's normally closed "
+                 "contacts to 3.3 V; open (or a cut wire) stops the drives", connector_pin="3+",
+                 pull_down=True),
+        BoardPin("drive_enable", "o", "GN3", "Drive-enable (servo-on) of every axis: low on a "
+                 "watchdog trip or E-stop", connector_pin="3-"),
     ]
     for k, axis in enumerate(axis_names(axes)):
         up = axis.upper()
@@ -55,6 +64,9 @@ def ulx3s_pins(axes: int = 3) -> tuple[BoardPin, ...]:
                      connector_pin=f"{4 + k}+"),
             BoardPin(f"{axis}_alarm", "o", f"LED D{k}", f"{up} ALARM: lit on alarm",
                      resource=("led", k)),
+            BoardPin(f"{axis}_limit_n", "i", f"GN{4 + k}", f"{up} limit, active low: the "
+                     f"limit switches' normally closed contacts to 3.3 V; open holds the feed",
+                     connector_pin=f"{4 + k}-", pull_down=True),
         ]
     return (*out,
             BoardPin("irq_interp", "o", "LED D6", "K3701 data request (lit while pending)",

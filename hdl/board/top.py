@@ -21,14 +21,17 @@ from k37.hdl.common.constants import CHIP_HZ
 
 __all__ = ["BoardTop"]
 
+#: The core's ports the bridge drives or that stay inside, no board pins.
+_INNER = {"bus", "feed", "tick"}
+
 
 class BoardTop(wiring.Component):
     """A :class:`~k37.hdl.board.core.BoardCore` driven by a :class:`~k37.hdl.bridge.UartBridge`.
 
     The bridge runs under the core's clock enable, like the chipset: its UART bit time is
     ``CHIP_HZ / baud`` chipset cycles, and it drives the chipset's bus one byte access per
-    chipset cycle, as the 8085 did. The ``sync`` domain's reset resets the chipset, the
-    bridge and the clock enable.
+    chipset cycle, as the 8085 did; each whole frame it takes feeds the board's watchdog.
+    The ``sync`` domain's reset resets the chipset, the bridge and the clock enable.
 
     Parameters
     ----------
@@ -59,14 +62,15 @@ class BoardTop(wiring.Component):
         self.core = BoardCore(axes=axes, clock_hz=clock_hz, **chipset)
         self.bridge = UartBridge(CHIP_HZ // baud, chipset_identity(axes=axes, **chipset))
         self.pins = pins
-        ports = {*self.core.signature.members, "uart_rx", "uart_tx"} - {"bus", "tick"}
+        ports = {*self.core.signature.members, "uart_rx", "uart_tx"} - _INNER
         pins = tuple(pin for pin in pins if pin.signal != "reset")
         names = {pin.signal for pin in pins}
         if names != ports:
             raise ValueError(f"pins must be exactly {sorted(ports)}; missing "
                              f"{sorted(ports - names)}, unknown {sorted(names - ports)}")
-        super().__init__({pin.signal: In(1) if pin.direction == "i" else Out(1)
-                          for pin in pins})
+        # a fail-safe input idles released (high) in simulation, as when its contacts are closed
+        super().__init__({pin.signal: In(1, init=int(pin.pull_down)) if pin.direction == "i"
+                          else Out(1) for pin in pins})
 
     def elaborate(self, platform) -> Module:
         m = Module()
@@ -75,10 +79,12 @@ class BoardTop(wiring.Component):
         m.submodules.bridge = EnableInserter(core.tick)(bridge)
         connect(m, bridge.bus, core.bus)
         m.d.comb += [bridge.irq_interp.eq(core.irq_interp), bridge.irq_alarm.eq(core.irq_alarm),
+                     core.feed.eq(bridge.frame),
                      bridge.rx.eq(self.uart_rx), self.uart_tx.eq(bridge.tx)]
         for name in core.signature.members:
-            if name in ("bus", "tick"):
+            if name in _INNER:
                 continue
             port, inner = getattr(self, name), getattr(core, name)
-            m.d.comb += inner.eq(port) if name.endswith(("_a", "_b")) else port.eq(inner)
+            flow = core.signature.members[name].flow
+            m.d.comb += inner.eq(port) if flow is wiring.In else port.eq(inner)
         return m

@@ -35,8 +35,8 @@ def platform(board: str, axes: int = 3):
     plat.add_resources([
         Resource(_resource(pin)[0], 0, Pins(pin.connector_pin, dir=pin.direction,
                                             conn=("gpio", 0)),
-                 Attrs(IO_TYPE="LVCMOS33", **({"PULLMODE": "UP"} if pin.direction == "i"
-                                               else {})))
+                 Attrs(IO_TYPE="LVCMOS33", **({"PULLMODE": "DOWN" if pin.pull_down else "UP"}
+                                               if pin.direction == "i" else {})))
         for pin in ulx3s_pins(axes) if pin.connector_pin is not None])
     return plat
 

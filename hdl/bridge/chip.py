@@ -71,6 +71,10 @@ class UartBridge(wiring.Component):
         The K3701's data request (the 8085's RST 7.5), sampled every cycle.
     irq_alarm : In(1)
         The K3702s' alarm (RST 6.5), sampled every cycle.
+    frame : Out(1)
+        High in the cycle a whole frame's END is taken (a frame executed or answered again,
+        not one answered with an error): the host is there (the board's watchdog,
+        :class:`k37.hdl.board.machine_io.MachineIO`).
     """
 
     def __init__(self, cycles_per_bit: int, identity: Identity):
@@ -79,7 +83,7 @@ class UartBridge(wiring.Component):
             raise TypeError(f"identity must be an Identity, not {identity!r}")
         self.identity = identity
         super().__init__({"rx": In(1, init=1), "tx": Out(1, init=1), "bus": Out(HostBus(8)),
-                          "irq_interp": In(1), "irq_alarm": In(1)})
+                          "irq_interp": In(1), "irq_alarm": In(1), "frame": Out(1)})
 
     def elaborate(self, platform) -> Module:
         m = Module()
@@ -159,9 +163,11 @@ class UartBridge(wiring.Component):
                                         with m.If(length != command.frame_bytes):
                                             error(Error.LENGTH)
                                         with m.Elif(repeated):
+                                            m.d.comb += self.frame.eq(1)
                                             m.d.sync += [out.eq(last), out_len.eq(last_len)]
                                             m.next = "Reply"
                                         with m.Else():
+                                            m.d.comb += self.frame.eq(1)
                                             m.next = "Execute"
                                 with m.Default():
                                     error(Error.OPCODE)

@@ -66,11 +66,15 @@ class BridgeModel:
 
     ``probe``: a simulated board's observation counters, in the order of
     :attr:`Op.PROBE`'s reply; None (the gateware's case): PROBE is an unknown opcode.
+    ``on_frame``: told of each whole frame (executed or answered again) as its command
+    starts, as the gateware's ``frame`` output tells the board's watchdog.
     """
 
     def __init__(self, target: Target, identity: Identity,
-                 probe: Callable[[], Sequence[int]] | None = None):
+                 probe: Callable[[], Sequence[int]] | None = None,
+                 on_frame: Callable[[], None] | None = None):
         self.target = target
+        self.on_frame = on_frame
         self.identity = identity
         self.probe = probe
         self.commands = {**COMMANDS, **(SIMULATED_COMMANDS if probe is not None else {})}
@@ -138,13 +142,19 @@ class BridgeModel:
             return stuff(bytes([ERROR, broken]))
         op, seq = Op(frame[0]), frame[1]
         if op is not Op.IDENT and self._last is not None and self._last[0] == seq:
+            self._fed()
             return stuff(self._last[1])
         if op is not Op.PROBE and start is not None and start > self.target.cycle:
             self.target.idle(start - self.target.cycle)
+        self._fed()
         reply = bytes([OK, seq]) + self._execute(op, frame[2:-1])
         self._last = None if op is Op.IDENT else (seq, reply)
         self.answered = op
         return stuff(reply)
+
+    def _fed(self) -> None:
+        if self.on_frame is not None:
+            self.on_frame()
 
     def _execute(self, op: Op, args: bytes) -> bytes:
         target = self.target

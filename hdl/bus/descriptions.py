@@ -4,8 +4,8 @@ the :class:`k37.hdl.bus.registers.RegisterMap` tables as ``docs/registers.md`` i
 
 Each chip is given as a :class:`Chip`: its name in the chipset (``K3702_X``), the 8085 I/O port
 of its register address 0, and its map. Registers are little-endian runs of byte ports; a
-register's reset value (:attr:`k37.hdl.bus.registers.Register.reset`) is left out for a
-read-only register, which shows the chip's state.
+register's reset value is :attr:`k37.hdl.bus.registers.Register.reset` (for a read-only
+register, what it reads after reset with the machine at rest).
 """
 
 from __future__ import annotations
@@ -42,8 +42,9 @@ def c_header(chips: Iterable[Chip], guard: str = "K37_REGISTERS_H") -> str:
     lines = [f"/* {_GENERATED}", " *",
              " * K37_<CHIP>_<REG>_PORT is the 8085 I/O port of the register's byte 0; a register",
              " * of N bytes is written from byte 0 to byte N - 1 (the last commits it) and read",
-             " * from byte 0 (which snapshots it). _RESET: the value after reset of a register",
-             " * the host writes. _ACCESS: 'r', 'w' or 'rw'. */", "",
+             " * from byte 0 (which snapshots it). _RESET: the value after reset (of a",
+             " * read-only register, what it reads with the machine at rest). _ACCESS: 'r', 'w'",
+             " * or 'rw'. */", "",
              f"#ifndef {guard}", f"#define {guard}", ""]
     for chip in chips:
         regmap = chip.regmap

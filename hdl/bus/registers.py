@@ -69,9 +69,10 @@ class Register:
 
     ``width`` is in bits (a multiple of 8). ``doc`` says what writing and reading mean;
     ``signed`` marks two's complement values. ``init`` is the value a writable register
-    holds after reset. ``valid`` (inclusive bounds) limits the values the chip accepts: the
-    bank ignores a write outside them and pulses the port's ``w_err`` instead, and
-    :meth:`to_bytes` refuses them.
+    holds after reset; ``after_reset`` what a read-only one reads after reset, the machine at
+    rest (its inputs idle, encoder lines still). ``valid`` (inclusive bounds) limits the
+    values the chip accepts: the bank ignores a write outside them and pulses the port's
+    ``w_err`` instead, and :meth:`to_bytes` refuses them.
     """
 
     name: str
@@ -83,6 +84,7 @@ class Register:
     signed: bool = False
     init: int = 0
     valid: tuple[int, int] | None = None
+    after_reset: int | None = None
 
     def __post_init__(self) -> None:
         if self.width % 8 or not 8 <= self.width <= 32:
@@ -125,10 +127,9 @@ class Register:
     @property
     def reset(self) -> int | None:
         """The value after reset as raw bits (two's complement): :attr:`init` for a register
-        the host writes; None for a read-only one, whose value is the chip's state."""
-        if self.access is Access.R:
-            return None
-        return self.init & ((1 << self.width) - 1)
+        the host writes, :attr:`after_reset` for a read-only one (None if not given)."""
+        value = self.after_reset if self.access is Access.R else self.init
+        return None if value is None else value & ((1 << self.width) - 1)
 
     def field(self, name: str) -> Field:
         for f in self.fields:
@@ -251,9 +252,10 @@ def registers_markdown(maps: Iterable[RegisterMap]) -> str:
              "(do not edit by hand).", "",
              "Multi-byte registers are little-endian. A write takes effect when its last "
              "(most significant) byte is written; reading byte 0 (the least significant) "
-             "snapshots the whole register, so read it first. The reset column gives a "
-             "writable register's value after reset (raw bits); a read-only register (-) "
-             "shows the chip's state. The same maps are in `k37_registers.h` (C) and "
+             "snapshots the whole register, so read it first. The reset column gives each "
+             "register's value after reset (raw bits): what a writable register holds, what a "
+             "read-only one reads with the machine at rest (inputs idle, encoder lines still). "
+             "The same maps are in `k37_registers.h` (C) and "
              "`k37_registers.svd` (CMSIS-SVD) beside this page.", ""]
     parts += [rm.markdown() for rm in maps]
     return "\n".join(parts)

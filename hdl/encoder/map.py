@@ -35,7 +35,8 @@ ENCODER_MAP = RegisterMap("ENCODER", 1, (
     Register("MODE", 0x1, 8, Access.RW, "decoding mode (reads back)",
              fields=(Field("decode", 0, 2, "0: x1, 1: x2, 2: x4"),),
              init=int(Decode.X4), valid=(0, int(Decode.X4))),
-    Register("STATUS", 0x2, 8, Access.R, "flags and the filtered line levels", fields=(
+    Register("STATUS", 0x2, 8, Access.R, "flags and the filtered line levels",
+             after_reset=0, fields=(
         Field("line_fault_a", 0, 1, "A and /A were equal for K samples (sticky until "
                                     "CMD.clear)"),
         Field("line_fault_b", 1, 1, "B and /B likewise"),

@@ -49,7 +49,7 @@ K3701_MAP = RegisterMap("K3701", 1, (
                  Field("ack", 1, 1, "acknowledge (clear) the data-request interrupt"),
                  Field("clear", 2, 1, "clear the ERROR and OVERRUN status bits"),
              )),
-    Register("STATUS", 0x0E, 8, Access.R, "status", fields=(
+    Register("STATUS", 0x0E, 8, Access.R, "status", after_reset=0, fields=(
         Field("busy", 0, 1, "a block is running"),
         Field("irq", 1, 1, "data request: the block ended (held until CMD.ack)"),
         Field("error", 2, 1, "invalid block data, an arc that left its end quadrant, a "

@@ -28,7 +28,8 @@ K3702_MAP = RegisterMap("K3702", 1, (
     Register("DAC_BITS", 0x0C, 8, Access.RW,
              "N: width of the offset-binary D/A word; an out-of-range write is ignored and "
              "sets STATUS.bad_config (reads back)", init=12, valid=(8, 16)),
-    Register("STATUS", 0x0D, 8, Access.R, "flags of the error counter as it stands", fields=(
+    Register("STATUS", 0x0D, 8, Access.R, "flags of the error counter as it stands",
+             after_reset=0x01, fields=(
         Field("in_position", 0, 1, "|ERROR| <= W (position zone)"),
         Field("negative", 1, 1, "ERROR < 0"),
         Field("sat_pos", 2, 1, "+SAT: ERROR > 2^(N-1) - 1, the D/A word is clamped to 2^N - 1"),

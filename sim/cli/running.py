@@ -88,7 +88,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
                                       or args.html):
             raise OptionError("--trace, --plot, --ballbar, --gtkw, --html: not with --link: "
                               "the samples are the served machine's")
-        result = run_linked(job, options, args.link) if args.link else run_job(job, options)
+        if args.watchdog is not None and args.link is None:
+            raise OptionError("--watchdog: only with --link (it is the board's)")
+        result = (run_linked(job, options, args.link, args.watchdog) if args.link
+                  else run_job(job, options))
     except (OutputError, OptionError, JobError, GcodeError, FirmwareError, LinkError) as e:
         print_error(e)
         return 2
@@ -235,6 +238,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--link", metavar="URL",
                    help="run the firmware against a board over the host bridge: "
                         "tcp://HOST:PORT (`k37 serve`) or serial:///dev/ttyUSB0[?baud=N]")
+    p.add_argument("--watchdog", type=float, metavar="SECONDS",
+                   help="with --link: arm the board's watchdog for the run (it stops the "
+                        "drives when the host sends nothing this long; e.g. 0.5)")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary, no progress line")
     _program_options(p)
     p.set_defaults(func=_cmd_run)

@@ -9,6 +9,10 @@ board, and ``loop://`` for tests. Each command waits for its reply before the ne
 and is sent again after an error reply or a timeout (:mod:`k37.hdl.bridge.protocol`); the
 link's first command is IDENT, the sync that makes the bridge forget a host before it.
 
+Each whole frame feeds the board's watchdog (:data:`k37.hdl.board.map.BOARD_MAP`):
+:meth:`BridgeLink.arm_watchdog` arms it and keeps every IDLE and WAIT a quarter of its time or
+shorter, so that a host that is there feeds it in time.
+
 The link's :attr:`BridgeLink.cycle` is the host's account of time: the cycles its commands
 took (a bus cycle each, an idle's, a wait's). On a simulated board that is the machine's clock
 exactly; on a real board the chipset's clock also runs while bytes are on the line, so the gaps
@@ -23,6 +27,7 @@ from urllib.parse import parse_qs, urlsplit
 
 from k37.firmware_model.job import Job
 from k37.firmware_model.link import Interrupts
+from k37.hdl.board.map import BOARD_MAP, LATCHED, board_port
 from k37.hdl.bridge.protocol import (
     COUNT_BITS,
     DEFAULT_BAUD,
@@ -89,6 +94,8 @@ class BridgeLink:
         self._received = bytearray()
         #: Whether the far end answers :attr:`Op.PROBE` (a simulated board); None: not asked.
         self.probes: bool | None = None
+        #: The longest IDLE or WAIT sent at once (shorter with the watchdog armed).
+        self.max_count = MAX_COUNT
 
     @property
     def cycle(self) -> int:
@@ -188,7 +195,7 @@ class BridgeLink:
 
     def idle(self, cycles: int) -> None:
         while cycles > 0:
-            part = min(cycles, MAX_COUNT)
+            part = min(cycles, self.max_count)
             self._command(Op.IDLE, part, reply=0)
             self._cycle += part
             cycles -= part
@@ -205,7 +212,7 @@ class BridgeLink:
     def wait_interrupt(self, max_cycles: int) -> int:
         waited = 0
         while waited < max_cycles:
-            part = min(max_cycles - waited, MAX_COUNT)
+            part = min(max_cycles - waited, self.max_count)
             n = int.from_bytes(self._command(Op.WAIT, part, reply=COUNT_BITS // 8), "little")
             self._cycle += n
             waited += n
@@ -216,6 +223,27 @@ class BridgeLink:
     def interrupts(self) -> Interrupts:
         irq = self._command(Op.STATUS, reply=1)[0]
         return Interrupts(bool(irq & IRQ_INTERP), bool(irq & IRQ_ALARM))
+
+    def _write_board(self, register: str, value: int) -> None:
+        for k, byte in enumerate(BOARD_MAP[register].to_bytes(value)):
+            self.write(board_port(register, k), byte)
+
+    def arm_watchdog(self, cycles: int, dac_zero: int) -> None:
+        """Clear the board's latched stops, set the D/A word of 0 V and arm its watchdog to
+        ``cycles`` (0: off); with it armed, waits go in parts of a quarter of it."""
+        self._write_board("CLEAR", LATCHED)
+        self._write_board("DAC_ZERO", dac_zero)
+        self._write_board("WATCHDOG", cycles)
+        self.max_count = MAX_COUNT if cycles == 0 else max(1, min(MAX_COUNT, cycles // 4))
+
+    def disarm_watchdog(self) -> None:
+        """Turn the board's watchdog off (its latched stops stay)."""
+        self._write_board("WATCHDOG", 0)
+        self.max_count = MAX_COUNT
+
+    def board_status(self) -> dict[str, int]:
+        """The board's STATUS, by field (:data:`k37.hdl.board.map.BOARD_MAP`)."""
+        return BOARD_MAP["STATUS"].decode(self.read(board_port("STATUS")))
 
     def board_cycle(self) -> int:
         """The bridge's cycle counter (modulo 2^40)."""

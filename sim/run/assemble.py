@@ -61,7 +61,7 @@ def _end_point(job: Job, firmware: Firmware, axes: dict[str, dict]) -> dict:
     moves = len(job.program.moves)
     ran = len(firmware.blocks) == moves and all(b.end_cycle is not None for b in firmware.blocks)
     return {"programmed": programmed, "actual": actual, "program_ran": ran,
-            "reached": ran and all(abs(a - p) <= zone
+            "reached": ran and all(a is not None and abs(a - p) <= zone
                                    for a, p in zip(actual, programmed, strict=True))}
 
 

@@ -12,7 +12,13 @@ does, with what a host can know:
   COMMAND - ERROR (the K3702's view of the encoder) and its largest error is null;
 * no samples: the trace, the plot, the path's contour error and the ballbar are the machine's
   (``k37 serve --trace`` writes a simulated board's); the report's ``path`` has 0 samples and
-  zero errors.
+  null errors;
+* the board's STATUS (watchdog, E-stop, limits), read when the run ends: a stop the board
+  latched makes the run's status ``fault``. With ``watchdog_s`` the host arms the board's
+  watchdog before the run (its frames feed it) and turns it off after.
+
+A link lost during the run still gives a report: status ``link-lost``, what was not read
+null.
 """
 
 from __future__ import annotations
@@ -23,9 +29,11 @@ from k37.firmware_model.feeds import check_program
 from k37.firmware_model.firmware import BlockRecord, Firmware
 from k37.firmware_model.host import Host8085
 from k37.firmware_model.job import Job
+from k37.hdl.board.map import WATCHDOG_BITS
 from k37.hdl.bridge.protocol import COUNTER_BITS
 from k37.hdl.chipset.map import chip_register, port
 from k37.sim.link.bridge import BridgeLink, LinkError, Probe, job_identity, open_link
+from k37.sim.machine.plant_model import dac_zero
 from k37.sim.run.assemble import report_document, run_status
 from k37.sim.run.meter import BlockMeasure
 from k37.sim.run.report import validate
@@ -118,40 +126,84 @@ def _axes(link: BridgeLink, job: Job, probe: Probe | None) -> dict[str, dict]:
     return axes
 
 
-def run_linked(job: Job, options: RunOptions, url: str) -> RunResult:
-    """Run ``job``'s firmware over the link at ``url`` and report; raises
-    :class:`LinkError` if the link fails or the chipset there is not the job's."""
+def run_linked(job: Job, options: RunOptions, url: str,
+               watchdog_s: float | None = None) -> RunResult:
+    """Run ``job``'s firmware over the link at ``url`` and report, with the board's watchdog
+    armed to ``watchdog_s`` seconds (None: not armed); raises :class:`LinkError` if the link
+    cannot be opened or the chipset there is not the job's (a link lost during the run is the
+    report's status)."""
     check_program(job)
     check_linked_options(options)
+    watchdog = 0 if watchdog_s is None else round(watchdog_s * job.machine.clock_hz)
+    if watchdog_s is not None and not 0 < watchdog < 1 << WATCHDOG_BITS:
+        raise OptionError(f"--watchdog {watchdog_s:g}: give 1 to {(1 << WATCHDOG_BITS) - 1} "
+                          f"cycles of {job.machine.clock_hz:g} Hz, in seconds")
     link = open_link(url)
     try:
         link.check(job_identity(job))
-        return _run(job, options, link, url)
+        return _run(job, options, link, url, watchdog)
     finally:
         link.close()
 
 
-def _run(job: Job, options: RunOptions, link: BridgeLink, url: str) -> RunResult:
+def _lost_axes(job: Job) -> dict[str, dict]:
+    return {axis: {"command": None, "error": None, "actual": None, "max_abs_error": None,
+                   "flags": {}} for axis in job.machine.axis_names}
+
+
+def _board_stop(status: dict[str, int]) -> str | None:
+    """What the board's latched STATUS bits say stopped the machine, in words; None: nothing."""
+    why = [text for name, text in (("watchdog", "its watchdog tripped"),
+                                   ("estop", "E-stop"), ("limit_x", "the X limit"),
+                                   ("limit_y", "the Y limit"), ("limit_z", "the Z limit"))
+           if status.get(name)]
+    return f"the board stopped the machine: {', '.join(why)}" if why else None
+
+
+def _run(job: Job, options: RunOptions, link: BridgeLink, url: str,
+         watchdog: int) -> RunResult:
     host = Host8085(link, clock_hz=job.machine.clock_hz)
     meter = _ProbeMeter(link, job.machine.axis_names)
     firmware = Firmware(host, job, budget_offset=options.budget_offset, observer=meter)
     limit, limit_name = cycle_limit(job, options)
     start = time.perf_counter()
+    if watchdog:
+        link.arm_watchdog(watchdog, dac_zero(job.machine.dac_bits))
     board_start = link.board_cycle()
-    firmware.run(limit)
-    board_end = link.board_cycle()
+    lost: str | None = None
+    try:
+        firmware.run(limit)
+    except LinkError as e:
+        lost = str(e)
     wall = time.perf_counter() - start
     cycles = link.cycle
-    status, reason = run_status(firmware, None, limit_name, cycles)
-    probe = link.probe()
+    seen: dict = {"board_cycle": None, "board_cycles": None, "board": None}
+    probe, axes = None, _lost_axes(job)
+    if lost is None:
+        try:
+            board_end = link.board_cycle()
+            seen["board_cycles"] = (board_end - board_start) % (1 << COUNTER_BITS)
+            probe = link.probe()
+            axes = _axes(link, job, probe)
+            seen["board"] = link.board_status()
+            if watchdog:
+                link.disarm_watchdog()
+            seen["board_cycle"] = link.board_cycle()
+        except LinkError as e:
+            lost = str(e)
+    stop = None if seen["board"] is None else _board_stop(seen["board"])
+    if lost is not None:
+        status, reason = "link-lost", f"the link was lost after cycle {cycles:,}: {lost}"
+    elif stop is not None:
+        status, reason = "fault", stop
+    else:
+        status, reason = run_status(firmware, None, limit_name, cycles)
     report = report_document(
         job, firmware, status=status, reason=reason, backend="link", cycles=cycles, wall=wall,
-        skipped=0, blocks=[meter.report(b) for b in firmware.blocks],
-        axes=_axes(link, job, probe),
-        path={"max_contour_error": 0.0, "rms_contour_error": 0.0, "samples": 0})
-    report["link"] = {"url": url, "probes": probe is not None,
-                      "board_cycle": link.board_cycle(),
-                      "board_cycles": (board_end - board_start) % (1 << COUNTER_BITS),
+        skipped=0, blocks=[meter.report(b) for b in firmware.blocks], axes=axes,
+        path={"max_contour_error": None, "rms_contour_error": None, "samples": 0})
+    report["link"] = {"url": url, "probes": probe is not None, **seen,
+                      "watchdog_cycles": watchdog,
                       "board_blocks": [meter.board_cycles.get(b.index)
                                        for b in firmware.blocks]}
     validate(report)

@@ -87,6 +87,8 @@ _HOST_COUNT = " by the host's count"
 def _link_line(link: dict, clock_hz: float) -> str:
     """What a run over a link says instead of the path's figures."""
     board = link.get("board_cycles")
+    if link.get("board_cycle") is None:
+        return f"over {link['url']}, lost; no samples here"
     own = ("" if board is None else f"; the board's own count (its bridge's counter): "
            f"{board:,} cycles = {board / clock_hz:.3f} s")
     return (f"over {link['url']}, board at cycle {link['board_cycle']:,}{own}; no samples "
@@ -100,11 +102,13 @@ def summary(result: RunResult) -> str:
     lsb_mm, clock = machine.lsb_mm, r["clock_hz"]
     skipped = f", {r['skipped_cycles']:,} idle cycles skipped" if r["skipped_cycles"] else ""
     end, path = r["end_point"], r["path"]
-    off = max(abs(a - p) for a, p in zip(end["actual"], end["programmed"], strict=True))
-    if end["reached"]:
+    if None in end["actual"]:
+        reached = "unknown: the link was lost"
+    elif end["reached"]:
         reached = f"reached (within the in-position zone, {machine.in_position} LSB)"
     else:
         why = "" if end["program_ran"] else "the program did not run to its end; "
+        off = max(abs(a - p) for a, p in zip(end["actual"], end["programmed"], strict=True))
         reached = (f"NOT reached: {why}actual {_point(end['actual'], lsb_mm)}, {off} LSB off "
                    f"(in-position zone {machine.in_position} LSB)")
     lines = [f"k37 run {result.job.name}: {r['status']}: {r['reason']}",
@@ -121,6 +125,9 @@ def summary(result: RunResult) -> str:
                 f"({_mm(path['rms_contour_error'], lsb_mm)}) over {path['samples']:,} samples")]
     half = 1 << (machine.dac_bits - 1)
     for axis, a in r["axes"].items():
+        if a["command"] is None:
+            lines.append(f"  {axis}: unknown (the link was lost)")
+            continue
         most = a["max_abs_error"]
         largest = ("unknown" if most is None else
                    f"{most} LSB ({_mm(most, lsb_mm)}, "

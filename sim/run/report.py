@@ -37,6 +37,16 @@ BALLBAR_FIGURES = {
                               f"across {q} degrees" for q in (0, 90, 180, 270)},
 }
 
+#: Why the path's contour error is null.
+_UNSAMPLED = "over a link: the samples are the served machine's, not the host's"
+
+
+def _nullable(schema: dict, why: str) -> dict:
+    """``schema`` that may also be null, saying when."""
+    return {**schema, "type": [schema["type"], "null"],
+            "description": f"{schema['description']}; null: {why}"}
+
+
 def _obj(description: str, props: dict[str, dict], required: list[str] | None = None) -> dict:
     return {"type": "object", "description": description, "properties": props,
             "required": list(props) if required is None else required}
@@ -60,9 +70,10 @@ _STEPS = _obj("step pulses the K3701 emitted in the block, per axis and directio
               required=["x+", "x-", "y+", "y-"])
 
 _AXIS = _obj("one axis at the end of the run", {
-    "command": _int("K3702 command counter (LSB)"),
-    "error": _int("K3702 error counter (LSB)"),
-    "actual": _int("plant encoder count, the true position (LSB)"),
+    "command": _nullable(_int("K3702 command counter (LSB)"), "the link was lost"),
+    "error": _nullable(_int("K3702 error counter (LSB)"), "the link was lost"),
+    "actual": _nullable(_int("plant encoder count, the true position (LSB)"),
+                        "the link was lost"),
     "max_abs_error": {"type": ["integer", "null"],
                       "description": "largest absolute error at any cycle of the run (LSB; "
                                      "null: over a link to a real board)"},
@@ -75,10 +86,14 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
     "schema_version": _int(f"version of this schema ({SCHEMA_VERSION})"),
     "job": {"type": "object", "description": "the job's configuration as run"},
     "status": {"type": "string",
-               "enum": ["ok", "alarm", "fault", "timeout", "interrupted", "stalled"],
+               "enum": ["ok", "alarm", "fault", "timeout", "interrupted", "stalled",
+                        "link-lost"],
                "description": "ok; alarm: a K3702 alarm stopped the feed; fault: an "
                               "interpolator error, FP overrun, encoder fault or settle "
-                               "timeout; timeout: a limit ran out (--max-cycles, or the job's "
+                               "timeout, or over a link the board's watchdog, E-stop or a "
+                               "limit stopped the machine; link-lost: over a link, the link "
+                               "failed during the run (what was not read is null); "
+                               "timeout: a limit ran out (--max-cycles, or the job's "
                                "run.max_time_s of simulated time); interrupted: a stop was "
                                "requested (Ctrl-C); stalled: a block made no progress (no "
                                "feed pulse, no axis motion) for its stall time, the reason "
@@ -122,7 +137,9 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
                  {"x": _AXIS, "y": _AXIS, "z": _AXIS}, required=["x", "y"]),
     "end_point": _obj("whether the machine reached the program's end point", {
         "programmed": _xy("the last move's end (LSB), one value per axis"),
-        "actual": _xy("the plants' encoder counts at the end of the run (LSB), one per axis"),
+        "actual": {**_xy("the plants' encoder counts at the end of the run (LSB), one per "
+                         "axis; null: the link was lost"),
+                   "items": {"type": ["integer", "null"]}},
         "program_ran": {"type": "boolean", "description": "every block of the program ran to "
                                                           "its end"},
         "reached": {"type": "boolean", "description": "program_ran, and every axis within the "
@@ -130,8 +147,8 @@ RUN_SCHEMA: dict[str, Any] = _obj("result of `k37 run`", {
                                                       "of the end point"},
     }),
     "path": _obj("contour error: distance from each actual sample to the programmed path", {
-        "max_contour_error": _num("largest (LSB)"),
-        "rms_contour_error": _num("root mean square (LSB)"),
+        "max_contour_error": _nullable(_num("largest (LSB)"), _UNSAMPLED),
+        "rms_contour_error": _nullable(_num("root mean square (LSB)"), _UNSAMPLED),
         "samples": _int("samples taken"),
     }),
     "alarms": {"type": "array", "description": "alarms and faults, in order",
@@ -165,11 +182,20 @@ RUN_SCHEMA["properties"]["link"] = _obj(
         "url": {"type": "string", "description": "the link's URL"},
         "probes": {"type": "boolean", "description": "the far end answered PROBE (a simulated "
                                                      "board): the blocks' pulses are known"},
-        "board_cycle": _int("the bridge's cycle counter at the end (modulo 2^40): ahead of "
-                            "`cycles` by the time bytes spent on the line"),
-        "board_cycles": _int("the board's own count of the firmware's run, from its bridge's "
-                             "cycle counter: `cycles` is the host's count, which misses the "
-                             "time bytes spend on the line"),
+        "board_cycle": _nullable(_int(
+            "the bridge's cycle counter at the end (modulo 2^40): ahead of `cycles` by the "
+            "time bytes spent on the line"), "the link was lost"),
+        "board_cycles": _nullable(_int(
+            "the board's own count of the firmware's run, from its bridge's cycle counter: "
+            "`cycles` is the host's count, which misses the time bytes spend on the line"),
+            "the link was lost"),
+        "board": {"type": ["object", "null"],
+                  "description": "the board's STATUS when the run ended, by field "
+                                 "(docs/registers.md, BOARD): its latched watchdog, E-stop "
+                                 "and limit bits, the E-stop input and drive-enable; null: "
+                                 "the link was lost"},
+        "watchdog_cycles": _int("the board's watchdog time the host armed for the run "
+                                "(`--watchdog`, in cycles; 0: not armed)"),
         "board_blocks": {"type": "array", "items": {"type": ["array", "null"]},
                          "description": "each block's start and end cycle on the board, by "
                                         "PROBE or, from a board without it, by its bridge's "

@@ -9,6 +9,12 @@ clock (:class:`k37.sim.link.simulated.SimulatedLink` over a
 (and the line's, with a UART's line time), so a session is as deterministic as a run in
 process. The board answers :attr:`Op.PROBE` too: the observation counters a real board has no
 bus for. One session at a time; a host that connects while another is being served waits.
+
+The board's machine I/O (:class:`k37.sim.serve.board.BoardIO`: watchdog, E-stop, limits) sits
+between the bridge and the machine. A board's time runs on when its host goes silent; a
+simulated board's stands still, except that with its watchdog armed, once the host has sent
+nothing for the watchdog's time by the wall clock, or has gone (its connection closed), the
+machine runs on until the watchdog trips and the board holds, as a board's would.
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ from k37.sim.link.simulated import SimulatedLink
 from k37.sim.run.output import write_samples
 from k37.sim.run.runner import build_backend, configure_plants
 from k37.sim.run.sampler import Sampler, SampleStore
+from k37.sim.serve.board import BoardIO
 
 __all__ = ["Session", "SimulatedBoard"]
 
@@ -77,8 +84,11 @@ class SimulatedBoard:
         configure_plants(self.backend, job)
         self.store = SampleStore(job.machine.dac_bits, job.machine.axis_names)
         self.sampler = Sampler(self.backend, sample_every, self.store, skip_idle=True)
+        #: The board's watchdog, E-stop and limits in front of the machine.
+        self.board = BoardIO(SimulatedLink(self.sampler), self.backend, job)
         self.model: BridgeModel | LineTimed = BridgeModel(
-            SimulatedLink(self.sampler), self.identity, probe=self._probe if probes else None)
+            self.board, self.identity, probe=self._probe if probes else None,
+            on_frame=self.board.frame)
         if line is not None:
             self.model = LineTimed(self.model, *line)
 
@@ -94,8 +104,16 @@ class SimulatedBoard:
         began = self.backend.cycle
         with conn:
             while not self.stop.is_set():
+                timeout = self.board.seconds_to_trip(self.job.machine.clock_hz)
+                if timeout is not None and timeout <= 0:
+                    self.board.unattended()
+                    continue
+                conn.settimeout(timeout)
                 try:
                     data = conn.recv(4096)
+                except TimeoutError:  # a silent host: the watchdog's time has passed
+                    self.board.unattended()
+                    continue
                 except OSError:
                     break
                 if not data:
@@ -107,6 +125,7 @@ class SimulatedBoard:
                         conn.sendall(reply)
                     except OSError:
                         break
+        self.board.unattended()  # the host has gone
         self.sampler.flush()
         session.cycles = self.backend.cycle - began
         if self.trace is not None:
