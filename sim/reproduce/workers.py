@@ -20,6 +20,7 @@ from k37.firmware_model.host import Host8085
 from k37.firmware_model.job import AXES
 from k37.hdl.feed.map.decel_control import DECEL_MAP
 from k37.hdl.feed.map.feed_rate import FEED_MAP
+from k37.hdl.k3701.block import Block
 from k37.hdl.k3701.map import block_registers
 from k37.sim.link.simulated import SimulatedLink
 from k37.sim.reproduce.runs import RateSpec, RunData, RunSpec, Specs, minus_spec
@@ -59,6 +60,19 @@ def _run(spec: RunSpec) -> RunData:
                    time.perf_counter() - start)
 
 
+def start_at_full_feed(host: Host8085, block: Block) -> None:
+    """Start the K3701 on ``block`` with the feed path wide open: the rate multiplier's input
+    clock at every cycle and its word at the maximum, the budget at the maximum: FP in all but
+    1 of 2^18 cycles."""
+    host.command("K3701", ack=1, clear=1)
+    for register, value in block_registers(block).items():
+        host.write("K3701", register, value)
+    host.command("K3701", start=1, ack=1)
+    for chip, regmap, register in (("FEED", FEED_MAP, "RM_INC"), ("FEED", FEED_MAP, "FEED"),
+                                   ("DECEL", DECEL_MAP, "BUDGET")):
+        host.write(chip, register, regmap[register].bounds[1])
+
+
 def _max_rates(spec: RateSpec) -> RunData:
     """Step rates of the K3701 gateware with FP offered every cycle (``docs/chips/k3701.md``)."""
     start = time.perf_counter()
@@ -67,16 +81,7 @@ def _max_rates(spec: RateSpec) -> RunData:
     for name, block, counter, steps in spec.blocks:
         backend = reused_backend(spec.job())
         used.add(backend.name)
-        host = Host8085(SimulatedLink(backend))
-        host.command("K3701", ack=1, clear=1)
-        for register, value in block_registers(block).items():
-            host.write("K3701", register, value)
-        host.command("K3701", start=1, ack=1)
-        # The feed path wide open: the rate multiplier's input clock at every cycle and its
-        # word at the maximum, the budget at the maximum: FP in all but 1 of 2^18 cycles.
-        for chip, regmap, register in (("FEED", FEED_MAP, "RM_INC"), ("FEED", FEED_MAP, "FEED"),
-                                       ("DECEL", DECEL_MAP, "BUDGET")):
-            host.write(chip, register, regmap[register].bounds[1])
+        start_at_full_feed(Host8085(SimulatedLink(backend)), block)
         backend.step(1000)  # past the start and the circle's radius check
         c0, n0 = backend.cycle, backend.get(counter)
         backend.step(steps * block.latency)

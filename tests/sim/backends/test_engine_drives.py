@@ -18,14 +18,12 @@ from hypothesis import strategies as st
 
 from k37.firmware_model.host import Host8085
 from k37.firmware_model.job import MachineConfig
-from k37.hdl.feed.map.decel_control import DECEL_MAP
-from k37.hdl.feed.map.feed_rate import FEED_MAP
 from k37.hdl.k3701.block import Block
-from k37.hdl.k3701.map import block_registers
 from k37.sim.backends.engine.backend import PROBES
 from k37.sim.backends.factory import choose_backend
 from k37.sim.link.simulated import SimulatedLink
 from k37.sim.machine.servo import load_step_fault
+from k37.sim.reproduce.workers import start_at_full_feed
 from k37.sim.run.runner import RunOptions, build_backend, configure_plants, run_job, system_params
 from tests.sim.backends.test_engine import same_on_engine_and_rtl
 
@@ -101,14 +99,7 @@ def test_engine_probes_read_as_the_rtls_signals_through_a_block(accel, block, ma
     assert names == [p for p in PROBES if accel == "pre" or p != "chipset.accel.idle"]
     for backend in (engine, rtl):
         configure_plants(backend, job)
-        host = Host8085(SimulatedLink(backend))
-        host.command("K3701", ack=1, clear=1)
-        for register, value in block_registers(block).items():
-            host.write("K3701", register, value)
-        host.command("K3701", start=1, ack=1)
-        for chip, regmap, register in (("FEED", FEED_MAP, "RM_INC"), ("FEED", FEED_MAP, "FEED"),
-                                       ("DECEL", DECEL_MAP, "BUDGET")):
-            host.write(chip, register, regmap[register].bounds[1])
+        start_at_full_feed(Host8085(SimulatedLink(backend)), block)
     seen = set()
     for _ in range(4000):
         values = [engine.probe(name) for name in names]

@@ -70,12 +70,15 @@ def test_the_three_axis_k3701s_ecp5_netlist_matches_its_reference_model():
 
 #: Board cycles per chipset cycle on the ULX3S.
 RATIO = 25
+#: The machine's stop inputs (active low) released: no E-stop, no limit.
+RELEASED = {"estop_n": 1, "x_limit_n": 1, "y_limit_n": 1, "z_limit_n": 1}
 
 
 def _board_stimulus() -> list[dict[str, int]]:
     """Board-clock rows: reset, then a WRITE frame on ``uart_rx`` (the X axis's DAC_BITS to 16,
     so its D/A runs the full swing) at the bridge's 125 kBd, while X's encoder turns forward and
-    Y's backward; long enough for the bridge's reply to go out on ``uart_tx``."""
+    Y's backward, the stop inputs released; long enough for the bridge's reply to go out on
+    ``uart_tx``."""
     bit = RATIO * 8
     frame = encode(Op.WRITE, port("K3702_X", "DAC_BITS"), 16, seq=1)
     rx = [1] * (20 * RATIO)
@@ -88,7 +91,7 @@ def _board_stimulus() -> list[dict[str, int]]:
         x = quadrature[(t // (6 * RATIO)) % 4]
         y = quadrature[-(t // (9 * RATIO)) % 4]
         rows.append({"rst": int(t == 0), "uart_rx": level, "x_a": x[0], "x_b": x[1],
-                     "y_a": y[0], "y_b": y[1], "z_a": 0, "z_b": 0})
+                     "y_a": y[0], "y_b": y[1], "z_a": 0, "z_b": 0, **RELEASED})
     return rows
 
 
