@@ -204,13 +204,17 @@ def _run(gcode: str, controller: str = "none", machine=PLANT, servo=None):
 
 
 def test_a_tool_many_chords_behind_is_measured_against_its_own_chord():
+    # 100 chords of 0.67 mm of one line at 60 mm/s on the Table 1 plant (Kp 10.3/s on X,
+    # 10/s on Y): the tool trails the interpolator by 6 mm, nine chords, and the unequal lags
+    # take it off the line by 17 LSB at most (equal gains would keep it on the line, within
+    # a step).
     chords = "\n".join(f"G01 X{0.6 * k:.3f} Y{0.3 * k:.3f}" for k in range(1, 101))
-    run = _run(f"G21 G90 F3600\n{chords}\nM30\n", servo={"x": ServoConfig(kp=10.0),
-                                                        "y": ServoConfig(kp=10.0)})
+    run = _run(f"G21 G90 F3600\n{chords}\nM30\n")
     actual = run.samples[:, 3:5].astype(float)
     d = np.array([12000.0, 6000.0])
     t = np.clip(actual @ d / (d @ d), 0, 1)
     exact = np.hypot(*(actual - np.outer(t, d)).T)  # the chords are one straight line
+    assert 15 < exact.max() < 19
     assert run.report["path"]["max_contour_error"] == pytest.approx(exact.max(), abs=1)
     assert run.report["path"]["rms_contour_error"] == pytest.approx(
         math.sqrt(np.mean(exact**2)), abs=0.5)
