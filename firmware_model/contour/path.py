@@ -242,25 +242,32 @@ class Path:
         """Parameter and nearest point of each row of ``p`` on its segment ``k`` (per row),
         up to parameter ``top`` (per row): :meth:`Segment.foot` of each row, lines and arcs
         all at once."""
-        t = self.table
+        kind = self.table.kind[k]
+        if len(k) and (kind == kind[0]).all():  # one kind (one row): no split
+            return self._feet(int(kind[0]), k, p, top)
         u, q = np.empty(len(p)), np.empty_like(p)
-        kind = t.kind[k]
-        for which in (_LINE, _ARC):
+        for which in (_LINE, _ARC, _SAMPLED):
             rows = np.flatnonzero(kind == which)
-            if not len(rows):
-                continue
-            kk, pp = k[rows], p[rows]
-            if which == _LINE:
-                u[rows], q[rows] = _line_foot(pp, t.start[kk], t.d[kk], t.length2[kk], top[rows])
-                continue
-            uu = _arc_param(pp, t.first[kk], t.second[kk], t.centre[kk], t.a0[kk],
-                            t.sweep[kk], t.cw[kk], top[rows])
-            u[rows] = uu
-            q[rows] = _arc_points(uu, t.start[kk], t.d[kk], t.first[kk], t.second[kk],
-                                  t.centre[kk], t.radius[kk], t.a0[kk], t.turn[kk])
-        rows = np.flatnonzero(kind == _SAMPLED)
-        for segment in np.unique(k[rows]):
-            on = rows[k[rows] == segment]
+            if len(rows):
+                u[rows], q[rows] = self._feet(which, k[rows], p[rows], top[rows])
+        return u, q
+
+    def _feet(self, kind: int, k: np.ndarray, p: np.ndarray, top: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`feet` on segments of one ``kind``."""
+        t = self.table
+        if kind == _LINE:
+            return _line_foot(p, t.start[k], t.d[k], t.length2[k], top)
+        if kind == _ARC:
+            first, second, centre, a0 = t.first[k], t.second[k], t.centre[k], t.a0[k]
+            u = _arc_param(p, first, second, centre, a0, t.sweep[k], t.cw[k], top)
+            return u, _arc_points(u, t.start[k], t.d[k], first, second, centre, t.radius[k],
+                                  a0, t.turn[k])
+        if (k == k[0]).all():
+            return self.segments[k[0]].foot(p, top)
+        u, q = np.empty(len(p)), np.empty_like(p)
+        for segment in np.unique(k):
+            on = np.flatnonzero(k == segment)
             u[on], q[on] = self.segments[segment].foot(p[on], top[on])
         return u, q
 
@@ -365,9 +372,8 @@ class Tracker:
             part = slice(i, i + done)
             out.segment[part], out.param[part] = found.segment[:done], found.param[:done]
             out.point[part], out.distance[part] = found.point[:done], found.distance[:done]
-            entered = np.flatnonzero(np.diff(found.segment[:done], prepend=self.segment))
-            if len(entered):  # the latest segment the tool entered, and when
-                r = int(entered[-1])
+            if found.segment[done - 1] != self.segment:  # when the tool entered its segment
+                r = int(np.searchsorted(found.segment[:done], found.segment[done - 1]))
                 self.delay = i + r - int(np.searchsorted(limit, found.segment[r] + 1))
             self.segment = int(found.segment[done - 1])
             self.last, self.error = p[i + done - 1].copy(), float(found.distance[done - 1])
@@ -386,6 +392,8 @@ class Tracker:
         here = self._here(guess, p, ones)
         error = np.concatenate([[self.error], here.distance[:-1]])
         found = self._window(p, travel, limit, here, error)
+        if n == 1:  # the first row's inputs are the tracker's own
+            return found, 1
         everything = np.arange(n)
         for _ in range(ROUNDS + 1):
             segment = np.concatenate([[c], found.segment[:-1]])
