@@ -26,6 +26,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from typing import overload
 
 import numpy as np
 
@@ -224,13 +225,13 @@ class Path:
     def __init__(self, moves: Sequence[Move], axes: int):
         self.moves = tuple(moves)
         self.axes = axes
-        self.segments = [Segment(m, axes) for m in self.moves]
-        self.table = _Table(self.moves, axes)
-        lines = self.table.kind == _LINE
-        #: Each segment's length (:attr:`Segment.length`) and the arc length from the path's
-        #: start to each segment's end (LSB).
-        self.lengths = np.sqrt(self.table.length2)
-        self.lengths[~lines] = [self.segments[k].length for k in np.flatnonzero(~lines)]
+        self.segments: Sequence[Segment] = _Segments(self.moves, axes)
+        t = self.table = _Table(self.moves, axes)
+        #: Each segment's length (:attr:`Segment.length`: a plane arc's is its radius times
+        #: its sweep) and the arc length from the path's start to each segment's end (LSB).
+        self.lengths = np.where(t.kind == _LINE, np.sqrt(t.length2), t.radius * t.sweep)
+        sampled = np.flatnonzero(t.kind == _SAMPLED)
+        self.lengths[sampled] = [self.segments[k].length for k in sampled]
         self.ends = np.cumsum(self.lengths)
 
     def foot(self, k: int, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -288,6 +289,31 @@ class Path:
         assert best is not None
         return best
 
+
+
+class _Segments(Sequence[Segment]):
+    """The segments of ``moves``, each made when first asked for."""
+
+    def __init__(self, moves: Sequence[Move], axes: int):
+        self._moves, self._axes = moves, axes
+        self._made: dict[int, Segment] = {}
+
+    def __len__(self) -> int:
+        return len(self._moves)
+
+    @overload
+    def __getitem__(self, k: int) -> Segment: ...
+
+    @overload
+    def __getitem__(self, k: slice) -> list[Segment]: ...
+
+    def __getitem__(self, k: int | slice) -> Segment | list[Segment]:
+        if isinstance(k, slice):
+            return [self[j] for j in range(*k.indices(len(self)))]
+        k = range(len(self))[k]  # negative indices, and IndexError past the end
+        if k not in self._made:
+            self._made[k] = Segment(self._moves[k], self._axes)
+        return self._made[k]
 
 
 def _kind(move: Move, axes: int) -> int:
