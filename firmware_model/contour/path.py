@@ -363,11 +363,11 @@ class Tracker:
     Each sample's window depends on the previous sample's segment and distance only, so a
     chunk of samples is solved at once by a fixed-point iteration: a guessed segment per row
     (the interpolator's block as many samples before as the tool last entered a segment
-    after the interpolator entered its block), every row's
-    window from it, then each row's segment and distance handed on as the next row's, only
-    the rows whose inputs changed computed again; the rows up to the first whose inputs still
-    changed are the ones the sample-by-sample rule gives, bit for bit (the first row's inputs
-    are the tracker's own)."""
+    after the interpolator entered its block), every row's window from it, then each row's
+    segment and distance handed on as the next row's, only the rows whose inputs changed
+    computed again; the rows up to the first whose inputs still changed are the ones the
+    sample-by-sample rule gives, bit for bit (the first row's inputs are the tracker's
+    own), and the next chunk starts after them."""
 
     def __init__(self, path: Path):
         self.path = path
@@ -420,16 +420,17 @@ class Tracker:
         found = self._window(p, travel, limit, here, error)
         if n == 1:  # the first row's inputs are the tracker's own
             return found, 1
-        everything = np.arange(n)
-        for _ in range(ROUNDS + 1):
+        everything, rounds = np.arange(n), 0
+        while True:
             segment = np.concatenate([[c], found.segment[:-1]])
             handed = np.concatenate([[self.error], found.distance[:-1]])
             moved = segment != here.segment
             changed = moved | (handed != error)
             if not changed.any():
                 return found, n
-            if _ == ROUNDS:
+            if rounds == ROUNDS:
                 return found, int(np.argmax(changed))
+            rounds += 1
             error = handed
             if moved.any():
                 rows = np.flatnonzero(moved)
@@ -437,7 +438,6 @@ class Tracker:
             rows = everything[changed]
             _put(found, rows, self._window(p[rows], travel[rows], limit[rows],
                                            _take(here, rows), error[rows]))
-        raise AssertionError("unreachable")
 
     def _here(self, segment: np.ndarray, p: np.ndarray, ones: np.ndarray) -> Foot:
         u, q = self.path.feet(segment, p, ones)
