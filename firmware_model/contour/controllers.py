@@ -113,10 +113,16 @@ class ContourController:
         actual = np.asarray(actual, dtype=float)
         foot = self.tracker.track(actual[None],
                                   np.array([min(running + 1, len(self.path.moves) - 1)]))
-        at_tool = _unit_tangent(self.path.segments[int(foot.segment[0])], float(foot.param[0]))
-        segment = self.path.segments[running]
-        at_reference = _unit_tangent(segment, float(segment.foot(np.asarray(
-            reference, dtype=float)[None])[0][0]))
+        # The path's unit tangent at the tool's nearest point (the CEC's, the CCC's) and at
+        # the reference (the VGCCC's, the CCC's).
+        at_tool = at_reference = np.zeros_like(actual)
+        if c.controller != "vgccc":
+            at_tool = _unit_tangent(self.path.segments[int(foot.segment[0])],
+                                    float(foot.param[0]))
+        if c.controller != "cec":
+            segment = self.path.segments[running]
+            at_reference = _unit_tangent(segment, float(segment.foot(np.asarray(
+                reference, dtype=float)[None])[0][0]))
         if (((self.corners >= self.tracker.segment) & (self.corners < running)).any()
                 or (c.controller == "ccc" and _angle(at_tool, at_reference) > CCC_TURN_DEG)):
             # The reference has turned a corner the tool has not (or, for the CCC, whose
