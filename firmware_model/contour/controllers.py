@@ -19,7 +19,8 @@ component, which is the PID of the contour error distributed along the error vec
 direction holds; the integral keeps only its part across the path's tangent (at the tool's
 nearest point for the CEC, at the reference for the others), so it turns with the path. The
 result is the correction (LSB) the host adds to each axis's D/A word. Every controller lets
-go at a corner (:data:`CORNER_DEG`).
+go at a corner (:data:`CORNER_DEG`), the CCC also where the path turns too far between the
+tool and the reference (:data:`CCC_TURN_DEG`).
 """
 
 from __future__ import annotations
@@ -33,11 +34,15 @@ from k37.firmware_model.contour.path import Path, Segment, Tracker
 from k37.firmware_model.job import ContourConfig
 from k37.firmware_model.motion.program import Move
 
-__all__ = ["CORNER_DEG", "ContourController", "derivatives", "error_vector"]
+__all__ = ["CCC_TURN_DEG", "CORNER_DEG", "ContourController", "derivatives", "error_vector"]
 
 #: A junction whose tangent turns by more than this (degrees) is a corner: every controller
 #: lets go of the tool from when the reference passes it until the tool's nearest point does.
 CORNER_DEG = 30.0
+#: The CCC also lets go while the tangent at the reference is more than this (degrees) off the
+#: tangent at the tool's nearest point: its tangent line is then off the path at the tool by
+#: |E| sin(7.5 degrees), an eighth of the following error, or more.
+CCC_TURN_DEG = 15.0
 
 
 def derivatives(segment: Segment, u: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -108,10 +113,23 @@ class ContourController:
         actual = np.asarray(actual, dtype=float)
         foot = self.tracker.track(actual[None],
                                   np.array([min(running + 1, len(self.path.moves) - 1)]))
-        if ((self.corners >= self.tracker.segment) & (self.corners < running)).any():
-            # The reference has turned a corner the tool has not: the controller lets go (the
-            # position loops turn the corner) and starts afresh once the tool's nearest point
-            # is past it (no derivative kick, no integral of the stretch before).
+        # The path's unit tangent at the tool's nearest point (the CEC's, the CCC's) and at
+        # the reference (the VGCCC's, the CCC's).
+        at_tool = at_reference = np.zeros_like(actual)
+        if c.controller != "vgccc":
+            at_tool = _unit_tangent(self.path.segments[int(foot.segment[0])],
+                                    float(foot.param[0]))
+        if c.controller != "cec":
+            segment = self.path.segments[running]
+            at_reference = _unit_tangent(segment, float(segment.foot(np.asarray(
+                reference, dtype=float)[None])[0][0]))
+        if (((self.corners >= self.tracker.segment) & (self.corners < running)).any()
+                or (c.controller == "ccc" and _angle(at_tool, at_reference) > CCC_TURN_DEG)):
+            # The reference has turned a corner the tool has not (or, for the CCC, whose
+            # path is the tangent line at the reference, the path turns too far between
+            # them): the controller lets go (the position loops turn the corner) and starts
+            # afresh once the tool's nearest point is past it (no derivative kick, no
+            # integral of the stretch before).
             self.integral[:] = 0
             self.last = None
             return np.zeros_like(actual)
@@ -122,12 +140,7 @@ class ContourController:
         # the path turns, its part along the new tangent is dropped, and the rest turns with
         # the path (a component-wise integral of an error that turns with the path, round a
         # circle, would keep a constant part that pushes the whole circle off centre).
-        if c.controller == "cec":
-            along = _unit_tangent(self.path.segments[int(foot.segment[0])], float(foot.param[0]))
-        else:
-            segment = self.path.segments[running]
-            along = _unit_tangent(segment, float(segment.foot(np.asarray(
-                reference, dtype=float)[None])[0][0]))
+        along = at_tool if c.controller == "cec" else at_reference
         self.integral -= (self.integral @ along) * along
         self.integral += error * self.period_s
         change = np.zeros_like(error) if self.last is None else error - self.last
@@ -145,8 +158,12 @@ def _unit_tangent(segment: Segment, u: float) -> np.ndarray:
 def _turn(before: Segment, after: Segment) -> float:
     """How far the tangent turns (degrees) from the end of ``before`` to the start of
     ``after``."""
-    out, into = derivatives(before, 1.0)[1], derivatives(after, 0.0)[1]
-    size = float(np.sqrt((out @ out) * (into @ into)))
+    return _angle(derivatives(before, 1.0)[1], derivatives(after, 0.0)[1])
+
+
+def _angle(a: np.ndarray, b: np.ndarray) -> float:
+    """The angle (degrees) between directions ``a`` and ``b`` (none if either is zero)."""
+    size = float(np.sqrt((a @ a) * (b @ b)))
     if size == 0:
         return 0.0
-    return float(np.degrees(np.arccos(np.clip(out @ into / size, -1.0, 1.0))))
+    return float(np.degrees(np.arccos(np.clip(a @ b / size, -1.0, 1.0))))

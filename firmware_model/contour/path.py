@@ -26,6 +26,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from typing import overload
 
 import numpy as np
 
@@ -44,6 +45,44 @@ GOLDEN_STEPS = 40
 #: Distances this close (LSB) count as equal: the furthest segment is taken.
 TIE = 1e-6
 _GOLD = (math.sqrt(5) - 1) / 2
+#: A segment's kind: a line and a plane arc have closed forms, the rest are searched along.
+_LINE, _ARC, _SAMPLED = 0, 1, 2
+
+
+def _line_foot(p: np.ndarray, start: np.ndarray, d: np.ndarray, length2: np.ndarray | float,
+               end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Parameter and point of each row of ``p``'s nearest point of the line ``start`` +
+    u ``d`` (its squared length ``length2``), u in [0, ``end``]; one line, or one per row."""
+    along = ((p - start) * d).sum(axis=1)
+    u = np.clip(along / np.where(length2 == 0, 1.0, length2), 0.0, end)  # none: its start
+    return u, start + u[:, None] * d
+
+
+def _arc_param(p: np.ndarray, first: np.ndarray | int, second: np.ndarray | int,
+               centre: np.ndarray, a0: np.ndarray | float, sweep: np.ndarray | float,
+               cw: np.ndarray | bool, end: np.ndarray) -> np.ndarray:
+    """Parameter of each row of ``p``'s nearest point of a plane arc, in [0, ``end``]; one
+    arc, or one per row."""
+    rows = np.arange(len(p))
+    angle = np.arctan2(p[rows, second] - centre[..., 1], p[rows, first] - centre[..., 0])
+    off = np.where(cw, a0 - angle, angle - a0) % math.tau
+    # Past the sweep: the nearer end (the angle half way round the rest splits them).
+    swept = sweep * end
+    return np.where(off <= swept, off / sweep,
+                    np.where(off - swept < (math.tau - swept) / 2, end, 0.0))
+
+
+def _arc_points(u: np.ndarray, start: np.ndarray, d: np.ndarray, first: np.ndarray | int,
+                second: np.ndarray | int, centre: np.ndarray, radius: np.ndarray | float,
+                a0: np.ndarray | float, turn: np.ndarray | float) -> np.ndarray:
+    """Points of an arc or helix (``turn``: its signed sweep) at parameters ``u``; one arc,
+    or one per row."""
+    angle = a0 + turn * u
+    points = start + u[:, None] * d  # a helix rises evenly
+    rows = np.arange(len(u))
+    points[rows, first] = centre[..., 0] + radius * np.cos(angle)
+    points[rows, second] = centre[..., 1] + radius * np.sin(angle)
+    return points
 
 
 @dataclass(frozen=True)
@@ -64,7 +103,7 @@ class Segment:
         return np.array(self.move.end[:self.axes], dtype=float)
 
     @cached_property
-    def _circle(self) -> tuple[int, int, np.ndarray, float, float, float, bool]:
+    def circle(self) -> tuple[int, int, np.ndarray, float, float, float, bool]:
         """An arc's plane axes, centre, radius, start angle, sweep and direction."""
         m = self.move
         assert isinstance(m, Arc)
@@ -77,17 +116,14 @@ class Segment:
         m = self.move
         if isinstance(m, Line):
             if m.curve is None:
-                return self.start + np.outer(u, self.end - self.start)
+                return self.start + u[:, None] * (self.end - self.start)
             span = m.curve
             plane = span.curve.at(span.t0 + (span.t1 - span.t0) * u)
             return plane if self.axes == 2 else np.column_stack([plane, np.full(len(u), span.z)])
         if isinstance(m, Arc):
-            first, second, centre, radius, a0, sweep, cw = self._circle
-            angle = a0 + (-sweep if cw else sweep) * u
-            rows = self.start + np.outer(u, self.end - self.start)  # a helix rises evenly
-            rows[:, first] = centre[0] + radius * np.cos(angle)
-            rows[:, second] = centre[1] + radius * np.sin(angle)
-            return rows
+            first, second, centre, radius, a0, sweep, cw = self.circle
+            return _arc_points(u, self.start, self.end - self.start, first, second, centre,
+                               radius, a0, -sweep if cw else sweep)
         plane = m.at(u * m.extent)
         return plane if self.axes == 2 else np.column_stack(
             [plane, np.full(len(u), float(m.start[2]))])
@@ -102,47 +138,38 @@ class Segment:
             rise = float(self.end[normal] - self.start[normal]) if normal < self.axes else 0.0
             return math.hypot(m.radius * m.span[1], rise)
         if isinstance(m, Line) and m.curve is None:
-            return float(np.sqrt((self.end - self.start) @ (self.end - self.start)))
+            return math.sqrt(self.length2)
         q = self.at(np.linspace(0.0, 1.0, 257))
         return float(np.sqrt(((q[1:] - q[:-1]) ** 2).sum(axis=1)).sum())
 
     @cached_property
-    def _sampled(self) -> bool:
+    def sampled(self) -> bool:
         """No closed form: a spline's chord, a curve, a rising helix."""
-        m = self.move
-        if isinstance(m, Line):
-            return m.curve is not None
-        if isinstance(m, Arc):
-            normal = m.plane_axes[2]
-            return normal < self.axes and m.end[normal] != m.start[normal]
-        return True
+        return _kind(self.move, self.axes) == _SAMPLED
 
     def foot(self, p: np.ndarray, top: np.ndarray | None = None
              ) -> tuple[np.ndarray, np.ndarray]:
         """The parameter of each row of ``p``'s nearest point of the segment, and that point;
         with ``top``, of the part of it up to that parameter (per row; on a curve, the
         nearest point beyond it is drawn back to it)."""
-        if self._sampled:
+        if self.sampled:
             u, q = self._search(p)
             if top is None or not (u > top).any():
                 return u, q
             u = np.minimum(u, top)
             return u, self.at(u)
-        end = 1.0 if top is None else top
+        end = np.ones(len(p)) if top is None else top
         if isinstance(self.move, Line):
-            d = self.end - self.start
-            length2 = float(d @ d)
-            u = (np.zeros(len(p)) if length2 == 0
-                 else np.clip((p - self.start) @ d / length2, 0.0, end))
-            return u, self.start + np.outer(u, d)
-        first, second, centre, _, a0, sweep, cw = self._circle
-        angle = np.arctan2(p[:, second] - centre[1], p[:, first] - centre[0])
-        off = ((a0 - angle) if cw else (angle - a0)) % math.tau
-        # Past the sweep: the nearer end (the angle half way round the rest splits them).
-        swept = sweep * end
-        u = np.where(off <= swept, off / sweep,
-                     np.where(off - swept < (math.tau - swept) / 2, end, 0.0))
+            return _line_foot(p, self.start, self.end - self.start, self.length2, end)
+        first, second, centre, _, a0, sweep, cw = self.circle
+        u = _arc_param(p, first, second, centre, a0, sweep, cw, end)
         return u, self.at(u)
+
+    @cached_property
+    def length2(self) -> float:
+        """A line's squared length (LSB squared)."""
+        d = self.end - self.start
+        return float((d * d).sum())
 
     def _search(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         grid = self._grid
@@ -198,44 +225,149 @@ class Path:
     def __init__(self, moves: Sequence[Move], axes: int):
         self.moves = tuple(moves)
         self.axes = axes
-        self.segments = [Segment(m, axes) for m in self.moves]
-        #: Arc length from the path's start to each segment's end (LSB).
-        self.ends = np.cumsum([s.length for s in self.segments])
+        self.segments: Sequence[Segment] = _Segments(self.moves, axes)
+        t = self.table = _Table(self.moves, axes)
+        #: Each segment's length (:attr:`Segment.length`: a plane arc's is its radius times
+        #: its sweep) and the arc length from the path's start to each segment's end (LSB).
+        self.lengths = np.where(t.kind == _LINE, np.sqrt(t.length2), t.radius * t.sweep)
+        sampled = np.flatnonzero(t.kind == _SAMPLED)
+        self.lengths[sampled] = [self.segments[k].length for k in sampled]
+        self.ends = np.cumsum(self.lengths)
 
     def foot(self, k: int, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Parameter and nearest point on segment ``k`` of each row of ``p``."""
         return self.segments[k].foot(np.asarray(p, dtype=float))
 
-    def nearest(self, p: np.ndarray, first: int, last: int | np.ndarray,
-                on_first: Foot | None = None, reach: np.ndarray | None = None) -> Foot:
+    def feet(self, k: np.ndarray, p: np.ndarray, top: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray]:
+        """Parameter and nearest point of each row of ``p`` on its segment ``k`` (per row),
+        up to parameter ``top`` (per row): :meth:`Segment.foot` of each row, lines and arcs
+        all at once."""
+        kind = self.table.kind[k]
+        if len(k) and (kind == kind[0]).all():  # one kind (one row): no split
+            return self._feet(int(kind[0]), k, p, top)
+        u, q = np.empty(len(p)), np.empty_like(p)
+        for which in (_LINE, _ARC, _SAMPLED):
+            rows = np.flatnonzero(kind == which)
+            if len(rows):
+                u[rows], q[rows] = self._feet(which, k[rows], p[rows], top[rows])
+        return u, q
+
+    def _feet(self, kind: int, k: np.ndarray, p: np.ndarray, top: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`feet` on segments of one ``kind``."""
+        t = self.table
+        if kind == _LINE:
+            return _line_foot(p, t.start[k], t.d[k], t.length2[k], top)
+        if kind == _ARC:
+            first, second, centre, a0 = t.first[k], t.second[k], t.centre[k], t.a0[k]
+            u = _arc_param(p, first, second, centre, a0, t.sweep[k], t.cw[k], top)
+            return u, _arc_points(u, t.start[k], t.d[k], first, second, centre, t.radius[k],
+                                  a0, t.turn[k])
+        if (k == k[0]).all():
+            return self.segments[k[0]].foot(p, top)
+        u, q = np.empty(len(p)), np.empty_like(p)
+        for segment in np.unique(k):
+            on = np.flatnonzero(k == segment)
+            u[on], q[on] = self.segments[segment].foot(p[on], top[on])
+        return u, q
+
+    def nearest(self, p: np.ndarray, first: int, last: int) -> Foot:
         """The nearest point of each row of ``p`` on segments ``first`` to ``last``
-        (inclusive; one for all rows or one per row, at least ``first``); of equal distances
-        the furthest segment's. ``on_first``: the rows' nearest points on ``first``, if
-        known; ``reach``: how far along the path (LSB from its start, per row) the segments
-        after ``first`` are candidates."""
+        (inclusive); of equal distances the furthest segment's."""
         p = np.asarray(p, dtype=float)
-        last = np.broadcast_to(last, len(p))
-        best = on_first
-        for k in range(first if best is None else first + 1, int(last.max(initial=first)) + 1):
-            top = None
-            if reach is not None and k > first:
-                length = self.segments[k].length
-                top = np.clip((reach - self.ends[k - 1]) / length, 0.0, 1.0) if length else None
-            u, q = self.segments[k].foot(p, top)
+        best: Foot | None = None
+        for k in range(first, last + 1):
+            u, q = self.segments[k].foot(p)
             d = np.sqrt(((q - p) ** 2).sum(axis=1))
             if best is None:
                 best = Foot(np.full(len(p), k), u, q, d)
                 continue
-            take = (d <= best.distance + TIE) & (k <= last)
+            take = d <= best.distance + TIE
             best = Foot(np.where(take, k, best.segment), np.where(take, u, best.param),
                         np.where(take[:, None], q, best.point), np.where(take, d, best.distance))
         assert best is not None
         return best
 
 
+
+class _Segments(Sequence[Segment]):
+    """The segments of ``moves``, each made when first asked for."""
+
+    def __init__(self, moves: Sequence[Move], axes: int):
+        self._moves, self._axes = moves, axes
+        self._made: dict[int, Segment] = {}
+
+    def __len__(self) -> int:
+        return len(self._moves)
+
+    @overload
+    def __getitem__(self, k: int) -> Segment: ...
+
+    @overload
+    def __getitem__(self, k: slice) -> list[Segment]: ...
+
+    def __getitem__(self, k: int | slice) -> Segment | list[Segment]:
+        if isinstance(k, slice):
+            return [self[j] for j in range(*k.indices(len(self)))]
+        k = range(len(self))[k]  # negative indices, and IndexError past the end
+        if k not in self._made:
+            self._made[k] = Segment(self._moves[k], self._axes)
+        return self._made[k]
+
+
+def _kind(move: Move, axes: int) -> int:
+    """A line, a plane arc (closed forms) or a segment searched along (:attr:`Segment.sampled`)."""
+    if isinstance(move, Line):
+        return _SAMPLED if move.curve is not None else _LINE
+    if isinstance(move, Arc):
+        normal = move.plane_axes[2]
+        return _SAMPLED if normal < axes and move.end[normal] != move.start[normal] else _ARC
+    return _SAMPLED
+
+
+class _Table:
+    """The segments' constants as arrays (one row per segment; an arc's only on an arc), for
+    :meth:`Path.feet`."""
+
+    def __init__(self, moves: Sequence[Move], axes: int):
+        n = len(moves)
+        self.kind = np.array([_kind(m, axes) for m in moves], dtype=int)
+        self.start = np.array([m.start[:axes] for m in moves], dtype=float).reshape(n, axes)
+        self.d = np.array([m.end[:axes] for m in moves], dtype=float).reshape(n, axes) - self.start
+        self.length2 = (self.d * self.d).sum(axis=1)
+        self.first, self.second = np.zeros(n, dtype=int), np.ones(n, dtype=int)
+        self.centre = np.zeros((n, 2))
+        self.radius, self.a0, self.sweep, self.turn = (np.ones(n) for _ in range(4))
+        self.cw = np.zeros(n, dtype=bool)
+        for k in np.flatnonzero(self.kind == _ARC):
+            m = moves[k]
+            assert isinstance(m, Arc)
+            (self.first[k], self.second[k], _), self.centre[k] = m.plane_axes, m.center
+            self.radius[k], (self.a0[k], self.sweep[k]), self.cw[k] = m.radius, m.span, m.cw
+            self.turn[k] = -self.sweep[k] if m.cw else self.sweep[k]
+
+
+#: Margin (LSB) on the bound that rules a segment out of a row's window without searching it.
+SLACK = 1e-3
+#: Rounds of a chunk's fixed-point iteration before its settled rows are taken.
+ROUNDS = 4
+#: The largest chunk of samples a tracker takes at once.
+CHUNK = 8192
+
+
 class Tracker:
     """The tool's progress along ``path``: :meth:`track` takes the samples in order, in as
-    many calls as wanted (the matched segment carries over)."""
+    many calls as wanted (the matched segment carries over).
+
+    Each sample's window depends on the previous sample's segment and distance only, so a
+    chunk of samples is solved at once by a fixed-point iteration: a guessed segment per row
+    (the interpolator's block as many samples before as the tool last entered a segment
+    after the interpolator entered its block), every row's window from it, then each row's
+    segment and distance handed on as the next row's, only the rows whose inputs changed
+    computed again; the rows up to the first whose inputs still changed are the ones the
+    sample-by-sample rule gives, bit for bit (the first row's inputs are the tracker's
+    own), and the next chunk starts after them."""
 
     def __init__(self, path: Path):
         self.path = path
@@ -243,6 +375,8 @@ class Tracker:
         #: The last sample's position and its distance to the path (none yet).
         self.last: np.ndarray | None = None
         self.error = 0.0
+        #: Samples from the interpolator entering a block to the tool entering its segment.
+        self.delay = 0
 
     def track(self, p: np.ndarray, limit: np.ndarray) -> Foot:
         """The nearest points of positions ``p`` (rows, in sample order), each searched in
@@ -251,32 +385,101 @@ class Tracker:
         p = np.asarray(p, dtype=float)
         n = len(p)
         out = Foot(np.zeros(n, dtype=int), np.zeros(n), np.zeros_like(p), np.zeros(n))
-        i, batch = 0, 64
+        if not n:
+            return out
+        before = np.vstack([p[:1] if self.last is None else self.last[None], p[:-1]])
+        travel = np.sqrt(((p - before) ** 2).sum(axis=1))
+        limit = np.asarray(limit)
+        i, size = 0, 64
         while i < n:
-            # Rows from i on, each as if the previous one were on the current segment: right
-            # up to the first that moves on (it is right too).
-            rows = slice(i, min(n, i + batch))
-            found = self._window(p[rows], limit[rows])
-            moved = np.flatnonzero(found.segment != self.segment)
-            done = rows.stop - i if not len(moved) else int(moved[0]) + 1
+            rows = slice(i, min(n, i + size))
+            guess = limit[np.clip(np.arange(rows.start, rows.stop) - self.delay, 0, n - 1)] - 1
+            found, done = self._chunk(p[rows], travel[rows], limit[rows], guess)
             part = slice(i, i + done)
             out.segment[part], out.param[part] = found.segment[:done], found.param[:done]
             out.point[part], out.distance[part] = found.point[:done], found.distance[:done]
+            if found.segment[done - 1] != self.segment:  # when the tool entered its segment
+                r = int(np.searchsorted(found.segment[:done], found.segment[done - 1]))
+                self.delay = i + r - int(np.searchsorted(limit, found.segment[r] + 1))
             self.segment = int(found.segment[done - 1])
             self.last, self.error = p[i + done - 1].copy(), float(found.distance[done - 1])
+            size = min(CHUNK, 2 * size) if done == rows.stop - i else max(64, 2 * done)
             i += done
-            batch = 2 * batch if not len(moved) else max(16, 2 * done)
         return out
 
-    def _window(self, p: np.ndarray, limit: np.ndarray) -> Foot:
-        """The nearest points of rows ``p`` in their windows, each as if the row before were
-        on the current segment."""
-        c = self.segment
-        u, q = self.path.foot(c, p)
-        here = Foot(np.full(len(p), c), u, q, np.sqrt(((q - p) ** 2).sum(axis=1)))
-        before = np.vstack([p[:1] if self.last is None else self.last[None], p[:-1]])
-        travel = np.sqrt(((p - before) ** 2).sum(axis=1))
+    def _chunk(self, p: np.ndarray, travel: np.ndarray, limit: np.ndarray, guess: np.ndarray
+               ) -> tuple[Foot, int]:
+        """The nearest points of a chunk of rows, from a ``guess`` of each row's previous
+        segment, and how many of them are settled (at least one)."""
+        c, n = self.segment, len(p)
+        guess = np.maximum(guess, c)
+        guess[0] = c
+        ones = np.ones(n)
+        here = self._here(guess, p, ones)
         error = np.concatenate([[self.error], here.distance[:-1]])
-        reach = self.path.ends[c] + error + 2 * travel + REACH
-        last = np.minimum(np.searchsorted(self.path.ends, reach), len(self.path.ends) - 1)
-        return self.path.nearest(p, c, np.maximum(np.minimum(last, limit), c), here, reach)
+        found = self._window(p, travel, limit, here, error)
+        if n == 1:  # the first row's inputs are the tracker's own
+            return found, 1
+        everything, rounds = np.arange(n), 0
+        while True:
+            segment = np.concatenate([[c], found.segment[:-1]])
+            handed = np.concatenate([[self.error], found.distance[:-1]])
+            moved = segment != here.segment
+            changed = moved | (handed != error)
+            if not changed.any():
+                return found, n
+            if rounds == ROUNDS:
+                return found, int(np.argmax(changed))
+            rounds += 1
+            error = handed
+            if moved.any():
+                rows = np.flatnonzero(moved)
+                _put(here, rows, self._here(segment[rows], p[rows], ones[rows]))
+            rows = everything[changed]
+            _put(found, rows, self._window(p[rows], travel[rows], limit[rows],
+                                           _take(here, rows), error[rows]))
+
+    def _here(self, segment: np.ndarray, p: np.ndarray, ones: np.ndarray) -> Foot:
+        u, q = self.path.feet(segment, p, ones)
+        return Foot(segment, u, q, np.sqrt(((q - p) ** 2).sum(axis=1)))
+
+    def _window(self, p: np.ndarray, travel: np.ndarray, limit: np.ndarray, here: Foot,
+                error: np.ndarray) -> Foot:
+        """The nearest point of each row ``p`` in its window: from its segment (``here``,
+        its nearest point there) forward as far as ``error`` (the previous row's distance),
+        twice its ``travel`` and :data:`REACH` past that segment's end, never past
+        ``limit``."""
+        path = self.path
+        c = here.segment
+        reach = path.ends[c] + error + 2 * travel + REACH
+        last = np.minimum(np.searchsorted(path.ends, reach), len(path.ends) - 1)
+        last = np.maximum(np.minimum(last, limit), c)
+        best = Foot(c.copy(), here.param.copy(), here.point.copy(), here.distance.copy())
+        for step in range(1, int((last - c).max(initial=0)) + 1):
+            rows = np.flatnonzero(c + step <= last)
+            k = c[rows] + step
+            length = path.lengths[k]
+            # The segments after the first only as far along them as the reach.
+            top = np.clip((reach[rows] - path.ends[k - 1]) / np.where(length == 0, 1.0, length),
+                          0.0, 1.0)
+            top[length == 0] = 1.0
+            # A closed form's points that far along it are no farther from its start than
+            # that: the rows it cannot come close enough for are not searched on it.
+            table = path.table
+            gap = np.sqrt(((p[rows] - table.start[k]) ** 2).sum(axis=1)) - top * length
+            near = (table.kind[k] == _SAMPLED) | (gap <= best.distance[rows] + TIE + SLACK)
+            rows, k, top = rows[near], k[near], top[near]
+            u, q = path.feet(k, p[rows], top)
+            d = np.sqrt(((q - p[rows]) ** 2).sum(axis=1))
+            take = d <= best.distance[rows] + TIE
+            _put(best, rows[take], Foot(k[take], u[take], q[take], d[take]))
+        return best
+
+
+def _take(foot: Foot, rows: np.ndarray) -> Foot:
+    return Foot(foot.segment[rows], foot.param[rows], foot.point[rows], foot.distance[rows])
+
+
+def _put(foot: Foot, rows: np.ndarray, part: Foot) -> None:
+    foot.segment[rows], foot.param[rows] = part.segment, part.param
+    foot.point[rows], foot.distance[rows] = part.point, part.distance

@@ -17,17 +17,31 @@ from hypothesis import strategies as st
 from k37.firmware_model.contour.path import REACH, Path, Tracker
 from k37.firmware_model.job import ContourConfig, Job, MachineConfig, ServoConfig, parse_for_machine
 from k37.firmware_model.motion.program import Arc, Line
+from k37.hdl.chipset.map import axis_names
 from k37.sim.run.contour import contour_errors
 from k37.sim.run.runner import RunOptions, run_job
-from k37.sim.run.sampler import TRACE_COLUMNS
+from k37.sim.run.sampler import trace_columns
 
-#: Points of the dense sampling of a curve in the reference, and again between the two
-#: neighbours of the nearest of them (about 1e-4 of the curve apart).
+#: Points of the dense sampling of a curve in the reference (1/2000 of the curve apart); then,
+#: :data:`ZOOMS` times, :data:`FINE` points between the nearest one's two neighbours (down
+#: to 1/2000/10/10 of the curve apart).
 DENSE = 2001
+FINE = 21
+ZOOMS = 2
 
 
 def _curve_at(move, t: np.ndarray) -> np.ndarray:
-    """Points of a move with no closed form (a curve, a spline's chord) at ``t`` in [0, 1]."""
+    """Points of a move with no closed form (a curve, a spline's chord, a helix) at ``t`` in
+    [0, 1]: a helix turns evenly about its centre as it rises evenly along its axis."""
+    if isinstance(move, Arc):
+        first, second, _ = move.plane_axes
+        a0, sweep = move.span
+        angle = a0 + (-sweep if move.cw else sweep) * t
+        start, end = np.array(move.start, dtype=float), np.array(move.end, dtype=float)
+        points = start + np.outer(t, end - start)
+        points[:, first] = move.center[0] + move.radius * np.cos(angle)
+        points[:, second] = move.center[1] + move.radius * np.sin(angle)
+        return points
     if isinstance(move, Line):
         span = move.curve
         return span.curve.at(span.t0 + (span.t1 - span.t0) * t)
@@ -38,11 +52,12 @@ def _dense(move) -> np.ndarray:
     return _curve_at(move, np.linspace(0.0, 1.0, DENSE))
 
 
-def _distances(move, p: np.ndarray, top: float = 1.0) -> np.ndarray:
+def _distances(move, p: np.ndarray, top: float = 1.0, dense: np.ndarray | None = None
+               ) -> np.ndarray:
     """The exact distance of each row of ``p`` to a move (up to ``top`` of its parameter):
     closed form on a line and an arc (whose ends are on its circle), the nearest of dense
-    points on a curve."""
-    if isinstance(move, Arc):
+    points on a curve and on an arc in space (a helix) (``dense``: those points, if known)."""
+    if isinstance(move, Arc) and p.shape[1] == 2:
         c = np.array(move.center, dtype=float)
         a0, full = move.span
         sweep = full * top
@@ -58,20 +73,30 @@ def _distances(move, p: np.ndarray, top: float = 1.0) -> np.ndarray:
         a, b = np.array(move.start, dtype=float), np.array(move.end, dtype=float)
         d = b - a
         t = np.zeros(len(p)) if not d @ d else np.clip((p - a) @ d / (d @ d), 0.0, top)
-        return np.hypot(*(p - a - np.outer(t, d)).T)
-    coarse = np.linspace(0.0, top, DENSE)
-    q = _curve_at(move, coarse)
-    out = []
-    for row in p:
-        k = int(np.argmin(((q - row) ** 2).sum(axis=1)))
-        fine = np.linspace(coarse[max(k - 1, 0)], coarse[min(k + 1, DENSE - 1)], DENSE)
-        out.append(np.sqrt(((_curve_at(move, fine) - row) ** 2).sum(axis=1)).min())
-    return np.array(out)
+        return np.sqrt(((p - a - np.outer(t, d)) ** 2).sum(axis=1))
+    everywhere = np.linspace(0.0, 1.0, DENSE)
+    q = _dense(move) if dense is None else dense
+    if top < 1.0:
+        below = everywhere < top
+        everywhere = np.append(everywhere[below], top)
+        q = np.vstack([q[below], _curve_at(move, np.array([top]))])
+    grid = np.broadcast_to(everywhere, (len(p), len(everywhere)))  # a row per point
+    d = np.sqrt(((q[None] - p[:, None, :]) ** 2).sum(axis=2))
+    for _ in range(ZOOMS):  # again between the nearest point's two neighbours
+        k = np.argmin(d, axis=1)
+        rows = np.arange(len(p))
+        lo = grid[rows, np.maximum(k - 1, 0)]
+        hi = grid[rows, np.minimum(k + 1, grid.shape[1] - 1)]
+        grid = lo[:, None] + (hi - lo)[:, None] * np.linspace(0.0, 1.0, FINE)
+        points = _curve_at(move, grid.ravel()).reshape(len(p), FINE, -1)
+        d = np.sqrt(((points - p[:, None, :]) ** 2).sum(axis=2))
+    return d.min(axis=1)
 
 
 def _length(move) -> float:
     if isinstance(move, Arc):
-        return move.radius * move.span[1]
+        rise = move.end[2] - move.start[2] if len(move.start) == 3 else 0.0  # G17's
+        return math.hypot(move.radius * move.span[1], rise)
     if isinstance(move, Line) and move.curve is None:
         return math.dist(move.start, move.end)
     q = _dense(move)
@@ -83,10 +108,14 @@ def reference_errors(moves, blocks, samples) -> np.ndarray:
     previous sample's move forward as far as the previous sample's distance, twice the tool's
     travel since then and REACH past that move's end, none past the move after the running
     block's; of equal distances, the furthest move."""
-    ends = np.cumsum([_length(m) for m in moves])
+    lengths = [_length(m) for m in moves]
+    ends = np.cumsum(lengths)
     starts = [start for _, start in blocks]
-    tool = samples[:, 3:5].astype(float)
-    distance = [_distances(m, tool) for m in moves]
+    n = len(moves[0].start)
+    tool = samples[:, 1 + n:1 + 2 * n].astype(float)
+    # Each move's dense points, where it has no closed form.
+    whole = [None if (isinstance(m, Line) and m.curve is None) or (isinstance(m, Arc) and n == 2)
+             else _dense(m) for m in moves]
     current, last, error, out = 0, None, 0.0, []
     for i, row in enumerate(samples):
         p = tool[i]
@@ -100,9 +129,10 @@ def reference_errors(moves, blocks, samples) -> np.ndarray:
         best, k = None, current
         while k == current or (k <= top and ends[k - 1] < reach):
             # The moves after the previous sample's only as far along them as the reach.
-            length = _length(moves[k])
-            d = distance[k][i] if k == current or not length else float(_distances(
-                moves[k], p[None], min(1.0, (reach - ends[k - 1]) / length))[0])
+            length = lengths[k]
+            top_k = 1.0 if k == current or not length else min(
+                1.0, (reach - ends[k - 1]) / length)
+            d = float(_distances(moves[k], p[None], top_k, whole[k])[0])
             if best is None or d <= best + 1e-6:
                 best, found = d, k
             k += 1
@@ -113,10 +143,11 @@ def reference_errors(moves, blocks, samples) -> np.ndarray:
 
 @st.composite
 def chains(draw):
-    """A program of 2 to 6 lines, arcs and parabolas (mm) and a tool lagging it."""
+    """A program of 2 to 6 lines, arcs, parabolas, exponentials and G5 splines (mm) and a tool
+    lagging it."""
     text, x, y = ["G21 G90 F600"], 0.0, 0.0
     for _ in range(draw(st.integers(2, 6))):
-        kind = draw(st.sampled_from(["line", "arc", "parabola"]))
+        kind = draw(st.sampled_from(["line", "arc", "parabola", "exponential", "spline"]))
         if kind == "line":
             x += draw(st.floats(-3, 3)).__round__(3)
             y += draw(st.floats(-3, 3)).__round__(3)
@@ -130,22 +161,55 @@ def chains(draw):
             i, j = cx - x, cy - y
             x, y = round(cx + r * math.cos(a1), 3), round(cy + r * math.sin(a1), 3)
             text.append(f"{'G02' if cw else 'G03'} X{x:.3f} Y{y:.3f} I{i:.3f} J{j:.3f}")
-        else:
+        elif kind == "parabola":
             dx = 2 * draw(st.integers(500, 1500)) / 1000
             rise = draw(st.floats(-1, 1)).__round__(3)
             text.append(f"G06 X{x + dx:.3f} Y{y:.3f} I{dx / 2:.3f} J{rise:.3f}")
             x += dx
+        elif kind == "exponential":
+            dx, dy = (draw(st.sampled_from([-1, 1])) * draw(st.floats(0.5, 3)) for _ in "xy")
+            k = draw(st.sampled_from([-1, 1])) * draw(st.floats(0.3, 3))
+            x, y = round(x + dx, 3), round(y + dy, 3)
+            text.append(f"{draw(st.sampled_from(['G06.1', 'G06.2']))} X{x:.3f} Y{y:.3f} "
+                        f"K{k:.3f}")
+        else:
+            i, j, p, q = (draw(st.floats(-2, 2)) for _ in "ijpq")
+            x += draw(st.floats(-3, 3)).__round__(3)
+            y += draw(st.floats(-3, 3)).__round__(3)
+            text.append(f"G05 X{x:.3f} Y{y:.3f} I{i:.3f} J{j:.3f} P{p:.3f} Q{q:.3f}")
     return "\n".join(text) + "\nM30\n", draw(st.integers(0, 3000)), draw(st.integers(0, 99))
 
 
-def _lagging_samples(moves, lag: float, seed: int) -> tuple[list, np.ndarray]:
+@st.composite
+def helical_chains(draw):
+    """A three-axis program of 2 to 5 lines and helices (mm) and a tool lagging it."""
+    text, x, y, z = ["G17 G21 G90 F600"], 0.0, 0.0, 0.0
+    for _ in range(draw(st.integers(2, 5))):
+        z = round(z + draw(st.floats(-2, 2)), 3)
+        if draw(st.booleans()):
+            x += draw(st.floats(-3, 3)).__round__(3)
+            y += draw(st.floats(-3, 3)).__round__(3)
+            text.append(f"G01 X{x:.3f} Y{y:.3f} Z{z:.3f}")
+            continue
+        r = draw(st.floats(0.5, 3))
+        a0, sweep = draw(st.floats(0, math.tau)), draw(st.floats(0.3, 5.5))
+        cw = draw(st.booleans())
+        cx, cy = x - r * math.cos(a0), y - r * math.sin(a0)
+        a1 = a0 - sweep if cw else a0 + sweep
+        i, j = cx - x, cy - y
+        x, y = round(cx + r * math.cos(a1), 3), round(cy + r * math.sin(a1), 3)
+        text.append(f"{'G02' if cw else 'G03'} X{x:.3f} Y{y:.3f} Z{z:.3f} I{i:.3f} J{j:.3f}")
+    return "\n".join(text) + "\nM30\n", draw(st.integers(0, 3000)), draw(st.integers(0, 99))
+
+
+def _lagging_samples(moves, lag: float, seed: int, axes: int = 2) -> tuple[list, np.ndarray]:
     """Blocks started one cycle per LSB of path, and a tool ``lag`` LSB of path behind the
-    interpolator, up to 40 LSB off it, sampled every 7 cycles."""
-    path = Path(moves, 2)
+    interpolator, up to 40 LSB off it on every axis, sampled every 13 cycles."""
+    path = Path(moves, axes)
     ends = path.ends
     blocks = [(m.index, int(s)) for m, s in zip(moves, np.concatenate([[0], ends[:-1]]),
                                                    strict=True)]
-    cycles = np.arange(0, int(ends[-1] + lag), 7)
+    cycles = np.arange(0, int(ends[-1] + lag), 13)
     along = np.clip(cycles - lag, 0, ends[-1] - 1e-9)
     k = np.searchsorted(ends, along, side="right")
     u = (along - (ends[k] - np.array([s.length for s in path.segments])[k])) / np.maximum(
@@ -153,24 +217,24 @@ def _lagging_samples(moves, lag: float, seed: int) -> tuple[list, np.ndarray]:
     points = np.vstack([path.segments[kk].at(np.array([uu]))
                         for kk, uu in zip(k, u, strict=True)])
     rng = np.random.default_rng(seed)
-    samples = np.zeros((len(cycles), len(TRACE_COLUMNS)), dtype=np.int64)
+    samples = np.zeros((len(cycles), len(trace_columns(axis_names(axes)))), dtype=np.int64)
     samples[:, 0] = cycles
-    samples[:, 3:5] = np.rint(points + rng.uniform(-40, 40, (len(points), 2)))
+    samples[:, 1 + axes:1 + 2 * axes] = np.rint(points + rng.uniform(-40, 40, points.shape))
     return blocks, samples
 
 
 @settings(max_examples=15, deadline=None)
-@given(chains())
+@given(st.one_of(chains(), helical_chains()))
 def test_the_contour_error_of_a_lagging_tool_equals_the_brute_force_reference(case):
     gcode, lag, seed = case
     try:
         machine, program = parse_for_machine(MachineConfig(), gcode, source="<chain>")
     except ValueError:
-        return  # a parabola the K3701 refuses
+        return  # a curve the K3701 refuses
     moves = program.moves
-    assume(len(moves) and Path(moves, 2).ends[-1] >= 1)
+    assume(len(moves) and Path(moves, machine.axes).ends[-1] >= 1)
     job = Job("chain", machine, {}, program)
-    blocks, samples = _lagging_samples(moves, lag, seed)
+    blocks, samples = _lagging_samples(moves, lag, seed, machine.axes)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         errors = contour_errors(job, blocks, samples)
@@ -204,13 +268,17 @@ def _run(gcode: str, controller: str = "none", machine=PLANT, servo=None):
 
 
 def test_a_tool_many_chords_behind_is_measured_against_its_own_chord():
+    # 100 chords of 0.67 mm of one line at 60 mm/s on the Table 1 plant (Kp 10.3/s on X,
+    # 10/s on Y): the tool trails the interpolator by 6 mm, nine chords, and the unequal lags
+    # take it off the line by 17 LSB at most (equal gains would keep it on the line, within
+    # a step).
     chords = "\n".join(f"G01 X{0.6 * k:.3f} Y{0.3 * k:.3f}" for k in range(1, 101))
-    run = _run(f"G21 G90 F3600\n{chords}\nM30\n", servo={"x": ServoConfig(kp=10.0),
-                                                        "y": ServoConfig(kp=10.0)})
+    run = _run(f"G21 G90 F3600\n{chords}\nM30\n")
     actual = run.samples[:, 3:5].astype(float)
     d = np.array([12000.0, 6000.0])
     t = np.clip(actual @ d / (d @ d), 0, 1)
     exact = np.hypot(*(actual - np.outer(t, d)).T)  # the chords are one straight line
+    assert 15 < exact.max() < 19
     assert run.report["path"]["max_contour_error"] == pytest.approx(exact.max(), abs=1)
     assert run.report["path"]["rms_contour_error"] == pytest.approx(
         math.sqrt(np.mean(exact**2)), abs=0.5)
@@ -258,16 +326,15 @@ def _random_chain(seed: int, moves: int = 4) -> str:
     return "\n".join(text) + "\nM30\n"
 
 
-#: How much larger than with no controller each controller's largest contour error may be on
-#: a random chain. The CCC, whose estimate is the tangent line at the reference, reaches 1.8
-#: times on one of these chains (three corners of 44 to 59 degrees within 12 mm of path).
-WORSE_BY = {"ccc": 2.0, "vgccc": 1.5, "cec": 1.5}
+#: How much larger than with no controller any controller's largest contour error may be on a
+#: random chain.
+WORSE_BY = 1.5
 
 
 @pytest.mark.parametrize("seed", range(8))
 def test_no_controller_makes_a_chain_of_lines_and_arcs_much_worse(seed):
     gcode = _random_chain(seed)
     plain = _run(gcode).report["path"]["max_contour_error"]
-    for controller, factor in WORSE_BY.items():
+    for controller in ("ccc", "vgccc", "cec"):
         worst = _run(gcode, controller).report["path"]["max_contour_error"]
-        assert worst <= factor * plain, (controller, worst, plain)
+        assert worst <= WORSE_BY * plain, (controller, worst, plain)
