@@ -1,13 +1,82 @@
 // The engine's C ABI, which the Python backend (backend.py) loads: a machine (machine.h) made
 // and destroyed, its ports read and written, its cycles run (stepped, or skipped where it is
 // quiet), a wait for a port, the host's bus cycles and polling wait, and samples recorded as
-// the clock reaches them.
+// the clock reaches them; and the machine's port accessors (Machine::get, Machine::set).
 
 #include <ctime>
 
 #include "machine.h"
 
 namespace k37e {
+
+uint64_t Machine::get(int port) const {
+	if (port >= DRIVE_PORT_BASE)
+		return axis[(port - DRIVE_PORT_BASE) / DRIVE_PORT_COUNT]
+		    .plant.port[(port - DRIVE_PORT_BASE) % DRIVE_PORT_COUNT];
+	if (port < TOP_COUNT) {
+		switch (port) {
+		case BUS_ADDR: return addr;
+		case BUS_W_STB: return w_stb;
+		case BUS_W_DATA: return w_data;
+		case BUS_R_STB: return r_stb;
+		case BUS_R_DATA: return r_data();
+		case IRQ: return interp.out.irq || irq_alarm();
+		case IRQ_INTERP: return interp.out.irq;
+		case IRQ_ALARM: return irq_alarm();
+		case FP_TOTAL: return fp_total;
+		case QUIET: return quiet();
+		}
+	}
+	const Axis &a = axis[(port - TOP_COUNT) / AXIS_COUNT];
+	switch ((port - TOP_COUNT) % AXIS_COUNT) {
+	case GAIN: return a.in.gain;
+	case ALPHA: return a.in.alpha;
+	case VMAX: return a.in.vmax;
+	case KF: return a.in.kf;
+	case DAC_ZERO: return a.in.dac_zero;
+	case STALL: return a.in.stall;
+	case GLITCH_A: return a.in.glitch_a;
+	case GLITCH_B: return a.in.glitch_b;
+	case BREAK_A: return a.in.break_a;
+	case COMMAND: return uint64_t(a.ctrl.command) & low_bits(COUNTER_WIDTH);
+	case ERROR: return uint64_t(a.ctrl.error) & low_bits(COUNTER_WIDTH);
+	case COUNT: return uint32_t(a.plant.count());
+	case DAC: return a.ctrl.dac;
+	case MAX_ABS_ERROR: return a.max_abs_error;
+	case PULSES_POS: return a.pulses_pos;
+	case PULSES_NEG: return a.pulses_neg;
+	case ALARM_N: return a.ctrl.alarm_n;
+	}
+	return 0;
+}
+
+void Machine::set(int port, uint64_t v) {
+	if (port >= DRIVE_PORT_BASE) {
+		axis[(port - DRIVE_PORT_BASE) / DRIVE_PORT_COUNT]
+		    .plant.port[(port - DRIVE_PORT_BASE) % DRIVE_PORT_COUNT] = v;
+		return;
+	}
+	switch (port) {
+	case BUS_ADDR: addr = v; return;
+	case BUS_W_STB: w_stb = v; return;
+	case BUS_W_DATA: w_data = v; return;
+	case BUS_R_STB: r_stb = v; return;
+	}
+	if (port < TOP_COUNT)
+		return;
+	PlantInputs &in = axis[(port - TOP_COUNT) / AXIS_COUNT].in;
+	switch ((port - TOP_COUNT) % AXIS_COUNT) {
+	case GAIN: in.gain = v; return;
+	case ALPHA: in.alpha = v; return;
+	case VMAX: in.vmax = v; return;
+	case KF: in.kf = v; return;
+	case DAC_ZERO: in.dac_zero = v; return;
+	case STALL: in.stall = v; return;
+	case GLITCH_A: in.glitch_a = v; return;
+	case GLITCH_B: in.glitch_b = v; return;
+	case BREAK_A: in.break_a = v; return;
+	}
+}
 
 // Run n cycles; with skip_idle, skip ahead after each cycle where the machine is quiet.
 void run(Machine &m, uint64_t n, bool skip_idle) {
