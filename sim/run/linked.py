@@ -170,6 +170,28 @@ def _board_stop(status: dict[str, int]) -> str | None:
     return f"the board stopped the machine: {', '.join(why)}" if why else None
 
 
+def _after_run(link: BridgeLink, job: Job, board_start: int, watchdog: int,
+               lost: str | None) -> tuple[dict, Probe | None, dict[str, dict], str | None]:
+    """What the host reads after the run (unless the link was ``lost``): the board's counts
+    and STATUS (its watchdog turned off if armed), the PROBE and each axis; with the link
+    lost, or lost here, null."""
+    seen: dict = {"board_cycle": None, "board_cycles": None, "board": None}
+    probe, axes = None, _lost_axes(job)
+    if lost is None:
+        try:
+            board_end = link.board_cycle()
+            seen["board_cycles"] = (board_end - board_start) % (1 << COUNTER_BITS)
+            probe = link.probe()
+            axes = _axes(link, job, probe)
+            seen["board"] = link.board_status()
+            if watchdog:
+                link.disarm_watchdog()
+            seen["board_cycle"] = link.board_cycle()
+        except LinkError as e:
+            lost = str(e)
+    return seen, probe, axes, lost
+
+
 def _run(job: Job, options: RunOptions, link: BridgeLink, url: str,
          watchdog: int) -> RunResult:
     host = Host8085(link, clock_hz=job.machine.clock_hz)
@@ -193,23 +215,10 @@ def _run(job: Job, options: RunOptions, link: BridgeLink, url: str,
     link.watch_stops(0)
     wall = time.perf_counter() - start
     cycles = link.cycle
-    seen: dict = {"board_cycle": None, "board_cycles": None, "board": None}
+    seen, probe, axes, lost = _after_run(link, job, board_start, watchdog, lost)
     if watchdog:
         seen["stop_seen"] = None if stopped is None else {"cycle": stopped.cycle,
                                                           "board_cycle": stopped.board_cycle}
-    probe, axes = None, _lost_axes(job)
-    if lost is None:
-        try:
-            board_end = link.board_cycle()
-            seen["board_cycles"] = (board_end - board_start) % (1 << COUNTER_BITS)
-            probe = link.probe()
-            axes = _axes(link, job, probe)
-            seen["board"] = link.board_status()
-            if watchdog:
-                link.disarm_watchdog()
-            seen["board_cycle"] = link.board_cycle()
-        except LinkError as e:
-            lost = str(e)
     stop = None if seen["board"] is None else _board_stop(seen["board"])
     if stopped is not None:
         stop = (f"{_board_stop(stopped.status)} (seen at board cycle "

@@ -13,6 +13,7 @@ import pytest
 
 from k37.hdl.chipset.map import port
 from k37.sim.link.bridge import open_link
+from k37.sim.machine.plant_model import dac_zero
 from k37.sim.run.linked import run_linked
 from k37.sim.run.report import validate
 from k37.sim.run.runner import RunOptions
@@ -124,3 +125,24 @@ def test_k37_serve_estop_at_ends_k37_run_link_watchdog_with_a_fault(tmp_path):
     report = json.loads((tmp_path / "linked.json").read_text())
     assert report["status"] == "fault" and "E-stop" in report["reason"]
     assert 300_000 <= report["link"]["stop_seen"]["board_cycle"] <= 300_000 + 125_000 + SLACK
+
+
+def test_a_served_estop_latches_at_its_cycle_and_stays_latched_after_its_release(make_job):
+    job = make_job(LONG_MOVE)
+    changes = (InputChange(10_000, "estop"), InputChange(20_000, "estop", active=False))
+    with served(job, changes=changes) as board:
+        link = open_link(f"tcp://127.0.0.1:{board.port}", timeout=10)
+        link.idle(10_000 - link.probe().cycle - 1)
+        before = link.board_status()  # read in cycle 9,999
+        pressed = link.board_status()  # in cycle 10,000: its edge latches the E-stop
+        after = link.board_status()
+        link.idle(15_000)
+        released = link.board_status()
+        link.arm_watchdog(0, dac_zero(job.machine.dac_bits))  # clears the latched stops
+        cleared = link.board_status()
+        link.close()
+    assert before["estop_in"] == 0 and before["estop"] == 0 and before["drive_enable"] == 1
+    assert pressed["estop_in"] == 1 and pressed["estop"] == 0
+    assert after["estop"] == 1 and after["estop_in"] == 1 and after["drive_enable"] == 0
+    assert released["estop"] == 1 and released["estop_in"] == 0
+    assert cleared["estop"] == 0 and cleared["drive_enable"] == 1 and cleared["held"] == 0
