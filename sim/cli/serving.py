@@ -106,6 +106,9 @@ def _cmd_serve(args: argparse.Namespace) -> int:
           f"tcp://{args.host}:{board.port} ({board.backend.name}, {board.backend.reason}); "
           f"Ctrl-C ends",
           file=sys.stderr, flush=True)
+    if board.board.changes:
+        print(f"k37 serve: {'; '.join(map(str, board.board.changes))}", file=sys.stderr,
+              flush=True)
     try:
         board.serve(args.sessions, report)
     except KeyboardInterrupt:

@@ -41,6 +41,11 @@ class InputChange:
     name: str
     active: bool = True
 
+    def __str__(self) -> str:
+        what = "the E-stop" if self.name == "estop" else f"the {self.name.upper()} limit"
+        done = ("pressed" if self.name == "estop" else "hit") if self.active else "released"
+        return f"{what} {done} at cycle {self.cycle:,}"
+
 
 def check_changes(job: Job, changes: tuple[InputChange, ...]) -> None:
     """Raise ValueError unless every change is of an input ``job``'s board has."""

@@ -113,6 +113,7 @@ def test_k37_serve_estop_at_ends_k37_run_link_watchdog_with_a_fault(tmp_path):
         line = serve.stderr.readline()
         assert "tcp://127.0.0.1:" in line, line
         url = line[line.index("tcp://"):].split()[0]
+        assert serve.stderr.readline() == "k37 serve: the E-stop pressed at cycle 300,000\n"
         linked = subprocess.run([sys.executable, "-m", "k37.sim.cli", "run", "--link", url,
                                  "--watchdog", "0.5", "--json", "linked.json", "-q"],
                                 cwd=tmp_path, capture_output=True, text=True, timeout=300)
