@@ -240,7 +240,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                         "tcp://HOST:PORT (`k37 serve`) or serial:///dev/ttyUSB0[?baud=N]")
     p.add_argument("--watchdog", type=float, metavar="SECONDS",
                    help="with --link: arm the board's watchdog for the run (it stops the "
-                        "drives when the host sends nothing this long; e.g. 0.5)")
+                        "drives when the host sends nothing this long; e.g. 0.5) and read "
+                        "the board's STATUS after every quarter of it spent waiting: a stop "
+                        "latched mid-run (E-stop, a limit, the watchdog) ends the run as a "
+                        "fault at once")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary, no progress line")
     _program_options(p)
     p.set_defaults(func=_cmd_run)

@@ -42,6 +42,36 @@ def _cycles(text: str) -> int:
     return value
 
 
+def _span(text: str) -> tuple[int, int | None]:
+    """``CYCLE`` or ``CYCLE:RELEASE`` as (cycle, release cycle or None)."""
+    at, _, until = text.partition(":")
+    cycle = _cycles(at)
+    release = _cycles(until) if until else None
+    if release is not None and release <= cycle:
+        raise argparse.ArgumentTypeError(f"{text}: the release cycle must come after "
+                                         f"{cycle}")
+    return cycle, release
+
+
+def _changes(name: str, text: str) -> tuple:
+    from k37.sim.serve.board import InputChange
+
+    cycle, release = _span(text)
+    return (InputChange(cycle, name),
+            *(() if release is None else (InputChange(release, name, active=False),)))
+
+
+def _estop(text: str) -> tuple:
+    return _changes("estop", text)
+
+
+def _limit(text: str) -> tuple:
+    axis, at, span = text.partition("@")
+    if not at or not axis:
+        raise argparse.ArgumentTypeError(f"{text!r}: give AXIS@CYCLE[:RELEASE], e.g. x@300000")
+    return _changes(axis.lower(), span)
+
+
 def _cmd_serve(args: argparse.Namespace) -> int:
     from k37.firmware_model.gcode.parser import GcodeError
 
@@ -54,9 +84,14 @@ def _cmd_serve(args: argparse.Namespace) -> int:
         job = load_job(args.job)
         line = None if args.uart is None else (args.uart, args.turnaround)
         board = SimulatedBoard(job, args.backend, args.host, args.port, args.sample_every,
-                               line=line, trace=args.trace, probes=not args.no_probe)
+                               line=line, trace=args.trace, probes=not args.no_probe,
+                               changes=tuple(c for cs in (*args.estop_at, *args.limit)
+                                             for c in cs))
     except (JobError, GcodeError) as e:
         print_error(e)
+        return 2
+    except ValueError as e:  # a limit of an axis the machine lacks
+        print(f"k37: error: --limit: {e}", file=sys.stderr)
         return 2
     except OSError as e:
         print(f"k37: error: --port {args.port}: cannot listen on {args.host}: "
@@ -71,6 +106,9 @@ def _cmd_serve(args: argparse.Namespace) -> int:
           f"tcp://{args.host}:{board.port} ({board.backend.name}, {board.backend.reason}); "
           f"Ctrl-C ends",
           file=sys.stderr, flush=True)
+    if board.board.changes:
+        print(f"k37 serve: {'; '.join(map(str, board.board.changes))}", file=sys.stderr,
+              flush=True)
     try:
         board.serve(args.sessions, report)
     except KeyboardInterrupt:
@@ -115,4 +153,13 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-probe", action="store_true",
                    help="answer as a real board does: no PROBE, so a linked run reads what a "
                         "host can (no block pulses)")
+    p.add_argument("--estop-at", type=_estop, action="append", default=[],
+                   metavar="CYCLE[:RELEASE]",
+                   help="press the board's E-stop at this machine cycle (since the board "
+                        "started), held until RELEASE or for good: the board holds the feed, "
+                        "puts 0 V out and drops drive-enable (e.g. 300000)")
+    p.add_argument("--limit", type=_limit, action="append", default=[],
+                   metavar="AXIS@CYCLE[:RELEASE]",
+                   help="open this axis's limit switch at this machine cycle, until RELEASE "
+                        "or for good: the board holds the feed (e.g. x@300000)")
     p.set_defaults(func=_cmd_serve)

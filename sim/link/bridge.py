@@ -11,7 +11,10 @@ link's first command is IDENT, the sync that makes the bridge forget a host befo
 
 Each whole frame feeds the board's watchdog (:data:`k37.hdl.board.map.BOARD_MAP`):
 :meth:`BridgeLink.arm_watchdog` arms it and keeps every IDLE and WAIT a quarter of its time or
-shorter, so that a host that is there feeds it in time.
+shorter, so that a host that is there feeds it in time. :meth:`BridgeLink.watch_stops` has the
+link read the board's STATUS after every so many cycles of idling and waiting, and raise
+:class:`BoardStopError` once a stop is latched, so that a host waiting for a held feed learns
+of it.
 
 The link's :attr:`BridgeLink.cycle` is the host's account of time: the cycles its commands
 took (a bus cycle each, an idle's, a wait's). On a simulated board that is the machine's clock
@@ -48,7 +51,7 @@ from k37.hdl.bridge.protocol import (
 )
 from k37.hdl.chipset.identity import chipset_identity
 
-__all__ = ["BridgeLink", "LinkError", "Probe", "job_identity", "open_link"]
+__all__ = ["BoardStopError", "BridgeLink", "LinkError", "Probe", "job_identity", "open_link"]
 
 #: Longest IDLE or WAIT sent at once, about 1 s at 1 MHz, so that every reply comes well within
 #: the link's timeout; longer ones are sent in parts (the same cycles on a simulated board).
@@ -61,6 +64,18 @@ ATTEMPTS = 3
 class LinkError(Exception):
     """The link failed: it cannot be opened, a reply did not come or was not understood, or
     the chipset behind it is not the one expected."""
+
+
+class BoardStopError(Exception):
+    """The board latched a stop (its watchdog, the E-stop, a limit): ``status`` is its STATUS
+    by field, read when the host's :attr:`BridgeLink.cycle` was ``cycle`` and the bridge's
+    cycle counter ``board_cycle`` (just after the read)."""
+
+    def __init__(self, status: dict[str, int], cycle: int, board_cycle: int):
+        super().__init__(f"the board latched a stop (STATUS {status})")
+        self.status = status
+        self.cycle = cycle
+        self.board_cycle = board_cycle
 
 
 def job_identity(job: Job) -> Identity:
@@ -96,6 +111,10 @@ class BridgeLink:
         self.probes: bool | None = None
         #: The longest IDLE or WAIT sent at once (shorter with the watchdog armed).
         self.max_count = MAX_COUNT
+        #: Cycles between the board's STATUS reads while idling and waiting (0: none), and
+        #: the host's cycle from which the next is due.
+        self.stop_every = 0
+        self._next_check = 0
 
     @property
     def cycle(self) -> int:
@@ -193,12 +212,36 @@ class BridgeLink:
                             f"machine (other accel/decel circuits or register maps: fingerprint "
                             f"{found.fingerprint:#010x}, the job's {expected.fingerprint:#010x})")
 
+    def _part(self, cycles: int) -> int:
+        """The most of ``cycles`` one IDLE or WAIT may take: within :attr:`max_count` and, when
+        watching for stops, up to the next STATUS read."""
+        part = min(cycles, self.max_count)
+        return min(part, max(1, self._next_check - self._cycle)) if self.stop_every else part
+
+    def _check_stops(self) -> None:
+        """Read the board's STATUS if it is due; raise :class:`BoardStopError` on a latched stop."""
+        if not self.stop_every or self._cycle < self._next_check:
+            return
+        self._next_check = self._cycle + self.stop_every
+        status = self.read(board_port("STATUS"))
+        if status & LATCHED:
+            raise BoardStopError(BOARD_MAP["STATUS"].decode(status), self._cycle,
+                               self.board_cycle())
+
+    def watch_stops(self, every: int) -> None:
+        """Read the board's STATUS (a bus cycle) each time ``every`` cycles (0: never) have
+        passed since the last read, after the IDLE or WAIT that reaches them: a latched stop
+        raises :class:`BoardStopError`."""
+        self.stop_every = every
+        self._next_check = self._cycle + every
+
     def idle(self, cycles: int) -> None:
         while cycles > 0:
-            part = min(cycles, self.max_count)
+            part = self._part(cycles)
             self._command(Op.IDLE, part, reply=0)
             self._cycle += part
             cycles -= part
+            self._check_stops()
 
     def write(self, address: int, data: int) -> None:
         self._command(Op.WRITE, address, data, reply=0)
@@ -212,10 +255,11 @@ class BridgeLink:
     def wait_interrupt(self, max_cycles: int) -> int:
         waited = 0
         while waited < max_cycles:
-            part = min(max_cycles - waited, self.max_count)
+            part = self._part(max_cycles - waited)
             n = int.from_bytes(self._command(Op.WAIT, part, reply=COUNT_BITS // 8), "little")
             self._cycle += n
             waited += n
+            self._check_stops()
             if n < part:
                 break
         return waited

@@ -15,7 +15,10 @@ does, with what a host can know:
   null errors;
 * the board's STATUS (watchdog, E-stop, limits), read when the run ends: a stop the board
   latched makes the run's status ``fault``. With ``watchdog_s`` the host arms the board's
-  watchdog before the run (its frames feed it) and turns it off after.
+  watchdog before the run (its frames feed it) and turns it off after, and reads STATUS
+  after every quarter of the watchdog's time spent idling or waiting
+  (:meth:`BridgeLink.watch_stops`): a stop latched mid-run ends the run there, a ``fault``
+  whose report says where it was seen (``link.stop_seen``), with what was computed so far.
 
 A link lost during the run still gives a report: status ``link-lost``, what was not read
 null.
@@ -32,7 +35,14 @@ from k37.firmware_model.job import Job
 from k37.hdl.board.map import WATCHDOG_BITS
 from k37.hdl.bridge.protocol import COUNTER_BITS
 from k37.hdl.chipset.map import chip_register, port
-from k37.sim.link.bridge import BridgeLink, LinkError, Probe, job_identity, open_link
+from k37.sim.link.bridge import (
+    BoardStopError,
+    BridgeLink,
+    LinkError,
+    Probe,
+    job_identity,
+    open_link,
+)
 from k37.sim.machine.plant_model import dac_zero
 from k37.sim.run.assemble import report_document, run_status
 from k37.sim.run.meter import BlockMeasure
@@ -61,8 +71,8 @@ class _ProbeMeter:
         self.axes = axes
         self.measures: dict[int, BlockMeasure | None] = {}
         #: Each block's start and end cycle on the board: from PROBE, else from the bridge's
-        #: cycle counter (a command more at each, no bus cycle).
-        self.board_cycles: dict[int, list[int]] = {}
+        #: cycle counter (a command more at each, no bus cycle); the end None until it ends.
+        self.board_cycles: dict[int, list[int | None]] = {}
         self._start: Probe | None = None
 
     def _board_cycle(self, probe: Probe | None) -> int:
@@ -70,7 +80,7 @@ class _ProbeMeter:
 
     def block_started(self, record: BlockRecord) -> None:
         self._start = self.link.probe()
-        self.board_cycles[record.index] = [self._board_cycle(self._start), 0]
+        self.board_cycles[record.index] = [self._board_cycle(self._start), None]
 
     def block_ended(self, record: BlockRecord) -> None:
         end = self.link.probe()
@@ -160,23 +170,11 @@ def _board_stop(status: dict[str, int]) -> str | None:
     return f"the board stopped the machine: {', '.join(why)}" if why else None
 
 
-def _run(job: Job, options: RunOptions, link: BridgeLink, url: str,
-         watchdog: int) -> RunResult:
-    host = Host8085(link, clock_hz=job.machine.clock_hz)
-    meter = _ProbeMeter(link, job.machine.axis_names)
-    firmware = Firmware(host, job, budget_offset=options.budget_offset, observer=meter)
-    limit, limit_name = cycle_limit(job, options)
-    start = time.perf_counter()
-    if watchdog:
-        link.arm_watchdog(watchdog, dac_zero(job.machine.dac_bits))
-    board_start = link.board_cycle()
-    lost: str | None = None
-    try:
-        firmware.run(limit)
-    except LinkError as e:
-        lost = str(e)
-    wall = time.perf_counter() - start
-    cycles = link.cycle
+def _after_run(link: BridgeLink, job: Job, board_start: int, watchdog: int,
+               lost: str | None) -> tuple[dict, Probe | None, dict[str, dict], str | None]:
+    """What the host reads after the run (unless the link was ``lost``): the board's counts
+    and STATUS (its watchdog turned off if armed), the PROBE and each axis; with the link
+    lost, or lost here, null."""
     seen: dict = {"board_cycle": None, "board_cycles": None, "board": None}
     probe, axes = None, _lost_axes(job)
     if lost is None:
@@ -191,7 +189,40 @@ def _run(job: Job, options: RunOptions, link: BridgeLink, url: str,
             seen["board_cycle"] = link.board_cycle()
         except LinkError as e:
             lost = str(e)
+    return seen, probe, axes, lost
+
+
+def _run(job: Job, options: RunOptions, link: BridgeLink, url: str,
+         watchdog: int) -> RunResult:
+    host = Host8085(link, clock_hz=job.machine.clock_hz)
+    meter = _ProbeMeter(link, job.machine.axis_names)
+    firmware = Firmware(host, job, budget_offset=options.budget_offset, observer=meter)
+    limit, limit_name = cycle_limit(job, options)
+    start = time.perf_counter()
+    if watchdog:
+        link.arm_watchdog(watchdog, dac_zero(job.machine.dac_bits))
+    board_start = link.board_cycle()
+    if watchdog:
+        link.watch_stops(link.max_count)
+    lost: str | None = None
+    stopped: BoardStopError | None = None
+    try:
+        firmware.run(limit)
+    except LinkError as e:
+        lost = str(e)
+    except BoardStopError as e:
+        stopped = e
+    link.watch_stops(0)
+    wall = time.perf_counter() - start
+    cycles = link.cycle
+    seen, probe, axes, lost = _after_run(link, job, board_start, watchdog, lost)
+    if watchdog:
+        seen["stop_seen"] = None if stopped is None else {"cycle": stopped.cycle,
+                                                          "board_cycle": stopped.board_cycle}
     stop = None if seen["board"] is None else _board_stop(seen["board"])
+    if stopped is not None:
+        stop = (f"{_board_stop(stopped.status)} (seen at board cycle "
+                f"{stopped.board_cycle:,}, the host's cycle {stopped.cycle:,})")
     if lost is not None:
         status, reason = "link-lost", f"the link was lost after cycle {cycles:,}: {lost}"
     elif stop is not None:

@@ -199,8 +199,15 @@ RUN_SCHEMA["properties"]["link"] = _obj(
         "board_blocks": {"type": "array", "items": {"type": ["array", "null"]},
                          "description": "each block's start and end cycle on the board, by "
                                         "PROBE or, from a board without it, by its bridge's "
-                                        "cycle counter"},
-    })
+                                        "cycle counter (the end null: the block did not end)"},
+        "stop_seen": _nullable(_obj(
+            "where the host, reading the board's STATUS while it waited, saw a latched stop "
+            "and ended the run (only with `--watchdog`)", {
+                "cycle": _int("the host's count of cycles at the STATUS read"),
+                "board_cycle": _int("the bridge's cycle counter just after it"),
+            }), "no stop was seen during the run"),
+    }, required=["url", "probes", "board_cycle", "board_cycles", "board", "watchdog_cycles",
+                 "board_blocks"])
 #: Present only when asked for (ballbar), when there are some (events), with ``--link`` or
 #: when a backend was picked (backend_reason).
 OPTIONAL = ("ballbar", "events", "link", "backend_reason")

@@ -10,10 +10,13 @@ board's hold write) and skips the spans between. The board's own hold write (DEC
 on the machine's bus as the gateware's does. A stopped drive is modelled on the plant: its
 velocity command is zero (the plant's gain and feedforward set to 0), so the motor comes to
 rest by its own lag; the D/A word the plant sees stays the K3702's, where a board's pins
-carry DAC_ZERO.
+carry DAC_ZERO. :class:`InputChange` schedules the inputs by machine cycle (``k37 serve
+--estop-at``, ``--limit``): a bench's E-stop pressed or limit switch opened at a known time.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 from k37.firmware_model.job import Job
 from k37.firmware_model.link import Interrupts
@@ -23,9 +26,34 @@ from k37.sim.link.simulated import SimulatedLink
 from k37.sim.machine.servo import axis_port
 from k37.sim.run.runner import configure_plants
 
-__all__ = ["BoardIO"]
+__all__ = ["BoardIO", "InputChange", "check_changes"]
 
 _IDLE = BusCycle()
+
+
+@dataclass(frozen=True, order=True)
+class InputChange:
+    """At machine cycle ``cycle`` (since the board was reset) the input ``name`` (``estop``
+    or an axis's name, for its limit) becomes ``active`` (pressed, the switch open) or
+    released."""
+
+    cycle: int
+    name: str
+    active: bool = True
+
+    def __str__(self) -> str:
+        what = "the E-stop" if self.name == "estop" else f"the {self.name.upper()} limit"
+        done = ("pressed" if self.name == "estop" else "hit") if self.active else "released"
+        return f"{what} {done} at cycle {self.cycle:,}"
+
+
+def check_changes(job: Job, changes: tuple[InputChange, ...]) -> None:
+    """Raise ValueError unless every change is of an input ``job``'s board has."""
+    names = ("estop", *job.machine.axis_names)
+    for change in changes:
+        if change.name not in names:
+            raise ValueError(f"{change.name!r}: not an input of the {job.machine.axes}-axis "
+                             f"board (estop, limits {', '.join(job.machine.axis_names)})")
 
 
 class BoardIO:
@@ -33,13 +61,17 @@ class BoardIO:
     ``backend``); :attr:`estop_n` and :attr:`limit_n` are its inputs (True: released),
     taken at each machine cycle the bridge runs."""
 
-    def __init__(self, link: SimulatedLink, backend: Backend, job: Job):
+    def __init__(self, link: SimulatedLink, backend: Backend, job: Job,
+                 changes: tuple[InputChange, ...] = ()):
         self.link = link
         self.backend = backend
         self.job = job
         self.model = MachineIOModel(job.machine.axes)
         self.estop_n = True
         self.limit_n = (True,) * job.machine.axes
+        check_changes(job, changes)
+        #: The scheduled input changes still to come, the next first.
+        self.changes = sorted(changes)
         self._feed = False
         self._driving = True
         self._chip_byte = 0
@@ -83,8 +115,22 @@ class BoardIO:
         left = self.model.cycles_to_trip()
         return None if left is None else left / clock_hz
 
+    def _apply_changes(self) -> int | None:
+        """Take the scheduled input changes due by this cycle; the cycles to the next one
+        (None: none to come)."""
+        changes = self.changes
+        while changes and changes[0].cycle <= self.cycle:
+            change = changes.pop(0)
+            if change.name == "estop":
+                self.estop_n = not change.active
+            else:
+                k = self.job.machine.axis_names.index(change.name)
+                self.limit_n = (*self.limit_n[:k], not change.active, *self.limit_n[k + 1:])
+        return changes[0].cycle - self.cycle if changes else None
+
     def _step(self, host: BusCycle) -> None:
         """One machine cycle of the board and the machine."""
+        self._apply_changes()
         feed, self._feed = self._feed, False
         out = self.model.step(host, feed, self.estop_n, self.limit_n)
         chip = out.chip
@@ -102,8 +148,8 @@ class BoardIO:
         done = 0
         model = self.model
         while done < cycles:
-            left = model.cycles_to_trip()
-            span = cycles - done if left is None else min(cycles - done, left)
+            span = min((cycles - done, *(n for n in (model.cycles_to_trip(),
+                                                     self._apply_changes()) if n is not None)))
             if self._feed or span == 0 or not model.settled(self.estop_n, self.limit_n):
                 self._step(_IDLE)
                 done += 1

@@ -34,7 +34,7 @@ from k37.sim.link.simulated import SimulatedLink
 from k37.sim.run.output import write_samples
 from k37.sim.run.runner import build_backend, configure_plants
 from k37.sim.run.sampler import Sampler, SampleStore
-from k37.sim.serve.board import BoardIO
+from k37.sim.serve.board import BoardIO, InputChange, check_changes
 
 __all__ = ["Session", "SimulatedBoard"]
 
@@ -57,12 +57,15 @@ class SimulatedBoard:
     UART's as on a real board (:class:`k37.hdl.bridge.model.LineTimed`); None: time passes only as
     the commands say. ``trace``: where the machine's samples since it was reset (one every
     ``sample_every`` cycles) are written as CSV when each session ends. ``probes``:
-    False to answer as a real board does, without :attr:`Op.PROBE`.
+    False to answer as a real board does, without :attr:`Op.PROBE`. ``changes``: the board's
+    E-stop and limit inputs changing at given machine cycles
+    (:class:`k37.sim.serve.board.InputChange`).
     """
 
     def __init__(self, job: Job, kind: str = "auto", host: str = "127.0.0.1", port: int = 0,
                  sample_every: int = 1000, line: tuple[int, int] | None = None,
-                 trace: Path | None = None, probes: bool = True):
+                 trace: Path | None = None, probes: bool = True,
+                 changes: tuple[InputChange, ...] = ()):
         self.job = job
         self.probes = probes
         self.line = line
@@ -71,6 +74,7 @@ class SimulatedBoard:
             check_cycles_per_bit(line[0])
             if line[1] < 0:
                 raise ValueError(f"the host's turnaround must be >= 0 cycles, not {line[1]}")
+        check_changes(job, changes)
         self.listener = socket.create_server((host, port))  # first: a port in use fails fast
         self.port: int = self.listener.getsockname()[1]
         try:
@@ -85,7 +89,7 @@ class SimulatedBoard:
         self.store = SampleStore(job.machine.dac_bits, job.machine.axis_names)
         self.sampler = Sampler(self.backend, sample_every, self.store, skip_idle=True)
         #: The board's watchdog, E-stop and limits in front of the machine.
-        self.board = BoardIO(SimulatedLink(self.sampler), self.backend, job)
+        self.board = BoardIO(SimulatedLink(self.sampler), self.backend, job, changes)
         self.model: BridgeModel | LineTimed = BridgeModel(
             self.board, self.identity, probe=self._probe if probes else None,
             on_frame=self.board.frame)
