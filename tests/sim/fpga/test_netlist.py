@@ -3,10 +3,12 @@ after Yosys's ``synth_ecp5`` against Amaranth's simulator, and the three-axis K3
 against its reference model, on the random bus traffic and turning encoders of
 :mod:`test_export_cosim`; the ULX3S board's top (three-axis chipset, clock enable, UART bridge,
 sigma-delta D/As) after it against Amaranth's simulator, a host's frame on its UART pin and
-turning encoders, every board cycle.
+turning encoders, every board cycle; the encoder interface and the K3702 after nextpnr-ecp5's
+placement and routing against their reference models.
 
-The netlists' cells run on the simulation models that ship with Yosys
-(:func:`k37.sim.fpga.netlist.ecp5_cell_models`). The tests skip, saying so, where Icarus or the
+The netlists' cells run on the simulation models that ship with Yosys, corrected for
+nextpnr's netlists (:func:`k37.sim.fpga.netlist.ecp5_cell_models`; a bench of single cells
+checks each correction). The tests skip, saying so, where Icarus or the
 fpga extra's tools are absent.
 """
 
