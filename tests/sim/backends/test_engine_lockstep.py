@@ -5,14 +5,15 @@ Every job runs on :class:`k37.sim.backends.engine.lockstep.LockstepBackend`: aft
 of the run (each step, wait, bus access) every output port and the cycle count of the engine
 are compared with the compiled RTL's, and the first differing cycle raises
 :class:`~k37.sim.backends.engine.lockstep.DivergenceError` naming the port. The jobs are
-hypothesis-drawn short programs (lines, arcs, helices, dwells, parabolas and exponentials,
+hypothesis-drawn: short programs (lines, arcs, helices, dwells, parabolas and exponentials,
 faults and load steps) over the placements of the accel/decel circuit, the drives, the
-contour controllers and two and three axes; every shape of the circuit and per-axis addition
-clocks; every example; the reproduction's runs of distinct machines (each placement and shape,
-the drives, the controllers, the FP-budget hazard); every program of
-the conformance corpus. Each machine's pair of backends is built once per module (the
-machines are the ones the other backend tests build, so their models come from the cache)
-and reset between jobs. Long runs are cut off at a cycle limit each test names.
+contour controllers and two and three axes, and blocks of every kind started into a running
+feed; then every shape of the circuit and per-axis addition clocks, every example, the
+reproduction's runs of distinct machines (each placement and shape, the drives, the
+controllers, the FP-budget hazard) and its step-rate blocks, and every program of the
+conformance corpus. Each machine's pair of backends is built once per module (the machines
+are the ones the other backend tests build, so their models come from the cache) and reset
+between jobs. Long runs are cut off at a cycle limit each test names.
 """
 
 from __future__ import annotations
@@ -25,14 +26,23 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from k37.firmware_model.job import CONTOUR_CONTROLLERS, ContourConfig, Job
+from k37.firmware_model.host import Host8085
+from k37.firmware_model.job import CONTOUR_CONTROLLERS, ContourConfig, Job, MachineConfig
+from k37.hdl.feed.map.decel_control import DECEL_MAP
+from k37.hdl.feed.map.feed_rate import FEED_MAP
+from k37.hdl.k3701.block import Block
+from k37.hdl.k3701.map import block_registers
 from k37.sim.backends.contract import Backend
 from k37.sim.backends.engine.lockstep import LockstepBackend
+from k37.sim.link.simulated import SimulatedLink
 from k37.sim.machine.servo import load_step_fault
 from k37.sim.reproduce.experiments import all_specs
-from k37.sim.reproduce.runs import QUICK, RunSpec
+from k37.sim.reproduce.runs import QUICK, RateSpec, RunSpec
+from k37.sim.reproduce.workers import max_rates
 from k37.sim.run.jobfile import load_job
-from k37.sim.run.runner import RunOptions, build_backend, design_key, run_job
+from k37.sim.run.runner import RunOptions, build_backend, configure_plants, design_key, run_job
+from tests.hdl.k3701.test_k3701_exponential import exponentials
+from tests.hdl.k3701.test_k3701_parabolic import parabolas
 from tests.paths import ROOT
 from tests.sim.backends.test_engine import EXAMPLE_FAULTS
 from tests.sim.backends.test_engine_drives import TORQUE
@@ -123,6 +133,37 @@ def test_lockstep_finds_no_difference_with_every_circuit_and_addition_clock(
     run_in_lockstep(job, lockstep, faults)
 
 
+lines = st.builds(Block.line, st.integers(-300, 300), st.integers(-300, 300),
+                  sqrt2=st.booleans())
+arcs = st.builds(lambda r, cw, sqrt2: Block.arc(0, 0, -r, 0, cw=cw, sqrt2=sqrt2),
+                 st.integers(5, 200), st.booleans(), st.booleans())
+
+
+@settings(max_examples=16, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(block=st.one_of(lines, arcs, parabolas(span=30), exponentials(span=30)),
+       accel=st.sampled_from(sorted(DRIVES)), feed=st.integers(1 << 14, (1 << 18) - 1))
+def test_lockstep_finds_no_difference_on_blocks_started_into_a_running_feed(
+        block, accel, feed, make_job, lockstep):
+    """The feed path opened before the block starts, so that FP arrives from the block's
+    first cycle: each step as early as the K3701's setup and latency allow (a run's blocks
+    start before their feed, which hides the setup). 20,000 cycles compared every 7."""
+    job = make_job("M30", MachineConfig(accel=accel, accel_bits=8))
+    pair = lockstep(job)
+    configure_plants(pair, job)
+    host = Host8085(SimulatedLink(pair))
+    host.command("K3701", ack=1, clear=1)
+    for register in ("RM_INC", "FA_INC"):
+        host.write("FEED", register, FEED_MAP[register].bounds[1])
+    host.write("FEED", "FEED", feed)
+    host.write("DECEL", "BUDGET", DECEL_MAP["BUDGET"].bounds[1])
+    for register, value in block_registers(block).items():
+        host.write("K3701", register, value)
+    host.command("K3701", start=1)
+    for _ in range(20_000 // 7):
+        pair.step(7)
+
+
 @pytest.mark.parametrize(("example", "faults"), EXAMPLE_FAULTS)
 def test_lockstep_finds_no_difference_on_every_example(example, faults, lockstep):
     run_in_lockstep(load_job(ROOT / "examples" / example), lockstep, faults)
@@ -151,6 +192,16 @@ def test_lockstep_finds_no_difference_on_the_quick_reproductions_runs(key, cycle
     run_in_lockstep(spec.job(), lockstep, sample_every=spec.sample_every,
                     max_cycles=min(spec.max_cycles, cycles),
                     budget_offset=spec.budget_offset)
+
+
+def test_lockstep_finds_no_difference_on_the_quick_reproductions_step_rates(lockstep):
+    """A line and a circle with FP offered every cycle: each step as early as the K3701's
+    latency and a circle's setup allow."""
+    spec = all_specs(QUICK)["rates"]
+    assert isinstance(spec, RateSpec)
+    data = max_rates(spec, lockstep)
+    assert data.report["backend"] == "lockstep"
+    assert data.probes["linear_steps"] == data.probes["circular_steps"] == QUICK.rate_steps
 
 
 CORPUS = sorted(path for path in (ROOT / "tests" / "gcode_corpus").iterdir() if path.is_file())
