@@ -85,6 +85,10 @@ DRIVES = {"pre": ("first_order", "torque", "two_mass"),
           "post": ("first_order", "torque", "two_mass"), "none": ("first_order",)}
 
 
+#: The servo keys of the torque and two-mass drives (with every term).
+SERVOS = {"torque": TORQUE, "two_mass": {**TORQUE, "drive": "two_mass", "cs": 2000.0}}
+
+
 @st.composite
 def machine_options(draw) -> dict:
     accel = draw(st.sampled_from(sorted(DRIVES)))
@@ -100,7 +104,7 @@ def test_lockstep_finds_no_difference_on_generated_jobs_over_the_machine_options
         seed, options, dwell, curves, load_step, random_moves, lockstep):
     """Two-axis jobs, each cut off after 1,500,000 cycles."""
     drive = options["drive"]
-    servo = {"torque": TORQUE, "two_mass": {**TORQUE, "drive": "two_mass", "cs": 2000.0}}.get(drive)
+    servo = SERVOS.get(drive)
     job, faults, _ = random_moves(seed, options["accel"], dwell=dwell, curves=curves,
                                   servo=servo)
     job = replace(job, machine=replace(job.machine, accel_bits=8),
@@ -112,14 +116,24 @@ def test_lockstep_finds_no_difference_on_generated_jobs_over_the_machine_options
 
 @settings(max_examples=10, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
-@given(seed=st.integers(0, 10**6), dwell=st.booleans(), curves=st.booleans())
-def test_lockstep_finds_no_difference_on_generated_three_axis_jobs(seed, dwell, curves,
+@given(seed=st.integers(0, 10**6), drive=st.sampled_from(DRIVES["pre"]), dwell=st.booleans(),
+       curves=st.booleans())
+def test_lockstep_finds_no_difference_on_generated_three_axis_jobs(seed, drive, dwell, curves,
                                                                    random_moves, lockstep):
     """Lines through space, arcs in every plane, helices; each cut off after 1,500,000
     cycles."""
-    job, faults, _ = random_moves(seed, "pre", dwell=dwell, curves=curves, axes=3)
-    job = replace(job, machine=replace(job.machine, accel_bits=15))
+    job, faults, _ = random_moves(seed, "pre", dwell=dwell, curves=curves, axes=3,
+                                  servo=SERVOS.get(drive))
+    bits = 15 if drive == "first_order" else 8
+    job = replace(job, machine=replace(job.machine, accel_bits=bits))
     run_in_lockstep(job, lockstep, faults, max_cycles=1_500_000)
+
+
+def test_lockstep_finds_no_difference_without_skipping_idle_cycles(lockstep):
+    """``--no-skip-idle``: every cycle evaluated on both; the first 500,000 cycles."""
+    report = run_in_lockstep(load_job(ROOT / "examples" / "square.toml"), lockstep,
+                             skip_idle=False, max_cycles=500_000)
+    assert report["skipped_cycles"] == 0
 
 
 @pytest.mark.parametrize(("accel", "shape", "axis_shapes", "axis_fa", "seed"), [
