@@ -221,5 +221,6 @@ CORPUS = sorted(path for path in (ROOT / "tests" / "gcode_corpus").iterdir() if 
 
 @pytest.mark.parametrize("program", CORPUS, ids=lambda path: path.name)
 def test_lockstep_finds_no_difference_on_the_conformance_corpus(program: Path, lockstep):
-    """The first 10,000,000 cycles (10 s of machine time) of each program."""
-    run_in_lockstep(load_job(program), lockstep, max_cycles=10_000_000)
+    """The first 20,000,000 cycles (20 s of machine time: three to ten blocks) of each
+    program."""
+    run_in_lockstep(load_job(program), lockstep, max_cycles=20_000_000)
