@@ -17,17 +17,18 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 import numpy as np
 
 from k37.firmware_model.host import Host8085
-from k37.firmware_model.job import AXES
+from k37.firmware_model.job import AXES, Job
 from k37.hdl.feed.map.decel_control import DECEL_MAP
 from k37.hdl.feed.map.feed_rate import FEED_MAP
 from k37.hdl.k3701.block import Block
 from k37.hdl.k3701.map import block_registers
+from k37.sim.backends.contract import Backend
 from k37.sim.link.simulated import SimulatedLink
 from k37.sim.reproduce.runs import RateSpec, RunData, RunSpec, Specs, minus_spec
 from k37.sim.run.runner import RunOptions, design_key, reused_backend, run_job
 from k37.sim.study.sweep import end_with_parent, stop_workers
 
-__all__ = ["run_all"]
+__all__ = ["max_rates", "run_all"]
 
 def _build(spec: RunSpec | RateSpec) -> RunData:
     """Build (or load from the cache) this process's model for ``spec``'s machine."""
@@ -73,13 +74,15 @@ def start_at_full_feed(host: Host8085, block: Block) -> None:
         host.write(chip, register, regmap[register].bounds[1])
 
 
-def _max_rates(spec: RateSpec) -> RunData:
-    """Step rates of the K3701 gateware with FP offered every cycle (``docs/chips/k3701.md``)."""
+def max_rates(spec: RateSpec,
+              backend_for: Callable[[Job], Backend] = reused_backend) -> RunData:
+    """Step rates of the K3701 gateware with FP offered every cycle (``docs/chips/k3701.md``),
+    each block on ``backend_for(spec.job())`` (default: this process's machine for it)."""
     start = time.perf_counter()
     probes: dict[str, int] = {}
     cycles, used = 0, set()
     for name, block, counter, steps in spec.blocks:
-        backend = reused_backend(spec.job())
+        backend = backend_for(spec.job())
         used.add(backend.name)
         start_at_full_feed(Host8085(SimulatedLink(backend)), block)
         backend.step(1000)  # past the start and the circle's radius check
@@ -100,7 +103,7 @@ def _execute(task: RunSpec | RateSpec | tuple[str, RunSpec | RateSpec]) -> RunDa
     if isinstance(task, tuple):
         return _build(task[1])
     if isinstance(task, RateSpec):
-        return _max_rates(task)
+        return max_rates(task)
     return _run(task)
 
 

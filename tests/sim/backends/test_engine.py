@@ -83,9 +83,12 @@ def test_engine_equals_the_rtl_with_every_circuit_and_addition_clock(accel, shap
 EXAMPLES = ROOT / "examples"
 
 
-@pytest.mark.parametrize(("example", "faults"), [
-    ("circle.toml", {}), ("circle_post.toml", {}), ("dwell.toml", {}), ("square.toml", {}),
-    ("stall.toml", {"x": {"stall": 1}}), ("square.ngc", {})])
+#: Every example job, and the faults it is run with.
+EXAMPLE_FAULTS = [("circle.toml", {}), ("circle_post.toml", {}), ("dwell.toml", {}),
+                  ("square.toml", {}), ("stall.toml", {"x": {"stall": 1}}), ("square.ngc", {})]
+
+
+@pytest.mark.parametrize(("example", "faults"), EXAMPLE_FAULTS)
 def test_engine_equals_the_rtl_on_every_example(example, faults):
     job = load_job(EXAMPLES / example)
     same_on_engine_and_rtl(job, faults)
