@@ -28,7 +28,7 @@ from k37.sim.reproduce.runs import RateSpec, RunData, RunSpec, Specs, minus_spec
 from k37.sim.run.runner import RunOptions, design_key, reused_backend, run_job
 from k37.sim.study.sweep import end_with_parent, stop_workers
 
-__all__ = ["max_rates", "run_all"]
+__all__ = ["max_rates", "run_all", "start_at_full_feed"]
 
 def _build(spec: RunSpec | RateSpec) -> RunData:
     """Build (or load from the cache) this process's model for ``spec``'s machine."""
