@@ -141,6 +141,18 @@ def reference_errors(moves, blocks, samples) -> np.ndarray:
     return np.array(out)
 
 
+def _arc(draw, x: float, y: float) -> tuple[str, float, float, str]:
+    """A drawn arc from (x, y) (radius 0.5-3 mm, sweep 0.3-5.5 rad, either way): its G word,
+    its end point and its centre words."""
+    r = draw(st.floats(0.5, 3))
+    a0, sweep = draw(st.floats(0, math.tau)), draw(st.floats(0.3, 5.5))
+    cw = draw(st.booleans())
+    cx, cy = x - r * math.cos(a0), y - r * math.sin(a0)
+    a1 = a0 - sweep if cw else a0 + sweep
+    end = round(cx + r * math.cos(a1), 3), round(cy + r * math.sin(a1), 3)
+    return "G02" if cw else "G03", *end, f"I{cx - x:.3f} J{cy - y:.3f}"
+
+
 @st.composite
 def chains(draw):
     """A program of 2 to 6 lines, arcs, parabolas, exponentials and G5 splines (mm) and a tool
@@ -153,14 +165,8 @@ def chains(draw):
             y += draw(st.floats(-3, 3)).__round__(3)
             text.append(f"G01 X{x:.3f} Y{y:.3f}")
         elif kind == "arc":
-            r = draw(st.floats(0.5, 3))
-            a0, sweep = draw(st.floats(0, math.tau)), draw(st.floats(0.3, 5.5))
-            cw = draw(st.booleans())
-            cx, cy = x - r * math.cos(a0), y - r * math.sin(a0)
-            a1 = a0 - sweep if cw else a0 + sweep
-            i, j = cx - x, cy - y
-            x, y = round(cx + r * math.cos(a1), 3), round(cy + r * math.sin(a1), 3)
-            text.append(f"{'G02' if cw else 'G03'} X{x:.3f} Y{y:.3f} I{i:.3f} J{j:.3f}")
+            word, x, y, centre = _arc(draw, x, y)
+            text.append(f"{word} X{x:.3f} Y{y:.3f} {centre}")
         elif kind == "parabola":
             dx = 2 * draw(st.integers(500, 1500)) / 1000
             rise = draw(st.floats(-1, 1)).__round__(3)
@@ -191,14 +197,8 @@ def helical_chains(draw):
             y += draw(st.floats(-3, 3)).__round__(3)
             text.append(f"G01 X{x:.3f} Y{y:.3f} Z{z:.3f}")
             continue
-        r = draw(st.floats(0.5, 3))
-        a0, sweep = draw(st.floats(0, math.tau)), draw(st.floats(0.3, 5.5))
-        cw = draw(st.booleans())
-        cx, cy = x - r * math.cos(a0), y - r * math.sin(a0)
-        a1 = a0 - sweep if cw else a0 + sweep
-        i, j = cx - x, cy - y
-        x, y = round(cx + r * math.cos(a1), 3), round(cy + r * math.sin(a1), 3)
-        text.append(f"{'G02' if cw else 'G03'} X{x:.3f} Y{y:.3f} Z{z:.3f} I{i:.3f} J{j:.3f}")
+        word, x, y, centre = _arc(draw, x, y)
+        text.append(f"{word} X{x:.3f} Y{y:.3f} Z{z:.3f} {centre}")
     return "\n".join(text) + "\nM30\n", draw(st.integers(0, 3000)), draw(st.integers(0, 99))
 
 
