@@ -7,6 +7,8 @@ shows in a corner test (Fig. 12, 1 m/min) the corner following error falling whe
 constant goes from 15 ms to 30 ms. Here the reference model of the circuit runs against eq
 (35), and the corner runs on the post-interpolation machine with both filter shapes, on rigid
 axes and on resonant ones (the two-mass drive: the vibration under load the paper names).
+The resonance the paper does not give is also identified from the linear filter's corner errors
+and the exponential filter's predicted with it (:mod:`~k37.sim.reproduce.identify`).
 """
 
 from __future__ import annotations
