@@ -64,27 +64,22 @@ def resonant_servo(base: ServoConfig, point: Point) -> ServoConfig:
     return dataclasses.replace(base, ks=w**2 * half, cs=2 * point.zeta * w * half)
 
 
-def _axis(low: float, high: float, count: int) -> np.ndarray:
-    return np.geomspace(low, high, count)
-
-
 def coarse_grid(scale: Scale) -> list[Point]:
     """The bracketing grid at ``scale``."""
-    return [Point(float(h), float(z)) for h in _axis(*_HZ[scale.name])
-            for z in _axis(*_ZETA[scale.name])]
+    return [Point(float(h), float(z)) for h in np.geomspace(*_HZ[scale.name])
+            for z in np.geomspace(*_ZETA[scale.name])]
 
 
 def refine_grid(scale: Scale, best: Point) -> list[Point]:
-    """The finer grid around the coarse grid's ``best``: a quarter of its frequency step and
-    half its damping step, over one coarse step either side."""
+    """The finer grid around the coarse grid's ``best``: steps of a fraction of the coarse
+    steps (:data:`_REFINE`), over one coarse step either side, within the coarse bounds."""
     steps = []
     for (low, high, count), value, per in zip((_HZ[scale.name], _ZETA[scale.name]),
                                               (best.hz, best.zeta), _REFINE[scale.name],
                                               strict=True):
-        ratio = (high / low) ** (1 / (count - 1)) if count > 1 else 1.0
-        steps.append([value * ratio ** (k / per) for k in range(-per, per + 1)
-                      if low <= value * ratio ** (k / per) * (1 + 1e-9)
-                      and value * ratio ** (k / per) <= high * (1 + 1e-9)])
+        ratio = (high / low) ** (1 / (count - 1))
+        values = (value * ratio ** (k / per) for k in range(-per, per + 1))
+        steps.append([v for v in values if low * (1 - 1e-9) <= v <= high * (1 + 1e-9)])
     return [Point(h, z) for h in steps[0] for z in steps[1]]
 
 
