@@ -23,6 +23,7 @@ __all__ = ["add_commands"]
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from k37.sim.reproduce.experiments import reproduce
+    from k37.sim.reproduce.markdown import scoreboard
 
     def progress(message: str) -> None:
         if not args.quiet:
@@ -41,11 +42,11 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
         print(f"k37: error: {e.filename or out}: not written: {why(e)}", file=sys.stderr)
         return EXIT_OUTPUT
-    failed = [row for row in result.rows if not row.passed]
+    failed = result.failed
 
     def lines() -> None:
-        print(f"k37 reproduce: {len(result.rows) - len(failed)} of {len(result.rows)} rows "
-              f"pass ({result.seconds:.0f} s); wrote {out / 'report.md'} and "
+        print(f"k37 reproduce: {scoreboard(result.rows)} ({result.seconds:.0f} s); wrote "
+              f"{out / 'report.md'} and "
               f"{sum(1 for s in result.sections if s.figure)} figures")
         for row in failed:
             print(f"  FAIL: {row.what}: {row.emulator} (tolerance: {row.tolerance})")

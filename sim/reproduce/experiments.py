@@ -49,7 +49,9 @@ __all__ = ["COMPANIONS", "all_specs", "analyse", "reproduce"]
 
 
 #: The companion papers' sections, numbered from 8 on: modules with ``specs(scale)`` (their
-#: runs, keys unique across the reproduction) and ``section(runs, specs, scale, out)``.
+#: runs, keys unique across the reproduction) and ``section(runs, specs, scale, out)``, and
+#: optionally ``follow_up(runs, scale)``: runs that depend on others' results (run in rounds
+#: until it has none left).
 COMPANIONS: tuple[ModuleType, ...] = (filters, motion_errors, contour_error, profile_error)
 
 
@@ -74,6 +76,9 @@ def reproduce(out: Path, *, quick: bool = False, jobs: int = 2,
     scale = QUICK if quick else FULL
     start = time.perf_counter()
     runs = run_all(all_specs(scale), jobs, progress)
+    while more := {key: spec for companion in COMPANIONS if hasattr(companion, "follow_up")
+                   for key, spec in companion.follow_up(runs, scale).items()}:
+        runs |= run_all(more, jobs, progress)
     return analyse(runs, scale, out, start)
 
 

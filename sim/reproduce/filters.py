@@ -7,6 +7,8 @@ shows in a corner test (Fig. 12, 1 m/min) the corner following error falling whe
 constant goes from 15 ms to 30 ms. Here the reference model of the circuit runs against eq
 (35), and the corner runs on the post-interpolation machine with both filter shapes, on rigid
 axes and on resonant ones (the two-mass drive: the vibration under load the paper names).
+The resonance the paper does not give is also identified from the linear filter's corner errors
+and the exponential filter's predicted with it (:mod:`~k37.sim.reproduce.identify`).
 """
 
 from __future__ import annotations
@@ -24,13 +26,14 @@ from k37.hdl.feed.model.divider import PhaseDividerModel
 from k37.hdl.feed.rates import increment_for
 from k37.sim.machine.servo import torque_params
 from k37.sim.machine.two_mass_model import TwoMassParams
+from k37.sim.reproduce import identify
 from k37.sim.reproduce.markdown import Section, pyplot, save_figure
 from k37.sim.reproduce.paper import FEED_HIGH
 from k37.sim.reproduce.runs import MACHINE, RunData, RunSpec, Scale, Specs, Trace
 from k37.sim.reproduce.theory import accel_filter, fp_rate, hardware_tau, servo
 
-__all__ = ["ACCEL_BITS", "SHAPES", "circuit_outputs", "filter_machine", "recursion_35",
-           "section", "specs"]
+__all__ = ["ACCEL_BITS", "RESONANCE", "SHAPES", "circuit_outputs", "filter_machine",
+           "follow_up", "recursion_35", "section", "specs"]
 
 #: The companion papers' machine: accel/decel after the interpolator, n = 10, so that
 #: tau = 2^n / fa reaches their 15 to 45 ms with fa below the 1 MHz clock. tau is set by fa
@@ -129,17 +132,28 @@ def _key(shape: str, tau: float, kind: str = "corner") -> str:
     return f"s000_{kind}_{shape}_{round(1e3 * tau)}ms"
 
 
+_GCODE = (f"G17 G21 G91\nG01 X{CORNER_LEG / 1000:g} F{CORNER_FEED:g}\n"
+          f"G01 Y{CORNER_LEG / 1000:g}\nG04 P0.2\nM30")
+
+
+def _corner_spec(key: str, shape: str, tau: float, servo: ServoConfig) -> RunSpec:
+    """The corner (G01 X then G01 Y at 1 m/min) with ``shape`` filters of ``tau`` on ``servo``."""
+    return RunSpec(key, "post", _GCODE, 200, machine=filter_machine(shape, tau),
+                   servo=dict.fromkeys("xy", servo))
+
+
 def specs(scale: Scale) -> Specs:
-    """The corner runs (the same at both scales): G01 X then G01 Y at 1 m/min, on the rigid
-    and on the resonant axes."""
-    del scale
-    gcode = (f"G17 G21 G91\nG01 X{CORNER_LEG / 1000:g} F{CORNER_FEED:g}\n"
-             f"G01 Y{CORNER_LEG / 1000:g}\nG04 P0.2\nM30")
-    return {_key(shape, tau, kind): RunSpec(_key(shape, tau, kind), "post", gcode, 200,
-                                            machine=filter_machine(shape, tau),
-                                            servo=dict.fromkeys("xy", servo))
-            for kind, servo in (("corner", CORNER_SERVO), ("resonant", RESONANT_SERVO))
-            for shape in SHAPES for tau in CORNER_TAUS}
+    """The corner runs (the same at both scales) on the rigid and on the resonant axes, and
+    the coarse grid of the resonance's identification (smaller at the quick scale)."""
+    return ({_key(shape, tau, kind): _corner_spec(_key(shape, tau, kind), shape, tau, servo)
+             for kind, servo in (("corner", CORNER_SERVO), ("resonant", RESONANT_SERVO))
+             for shape in SHAPES for tau in CORNER_TAUS}
+            | identify.specs(RESONANCE, scale))
+
+
+def follow_up(runs: dict[str, RunData], scale: Scale) -> Specs:
+    """The runs that depend on others: the identification's refinement."""
+    return identify.follow_up(RESONANCE, runs, scale)
 
 
 @dataclass(frozen=True)
@@ -191,15 +205,49 @@ def _peak(run: RunData, less: RunData | None = None) -> float:
     return float(np.abs(errors).max())
 
 
+#: The identification of the resonant axis's spring from the linear filter's two numbers, and
+#: the exponential filter's predicted from it (:mod:`~k37.sim.reproduce.identify`).
+RESONANCE = identify.Problem(_corner_spec, _peak, RESONANT_SERVO, CORNER_TAUS, PAPER_CORNER_UM)
+
+
+def _ratios(measured: tuple[float, float], paper: tuple[float, float]) -> str:
+    return " and ".join(f"{m / p:.2f}x" for m, p in zip(measured, paper, strict=True))
+
+
+def _prediction_row(sec: Section, fit: identify.Fit, rigid: float) -> None:
+    """The row of the resonance identified from the linear filter's corner errors and the
+    exponential filter's predicted with it; ``rigid``: the rigid axis's linear error at 30 ms."""
+    point, (low, high) = fit.point, fit.span
+    verdict = ("within the tolerance" if fit.fits else
+               f"no point of the grid within {identify.FIT_TOLERANCE:.0%} (the 30 ms error "
+               f"does not fall below the rigid axis's +-{rigid:.0f} LSB)")
+    sec.row("exponential filter on a resonant axis identified from the linear filter's corner "
+            "errors (free mode and damping fitted to them): corner following error, "
+            "15 ms -> 30 ms (Fig. 12), predicted",
+            "linear +-{} -> +-{} um (fitted); exponential +-{} -> +-{} um (predicted)".format(
+                *fit.paper, *fit.paper_predicted),
+            f"identified free mode {point.hz:.1f} Hz, damping {100 * point.zeta:.2g}% (as good "
+            f"within 1 LSB: {low.hz:.1f}-{high.hz:.1f} Hz, {100 * low.zeta:.2g}-"
+            f"{100 * high.zeta:.2g}%; {fit.runs} runs): linear +-{fit.fitted[0]:.0f} -> "
+            f"+-{fit.fitted[1]:.0f} LSB, {_ratios(fit.fitted, fit.paper)} the paper's, "
+            f"{verdict}; predicted exponential +-{fit.predicted[0]:.0f} -> "
+            f"+-{fit.predicted[1]:.0f} LSB, {_ratios(fit.predicted, fit.paper_predicted)} the "
+            f"paper's: the prediction {'holds' if fit.holds else 'does not hold'}",
+            f"the fit within {identify.FIT_TOLERANCE:.0%} of each linear number, and the "
+            f"prediction within {identify.PREDICTION_TOLERANCE:.0%} of each exponential one",
+            fit.holds, kind="prediction")
+
+
 def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> Section:
     """Section 8's rows, text and figure ``filters.png``."""
-    del scale
     corners = {key: _corner(runs[key], spec) for key, spec in specs.items()
                if key.startswith("s000_corner")}
     resonant = {key: _peak(runs[key]) for key in specs if key.startswith("s000_resonant")}
     spring = {key: _peak(runs[key], runs[key.replace("resonant", "corner")]) for key in resonant}
+    fit = identify.identify(RESONANCE, runs, scale)
     sec = Section(8, "The filters paper: the accel/decel circuit as the recursion eq (35), and the "
-                     "corner test (Fig. 12)", (*corners, *resonant))
+                     "corner test (Fig. 12)",
+                  (*corners, *resonant, *(key for key in runs if key.startswith("s000_identify"))))
     checks = [_recursion(filter_machine("exponential", CORNER_TAUS[0]),
                          MACHINE["post"].lsb_per_s(CORNER_FEED)),
               _recursion(MACHINE["post"], fp_rate(MACHINE["post"], FEED_HIGH))]
@@ -245,6 +293,9 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
                 "smaller at 30 ms, and by more than on the rigid axis (the trend; the ratio "
                 "depends on a resonance the paper does not give)",
                 long < short and short / long > rigid[0] / rigid[1], kind="trend")
+    rigid = corners[_key("linear", CORNER_TAUS[1])].peak
+    grid = identify.coarse_grid(scale)
+    _prediction_row(sec, fit, rigid)
     sec.text += [
         "Eq (35) is the circuit of the paper's Fig. 2 (the KM3701's exponential accel/decel "
         "circuit) written per addition pulse: the output of period k is the counter x̂(k) / "
@@ -284,6 +335,37 @@ def section(runs: dict[str, RunData], specs: Specs, scale: Scale, out: Path) -> 
         f"(the resonant run's error less the rigid run's, the same commands at the same "
         f"cycles) is the table's deflection under the acceleration force plus its ringing: it "
         f"falls by less than the paper's 7.5 to 7.8, so the paper's ratio is not reached.",
+        f"Rather than choose the resonance, the last row identifies it from the paper: the "
+        f"free mode and the damping ratio of the same drive (masses, lead and velocity loop "
+        f"kept) are fitted to the linear filter's two numbers, 70 and 9 um, and the "
+        f"exponential filter's 60 and 8 um are then predicted at the fitted point. A "
+        f"log-spaced grid of {len(grid)} points ({min(p.hz for p in grid):g} to "
+        f"{max(p.hz for p in grid):g} Hz, damping {100 * min(p.zeta for p in grid):g}% to "
+        f"{100 * max(p.zeta for p in grid):g}%) brackets the fit; a finer grid around its "
+        f"best point refines it ({fit.runs} runs in all); the fit minimises the largest factor by "
+        f"which either number is missed, and the measured quantity is the rows' own, the "
+        f"peak |command - actual| of either axis. The tolerances were stated before the "
+        f"runs: the fit within {identify.FIT_TOLERANCE:.0%} of each linear number, the "
+        f"prediction within {identify.PREDICTION_TOLERANCE:.0%} of each exponential one. "
+        f"The fit fails: the identified point is {fit.point.hz:.1f} Hz at "
+        f"{100 * fit.point.zeta:.2g}% damping, a nearly rigid axis, whose linear errors are "
+        f"{fit.fitted[0]:.0f} and {fit.fitted[1]:.0f} LSB. A spring only adds to the rigid "
+        f"axis's error, whose 30 ms value ({rigid:.0f} LSB) is already "
+        f"{rigid / PAPER_CORNER_UM['linear'][1]:.0f} times the paper's, and a softer spring "
+        f"raises the 15 ms error only somewhat more than the 30 ms one (the rows above), "
+        f"never by the paper's factor. The prediction at the best fit "
+        f"({fit.predicted[0]:.0f} and {fit.predicted[1]:.0f} LSB against 60 and 8 um) does "
+        f"not hold either, and the row says so: a prediction is counted apart from the "
+        f"scored rows, so that one that did not hold is reported, not hidden, and fails "
+        f"nothing. The paper's 9 um needs a drive whose error behind the 30 ms filter is "
+        f"far below this one's, which no spring supplies."
+        if not fit.fits else
+        f"Rather than choose the resonance, the last row identifies it from the paper: the "
+        f"free mode and the damping ratio of the same drive are fitted to the linear "
+        f"filter's 70 and 9 um ({fit.point.hz:.1f} Hz, {100 * fit.point.zeta:.2g}%), and the "
+        f"exponential filter's 60 and 8 um predicted there: "
+        f"{fit.predicted[0]:.0f} and {fit.predicted[1]:.0f} LSB, within "
+        f"{identify.PREDICTION_TOLERANCE:.0%}: {'held' if fit.holds else 'did not hold'}.",
     ]
     plt = pyplot()
     fig, (a, b) = plt.subplots(1, 2, figsize=(10, 3.8))

@@ -20,16 +20,23 @@ from k37.sim.reproduce.paper import FEED_HIGH, FEED_LOW, PAPER_TAU_S
 from k37.sim.reproduce.runs import MACHINE, QUICK, SERVO, RunData, Scale, run_specs
 from k37.sim.reproduce.theory import fp_rate
 
-__all__ = ["KINDS", "Reproduction", "Row", "Section", "pct", "pyplot", "report_markdown",
-           "save_figure", "scoreboard", "table_markdown"]
+__all__ = ["KINDS", "PREDICTION", "Reproduction", "Row", "Section", "pct", "pyplot",
+           "report_markdown", "save_figure", "scoreboard", "table_markdown"]
 
 
 #: What a row's pass means: the paper's number reproduced within the stated tolerance; the
 #: paper's trend, direction or observation in words only (its number, if it gives one, is not
-#: reached); or the paper's figure quoted where it has none comparable (the emulator is
-#: checked against its own model).
+#: reached); the paper's figure quoted where it has none comparable (the emulator is
+#: checked against its own model); or a prediction: a parameter the paper leaves out is
+#: identified from one of its numbers and another is predicted with it. A prediction is
+#: counted apart: whether it held is reported, and one that did not hold is no failure of the
+#: reproduction.
 KINDS = {"number": "reproduce the paper's number", "trend": "its trend or direction only",
-         "quoted": "have no comparable figure in the paper (the emulator against a model)"}
+         "quoted": "have no comparable figure in the paper (the emulator against a model)",
+         "prediction": "predictions from parameters identified on another of the paper's "
+                       "numbers held"}
+#: The kind whose rows are reported, not scored.
+PREDICTION = "prediction"
 
 
 @dataclass
@@ -46,6 +53,19 @@ class Row:
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
             raise ValueError(f"a row's kind is one of {', '.join(KINDS)}, not {self.kind!r}")
+
+    @property
+    def failed(self) -> bool:
+        """A scored row that did not pass (a prediction that did not hold is reported, not
+        failed)."""
+        return not self.passed and self.kind != PREDICTION
+
+    @property
+    def verdict(self) -> str:
+        """The table's last column."""
+        if self.kind == PREDICTION:
+            return "held" if self.passed else "did not hold"
+        return "pass" if self.passed else "**FAIL**"
 
 
 @dataclass
@@ -81,8 +101,9 @@ class Reproduction:
         return [row for section in self.sections for row in section.rows]
 
     @property
-    def passed(self) -> bool:
-        return all(row.passed for row in self.rows)
+    def failed(self) -> list[Row]:
+        """The rows that fail (:attr:`Row.failed`)."""
+        return [row for row in self.rows if row.failed]
 
 
 def pct(value: float) -> str:
@@ -121,17 +142,23 @@ def table_markdown(result: Reproduction) -> str:
             number = f"{sec.number}{'abcdefghijklmnopqrstuvwxyz'[k]}"
             lines.append(f"| {number} | {_cell(row.what)} | {_cell(row.paper)} | "
                          f"{_cell(row.emulator)} | {_cell(row.tolerance)} | {row.kind} | "
-                         f"{'pass' if row.passed else '**FAIL**'} |")
+                         f"{row.verdict} |")
     return "\n".join(lines) + "\n"
 
 
 def scoreboard(rows: list[Row]) -> str:
-    """The headline: how many rows pass, counted by kind."""
-    passed = [row for row in rows if row.passed]
+    """The headline: how many rows pass, counted by kind, and how many predictions held."""
+    scored = [row for row in rows if row.kind != PREDICTION]
+    predictions = [row for row in rows if row.kind == PREDICTION]
+    passed = [row for row in scored if row.passed]
     counts = [f"{sum(row.kind == kind for row in passed)} {text}"
-              for kind, text in KINDS.items()]
-    return (f"{len(passed)} of {len(rows)} rows pass: {counts[0]} within the stated "
+              for kind, text in KINDS.items() if kind != PREDICTION]
+    line = (f"{len(passed)} of {len(scored)} rows pass: {counts[0]} within the stated "
             f"tolerance, {counts[1]}, {counts[2]}")
+    if predictions:
+        line += (f"; {sum(row.passed for row in predictions)} of {len(predictions)} "
+                 f"{KINDS[PREDICTION]}")
+    return line
 
 
 def _scaled_down(scale: Scale) -> list[str]:
@@ -171,7 +198,9 @@ def report_markdown(result: Reproduction) -> str:
              f"compares an observation of the paper (its photos, section 2 and Table 1; "
              f"sections 1-7) or of one of the four companion papers (sections 8-11) with "
              f"what the emulator does, within the tolerance given (its kind: the paper's "
-             f"number, its trend only, or quoted where the paper has no comparable figure); "
+             f"number, its trend only, quoted where the paper has no comparable figure, or a "
+             f"prediction from parameters identified on another of its numbers, reported "
+             f"whether or not it held); "
              f"the experiments ran on the whole machine (chipset, 8085 firmware model and servo "
              f"plants) on the backend the run-time table names for each run: the event-level "
              f"engine where it runs the run, else the compiled (CXXRTL) gateware.", "",
