@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -81,6 +82,7 @@ def test_engine_refuses_and_ends_raw_curve_data_as_the_rtl_does(block, axes, ze,
     run_in_lockstep(replace(block, ze=ze if axes == 3 else 0), axes, feed, make_job)
 
 
+@pytest.mark.slow
 @settings(max_examples=6, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(seed=st.integers(0, 10**6), axes=st.sampled_from([2, 3]))
