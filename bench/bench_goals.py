@@ -189,6 +189,7 @@ def test_contour_error_is_linear_in_the_programs_size(benchmark):
     large = benchmark.pedantic(contour, args=(2000,), rounds=1, iterations=1)
     print(f"\ncontour error, 200 blocks {small:.3f} s, 2,000 blocks {large:.3f} s: "
           f"x{large / small:.1f} for x10 the blocks and samples (linear: 10)")
+    assert large / small < 30, "the contour error grows faster than the program"
 
 
 def _lagging_tool(job: Job, per_block: int, lag: int) -> tuple[list[tuple[int, int]], np.ndarray]:

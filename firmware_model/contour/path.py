@@ -363,7 +363,8 @@ class Tracker:
     Each sample's window depends on the previous sample's segment and distance only, so a
     chunk of samples is solved at once by a fixed-point iteration: a guessed segment per row
     (the interpolator's block as many samples before as the tool last entered a segment
-    after the interpolator entered its block), every row's window from it, then each row's
+    after the interpolator entered its block; after a chunk that guess settled poorly, the
+    tool's own segment for every row, and back), every row's window from it, then each row's
     segment and distance handed on as the next row's, only the rows whose inputs changed
     computed again; the rows up to the first whose inputs still changed are the ones the
     sample-by-sample rule gives, bit for bit (the first row's inputs are the tracker's
@@ -390,11 +391,16 @@ class Tracker:
         before = np.vstack([p[:1] if self.last is None else self.last[None], p[:-1]])
         travel = np.sqrt(((p - before) ** 2).sum(axis=1))
         limit = np.asarray(limit)
-        i, size = 0, 64
+        i, size, delayed = 0, 64, True
         while i < n:
             rows = slice(i, min(n, i + size))
-            guess = limit[np.clip(np.arange(rows.start, rows.stop) - self.delay, 0, n - 1)] - 1
+            if delayed:
+                guess = limit[np.clip(np.arange(rows.start, rows.stop) - self.delay, 0, n - 1)] - 1
+            else:
+                guess = np.full(rows.stop - rows.start, self.segment)
             found, done = self._chunk(p[rows], travel[rows], limit[rows], guess)
+            if 4 * done < rows.stop - rows.start:  # a poor guess: try the other one next
+                delayed = not delayed
             part = slice(i, i + done)
             out.segment[part], out.param[part] = found.segment[:done], found.param[:done]
             out.point[part], out.distance[part] = found.point[:done], found.distance[:done]
