@@ -26,7 +26,7 @@ from k37.hdl.common.constants import CHIP_HZ
 from k37.sim.fpga.export import pins as export_pins
 from k37.sim.fpga.icarus import HOST_DRIVES
 from tests.sim.fpga.chips import SEEDS
-from tests.sim.fpga.cosim import amaranth_chipset, chipset_stimulus, core_port
+from tests.sim.fpga.cosim import amaranth_chipset, chipset_stimulus, core_port, drive_bus
 from tests.testbench import simulate
 
 needs_boards = pytest.mark.skipif(importlib.util.find_spec("amaranth_boards") is None,
@@ -89,11 +89,7 @@ def test_the_chipset_on_a_board_clock_matches_the_chipset_on_its_own_cycle_by_cy
 
     async def bench(ctx):
         for row in rows:
-            read, write = not (row["cs_n"] or row["rd_n"]), not (row["cs_n"] or row["wr_n"])
-            ctx.set(dut.bus.addr, row["addr"])
-            ctx.set(dut.bus.w_data, row["d"])
-            ctx.set(dut.bus.w_stb, write)
-            ctx.set(dut.bus.r_stb, read)
+            drive_bus(ctx, dut.bus, row)
             for axis in ("x", "y"):
                 ctx.set(getattr(dut, f"{axis}_a"), row[f"{axis}_a"])
                 ctx.set(getattr(dut, f"{axis}_b"), row[f"{axis}_b"])

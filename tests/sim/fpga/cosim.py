@@ -134,6 +134,18 @@ def chipset_stimulus(seed: int, cycles: int) -> list[dict[str, int]]:
     return rows
 
 
+def drive_bus(ctx, bus, row: dict[str, int]) -> bool:
+    """Put a stimulus row's chip pins (``cs_n``, ``rd_n``, ``wr_n``, ``addr``, ``d``) on a
+    chip-style host ``bus``: its strobes as the pins select, the written byte from ``d``;
+    whether the row reads."""
+    read = not (row["cs_n"] or row["rd_n"])
+    ctx.set(bus.addr, row["addr"])
+    ctx.set(bus.w_data, row["d"])
+    ctx.set(bus.w_stb, not (row["cs_n"] or row["wr_n"]))
+    ctx.set(bus.r_stb, read)
+    return read
+
+
 def amaranth_chipset(rows: list[dict[str, int]]) -> list[dict[str, int]]:
     """The chipset's wrapper pins per cycle as Amaranth's simulator computes them from the
     core (the same component the export converts), the wrapper's D logic written out."""
@@ -144,11 +156,7 @@ def amaranth_chipset(rows: list[dict[str, int]]) -> list[dict[str, int]]:
     async def bench(ctx):
         d_oe = 0
         for row in rows:
-            read, write = not (row["cs_n"] or row["rd_n"]), not (row["cs_n"] or row["wr_n"])
-            ctx.set(dut.bus.addr, row["addr"])
-            ctx.set(dut.bus.w_data, row["d"])
-            ctx.set(dut.bus.w_stb, write)
-            ctx.set(dut.bus.r_stb, read)
+            read = drive_bus(ctx, dut.bus, row)
             for axis in ("x", "y"):
                 group = getattr(dut, axis)
                 for line in ("a", "a_n", "b", "b_n"):
