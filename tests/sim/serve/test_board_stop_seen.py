@@ -19,7 +19,7 @@ from k37.sim.run.report import validate
 from k37.sim.run.runner import RunOptions
 from k37.sim.serve.board import InputChange
 from tests.sim.serve.test_board_stop import LONG_MOVE, _moved
-from tests.sim.serve.test_serve import served
+from tests.sim.serve.test_serve import serve_process, served
 
 WATCHDOG_S = 0.1  # 100,000 cycles at 1 MHz: STATUS read every 25,000 cycles of waiting
 EVERY = 25_000
@@ -106,23 +106,13 @@ def test_serve_refuses_an_input_it_cannot_press(k37, option, value, message):
 
 @pytest.mark.slow
 def test_k37_serve_estop_at_ends_k37_run_link_watchdog_with_a_fault(tmp_path):
-    serve = subprocess.Popen([sys.executable, "-m", "k37.sim.cli", "serve", "--port", "0",
-                              "--sessions", "1", "--estop-at", "300000"],
-                             stderr=subprocess.PIPE, text=True, cwd=tmp_path)
-    try:
-        line = serve.stderr.readline()
-        assert "tcp://127.0.0.1:" in line, line
-        url = line[line.index("tcp://"):].split()[0]
+    with serve_process(tmp_path, "--estop-at", "300000") as (url, serve):
         assert serve.stderr.readline() == "k37 serve: the E-stop pressed at cycle 300,000\n"
         linked = subprocess.run([sys.executable, "-m", "k37.sim.cli", "run", "--link", url,
                                  "--watchdog", "0.5", "--json", "linked.json", "-q"],
                                 cwd=tmp_path, capture_output=True, text=True, timeout=300)
         assert linked.returncode == 1, linked.stderr
         assert serve.wait(60) == 0
-    finally:
-        serve.kill()
-        serve.wait()
-        serve.stderr.close()
     report = json.loads((tmp_path / "linked.json").read_text())
     assert report["status"] == "fault" and "E-stop" in report["reason"]
     assert 300_000 <= report["link"]["stop_seen"]["board_cycle"] <= 300_000 + 125_000 + SLACK

@@ -270,24 +270,31 @@ def test_serve_refuses_a_port_in_use(k37):
     assert "Traceback" not in result.stderr
 
 
-@pytest.mark.slow
-def test_k37_serve_and_run_link_from_the_command_line(tmp_path):
+@contextmanager
+def serve_process(cwd, *options: str) -> Iterator[tuple[str, subprocess.Popen]]:
+    """``k37 serve --port 0 --sessions 1 OPTIONS`` running in ``cwd``: its URL (read from its
+    first line on stderr) and the process, killed on leaving."""
     serve = subprocess.Popen([sys.executable, "-m", "k37.sim.cli", "serve", "--port", "0",
-                              "--sessions", "1"], stderr=subprocess.PIPE, text=True,
-                             cwd=tmp_path)
+                              "--sessions", "1", *options], stderr=subprocess.PIPE, text=True,
+                             cwd=cwd)
     try:
         line = serve.stderr.readline()
         assert "tcp://127.0.0.1:" in line, line
-        url = line[line.index("tcp://"):].split()[0]
+        yield line[line.index("tcp://"):].split()[0], serve
+    finally:
+        serve.kill()
+        serve.wait()
+        serve.stderr.close()
+
+
+@pytest.mark.slow
+def test_k37_serve_and_run_link_from_the_command_line(tmp_path):
+    with serve_process(tmp_path) as (url, serve):
         linked = subprocess.run([sys.executable, "-m", "k37.sim.cli", "run", "--link", url,
                                  "--json", "linked.json", "-q"], cwd=tmp_path,
                                 capture_output=True, text=True, timeout=300)
         assert linked.returncode == 0, linked.stderr
         assert serve.wait(60) == 0
-    finally:
-        serve.kill()
-        serve.wait()
-        serve.stderr.close()
     here = subprocess.run([sys.executable, "-m", "k37.sim.cli", "run", "--json", "here.json", "-q"],
                           cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert here.returncode == 0, here.stderr
