@@ -15,14 +15,9 @@ from k37.hdl.k3701.block import Block, Kind
 from k37.hdl.k3701.model.chip import plan
 from k37.sim.run.report import HOW_FIELDS
 from k37.sim.run.runner import RunOptions, run_job
+from tests.firmware_model.gcode.test_gcode import error_of
 
 PAPER_PARABOLA = "G21 G90 F1000\nG06 X30 Y0 I15 J-15\nM30"
-
-
-def error_of(text: str) -> str:
-    with pytest.raises(GcodeError) as info:
-        parse(text, source="t.ngc")
-    return str(info.value)
 
 
 def test_g06_loads_the_contour_error_papers_parabola_as_one_block_ending_exactly():

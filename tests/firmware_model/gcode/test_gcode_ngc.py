@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from k37.firmware_model.gcode import ngc
 from k37.firmware_model.gcode.lex import LexError, read_line
 from k37.firmware_model.gcode.parser import GcodeError, parse
+from tests.firmware_model.gcode.test_gcode import error_of
 
 
 def xs(text: str, **kwargs) -> list[int]:
@@ -22,12 +23,6 @@ def xs(text: str, **kwargs) -> list[int]:
 def value_of(expression: str) -> float:
     """An expression's value, read back from a move to it (mm, to the LSB)."""
     return xs(f"G0 X[{expression}]")[0] / 1000
-
-
-def error_of(text: str, **kwargs) -> str:
-    with pytest.raises(GcodeError) as info:
-        parse(text, source="t.ngc", **kwargs)
-    return str(info.value)
 
 
 # --- expressions -----------------------------------------------------------------------------

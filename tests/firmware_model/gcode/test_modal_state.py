@@ -8,19 +8,10 @@ import math
 import pytest
 
 from k37.firmware_model.feeds import clamped_feeds
-from k37.firmware_model.gcode.parser import GcodeError, parse
+from k37.firmware_model.gcode.parser import parse
 from k37.firmware_model.job import gcode_job
-
-
-def ends(text: str, **kwargs) -> list[tuple[int, ...]]:
-    return [m.end for m in parse(text, **kwargs).moves]
-
-
-def error_of(text: str, **kwargs) -> str:
-    with pytest.raises(GcodeError) as info:
-        parse(text, source="t.ngc", **kwargs)
-    return str(info.value)
-
+from tests.firmware_model.gcode.test_gcode import error_of
+from tests.firmware_model.gcode.test_gcode_words import ends
 
 # --- M70-M73 -----------------------------------------------------------------------------------
 
