@@ -7,7 +7,9 @@ machine seconds per wall second on each backend, the engine's speed-up, the cycl
 evaluated (the rest skipped in closed form), the process CPU time (steadier than wall time on
 a shared machine), and what stepping every axis's plant every cycle would cost against the
 engine's CPU time (one plant's update timed alone, times the cycles and the axes: the floor
-of an engine that keeps the plant's update as it is). The jobs: the demo, the K3701's top
+of an engine that keeps the plant's update as it is), and the engine on the same job with its
+first-order plants updated every ``HELD`` cycles (servo ``update_cycles``) with the largest
+contour error of both. The jobs: the demo, the K3701's top
 feed on a 100 mm line, a dwell-heavy job, the paper's low feed, fourteen programs of the
 G-code corpus in several writers' styles (two and three axes) on the default machine (exact
 stop after every block), and :mod:`bench_cam`'s pocket (three axes, accel/decel after the
@@ -17,6 +19,7 @@ K3701).
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from pathlib import Path
 
 from bench_cam import cam_job
@@ -36,6 +39,8 @@ PROGRAMS = ("square_mm.ngc", "grbl_style_2d.nc", "inch_r_arcs.ngc", "ngc_subrout
             "jscut_style.gcode", "pcbgcode_style_etch.tap", "partkam_style.ngc",
             "ngc_polar_bolt_circle.ngc")
 ROUNDS = 3
+#: The plants' update period of the engine's held runs (servo ``update_cycles``).
+HELD = 64
 
 
 def jobs() -> dict[str, Job]:
@@ -62,6 +67,12 @@ def timed(job: Job, kind: str, rounds: int) -> tuple[dict, float, float]:
     return best
 
 
+def contour(report: dict) -> str:
+    """The run's largest contour error (LSB), or a dash where it has none."""
+    error = (report.get("path") or {}).get("max_contour_error")
+    return "-" if error is None else f"{error:.2f}"
+
+
 def plant_ns() -> float:
     """CPU nanoseconds of one plant's update per cycle, stepped alone (the faster of three)."""
     backend = build_backend(demo_job(), "engine")
@@ -71,19 +82,29 @@ def plant_ns() -> float:
         backend.close()
 
 
+def held(job: Job) -> Job:
+    """``job`` with its first-order plants updated every :data:`HELD` cycles."""
+    return replace(job, servo={axis: replace(servo, update_cycles=HELD)
+                               if servo.drive == "first_order" else servo
+                               for axis, servo in job.servo.items()})
+
+
 def compare_all() -> list[str]:
     plant = plant_ns()
     print(f"a plant's update: {plant:.2f} ns per cycle")
     rows = ["| job | machine s | cxxrtl x real time | engine x real time | engine / cxxrtl "
             "| evaluated cycles cxxrtl / engine | CPU s cxxrtl / engine "
-            "| plants stepped every cycle / engine CPU |",
-            "|---|---:|---:|---:|---:|---:|---:|---:|"]
+            f"| plants stepped every cycle / engine CPU | engine, update_cycles {HELD}: "
+            "x real time | max contour error (LSB), every cycle / held |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for name, job in jobs().items():
         runs = {}
+        short = job.program.moves and len(job.program.moves) < 20
         for kind in ("cxxrtl", "engine"):
-            short = job.program.moves and len(job.program.moves) < 20
             runs[kind] = timed(job, kind, ROUNDS if short else 1)
+        runs["held"] = timed(held(job), "engine", ROUNDS if short else 1)
         (rtl, rtl_wall, rtl_cpu), (eng, eng_wall, eng_cpu) = runs["cxxrtl"], runs["engine"]
+        hold, hold_wall = runs["held"][:2]
         assert ({k: v for k, v in rtl.items() if k not in HOW_FIELDS}
                 == {k: v for k, v in eng.items() if k not in HOW_FIELDS}), name
         machine = rtl["machine_seconds"]
@@ -92,7 +113,9 @@ def compare_all() -> list[str]:
                     f"{rtl['cycles'] - rtl['skipped_cycles']:,} / "
                     f"{eng['cycles'] - eng['skipped_cycles']:,} | "
                     f"{rtl_cpu:.2f} / {eng_cpu:.2f} | "
-                    f"{rtl['cycles'] * job.machine.axes * plant * 1e-9 / eng_cpu:.0%} |")
+                    f"{rtl['cycles'] * job.machine.axes * plant * 1e-9 / eng_cpu:.0%} | "
+                    f"{hold['machine_seconds'] / hold_wall:,.0f} | "
+                    f"{contour(eng)} / {contour(hold)} |")
         print(rows[-1], flush=True)
     return rows
 

@@ -229,6 +229,12 @@ class ServoConfig(_Checked):
     kf: float = _key(0.0, Limit(), "velocity feedforward Kf: the drive adds Kf times the "
                                    "command pulse rate to its velocity command (the "
                                    "profile-error paper)")
+    update_cycles: int = _key(1, Limit(integer=True),
+                              "first-order drive: cycles from one velocity update to the next; "
+                              "1: every cycle (the papers' plant); more: the velocity held "
+                              "between updates while the position moves by it every cycle, "
+                              "which the event engine jumps over (faster runs; the papers' rows "
+                              "that hold at each period are in the docs' decisions)")
     drive: str = _key("first_order", OneOf(("first_order", "torque", "two_mass")),
                       "servo drive model: a first-order velocity lag Tm, the torque drive "
                       "(velocity loop Vg/Ti, Kt, Ja, friction; tm then unused), or the two-mass "

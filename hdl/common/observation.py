@@ -101,12 +101,14 @@ class Countdown:
 @dataclass(frozen=True)
 class PlantState:
     """A servo plant at ``path`` (``velocity``, ``before``, ``dac``, ``dac_zero``, ``gain``,
-    ``alpha``, ``vmax``, ``stall``): while the rest stands still it is stepped natively, bit
-    for bit as its gateware, up to a change of its count. Its fixed-point format is part of
-    the declaration, so a backend takes it from the plant itself."""
+    ``alpha``, ``vmax``, ``stall``, and its update period's ``period``, ``phase`` and summed
+    feedforward ``ff``): while the rest stands still it is stepped natively, bit for bit as
+    its gateware, up to a change of its count. Its fixed-point format is part of the
+    declaration, so a backend takes it from the plant itself."""
 
     #: The signals below ``path`` a backend reads (and writes, of the registers).
-    ITEMS = ("velocity", "before", "dac", "dac_zero", "gain", "alpha", "vmax", "stall")
+    ITEMS = ("velocity", "before", "dac", "dac_zero", "gain", "alpha", "vmax", "stall", "period",
+             "phase", "ff")
 
     path: str
     vc_bits: int

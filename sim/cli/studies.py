@@ -21,6 +21,16 @@ from k37.sim.cli.shared import (
 __all__ = ["add_commands"]
 
 
+def update_cycles(text: str) -> int:
+    """``--update-cycles``: a plant update period in its range."""
+    from k37.sim.machine.plant_model import UPDATE_CYCLES_LIMIT
+
+    value = positive_int(text)
+    if value not in UPDATE_CYCLES_LIMIT:
+        raise argparse.ArgumentTypeError(f"must be {UPDATE_CYCLES_LIMIT.describe()}, not {text}")
+    return value
+
+
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from k37.sim.reproduce.experiments import reproduce
     from k37.sim.reproduce.markdown import scoreboard
@@ -33,7 +43,8 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     if not check(folders={"--out": out}):
         return 2
     try:
-        result = reproduce(out, quick=args.quick, progress=progress)
+        result = reproduce(out, quick=args.quick, progress=progress,
+                           update_cycles=args.update_cycles)
     except KeyboardInterrupt:
         print(f"k37 reproduce: {stopped()}; the workers are stopped", file=sys.stderr)
         return interrupted()
@@ -224,5 +235,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                         "docs/reproduce)")
     p.add_argument("--quick", action="store_true",
                    help="smaller runs (the scale CI checks); the report says what shrank")
+    p.add_argument("--update-cycles", type=update_cycles, default=1, metavar="N",
+                   help="the first-order plants' update period in every closed-loop run (the "
+                        "servo key update_cycles; default 1, the papers' plant): which rows "
+                        "hold at a faster plant")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=_cmd_reproduce)

@@ -18,9 +18,11 @@ from k37.hdl.common.observation import FreeRunning, Observed, PlantState
 from k37.sim.machine.plant_model import (
     ALPHA_BITS,
     COUNT_BITS,
+    FF_BITS,
     FRAC_BITS,
     GAIN_BITS,
     KF_BITS,
+    PERIOD_BITS,
     POSITION_BITS,
     PRODUCT_BITS,
     VC_BITS,
@@ -33,12 +35,13 @@ __all__ = ["ServoPlant"]
 class ServoPlant(Observed, wiring.Component):
     """Servo amplifier + motor (first-order velocity lag) + incremental encoder.
 
-    Every cycle: e = dac - dac_zero; vc = clamp(e * gain + ff, +-vmax) (vmax 0: 2^37 - 1),
-    where the velocity feedforward ff is +kf in a cycle with a command pulse com_pos, -kf with
-    com_neg (an F/V converter's input: its mean is Kf times the command pulse rate, and the
-    motor's own lag smooths it);
+    In every ``period``-th cycle from reset (every cycle with a period of 0 or 1), the velocity
+    update: e = dac - dac_zero; vc = clamp(e * gain + ff, +-vmax) (vmax 0: 2^37 - 1), where
+    the velocity feedforward ff is +kf for each command pulse com_pos since the last update
+    (this cycle's included), -kf for each com_neg (an F/V converter's input: its mean is Kf
+    times the command pulse rate, and the motor's own lag smooths it);
     v += round((vc - v) * alpha / 2^ALPHA_BITS), or v = vc when that step rounds to 0 (v = 0
-    while stalled); p += v; the encoder count is
+    while stalled). Between updates v is held. Every cycle p += v; the encoder count is
     floor(p) and A/B are its Gray code (count 0: A=0 B=0, 1: 1 0, 2: 1 1, 3: 0 1), so
     positive motion has A leading B (CCW, normal). Every output follows registered state
     only: it shows the state after the cycle's update, one cycle after the ``dac`` (and the
@@ -53,10 +56,14 @@ class ServoPlant(Observed, wiring.Component):
         number rather than N, so that the model needs no shifter.
     gain, alpha, vmax, kf : In(GAIN_BITS), In(ALPHA_BITS), In(VMAX_BITS), In(KF_BITS)
         Fixed-point parameters, see :class:`PlantParams`.
+    period : In(PERIOD_BITS)
+        Cycles from one velocity update to the next (0 or 1: every cycle); alpha and kf are
+        per update (:attr:`PlantParams.update_cycles`).
     com_pos, com_neg : In(1)
-        The K3702's command pulses (for the feedforward), combinational into ``vc``. They
-        are events, so they are 0 all through an idle skip, and a skip's native plant update
-        (which leaves ff out) is exact.
+        The K3702's command pulses (for the feedforward), combinational into ``vc`` in an
+        update cycle, summed until the next one otherwise. They are events, so they are 0 all
+        through an idle skip, and a skip's native plant update (which adds only the sum
+        before it) is exact.
     stall : In(1)
         Fault: the axis is blocked (velocity held at 0).
     glitch_a, glitch_b : In(1)
@@ -77,6 +84,7 @@ class ServoPlant(Observed, wiring.Component):
     alpha: In(ALPHA_BITS)
     vmax: In(VMAX_BITS)
     kf: In(KF_BITS)
+    period: In(PERIOD_BITS)
     com_pos: In(1)
     com_neg: In(1)
     stall: In(1)
@@ -103,7 +111,19 @@ class ServoPlant(Observed, wiring.Component):
 
     def elaborate(self, platform) -> Module:
         m = Module()
-        m.d.sync += self.velocity.eq(self.next_velocity(m, self.velocity_command(m)))
+        # The update comes in the cycles where phase is 0; ff sums the feedforward since the
+        # last one (this cycle's included).
+        phase = Signal(PERIOD_BITS)
+        update = Signal()
+        m.d.comb += update.eq(phase == 0)
+        m.d.sync += phase.eq(Mux(phase + 1 >= self.period, 0, phase + 1))
+        ff = Signal(signed(FF_BITS))
+        feedforward = Signal(signed(FF_BITS))
+        m.d.comb += feedforward.eq(
+            ff + Mux(self.com_pos == self.com_neg, 0, Mux(self.com_pos, self.kf, -self.kf)))
+        m.d.sync += ff.eq(Mux(update, 0, feedforward))
+        vc = self.velocity_command(m, feedforward)
+        m.d.sync += self.velocity.eq(Mux(update, self.next_velocity(m, vc), self.velocity))
         # p += v_next is kept as before = p - v (so before += v): each register's next value
         # is then one expression, which compiled simulators evaluate only at the clock edge.
         before = Signal(signed(POSITION_BITS))
@@ -134,12 +154,12 @@ class ServoPlant(Observed, wiring.Component):
         del m
         return motor
 
-    def velocity_command(self, m: Module) -> Signal:
-        """vc: the drive's velocity command, clamped to the speed limit (combinational)."""
+    def velocity_command(self, m: Module, feedforward: Value) -> Signal:
+        """vc: the drive's velocity command with ``feedforward``, clamped to the speed limit
+        (combinational)."""
         err = Signal(signed(17))
         m.d.comb += err.eq(self.dac - self.dac_zero)
         vc_raw = Signal(signed(len(err) + GAIN_BITS + 2))
-        feedforward = Mux(self.com_pos == self.com_neg, 0, Mux(self.com_pos, self.kf, -self.kf))
         m.d.comb += vc_raw.eq(err * self.gain + feedforward)
         vmax = Signal(VC_BITS)
         m.d.comb += vmax.eq(Mux((self.vmax == 0) | (self.vmax > VC_MAX), VC_MAX, self.vmax))

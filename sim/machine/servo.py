@@ -56,7 +56,7 @@ def plant_params(machine: MachineConfig, servo: ServoConfig) -> PlantParams:
         A servo key is out of the plant's range (checked in the plant's units), naming the
         key, its value and its range in the job's units (:func:`servo_limits`).
     """
-    values = {"kp": servo.kp, "tm": servo.tm, "kf": servo.kf,
+    values = {"kp": servo.kp, "tm": servo.tm, "kf": servo.kf, "update_cycles": servo.update_cycles,
               "max_speed": None if servo.max_speed is None else machine.lsb_per_s(servo.max_speed)}
     limits = PlantParams.limits(machine.clock_hz)
     for name, value in values.items():
@@ -79,8 +79,12 @@ def torque_params(machine: MachineConfig, servo: ServoConfig) -> TorqueParams:
 def check_servo(machine: MachineConfig, servo: ServoConfig) -> None:
     """Refuse a ``servo`` the plant on ``machine`` cannot carry: a key out of its range, or a
     torque or two-mass drive beyond its fixed point (its keys are unused on the other drives,
-    so only their ranges are checked there); TypeError or ValueError naming the key."""
+    so only their ranges are checked there), or an update period on a drive that updates every
+    cycle; TypeError or ValueError naming the key."""
     plant_params(machine, servo)
+    if servo.drive in TORQUE_DRIVES and servo.update_cycles != 1:
+        raise ValueError(f"update_cycles must be 1 on a {servo.drive} drive (it updates every "
+                         f"cycle), not {servo.update_cycles!r}")
     for name, limit in TwoMassParams.limits().items():
         limit.check(name, getattr(servo, name))
     if servo.drive in TORQUE_DRIVES:

@@ -15,7 +15,14 @@ from k37.hdl.chipset.map import Accel, AccelShape, axis_names
 from k37.hdl.common.observation import FreeRunning, Observed
 from k37.hdl.k3702.map import COUNTER_WIDTH
 from k37.sim.machine.plant import ServoPlant
-from k37.sim.machine.plant_model import ALPHA_BITS, COUNT_BITS, GAIN_BITS, KF_BITS, VMAX_BITS
+from k37.sim.machine.plant_model import (
+    ALPHA_BITS,
+    COUNT_BITS,
+    GAIN_BITS,
+    KF_BITS,
+    PERIOD_BITS,
+    VMAX_BITS,
+)
 from k37.sim.machine.torque_drive import TorqueDrive
 from k37.sim.machine.torque_drive_model import ACCEL_BITS, AFTER_BITS, KI_BITS
 from k37.sim.machine.two_mass import TwoMassDrive
@@ -38,7 +45,7 @@ class AxisProbe(wiring.Signature):
 
     Members
     -------
-    gain, alpha, vmax, kf, dac_zero : In
+    gain, alpha, vmax, kf, period, dac_zero : In
         Plant parameters (:class:`k37.sim.machine.plant.PlantParams`; ``dac_zero`` from
         :func:`k37.sim.machine.plant.dac_zero` of the K3702's DAC_BITS).
     beta, ki, fc, load, load_step, load_after : In
@@ -66,7 +73,7 @@ class AxisProbe(wiring.Signature):
     def __init__(self):
         super().__init__({
             "gain": In(GAIN_BITS), "alpha": In(ALPHA_BITS), "vmax": In(VMAX_BITS),
-            "kf": In(KF_BITS), "dac_zero": In(16),
+            "kf": In(KF_BITS), "period": In(PERIOD_BITS), "dac_zero": In(16),
             "beta": In(ALPHA_BITS), "ki": In(KI_BITS), "fc": In(ACCEL_BITS),
             "load": In(signed(ACCEL_BITS)), "load_step": In(signed(ACCEL_BITS)),
             "load_after": In(AFTER_BITS),
@@ -154,7 +161,8 @@ class System(Observed, wiring.Component):
                 plant.dac.eq(pins.dac), plant.dac_zero.eq(probe.dac_zero),
                 plant.gain.eq(probe.gain), plant.alpha.eq(probe.alpha),
                 plant.vmax.eq(probe.vmax), plant.stall.eq(probe.stall),
-                plant.kf.eq(probe.kf), plant.com_pos.eq(pins.com_pos),
+                plant.kf.eq(probe.kf), plant.period.eq(probe.period),
+                plant.com_pos.eq(pins.com_pos),
                 plant.com_neg.eq(pins.com_neg),
                 plant.glitch_a.eq(probe.glitch_a), plant.glitch_b.eq(probe.glitch_b),
                 plant.break_a.eq(probe.break_a),

@@ -19,8 +19,10 @@ at a command vc is vc / (1 + D / (Vg Kt)): the profile-error paper's eq. (9) fol
 ``(D / (Vg Kt) + 1 - Kf) F / Kp``; an integral term removes the D part.
 
 A load step (a fault) adds ``load_step`` to the disturbance from cycle ``load_after`` on; the
-cycle counter runs only until then. The drive declares no native update for idle skipping:
-while it moves, its registers change and every cycle is evaluated; at rest it is static.
+cycle counter runs only until then. The drive updates every cycle: its ``period`` input must be
+0 or 1 (a job refuses another update period on it). The drive declares no native update for
+idle skipping: while it moves, its registers change and every cycle is evaluated; at rest it is
+static.
 """
 
 

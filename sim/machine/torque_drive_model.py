@@ -130,7 +130,7 @@ class TorqueDriveModel(ServoPlantModel):
         """The velocity after the velocity loop's torque and the viscous friction, before the
         disturbance and Coulomb friction (advances the integral)."""
         v = self.velocity
-        ev = self.command(dac, com) - v
+        ev = self.command(dac, com * self.kf) - v
         self.integral += ev * self.ki
         drive = (ev * self.alpha - v * self.beta + (1 << (ALPHA_BITS - 1))) >> ALPHA_BITS
         return v + drive + (self.integral >> KI_FRAC)

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from types import ModuleType
 
@@ -42,7 +43,7 @@ from k37.sim.reproduce import (
     rates,
 )
 from k37.sim.reproduce.markdown import Reproduction, report_markdown
-from k37.sim.reproduce.runs import FULL, QUICK, RunData, Scale, Specs, run_specs
+from k37.sim.reproduce.runs import FULL, QUICK, RunData, RunSpec, Scale, Specs, run_specs
 from k37.sim.reproduce.workers import run_all
 
 __all__ = ["COMPANIONS", "all_specs", "analyse", "reproduce"]
@@ -67,26 +68,34 @@ def all_specs(scale: Scale) -> Specs:
 
 
 def reproduce(out: Path, *, quick: bool = False, jobs: int = 2,
-              progress: Callable[[str], None] | None = None) -> Reproduction:
+              progress: Callable[[str], None] | None = None,
+              update_cycles: int = 1) -> Reproduction:
     """Run every experiment, write the figures and ``report.md`` into ``out``.
 
     ``quick`` runs the smaller :data:`~k37.sim.reproduce.runs.QUICK` scale (for CI); ``jobs`` is
-    the number of worker processes for the closed-loop runs.
+    the number of worker processes for the closed-loop runs; ``update_cycles``: the first-order
+    plants' update period in every closed-loop run (1: the papers' plant).
     """
     scale = QUICK if quick else FULL
     start = time.perf_counter()
-    runs = run_all(all_specs(scale), jobs, progress)
+
+    def held(specs: Specs) -> Specs:
+        return {key: replace(spec, update_cycles=update_cycles)
+                if isinstance(spec, RunSpec) else spec for key, spec in specs.items()}
+
+    runs = run_all(held(all_specs(scale)), jobs, progress)
     while more := {key: spec for companion in COMPANIONS if hasattr(companion, "follow_up")
                    for key, spec in companion.follow_up(runs, scale).items()}:
-        runs |= run_all(more, jobs, progress)
-    return analyse(runs, scale, out, start)
+        runs |= run_all(held(more), jobs, progress)
+    return analyse(runs, scale, out, start, update_cycles)
 
 
 def analyse(runs: dict[str, RunData], scale: Scale, out: Path,
-            start: float | None = None) -> Reproduction:
+            start: float | None = None, update_cycles: int = 1) -> Reproduction:
     """The sections of the report from the runs of :func:`run_all`; writes ``out``.
 
-    ``start``: the ``time.perf_counter()`` at which the runs began (for the run time).
+    ``start``: the ``time.perf_counter()`` at which the runs began (for the run time);
+    ``update_cycles``: the plants' update period the runs had.
     """
     out.mkdir(parents=True, exist_ok=True)
     specs = all_specs(scale)
@@ -99,6 +108,6 @@ def analyse(runs: dict[str, RunData], scale: Scale, out: Path,
                 *(companion.section(runs, specs, scale, out) for companion in COMPANIONS)]
     end = time.perf_counter()
     result = Reproduction(scale, sections, runs, end - (model_start if start is None else start),
-                          end - model_start)
+                          end - model_start, update_cycles)
     (out / "report.md").write_text(report_markdown(result))
     return result

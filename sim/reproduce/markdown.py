@@ -95,6 +95,8 @@ class Reproduction:
     runs: dict[str, RunData]
     seconds: float
     model_seconds: float
+    #: The first-order plants' update period of the closed-loop runs (1: every cycle).
+    update_cycles: int = 1
 
     @property
     def rows(self) -> list[Row]:
@@ -189,11 +191,20 @@ def _scaled_down(scale: Scale) -> list[str]:
     ]
 
 
+def _held(update_cycles: int) -> str:
+    """What the report says of the plants' update period, if it is not every cycle."""
+    if update_cycles == 1:
+        return ""
+    return (f"; the first-order plants' velocity updated every {update_cycles} cycles, not "
+            f"every cycle as the papers' plant (the servo key update_cycles)")
+
+
 def report_markdown(result: Reproduction) -> str:
     """``report.md``: the table, then each experiment with its text and figure, then timing."""
     scale = result.scale
     lines = ["# Reproducing the paper on the emulator", "",
-             f"Written by `k37 reproduce{' --quick' if scale is QUICK else ''}`: "
+             f"Written by `k37 reproduce{' --quick' if scale is QUICK else ''}"
+             f"{f' --update-cycles {result.update_cycles}' if result.update_cycles != 1 else ''}`: "
              f"{scoreboard(result.rows)}. Each row "
              f"compares an observation of the paper (its photos, section 2 and Table 1; "
              f"sections 1-7) or of one of the four companion papers (sections 8-11) with "
@@ -203,7 +214,8 @@ def report_markdown(result: Reproduction) -> str:
              f"whether or not it held); "
              f"the experiments ran on the whole machine (chipset, 8085 firmware model and servo "
              f"plants) on the backend the run-time table names for each run: the event-level "
-             f"engine where it runs the run, else the compiled (CXXRTL) gateware.", "",
+             f"engine where it runs the run, else the compiled (CXXRTL) gateware"
+             f"{_held(result.update_cycles)}.", "",
              table_markdown(result)]
     for sec in result.sections:
         lines += [f"## {sec.number}. {sec.title}", ""]

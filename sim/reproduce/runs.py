@@ -118,6 +118,9 @@ class RunSpec:
     #: spline (LSB) and its parameter at every chord end, in order (the host's CEC and the
     #: report measure against it).
     exact: tuple[Nurbs, tuple[float, ...]] | None = None
+    #: The first-order plants' update period (servo ``update_cycles``) on every axis; 1: the
+    #: papers' plant, updated every cycle.
+    update_cycles: int = 1
 
     def __post_init__(self) -> None:
         if self.machine is not None and self.machine.accel != self.accel:
@@ -129,6 +132,9 @@ class RunSpec:
         program = parse(self.gcode, source=f"<{self.key}>", lsb_mm=machine.lsb_mm,
                         sqrt2=machine.sqrt2)
         servo = {axis: self.servo.get(axis, SERVO) for axis in machine.axis_names}
+        if self.update_cycles != 1:
+            servo = {axis: replace(s, update_cycles=self.update_cycles)
+                     if s.drive == "first_order" else s for axis, s in servo.items()}
         if self.exact is not None:
             program = _with_curve(program, *self.exact)
         return Job(self.key, machine, servo, program, axis_accel=dict(self.axis_accel),

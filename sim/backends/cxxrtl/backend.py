@@ -273,7 +273,8 @@ class CxxrtlBackend(Backend):
             items = _sizes([item(f"{plant.path}.{n}") for n in plant.ITEMS])
             if lib.k37_free_plant(handle, items, plant.vc_bits, plant.alpha_bits,
                                   plant.frac_bits) < 0:
-                raise ValueError(f"{plant.path}: velocity and position must be registers")
+                raise ValueError(f"{plant.path}: velocity, position, phase and ff must be "
+                                 f"registers")
         for countdown in free.countdowns:
             if lib.k37_free_countdown(handle, item(countdown.path), countdown.stop) < 0:
                 raise ValueError(f"{countdown.path}: must be a register of <= 64 bits")

@@ -39,17 +39,66 @@ struct Lag {
 	bool stall;
 	unsigned vc_bits, alpha_bits, frac_bits;
 
+	// With an update period (held): the cycles from one update to the next, the cycles
+	// since the last (0: this cycle updates), and the command of the next update (vc with
+	// the feedforward summed before it; vc itself from then on).
+	uint64_t period = 1, phase = 0;
+	int64_t vc_next;
+	bool pending = false;  // the summed feedforward is not yet taken by an update
+
 	Lag(int64_t velocity, int64_t command, int64_t alpha_, uint64_t position_, bool stall_,
 	    unsigned vc_bits_, unsigned alpha_bits_, unsigned frac_bits_)
 	    : v(velocity), vc(command), alpha(alpha_), position(position_),
 	      low(position_ >> frac_bits_ << frac_bits_), stall(stall_), vc_bits(vc_bits_),
-	      alpha_bits(alpha_bits_), frac_bits(frac_bits_) {}
+	      alpha_bits(alpha_bits_), frac_bits(frac_bits_), vc_next(command) {}
 	// The velocity after the next update (in range: |vc|, |v| <= 2^vc_bits - 1).
-	int64_t next_v() const {
-		uint64_t delta = uint64_t(vc - v) * uint64_t(alpha) + (uint64_t(1) << (alpha_bits - 1));
+	int64_t next_v() const { return next_v(vc); }
+	int64_t next_v(int64_t command) const {
+		uint64_t delta =
+		    uint64_t(command - v) * uint64_t(alpha) + (uint64_t(1) << (alpha_bits - 1));
 		int64_t step = int64_t(delta) >> alpha_bits;
-		return stall ? 0 : step == 0 ? vc : v + step;
+		return stall ? 0 : step == 0 ? command : v + step;
 	}
+	// An update period of `every` cycles (0 or 1: every cycle), `since` cycles since the
+	// last update, and the next update's command `next`.
+	void hold(uint64_t every, uint64_t since, int64_t next) {
+		period = every < 1 ? 1 : every;
+		phase = since;
+		vc_next = next;
+		pending = true;
+	}
+	// Whether the plant updates every cycle towards vc (advance's closed forms apply).
+	bool every_cycle() const { return period == 1 && phase == 0 && vc_next == vc; }
+	// Held: the cycles before the next update (0: this cycle updates).
+	uint64_t until_update() const { return phase == 0 ? 0 : period - phase; }
+	// Held: whether the updates to come change nothing (v at its command, nothing summed).
+	bool settled() const { return steady() && vc_next == vc; }
+	// Held: one cycle (the update, if it is due; the position).
+	void cycle() {
+		if (phase == 0) {
+			v = next_v(vc_next);
+			vc_next = vc;
+			pending = false;
+		}
+		phase = phase + 1 >= period ? 0 : phase + 1;
+		position += uint64_t(v);
+	}
+	// Held: k cycles with no update, at velocity v.
+	void coast(uint64_t k) {
+		position += uint64_t(v) * k;
+		phase += k;
+		if (phase >= period)
+			phase %= period;
+	}
+	// At a steady velocity: how many of `run` cycles keep the count (all, found without a
+	// division where they do).
+	uint64_t keeps(uint64_t run) const {
+		if (offset_keeps(i128(position - low) + i128(v) * i128(run)))
+			return run;
+		return std::min(run, steady_cycles());
+	}
+	// Whether the position has left the count it started in.
+	bool left_count() const { return (position - low) >> frac_bits != 0; }
 	// Whether a velocity of `next` keeps the count.
 	bool keeps_count(int64_t next) const {
 		return (position + uint64_t(next) - low) >> frac_bits == 0;
@@ -211,6 +260,43 @@ inline uint64_t advance(Lag *states, size_t n, int64_t *steps, uint64_t limit, b
 			states[i].take(states[i].next_v());
 		k++;
 		crossed = true;
+	}
+	return k;
+}
+
+// advance for plants with an update period (Lag::hold): the velocities held between updates,
+// the cycles between them jumped in closed form, up to and including the first cycle that
+// changes a count (then `crossed`); returns the cycles run.
+inline uint64_t advance_held(Lag *states, size_t n, uint64_t limit, bool &crossed) {
+	crossed = false;
+	uint64_t k = 0;
+	while (k < limit) {
+		uint64_t run = limit - k;  // cycles with no update that changes a velocity
+		for (size_t i = 0; i < n; i++)
+			if (!states[i].settled())
+				run = std::min(run, states[i].until_update());
+		if (run == 0) {  // an update is due: one cycle
+			for (size_t i = 0; i < n; i++) {
+				states[i].cycle();
+				crossed |= states[i].left_count();
+			}
+			k++;
+			if (crossed)
+				return k;
+			continue;
+		}
+		uint64_t keep = run;
+		for (size_t i = 0; i < n; i++)
+			keep = states[i].keeps(keep);
+		for (size_t i = 0; i < n; i++)
+			states[i].coast(keep);
+		k += keep;
+		if (keep < run) {  // the next cycle changes a count: run it, the last
+			for (size_t i = 0; i < n; i++)
+				states[i].cycle();
+			crossed = true;
+			return k + 1;
+		}
 	}
 	return k;
 }

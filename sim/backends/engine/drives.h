@@ -99,12 +99,16 @@ struct Drive : Plant {
 			Plant::rise(in, dac, com);
 			return;
 		}
-		int64_t vc = command(in, dac, com);
-		take(in, next_drive_velocity(in, vc));
+		int64_t sum = feedforward(in, com);
+		bool update = phase == 0;
+		int64_t next = next_drive_velocity(in, command(in, dac, sum));  // its other registers
+		take(in, update ? next : velocity, update, sum);
 	}
 	// Whether an edge with no command pulse leaves every register as it is (the load-step
-	// count aside): the drive is at rest.
+	// count aside): the drive is at rest, updated every cycle.
 	bool at_rest(const PlantInputs &in, uint64_t dac) const {
+		if (!every_cycle(in))
+			return false;  // an update period's phase moves on: stepped
 		Drive next = *this;
 		next.rise(in, dac, 0);
 		return velocity == 0 && next.velocity == 0 && next.integral == integral &&

@@ -33,6 +33,7 @@ uint64_t Machine::get(int port) const {
 	case ALPHA: return a.in.alpha;
 	case VMAX: return a.in.vmax;
 	case KF: return a.in.kf;
+	case PERIOD: return a.in.period;
 	case DAC_ZERO: return a.in.dac_zero;
 	case STALL: return a.in.stall;
 	case GLITCH_A: return a.in.glitch_a;
@@ -70,6 +71,7 @@ void Machine::set(int port, uint64_t v) {
 	case ALPHA: in.alpha = v; return;
 	case VMAX: in.vmax = v; return;
 	case KF: in.kf = v; return;
+	case PERIOD: in.period = v; return;
 	case DAC_ZERO: in.dac_zero = v; return;
 	case STALL: in.stall = v; return;
 	case GLITCH_A: in.glitch_a = v; return;

@@ -32,10 +32,10 @@ const char *const TOP_PORTS[] = {"bus__addr", "bus__w_stb", "bus__w_data", "bus_
                                  "quiet"};
 enum TopPort { BUS_ADDR, BUS_W_STB, BUS_W_DATA, BUS_R_STB, BUS_R_DATA, IRQ, IRQ_INTERP,
                IRQ_ALARM, FP_TOTAL, QUIET, TOP_COUNT };
-const char *const AXIS_PORTS[] = {"gain", "alpha", "vmax", "kf", "dac_zero", "stall",
+const char *const AXIS_PORTS[] = {"gain", "alpha", "vmax", "kf", "period", "dac_zero", "stall",
                                   "glitch_a", "glitch_b", "break_a", "command", "error", "count",
                                   "dac", "max_abs_error", "pulses_pos", "pulses_neg", "alarm_n"};
-enum AxisPort { GAIN, ALPHA, VMAX, KF, DAC_ZERO, STALL, GLITCH_A, GLITCH_B, BREAK_A, COMMAND,
+enum AxisPort { GAIN, ALPHA, VMAX, KF, PERIOD, DAC_ZERO, STALL, GLITCH_A, GLITCH_B, BREAK_A, COMMAND,
                 ERROR, COUNT, DAC, MAX_ABS_ERROR, PULSES_POS, PULSES_NEG, ALARM_N, AXIS_COUNT };
 // The drives' inputs (drives.h, DRIVE_PORTS) are numbered after every axis's ports.
 constexpr int DRIVE_PORT_BASE = TOP_COUNT + MAX_AXES * AXIS_COUNT;
@@ -359,22 +359,31 @@ struct Machine {
 			if (piece == 0) {
 				for (int i = 0; i < axes; i++)
 					axis[i].enc.rise(in[i]);
-				return done + (drives ? advance_drives(1) : step_plants(1));
+				return done + run_plants(1);
 			}
-			uint64_t k = drives                   ? advance_drives(piece)
-			             : piece <= STEPPED_PIECE ? step_plants(piece)
-			                                      : lag_plants(piece);
+			uint64_t k = run_plants(piece);
 			for (int i = 0; i < axes; i++)
 				axis[i].enc.advance(in[i], k);
 			done += k;
 		}
 		return done;
 	}
+	// Run the plants alone for at most n cycles, up to and including the first cycle that
+	// changes a count; the cycles run. The torque and two-mass drives stepped; first-order
+	// plants with an update period held between updates (lag.h, advance_held); else stepped
+	// cycle by cycle, or in pieces in closed form (lag.h, advance).
+	uint64_t run_plants(uint64_t n) {
+		if (drives)
+			return advance_drives(n);
+		for (int i = 0; i < axes; i++)
+			if (!axis[i].plant.every_cycle(axis[i].in))
+				return hold_plants(n);
+		return n <= STEPPED_PIECE ? step_plants(n) : lag_plants(n);
+	}
 	// Pieces of at most this many cycles are stepped cycle by cycle (Plant::rise): cheaper
 	// than the closed forms' set-up over a few cycles, and the same update.
 	static constexpr uint64_t STEPPED_PIECE = 16;
-	// Step the plants alone for at most n cycles, up to and including the first cycle that
-	// changes a count; the cycles run. Cycle by cycle, or in pieces in closed form (lag.h).
+	// run_plants of plants updated every cycle, cycle by cycle.
 	uint64_t step_plants(uint64_t n) { return axes == 3 ? step_plants<3>(n) : step_plants<2>(n); }
 	template<int N>
 	uint64_t step_plants(uint64_t n) {
@@ -409,7 +418,27 @@ struct Machine {
 		}
 		return k;
 	}
-	// advance_plants with a torque or two-mass drive (drives.h).
+	// run_plants of first-order plants with an update period.
+	uint64_t hold_plants(uint64_t n) {
+		k37lag::Lag lags[MAX_AXES] = {lag(axis[0]), lag(axis[1]), lag(axis[2])};
+		for (int i = 0; i < axes; i++) {
+			const Axis &a = axis[i];
+			lags[i].hold(a.in.period, a.plant.phase,
+			             Plant::command(a.in, a.ctrl.dac, a.plant.ff));
+		}
+		bool crossed;
+		uint64_t k = k37lag::advance_held(lags, size_t(axes), n, crossed);
+		for (int i = 0; i < axes; i++) {
+			Plant &p = axis[i].plant;
+			p.velocity = lags[i].v;
+			p.before = lags[i].position - uint64_t(lags[i].v);
+			p.phase = lags[i].phase;
+			if (!lags[i].pending)
+				p.ff = 0;
+		}
+		return k;
+	}
+	// run_plants with a torque or two-mass drive (drives.h).
 	uint64_t advance_drives(uint64_t h) {
 		Drive *plants[MAX_AXES];
 		const PlantInputs *ins[MAX_AXES];

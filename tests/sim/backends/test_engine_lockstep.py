@@ -93,7 +93,18 @@ SERVOS = {"torque": TORQUE, "two_mass": {**TORQUE, "drive": "two_mass", "cs": 20
 def machine_options(draw) -> dict:
     accel = draw(st.sampled_from(sorted(DRIVES)))
     return {"accel": accel, "drive": draw(st.sampled_from(DRIVES[accel])),
-            "controller": draw(st.sampled_from(CONTOUR_CONTROLLERS))}
+            "controller": draw(st.sampled_from(CONTOUR_CONTROLLERS)),
+            "update_cycles": draw(st.sampled_from(UPDATE_CYCLES))}
+
+
+#: The first-order plant's update periods the hypothesis draws from.
+UPDATE_CYCLES = (1, 16, 64)
+
+
+def servo_keys(drive: str, update_cycles: int) -> dict:
+    """The servo keys of ``drive``: the torque and two-mass drives', or the first-order
+    plant's update period."""
+    return SERVOS.get(drive) or {"update_cycles": update_cycles}
 
 
 @settings(max_examples=30, deadline=None,
@@ -104,9 +115,8 @@ def test_lockstep_finds_no_difference_on_generated_jobs_over_the_machine_options
         seed, options, dwell, curves, load_step, random_moves, lockstep):
     """Two-axis jobs, each cut off after 1,500,000 cycles."""
     drive = options["drive"]
-    servo = SERVOS.get(drive)
     job, faults, _ = random_moves(seed, options["accel"], dwell=dwell, curves=curves,
-                                  servo=servo)
+                                  servo=servo_keys(drive, options["update_cycles"]))
     job = replace(job, machine=replace(job.machine, accel_bits=8),
                   contour=ContourConfig(controller=options["controller"]))
     if load_step and drive != "first_order":
@@ -117,13 +127,13 @@ def test_lockstep_finds_no_difference_on_generated_jobs_over_the_machine_options
 @settings(max_examples=10, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(seed=st.integers(0, 10**6), drive=st.sampled_from(DRIVES["pre"]), dwell=st.booleans(),
-       curves=st.booleans())
-def test_lockstep_finds_no_difference_on_generated_three_axis_jobs(seed, drive, dwell, curves,
-                                                                   random_moves, lockstep):
+       curves=st.booleans(), update_cycles=st.sampled_from(UPDATE_CYCLES))
+def test_lockstep_finds_no_difference_on_generated_three_axis_jobs(
+        seed, drive, dwell, curves, update_cycles, random_moves, lockstep):
     """Lines through space, arcs in every plane, helices; each cut off after 1,500,000
     cycles."""
     job, faults, _ = random_moves(seed, "pre", dwell=dwell, curves=curves, axes=3,
-                                  servo=SERVOS.get(drive))
+                                  servo=servo_keys(drive, update_cycles))
     bits = 15 if drive == "first_order" else 8
     job = replace(job, machine=replace(job.machine, accel_bits=bits))
     run_in_lockstep(job, lockstep, faults, max_cycles=1_500_000)
@@ -144,6 +154,16 @@ def test_lockstep_finds_no_difference_with_every_circuit_and_addition_clock(
         accel, shape, axis_shapes, axis_fa, seed, random_moves, lockstep):
     job, faults, _ = random_moves(seed, accel, dwell=True, shape=shape, axis_shapes=axis_shapes,
                                   axis_fa=axis_fa)
+    run_in_lockstep(job, lockstep, faults)
+
+
+@pytest.mark.parametrize(("update_cycles", "kf", "seed"), [(2, 0.0, 11), (37, 0.8, 12),
+                                                           (256, 0.0, 13)])
+def test_lockstep_finds_no_difference_with_a_plant_update_period(update_cycles, kf, seed,
+                                                                 random_moves, lockstep):
+    """The velocity held between updates, the feedforward summed over them."""
+    job, faults, _ = random_moves(seed, "post", dwell=True,
+                                  servo={"update_cycles": update_cycles, "kf": kf})
     run_in_lockstep(job, lockstep, faults)
 
 
