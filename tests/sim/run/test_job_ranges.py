@@ -59,6 +59,7 @@ def test_the_ranges_are_the_blocks():
         "servo.max_speed": "> 0 and < 3932160000 mm/min (48-bit speed limit at clock_hz and "
                            "lsb_mm)",
         "servo.kf": ">= 0 and <= 2 (fraction of the command rate)",
+        "servo.update_cycles": "in 1..4096 cycles",
         "servo.kt": "> 0 N m/A", "servo.ja": "> 0 kg m^2", "servo.vg": "> 0 A s/rad",
         "servo.ti": ">= 0 s", "servo.d": ">= 0 N m s/rad", "servo.fc": ">= 0 N m",
         "servo.load": "a number N m", "servo.counts_per_rev": "> 0 counts",
@@ -165,6 +166,12 @@ def test_the_block_and_the_loader_refuse_a_value_in_the_same_words(tmp_path, cap
         del info
         gc.collect()
     assert run_error(tmp_path, capsys, job_text(key, value)) == f"{key} must {refusal}"
+
+
+def test_a_drive_that_updates_every_cycle_refuses_an_update_period(tmp_path, capsys):
+    text = '[servo]\ndrive = "torque"\nupdate_cycles = 8\n' + DWELL
+    assert run_error(tmp_path, capsys, text) == (
+        "servo.update_cycles must be 1 on a torque drive (it updates every cycle), not 8")
 
 
 def test_the_servo_ranges_follow_the_clock_and_the_lsb(tmp_path, capsys):
