@@ -29,6 +29,8 @@ inline uint64_t cycles_within(uint64_t phase, uint64_t increment, bool stb, unsi
 		return UINT64_MAX;
 	// strobes_seen(k) <= safe: stb + floor((phase + (k - 1) inc) / 2^w) <= safe.
 	u128 limit = (u128(safe - uint64_t(stb) + 1) << width) - phase;
+	if (limit >> 64 == 0)  // the common case, in one 64-bit division
+		return uint64_t(limit) / increment + (uint64_t(limit) % increment != 0);
 	u128 cycles = (limit + increment - 1) / increment;
 	return cycles < UINT64_MAX ? uint64_t(cycles) : UINT64_MAX;
 }

@@ -144,12 +144,16 @@ struct Machine {
 	}
 
 	// A K3702 without a pulse or a strobe is at a fixed point: its falling edge is skipped.
+	// The largest error magnitude is taken as the error changes (only here).
 	void fall() {
 		for (int k = 0; k < axes; k++) {
 			Axis &a = axis[k];
 			int com = command(k), fb = int(a.enc.fb_pos) - int(a.enc.fb_neg);
-			if (com || fb || strobed)
+			if (com || fb || strobed) {
 				a.ctrl.fall(com, fb);
+				uint64_t magnitude = uint64_t(a.ctrl.error < 0 ? -a.ctrl.error : a.ctrl.error);
+				a.max_abs_error = std::max(a.max_abs_error, magnitude);
+			}
 		}
 	}
 
@@ -190,35 +194,26 @@ struct Machine {
 		}
 		strobed = !banks_quiet();
 	}
-	// The chips' and plants' rising edge (the banks' aside).
+	// The chips' and plants' rising edge (the banks' aside). Each block's update reads only
+	// its own state and its inputs of the values before the edge, so each axis's blocks rise
+	// before the shared ones whose outputs they take: the K3701's steps, the feed's clocks.
 	void edge() {
-		// Everything the edge reads, from the values before it.
 		bool gate = decel_out(), feed_pulse = fp();
-		bool add[1 + MAX_AXES];  // the addition clocks: the shared fa, then each axis's
-		for (int k = -1; k < axes; k++)
-			add[1 + k] = feed.clock(k).stb;
-		int step[MAX_AXES], com[MAX_AXES];
-		for (int k = 0; k < axes; k++) {
-			step[k] = steps(k);
-			com[k] = command(k);
-		}
-		feed.rise();
-		decel.rise(gate);
-		if (accel_pre)
-			accel.rise(gate, add[0]);
-		interp.rise(feed_pulse);
 		for (int k = 0; k < axes; k++) {
 			Axis &a = axis[k];
+			int step = steps(k);
 			a.enc.rise(a.plant.lines());
-			a.plant.rise(a.in, a.ctrl.dac, com[k]);
+			a.plant.rise(a.in, a.ctrl.dac, command(k));
 			if (accel_post)
-				a.post.rise(step[k], add[1 + k]);
-			uint64_t magnitude = uint64_t(a.ctrl.error < 0 ? -a.ctrl.error : a.ctrl.error);
-			if (magnitude > a.max_abs_error)
-				a.max_abs_error = magnitude;
-			a.pulses_pos += step[k] > 0;
-			a.pulses_neg += step[k] < 0;
+				a.post.rise(step, feed.clock(k).stb);
+			a.pulses_pos += step > 0;
+			a.pulses_neg += step < 0;
 		}
+		if (accel_pre)
+			accel.rise(gate, feed.fa_clock.stb);
+		interp.rise(feed_pulse);
+		feed.rise();
+		decel.rise(gate);
 		fp_total += feed_pulse;
 	}
 
@@ -297,47 +292,49 @@ struct Machine {
 				h = std::min(h, cycles_within(feed.rm_clock.phase, feed.bank.value[FEED_RM_INC],
 				                              feed.rm_clock.stb, DIVIDER_WIDTH, clocks));
 		}
-		for (int k = -1; k < axes; k++) {
-			const Circuit &c = k < 0 ? accel : axis[k].post;
-			const Divider &clock = feed.clock(k);
-			if ((k < 0 ? accel_pre : accel_post) && c.safe_strobes() != UINT64_MAX)
-				h = std::min(h, cycles_within(clock.phase, feed.increment(k), clock.stb,
-				                              DIVIDER_WIDTH, c.safe_strobes()));
-		}
+		if (accel_pre)
+			h = std::min(h, carry_free(accel, feed.fa_clock, feed.bank.value[FEED_FA_INC]));
+		if (accel_post)
+			for (int k = 0; k < axes; k++)
+				h = std::min(h, carry_free(axis[k].post, feed.clock(k), feed.increment(k)));
 		return h;
+	}
+
+	// The most cycles in which circuit c, on addition clock `clock`, takes no carry.
+	static uint64_t carry_free(const Circuit &c, const Divider &clock, uint64_t increment) {
+		uint64_t safe = c.safe_strobes();
+		return safe == UINT64_MAX ? UINT64_MAX
+		                          : cycles_within(clock.phase, increment, clock.stb, DIVIDER_WIDTH, safe);
 	}
 
 	// Advance the free-running state by k cycles (k >= 1; no event on the way).
 	void advance_free(uint64_t k) {
-		uint64_t rm = strobes_seen(feed.rm_clock.phase, feed.bank.value[FEED_RM_INC],
-		                           feed.rm_clock.stb, DIVIDER_WIDTH, k);
-		uint64_t fa[1 + MAX_AXES];  // strobes of each circuit's addition clock
-		for (int i = -1; i < axes; i++)
-			fa[1 + i] = strobes_seen(feed.clock(i).phase, feed.increment(i), feed.clock(i).stb,
-			                         DIVIDER_WIDTH, k);
-		feed.count = (feed.count + rm) & low_bits(Feed::BITS);
-		std::pair<Divider *, uint64_t> dividers[2 + MAX_AXES] = {
-		    {&feed.rm_clock, feed.bank.value[FEED_RM_INC]},
-		    {&feed.fa_clock, feed.bank.value[FEED_FA_INC]}};
-		int n = 2;
-		for (int i = 0; i < 3; i++)
-			if (feed.own[i] >= 0)
-				dividers[n++] = {&feed.fa_axis[i], feed.bank.value[feed.own[i]]};
-		for (int i = 0; i < n; i++) {
-			auto [d, inc] = dividers[i];
-			u128 before_last = u128(d->phase) + u128(k - 1) * inc, total = before_last + inc;
-			d->stb = (total >> DIVIDER_WIDTH) != (before_last >> DIVIDER_WIDTH);
-			d->phase = uint64_t(total) & low_bits(DIVIDER_WIDTH);
-		}
 		if (accel_pre)
-			accel.advance(fa[0]);
+			accel.advance(strobes_seen(feed.fa_clock, feed.bank.value[FEED_FA_INC], k));
 		if (accel_post)
 			for (int i = 0; i < axes; i++)
-				axis[i].post.advance(fa[1 + i]);
+				axis[i].post.advance(strobes_seen(feed.clock(i), feed.increment(i), k));
+		feed.count = (feed.count + strobes_seen(feed.rm_clock, feed.bank.value[FEED_RM_INC], k)) &
+		             low_bits(Feed::BITS);
+		advance(feed.rm_clock, feed.bank.value[FEED_RM_INC], k);
+		advance(feed.fa_clock, feed.bank.value[FEED_FA_INC], k);
+		for (int i = 0; i < 3; i++)
+			if (feed.own[i] >= 0)
+				advance(feed.fa_axis[i], feed.bank.value[feed.own[i]], k);
 		if (interp.phase == K3701::Phase::SETUP)
 			interp.setup_left -= int64_t(k);
 		else if (interp.phase == K3701::Phase::RUN && interp.count)
 			interp.count -= int64_t(k);
+	}
+
+	// A phase divider's strobes seen in the next k cycles, and its advance by k cycles (k >= 1).
+	static uint64_t strobes_seen(const Divider &d, uint64_t increment, uint64_t k) {
+		return k37e::strobes_seen(d.phase, increment, d.stb, DIVIDER_WIDTH, k);
+	}
+	static void advance(Divider &d, uint64_t increment, uint64_t k) {
+		u128 before_last = u128(d.phase) + u128(k - 1) * increment, total = before_last + increment;
+		d.stb = (total >> DIVIDER_WIDTH) != (before_last >> DIVIDER_WIDTH);
+		d.phase = uint64_t(total) & low_bits(DIVIDER_WIDTH);
 	}
 
 	// Step the plants and the encoder interfaces alone for at most h cycles (the plants' D/A
