@@ -78,26 +78,74 @@ void Machine::set(int port, uint64_t v) {
 	}
 }
 
+// After a cycle: skip up to `rest` cycles while the machine is quiet; the cycles run. Each
+// stretch runs the plants and the encoder interfaces alone (advance_plants) and the chips'
+// free-running state in closed form (advance_free) up to and including the cycle of the
+// chips' next event (horizon), whose edge the chips then take alone (rise_chips: in it the
+// axes take no command pulse); or up to the cycle in which an encoder interface's filter
+// passes a change, whose count pulse the K3702 takes at the next falling edge, the start of
+// the next stretch; or up to the next sample. The skip ends where the chips are no longer
+// quiet, at `rest`, or after the cycle of an event (the chips' edge, a K3702's count) at whose
+// end `port` (-1: none) reads non-zero: between events only the plants, the encoders' filter
+// streaks and the free-running state move. `skipped` counts the cycles with neither.
+uint64_t Machine::skip(uint64_t rest, int port) {
+	if (rest == 0 || !quiet_now())
+		return 0;
+	uint64_t done = 0, h = horizon();
+	bool fell = false, last = false;  // the stretch starts with a falling edge; it is the last
+	for (;;) {
+		uint64_t n = last ? 1 : std::min(rest - done, next_sample - cycle);
+		bool event = h < n;  // the event's cycle, h + 1, ends the stretch
+		if (event)
+			n = h + 1;
+		uint64_t k = advance_plants(n);
+		bool chips = event && k == n;
+		if (k > uint64_t(chips))
+			advance_free(k - chips);
+		if (chips)
+			rise_chips();
+		skipped += k - std::min<uint64_t>(k, uint64_t(chips) + fell);
+		count_cycles(k);
+		done += k;
+		if (last || done == rest || (chips && port >= 0 && get(port)))
+			return done;
+		if (chips && !chips_quiet())
+			return done;
+		h = chips ? horizon() : h - k;
+		fell = false;
+		for (int i = 0; i < axes; i++)
+			fell |= axis[i].enc.fb_pos || axis[i].enc.fb_neg;
+		if (fell) {
+			fall();
+			for (int i = 0; i < axes; i++)  // taken: the next rise recomputes them
+				axis[i].enc.fb_pos = axis[i].enc.fb_neg = false;
+			last = port >= 0 && get(port);
+		}
+	}
+}
+
 // Run n cycles; with skip_idle, skip ahead after each cycle where the machine is quiet.
 void run(Machine &m, uint64_t n, bool skip_idle) {
 	for (uint64_t i = 0; i < n;) {
 		m.step();
 		i++;
 		if (skip_idle)
-			i += m.skip(n - i);
+			i += m.skip(n - i, -1);
 	}
 }
 
-// Step until `port` reads non-zero after a cycle, at most `limit` cycles; the cycles run. A
-// skip keeps the port as it is, so one is taken only while it reads zero.
+// Step until `port` reads non-zero after a cycle, at most `limit` cycles; the cycles run.
 uint64_t run_until(Machine &m, int port, uint64_t limit, bool skip_idle) {
 	for (uint64_t i = 0; i < limit;) {
 		m.step();
 		i++;
 		if (m.get(port))
 			return i;
-		if (skip_idle)
-			i += m.skip(limit - i);
+		if (skip_idle) {
+			i += m.skip(limit - i, port);
+			if (m.get(port))
+				return i;
+		}
 	}
 	return limit;
 }

@@ -195,15 +195,23 @@ struct Machine {
 		strobed = !banks_quiet();
 	}
 	// The chips' and plants' rising edge (the banks' aside). Each block's update reads only
-	// its own state and its inputs of the values before the edge, so each axis's blocks rise
-	// before the shared ones whose outputs they take: the K3701's steps, the feed's clocks.
+	// its own state and its inputs of the values before the edge: the axes' blocks rise
+	// before the chips whose outputs they take (the K3701's steps, the circuits' pulses).
 	void edge() {
+		for (int k = 0; k < axes; k++) {
+			Axis &a = axis[k];
+			a.enc.rise(a.plant.lines());
+			a.plant.rise(a.in, a.ctrl.dac, command(k));
+		}
+		rise_chips();
+	}
+	// The rising edge of the chips before the K3702s: the feed, the decel gate, the accel/decel
+	// circuits and the K3701 (the feed's clocks read before it rises).
+	void rise_chips() {
 		bool gate = decel_out(), feed_pulse = fp();
 		for (int k = 0; k < axes; k++) {
 			Axis &a = axis[k];
 			int step = steps(k);
-			a.enc.rise(a.plant.lines());
-			a.plant.rise(a.in, a.ctrl.dac, command(k));
 			if (accel_post)
 				a.post.rise(step, feed.clock(k).stb);
 			a.pulses_pos += step > 0;
@@ -237,10 +245,11 @@ struct Machine {
 
 	// Whether the cycles to come change nothing but the free-running state, the plants and
 	// the encoder interfaces' filter streaks until an event of theirs (horizon, or a filter
-	// passing a change): no bus cycle, no bank strobe, no step pulse, FP or accel/decel output
-	// pulse, no count pulse, complementary encoder lines, the K3702s at a fixed point, and
-	// the K3701 idle, counting down, or waiting for an FP it does not hold.
-	bool quiet_now() const {
+	// passing a change): the chips quiet and the axes quiet.
+	bool quiet_now() const { return chips_quiet() && axes_quiet(); }
+	// No bus cycle, no bank strobe, no step pulse or accel/decel output pulse, and the K3701
+	// idle, counting down, or waiting for an FP it does not hold.
+	bool chips_quiet() const {
 		if (w_stb || r_stb || strobed)
 			return false;
 		for (int k = 0; k < axes; k++)
@@ -248,8 +257,11 @@ struct Machine {
 				return false;
 		if (interp.phase == K3701::Phase::RUN && interp.count == 0 && interp.held)
 			return false;
-		if (!circuits_quiet())
-			return false;
+		return circuits_quiet();
+	}
+	// No count pulse, complementary encoder lines with no broken-line streak, the plants'
+	// fault inputs as registered: with the chips quiet, the K3702s at a fixed point.
+	bool axes_quiet() const {
 		for (int k = 0; k < axes; k++) {
 			const Axis &a = axis[k];
 			const Encoder &e = a.enc;
@@ -266,14 +278,11 @@ struct Machine {
 		return true;
 	}
 	bool banks_quiet() const {
-		const Bank *banks[] = {&feed.bank, &decel.bank, &interp.bank};
-		for (const Bank *b : banks)
-			if (b->committed >= 0 || b->refused >= 0)
-				return false;
+		if (!feed.bank.quiet() || !decel.bank.quiet() || !interp.bank.quiet())
+			return false;
 		for (int k = 0; k < axes; k++)
-			for (const Bank *b : {&axis[k].ctrl.bank, &axis[k].enc.bank})
-				if (b->committed >= 0 || b->refused >= 0)
-					return false;
+			if (!axis[k].ctrl.bank.quiet() || !axis[k].enc.bank.quiet())
+				return false;
 		return true;
 	}
 
@@ -425,21 +434,8 @@ struct Machine {
 		                   FRAC_BITS);
 	}
 
-	// After a cycle: skip up to `rest` cycles if the machine is quiet, to just before the
-	// chips' next event, or just after the cycle in which an encoder interface's filter
-	// passes a change, or to the next sample; the cycles skipped.
-	uint64_t skip(uint64_t rest) {
-		if (rest == 0 || !quiet_now())
-			return 0;
-		uint64_t h = std::min({rest, horizon(), next_sample - cycle});
-		if (h == 0)
-			return 0;
-		uint64_t k = advance_plants(h);
-		advance_free(k);
-		skipped += k;
-		count_cycles(k);
-		return k;
-	}
+	// After a cycle: skip up to `rest` cycles while the machine is quiet (machine.cc).
+	uint64_t skip(uint64_t rest, int port);
 
 	// Axis k's drive (a DriveKind).
 	void set_drive(int k, int kind) {
