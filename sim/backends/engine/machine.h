@@ -202,6 +202,8 @@ struct Machine {
 			Axis &a = axis[k];
 			a.enc.rise(a.plant.lines());
 			a.plant.rise(a.in, a.ctrl.dac, command(k));
+			a.pulses_pos += steps(k) > 0;
+			a.pulses_neg += steps(k) < 0;
 		}
 		rise_chips();
 	}
@@ -209,14 +211,9 @@ struct Machine {
 	// circuits and the K3701 (the feed's clocks read before it rises).
 	void rise_chips() {
 		bool gate = decel_out(), feed_pulse = fp();
-		for (int k = 0; k < axes; k++) {
-			Axis &a = axis[k];
-			int step = steps(k);
-			if (accel_post)
-				a.post.rise(step, feed.clock(k).stb);
-			a.pulses_pos += step > 0;
-			a.pulses_neg += step < 0;
-		}
+		if (accel_post)
+			for (int k = 0; k < axes; k++)
+				axis[k].post.rise(steps(k), feed.clock(k).stb);
 		if (accel_pre)
 			accel.rise(gate, feed.fa_clock.stb);
 		interp.rise(feed_pulse);
@@ -434,8 +431,9 @@ struct Machine {
 		                   FRAC_BITS);
 	}
 
-	// After a cycle: skip up to `rest` cycles while the machine is quiet (machine.cc).
-	uint64_t skip(uint64_t rest, int port);
+	// Run up to n cycles, skipping where the machine is quiet, until `port` reads non-zero
+	// (machine.cc).
+	uint64_t run(uint64_t n, int port);
 
 	// Axis k's drive (a DriveKind).
 	void set_drive(int k, int kind) {
