@@ -422,16 +422,19 @@ struct Machine {
 		return k;
 	}
 	// run_plants of first-order plants with an update period.
+	uint64_t hold_plants(uint64_t n) { return axes == 3 ? hold_plants<3>(n) : hold_plants<2>(n); }
+	template<int N>
 	uint64_t hold_plants(uint64_t n) {
-		k37lag::Lag lags[MAX_AXES] = {lag(axis[0]), lag(axis[1]), lag(axis[2])};
-		for (int i = 0; i < axes; i++) {
+		k37lag::Lag lags[N];
+		for (int i = 0; i < N; i++) {
 			const Axis &a = axis[i];
-			lags[i].hold(a.in.period, a.plant.phase,
-			             Plant::command(a.in, a.ctrl.dac, a.plant.ff));
+			lags[i] = lag(a);
+			int64_t next = a.plant.ff ? Plant::command(a.in, a.ctrl.dac, a.plant.ff) : lags[i].vc;
+			lags[i].hold(a.in.period, a.plant.phase, next);
 		}
 		bool crossed;
-		uint64_t k = k37lag::advance_held(lags, size_t(axes), n, crossed);
-		for (int i = 0; i < axes; i++) {
+		uint64_t k = k37lag::advance_held(lags, size_t(N), n, crossed);
+		for (int i = 0; i < N; i++) {
 			Plant &p = axis[i].plant;
 			p.velocity = lags[i].v;
 			p.before = lags[i].position - uint64_t(lags[i].v);
