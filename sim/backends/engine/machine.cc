@@ -92,7 +92,8 @@ void Machine::set(int port, uint64_t v) {
 // read after each event. `skipped` counts the cycles in which none comes and no K3702 falls.
 uint64_t Machine::run(uint64_t n, int port) {
 	uint64_t done = 0, h = 0;
-	bool quiet = quiet_now(), known = false;  // known: h is the horizon of the machine as it is
+	bool settled = axes_settled();  // so the axes stay through the run (their inputs held)
+	bool quiet = settled && chips_quiet() && !pulsed(), known = false;  // h: the horizon now
 	// The stretch starts with a falling edge; it is the last (the port reads non-zero already).
 	bool fell = false, last = port >= 0 && get(port);
 	while (done < n) {
@@ -101,7 +102,8 @@ uint64_t Machine::run(uint64_t n, int port) {
 			done++;
 			if (port >= 0 && get(port))
 				return done;
-			quiet = quiet_now();
+			settled = settled || axes_settled();
+			quiet = settled && chips_quiet() && !pulsed();
 			known = false;
 			continue;
 		}
@@ -122,20 +124,17 @@ uint64_t Machine::run(uint64_t n, int port) {
 		done += k;
 		if (last || (chips && port >= 0 && get(port)))
 			return done;
-		// The axes stay quiet through a stretch but for a count pulse; the chips, to an event.
-		quiet = !chips || chips_quiet();
+		quiet = !chips || chips_quiet();  // the chips change only at an event
 		known = !chips;
 		h -= known ? k : 0;
-		fell = false;
-		for (int i = 0; i < axes; i++)
-			fell |= axis[i].enc.fb_pos || axis[i].enc.fb_neg;
-		if (fell && quiet && done < n) {
+		fell = pulsed() && quiet && done < n;
+		if (fell) {
 			fall();
 			for (int i = 0; i < axes; i++)  // taken: the next rise recomputes them
 				axis[i].enc.fb_pos = axis[i].enc.fb_neg = false;
 			last = port >= 0 && get(port);
-		} else if (fell) {
-			quiet = fell = false;
+		} else {
+			quiet = quiet && !pulsed();
 		}
 	}
 	return done;

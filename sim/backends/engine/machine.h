@@ -242,8 +242,8 @@ struct Machine {
 
 	// Whether the cycles to come change nothing but the free-running state, the plants and
 	// the encoder interfaces' filter streaks until an event of theirs (horizon, or a filter
-	// passing a change): the chips quiet and the axes quiet.
-	bool quiet_now() const { return chips_quiet() && axes_quiet(); }
+	// passing a change): the chips quiet, no count pulse and the axes settled.
+	bool quiet_now() const { return chips_quiet() && !pulsed() && axes_settled(); }
 	// No bus cycle, no bank strobe, no step pulse or accel/decel output pulse, and the K3701
 	// idle, counting down, or waiting for an FP it does not hold.
 	bool chips_quiet() const {
@@ -256,16 +256,22 @@ struct Machine {
 			return false;
 		return circuits_quiet();
 	}
-	// No count pulse, complementary encoder lines with no broken-line streak, the plants'
-	// fault inputs as registered: with the chips quiet, the K3702s at a fixed point.
-	bool axes_quiet() const {
+	// A count pulse of an encoder interface, for its K3702's next falling edge.
+	bool pulsed() const {
+		bool any = false;
+		for (int k = 0; k < axes; k++)
+			any |= axis[k].enc.fb_pos || axis[k].enc.fb_neg;
+		return any;
+	}
+	// The encoder interfaces started, their lines complementary with no broken-line streak,
+	// the plants' fault inputs as registered: with the chips quiet, the K3702s at a fixed
+	// point. Once settled, the axes stay so while their inputs are held.
+	bool axes_settled() const {
 		for (int k = 0; k < axes; k++) {
 			const Axis &a = axis[k];
 			const Encoder &e = a.enc;
 			const Drive &p = a.plant;
-			if (e.fb_pos || e.fb_neg || !e.started)
-				return false;
-			if (p.glitch_a != a.in.glitch_a || p.glitch_b != a.in.glitch_b ||
+			if (!e.started || p.glitch_a != a.in.glitch_a || p.glitch_b != a.in.glitch_b ||
 			    p.break_a != a.in.break_a)
 				return false;
 			Lines in = p.lines();
