@@ -88,8 +88,8 @@ struct Lag {
 	void coast(uint64_t k) {
 		position += uint64_t(v) * k;
 		phase += k;
-		if (phase >= period)
-			phase %= period;
+		if (phase >= period)  // most often one period on: no division
+			phase = phase - period < period ? phase - period : phase % period;
 	}
 	// At a steady velocity: how many of `run` cycles keep the count (all, found without a
 	// division where they do).
