@@ -92,8 +92,9 @@ void Machine::set(int port, uint64_t v) {
 // read after each event. `skipped` counts the cycles in which none comes and no K3702 falls.
 uint64_t Machine::run(uint64_t n, int port) {
 	uint64_t done = 0, h = 0;
-	bool settled = axes_settled();  // so the axes stay through the run (their inputs held)
-	bool quiet = settled && chips_quiet() && !pulsed(), known = false;  // h: the horizon now
+	bool known = false;             // h is the horizon of the machine as it is
+	bool settled = axes_settled();  // and so the axes stay through the run (inputs held)
+	bool quiet = settled && chips_quiet() && !pulsed();
 	// The stretch starts with a falling edge; it is the last (the port reads non-zero already).
 	bool fell = false, last = port >= 0 && get(port);
 	while (done < n) {

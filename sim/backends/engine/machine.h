@@ -7,7 +7,8 @@
 // state (the dividers, the rate multiplier's counter, the accel/decel accumulator, the K3701's
 // latency or setup count), the plants and the encoder filters' streaks change, cycles are
 // advanced in closed form up to the next event, the plants stepped alone, exactly as
-// stepping the whole machine would.
+// stepping the whole machine would; the chips' events that give the axes no command pulse
+// and the K3702s' counts of encoder pulses are taken there alone (Machine::run).
 
 #pragma once
 
@@ -73,7 +74,7 @@ struct Machine {
 	uint64_t cycle = 0, skipped = 0;
 	bool drives = false;  // an axis has a torque or two-mass drive (set_drive)
 	// Samples of some ports at every multiple of `every` cycles (k37e_record): each row the
-	// cycle and the ports' values; a skip ends at the next sample.
+	// cycle and the ports' values; a skip's stretch ends at the next sample.
 	std::vector<int> record_ports;
 	uint64_t every = 0, next_sample = UINT64_MAX;
 	std::vector<uint64_t> rows;
