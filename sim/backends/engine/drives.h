@@ -11,7 +11,7 @@
 #include <algorithm>
 #include <cstdint>
 
-#include "blocks.h"
+#include "plant.h"
 
 namespace k37e {
 

@@ -356,7 +356,7 @@ struct Machine {
 	// exactly (lag.h, as the compiled RTL backend's skips step them), each ending at a count
 	// change; over each piece the encoders see the lines it started with, their filter
 	// streaks advanced in closed form (Encoder::advance); the cycle in which a filter passes a
-	// change runs the encoders' whole edge (its count pulse ends the skip).
+	// change runs the encoders' whole edge (its count pulse ends the stretch).
 	uint64_t advance_plants(uint64_t h) {
 		uint64_t done = 0;
 		while (done < h) {
