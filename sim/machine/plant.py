@@ -159,8 +159,12 @@ class ServoPlant(Observed, wiring.Component):
         (combinational)."""
         err = Signal(signed(17))
         m.d.comb += err.eq(self.dac - self.dac_zero)
+        # The D/A's part on its own: it follows the D/A word alone, which a move changes
+        # every few dozen cycles, so a compiled simulator computes it only then.
+        command = Signal(signed(len(err) + GAIN_BITS + 1), attrs={"keep": 1})
+        m.d.comb += command.eq(err * self.gain)
         vc_raw = Signal(signed(len(err) + GAIN_BITS + 2))
-        m.d.comb += vc_raw.eq(err * self.gain + feedforward)
+        m.d.comb += vc_raw.eq(command + feedforward)
         vmax = Signal(VC_BITS)
         m.d.comb += vmax.eq(Mux((self.vmax == 0) | (self.vmax > VC_MAX), VC_MAX, self.vmax))
         vc = Signal(signed(VC_BITS + 1))
