@@ -49,11 +49,32 @@ _GOLD = (math.sqrt(5) - 1) / 2
 _LINE, _ARC, _SAMPLED = 0, 1, 2
 
 
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The dot products of the rows (last axis) of ``a`` and ``b``, summed axis after axis as
+    numpy's ``(a * b).sum(axis=-1)`` sums two or three, without its reduction's cost on rows
+    this short."""
+    total = a[..., 0] * b[..., 0]
+    for axis in range(1, a.shape[-1]):
+        total += a[..., axis] * b[..., axis]
+    return total
+
+
+def _dist2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The squared distances of the rows (last axis) of ``a`` and ``b``: ``((a - b) ** 2)``
+    summed as :func:`_dot` sums."""
+    diff = a[..., 0] - b[..., 0]
+    total = diff * diff
+    for axis in range(1, a.shape[-1]):
+        diff = a[..., axis] - b[..., axis]
+        total += diff * diff
+    return total
+
+
 def _line_foot(p: np.ndarray, start: np.ndarray, d: np.ndarray, length2: np.ndarray | float,
                end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Parameter and point of each row of ``p``'s nearest point of the line ``start`` +
     u ``d`` (its squared length ``length2``), u in [0, ``end``]; one line, or one per row."""
-    along = ((p - start) * d).sum(axis=1)
+    along = _dot(p - start, d)
     u = np.clip(along / np.where(length2 == 0, 1.0, length2), 0.0, end)  # none: its start
     return u, start + u[:, None] * d
 
@@ -174,11 +195,11 @@ class Segment:
     def _search(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         grid = self._grid
         q = self.at(grid)
-        k = np.argmin(((p[:, None, :] - q[None]) ** 2).sum(axis=2), axis=1)
+        k = np.argmin(_dist2(p[:, None, :], q[None]), axis=1)
         lo, hi = grid[np.maximum(k - 1, 0)], grid[np.minimum(k + 1, len(grid) - 1)]
 
         def dist2(u: np.ndarray) -> np.ndarray:
-            return ((self.at(u) - p) ** 2).sum(axis=1)
+            return _dist2(self.at(u), p)
 
         a, b = hi - _GOLD * (hi - lo), lo + _GOLD * (hi - lo)
         fa, fb = dist2(a), dist2(b)
@@ -389,7 +410,7 @@ class Tracker:
         if not n:
             return out
         before = np.vstack([p[:1] if self.last is None else self.last[None], p[:-1]])
-        travel = np.sqrt(((p - before) ** 2).sum(axis=1))
+        travel = np.sqrt(_dist2(p, before))
         limit = np.asarray(limit)
         i, size, delayed = 0, 64, True
         while i < n:
@@ -447,7 +468,7 @@ class Tracker:
 
     def _here(self, segment: np.ndarray, p: np.ndarray, ones: np.ndarray) -> Foot:
         u, q = self.path.feet(segment, p, ones)
-        return Foot(segment, u, q, np.sqrt(((q - p) ** 2).sum(axis=1)))
+        return Foot(segment, u, q, np.sqrt(_dist2(q, p)))
 
     def _window(self, p: np.ndarray, travel: np.ndarray, limit: np.ndarray, here: Foot,
                 error: np.ndarray) -> Foot:
@@ -472,11 +493,11 @@ class Tracker:
             # A closed form's points that far along it are no farther from its start than
             # that: the rows it cannot come close enough for are not searched on it.
             table = path.table
-            gap = np.sqrt(((p[rows] - table.start[k]) ** 2).sum(axis=1)) - top * length
+            gap = np.sqrt(_dist2(p[rows], table.start[k])) - top * length
             near = (table.kind[k] == _SAMPLED) | (gap <= best.distance[rows] + TIE + SLACK)
             rows, k, top = rows[near], k[near], top[near]
             u, q = path.feet(k, p[rows], top)
-            d = np.sqrt(((q - p[rows]) ** 2).sum(axis=1))
+            d = np.sqrt(_dist2(q, p[rows]))
             take = d <= best.distance[rows] + TIE
             _put(best, rows[take], Foot(k[take], u[take], q[take], d[take]))
         return best
