@@ -70,22 +70,39 @@ def _dist2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return total
 
 
+def _along(start: np.ndarray, u: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """The rows ``start`` + u ``d`` at parameters ``u`` (``start`` and ``d`` one row, or one
+    per row), axis after axis: numpy broadcasts ``u[:, None] * d`` over rows this short at
+    several times the arithmetic's cost."""
+    points = np.empty((len(u), start.shape[-1]))
+    for axis in range(points.shape[1]):
+        column = points[:, axis]
+        np.multiply(u, d[..., axis], out=column)
+        column += start[..., axis]
+    return points
+
+
 def _line_foot(p: np.ndarray, start: np.ndarray, d: np.ndarray, length2: np.ndarray | float,
                end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Parameter and point of each row of ``p``'s nearest point of the line ``start`` +
     u ``d`` (its squared length ``length2``), u in [0, ``end``]; one line, or one per row."""
     along = _dot(p - start, d)
     u = np.clip(along / np.where(length2 == 0, 1.0, length2), 0.0, end)  # none: its start
-    return u, start + u[:, None] * d
+    return u, _along(start, u, d)
+
+
+def _column(a: np.ndarray, axis: np.ndarray | int) -> np.ndarray:
+    """Column ``axis`` of the rows ``a``: one for all rows, or one per row."""
+    return a[:, axis] if isinstance(axis, int) else a[np.arange(len(a)), axis]
 
 
 def _arc_param(p: np.ndarray, first: np.ndarray | int, second: np.ndarray | int,
                centre: np.ndarray, a0: np.ndarray | float, sweep: np.ndarray | float,
                cw: np.ndarray | bool, end: np.ndarray) -> np.ndarray:
     """Parameter of each row of ``p``'s nearest point of a plane arc, in [0, ``end``]; one
-    arc, or one per row."""
-    rows = np.arange(len(p))
-    angle = np.arctan2(p[rows, second] - centre[..., 1], p[rows, first] - centre[..., 0])
+    arc, or one per row (its plane axes ``first`` and ``second``: one pair for all rows, or
+    one per row)."""
+    angle = np.arctan2(_column(p, second) - centre[..., 1], _column(p, first) - centre[..., 0])
     off = np.where(cw, a0 - angle, angle - a0) % math.tau
     # Past the sweep: the nearer end (the angle half way round the rest splits them).
     swept = sweep * end
@@ -97,12 +114,15 @@ def _arc_points(u: np.ndarray, start: np.ndarray, d: np.ndarray, first: np.ndarr
                 second: np.ndarray | int, centre: np.ndarray, radius: np.ndarray | float,
                 a0: np.ndarray | float, turn: np.ndarray | float) -> np.ndarray:
     """Points of an arc or helix (``turn``: its signed sweep) at parameters ``u``; one arc,
-    or one per row."""
+    or one per row (its plane axes as :func:`_arc_param`'s)."""
     angle = a0 + turn * u
-    points = start + u[:, None] * d  # a helix rises evenly
-    rows = np.arange(len(u))
-    points[rows, first] = centre[..., 0] + radius * np.cos(angle)
-    points[rows, second] = centre[..., 1] + radius * np.sin(angle)
+    points = _along(start, u, d)  # a helix rises evenly
+    x, y = centre[..., 0] + radius * np.cos(angle), centre[..., 1] + radius * np.sin(angle)
+    if isinstance(first, int):
+        points[:, first], points[:, second] = x, y
+    else:
+        rows = np.arange(len(u))
+        points[rows, first], points[rows, second] = x, y
     return points
 
 
@@ -137,7 +157,7 @@ class Segment:
         m = self.move
         if isinstance(m, Line):
             if m.curve is None:
-                return self.start + u[:, None] * (self.end - self.start)
+                return _along(self.start, u, self.end - self.start)
             span = m.curve
             plane = span.curve.at(span.t0 + (span.t1 - span.t0) * u)
             return plane if self.axes == 2 else np.column_stack([plane, np.full(len(u), span.z)])
@@ -281,7 +301,8 @@ class Path:
         if kind == _LINE:
             return _line_foot(p, t.start[k], t.d[k], t.length2[k], top)
         if kind == _ARC:
-            first, second, centre, a0 = t.first[k], t.second[k], t.centre[k], t.a0[k]
+            first, second = t.plane or (t.first[k], t.second[k])
+            centre, a0 = t.centre[k], t.a0[k]
             u = _arc_param(p, first, second, centre, a0, t.sweep[k], t.cw[k], top)
             return u, _arc_points(u, t.start[k], t.d[k], first, second, centre, t.radius[k],
                                   a0, t.turn[k])
@@ -367,6 +388,10 @@ class _Table:
             (self.first[k], self.second[k], _), self.centre[k] = m.plane_axes, m.center
             self.radius[k], (self.a0[k], self.sweep[k]), self.cw[k] = m.radius, m.span, m.cw
             self.turn[k] = -self.sweep[k] if m.cw else self.sweep[k]
+        arcs = np.flatnonzero(self.kind == _ARC)
+        planes = {(int(self.first[k]), int(self.second[k])) for k in arcs}
+        #: The plane axes of every arc when they share one (else each row's own).
+        self.plane = planes.pop() if len(planes) == 1 else None
 
 
 #: Margin (LSB) on the bound that rules a segment out of a row's window without searching it.
