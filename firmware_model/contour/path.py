@@ -375,6 +375,11 @@ class _Table:
     def __init__(self, moves: Sequence[Move], axes: int):
         n = len(moves)
         self.kind = np.array([_kind(m, axes) for m in moves], dtype=int)
+        #: A curve: its points part of the way along it may lie farther from its start than
+        #: that part of its length (a line's, an arc's and a helix's do not).
+        self.curve = np.array([not isinstance(m, Arc) and (not isinstance(m, Line)
+                                                           or m.curve is not None)
+                               for m in moves], dtype=bool)
         self.start = np.array([m.start[:axes] for m in moves], dtype=float).reshape(n, axes)
         self.d = np.array([m.end[:axes] for m in moves], dtype=float).reshape(n, axes) - self.start
         self.length2 = (self.d * self.d).sum(axis=1)
@@ -382,13 +387,13 @@ class _Table:
         self.centre = np.zeros((n, 2))
         self.radius, self.a0, self.sweep, self.turn = (np.ones(n) for _ in range(4))
         self.cw = np.zeros(n, dtype=bool)
-        for k in np.flatnonzero(self.kind == _ARC):
+        arcs = np.flatnonzero(self.kind == _ARC)
+        for k in arcs:
             m = moves[k]
             assert isinstance(m, Arc)
             (self.first[k], self.second[k], _), self.centre[k] = m.plane_axes, m.center
             self.radius[k], (self.a0[k], self.sweep[k]), self.cw[k] = m.radius, m.span, m.cw
             self.turn[k] = -self.sweep[k] if m.cw else self.sweep[k]
-        arcs = np.flatnonzero(self.kind == _ARC)
         planes = {(int(self.first[k]), int(self.second[k])) for k in arcs}
         #: The plane axes of every arc when they share one (else each row's own).
         self.plane = planes.pop() if len(planes) == 1 else None
@@ -515,11 +520,11 @@ class Tracker:
             top = np.clip((reach[rows] - path.ends[k - 1]) / np.where(length == 0, 1.0, length),
                           0.0, 1.0)
             top[length == 0] = 1.0
-            # A closed form's points that far along it are no farther from its start than
-            # that: the rows it cannot come close enough for are not searched on it.
+            # A line's, an arc's or a helix's points that far along it are no farther from its
+            # start than that: the rows it cannot come close enough for are not searched on it.
             table = path.table
             gap = np.sqrt(_dist2(p[rows], table.start[k])) - top * length
-            near = (table.kind[k] == _SAMPLED) | (gap <= best.distance[rows] + TIE + SLACK)
+            near = table.curve[k] | (gap <= best.distance[rows] + TIE + SLACK)
             rows, k, top = rows[near], k[near], top[near]
             u, q = path.feet(k, p[rows], top)
             d = np.sqrt(_dist2(q, p[rows]))
