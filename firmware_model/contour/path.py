@@ -413,13 +413,14 @@ class Tracker:
 
     Each sample's window depends on the previous sample's segment and distance only, so a
     chunk of samples is solved at once by a fixed-point iteration: a guessed segment per row
-    (the interpolator's block as many samples before as the tool last entered a segment
-    after the interpolator entered its block; after a chunk that guess settled poorly, the
-    tool's own segment for every row, and back), every row's window from it, then each row's
-    segment and distance handed on as the next row's, only the rows whose inputs changed
-    computed again; the rows up to the first whose inputs still changed are the ones the
-    sample-by-sample rule gives, bit for bit (the first row's inputs are the tracker's
-    own), and the next chunk starts after them."""
+    (from the tool's own segment for every row, or, after a chunk that guess settled poorly,
+    from the interpolator's block as many samples before as the tool last entered a segment
+    after the interpolator entered its block, and back; on to the next segment as long as
+    the row's nearest point of it is its end), every row's window from the guess for the row
+    before it, then each row's segment and distance handed on as the next row's, only the
+    rows whose inputs changed computed again; the rows up to the first whose inputs still
+    changed are the ones the sample-by-sample rule gives, bit for bit (the first row's inputs
+    are the tracker's own), and the next chunk starts after them."""
 
     def __init__(self, path: Path):
         self.path = path
@@ -442,7 +443,7 @@ class Tracker:
         before = np.vstack([p[:1] if self.last is None else self.last[None], p[:-1]])
         travel = np.sqrt(_dist2(p, before))
         limit = np.asarray(limit)
-        i, size, delayed = 0, 64, True
+        i, size, delayed = 0, 64, False
         while i < n:
             rows = slice(i, min(n, i + size))
             if delayed:
@@ -469,10 +470,13 @@ class Tracker:
         """The nearest points of a chunk of rows, from a ``guess`` of each row's previous
         segment, and how many of them are settled (at least one)."""
         c, n = self.segment, len(p)
-        guess = np.maximum(guess, c)
-        guess[0] = c
         ones = np.ones(n)
-        here = self._here(guess, p, ones)
+        here = self._advance(p, limit, np.maximum(guess, c), ones)
+        # Each row handed the segment guessed for the row before it.
+        guess = np.concatenate([[c], here.segment[:-1]])
+        rows = np.flatnonzero(guess != here.segment)
+        if len(rows):
+            _put(here, rows, self._here(guess[rows], p[rows], ones[rows]))
         error = np.concatenate([[self.error], here.distance[:-1]])
         found = self._window(p, travel, limit, here, error)
         if n == 1:  # the first row's inputs are the tracker's own
@@ -495,6 +499,20 @@ class Tracker:
             rows = everything[changed]
             _put(found, rows, self._window(p[rows], travel[rows], limit[rows],
                                            _take(here, rows), error[rows]))
+
+    def _advance(self, p: np.ndarray, limit: np.ndarray, guess: np.ndarray, ones: np.ndarray
+                 ) -> Foot:
+        """Each row's nearest point on its guessed segment: from ``guess`` (never before the
+        previous row's), the first whose end is not the row's nearest point of it, never past
+        ``limit``."""
+        here = self._here(np.maximum.accumulate(guess), p, ones)
+        while True:
+            past = (here.param == 1.0) & (here.segment < limit)
+            if not past.any():
+                return here
+            segment = np.maximum.accumulate(here.segment + past)
+            rows = np.flatnonzero(segment != here.segment)
+            _put(here, rows, self._here(segment[rows], p[rows], ones[rows]))
 
     def _here(self, segment: np.ndarray, p: np.ndarray, ones: np.ndarray) -> Foot:
         u, q = self.path.feet(segment, p, ones)
