@@ -405,6 +405,8 @@ SLACK = 1e-3
 ROUNDS = 4
 #: The largest chunk of samples a tracker takes at once.
 CHUNK = 8192
+#: Rows apart of the samples whose segments are guessed before the rest's.
+STRIDE = 64
 
 
 class Tracker:
@@ -496,6 +498,9 @@ class Tracker:
             if moved.any():
                 rows = np.flatnonzero(moved)
                 _put(here, rows, self._here(segment[rows], p[rows], ones[rows]))
+                # The row after one that moved: handed the distance on its new segment.
+                after = rows[rows < n - 1] + 1
+                error[after] = here.distance[after - 1]
             rows = everything[changed]
             _put(found, rows, self._window(p[rows], travel[rows], limit[rows],
                                            _take(here, rows), error[rows]))
@@ -505,6 +510,10 @@ class Tracker:
         """Each row's nearest point on its guessed segment: from ``guess`` (never before the
         previous row's), the first whose end is not the row's nearest point of it, never past
         ``limit``."""
+        if len(p) > 4 * STRIDE:  # every STRIDE-th row's first: the rows after it are as far
+            coarse = self._advance(p[::STRIDE], limit[::STRIDE], guess[::STRIDE],
+                                   ones[::STRIDE]).segment
+            guess = np.maximum(guess, np.repeat(coarse, STRIDE)[:len(p)])
         here = self._here(np.maximum.accumulate(guess), p, ones)
         while True:
             past = (here.param == 1.0) & (here.segment < limit)
