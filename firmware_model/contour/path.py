@@ -49,24 +49,30 @@ _GOLD = (math.sqrt(5) - 1) / 2
 _LINE, _ARC, _SAMPLED = 0, 1, 2
 
 
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The dot products of the rows (last axis) of ``a`` and ``b``, summed axis after axis as
-    numpy's ``(a * b).sum(axis=-1)`` sums two or three, without its reduction's cost on rows
-    this short."""
-    total = a[..., 0] * b[..., 0]
-    for axis in range(1, a.shape[-1]):
-        total += a[..., axis] * b[..., axis]
+def _sum_axes(terms: np.ndarray) -> np.ndarray:
+    """The sums of the rows (last axis) of ``terms``, axis after axis as numpy's
+    ``terms.sum(axis=-1)`` sums two or three, without its reduction's cost on rows this
+    short."""
+    total = terms[..., 0] + terms[..., 1]
+    for axis in range(2, terms.shape[-1]):
+        total += terms[..., axis]
     return total
 
 
 def _dist2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The squared distances of the rows (last axis) of ``a`` and ``b``: ``((a - b) ** 2)``
-    summed as :func:`_dot` sums."""
+    summed as :func:`_sum_axes` sums. Rows of one shape are taken whole; else axis by axis
+    (numpy broadcasts one row over many at several times the arithmetic's cost)."""
+    if a.shape == b.shape:
+        diff = a - b
+        diff *= diff
+        return _sum_axes(diff)
     diff = a[..., 0] - b[..., 0]
     total = diff * diff
     for axis in range(1, a.shape[-1]):
         diff = a[..., axis] - b[..., axis]
-        total += diff * diff
+        diff *= diff
+        total += diff
     return total
 
 
@@ -86,7 +92,9 @@ def _line_foot(p: np.ndarray, start: np.ndarray, d: np.ndarray, length2: np.ndar
                end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Parameter and point of each row of ``p``'s nearest point of the line ``start`` +
     u ``d`` (its squared length ``length2``), u in [0, ``end``]; one line, or one per row."""
-    along = _dot(p - start, d)
+    along = (p[:, 0] - start[..., 0]) * d[..., 0]  # ((p - start) * d) summed axis by axis
+    for axis in range(1, p.shape[1]):
+        along += (p[:, axis] - start[..., axis]) * d[..., axis]
     u = np.clip(along / np.where(length2 == 0, 1.0, length2), 0.0, end)  # none: its start
     return u, _along(start, u, d)
 
