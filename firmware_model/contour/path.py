@@ -221,6 +221,15 @@ class Segment:
         return float((d * d).sum())
 
     def _search(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        # A row equal to the one before it (a tool at rest, or slow) is that row's answer.
+        fresh = np.ones(len(p), dtype=bool)
+        for axis in range(p.shape[1]):
+            fresh[1:] &= p[1:, axis] == p[:-1, axis]
+        fresh[1:] = ~fresh[1:]
+        if not fresh.all():
+            u, q = self._search(p[fresh])
+            which = np.cumsum(fresh) - 1
+            return u[which], q[which]
         grid = self._grid
         q = self.at(grid)
         k = np.argmin(_dist2(p[:, None, :], q[None]), axis=1)
