@@ -394,9 +394,8 @@ class _Table:
         self.kind = np.array([_kind(m, axes) for m in moves], dtype=int)
         #: A curve: its points part of the way along it may lie farther from its start than
         #: that part of its length (a line's, an arc's and a helix's do not).
-        self.curve = np.array([not isinstance(m, Arc) and (not isinstance(m, Line)
-                                                           or m.curve is not None)
-                               for m in moves], dtype=bool)
+        self.curve = (self.kind == _SAMPLED) & np.array([not isinstance(m, Arc) for m in moves],
+                                                        dtype=bool)
         self.start = np.array([m.start[:axes] for m in moves], dtype=float).reshape(n, axes)
         self.d = np.array([m.end[:axes] for m in moves], dtype=float).reshape(n, axes) - self.start
         self.length2 = (self.d * self.d).sum(axis=1)
