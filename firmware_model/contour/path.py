@@ -315,16 +315,21 @@ class Path:
               ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`feet` on segments of one ``kind``."""
         t = self.table
+        one: np.ndarray | int = k
+        if (k == k[0]).all():  # one segment: its constants as one row, not one per row
+            one = int(k[0])
         if kind == _LINE:
-            return _line_foot(p, t.start[k], t.d[k], t.length2[k], top)
+            return _line_foot(p, t.start[one], t.d[one], t.length2[one], top)
         if kind == _ARC:
-            first, second = t.plane or (t.first[k], t.second[k])
-            centre, a0 = t.centre[k], t.a0[k]
-            u = _arc_param(p, first, second, centre, a0, t.sweep[k], t.cw[k], top)
-            return u, _arc_points(u, t.start[k], t.d[k], first, second, centre, t.radius[k],
-                                  a0, t.turn[k])
-        if (k == k[0]).all():
-            return self.segments[k[0]].foot(p, top)
+            first, second = t.plane or (t.first[one], t.second[one])
+            if isinstance(one, int):
+                first, second = int(first), int(second)
+            centre, a0 = t.centre[one], t.a0[one]
+            u = _arc_param(p, first, second, centre, a0, t.sweep[one], t.cw[one], top)
+            return u, _arc_points(u, t.start[one], t.d[one], first, second, centre,
+                                  t.radius[one], a0, t.turn[one])
+        if isinstance(one, int):
+            return self.segments[one].foot(p, top)
         u, q = np.empty(len(p)), np.empty_like(p)
         for segment in np.unique(k):
             on = np.flatnonzero(k == segment)
