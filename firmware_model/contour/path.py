@@ -460,11 +460,13 @@ class Tracker:
         last segment the tool may be on)."""
         p = np.asarray(p, dtype=float)
         n = len(p)
-        out = Foot(np.zeros(n, dtype=int), np.zeros(n), np.zeros_like(p), np.zeros(n))
+        out = Foot(np.empty(n, dtype=int), np.empty(n), np.empty_like(p), np.empty(n))
         if not n:
             return out
-        before = np.vstack([p[:1] if self.last is None else self.last[None], p[:-1]])
-        travel = np.sqrt(_dist2(p, before))
+        travel = np.empty(n)  # from the row before (the first: from the last sample)
+        travel[0] = _dist2(p[:1], p[:1] if self.last is None else self.last[None])[0]
+        travel[1:] = _dist2(p[1:], p[:-1])
+        np.sqrt(travel, out=travel)
         limit = np.asarray(limit)
         i, size, delayed = 0, 64, False
         while i < n:
