@@ -564,16 +564,19 @@ class Tracker:
         best = Foot(c.copy(), here.param.copy(), here.point.copy(), here.distance.copy())
         for step in range(1, int((last - c).max(initial=0)) + 1):
             rows = np.flatnonzero(c + step <= last)
-            k = c[rows] + step
+            if len(rows) == len(p):  # every row (the first step, mostly): no copies
+                k, ahead, farthest = c + step, p, reach
+            else:
+                k, ahead, farthest = c[rows] + step, p[rows], reach[rows]
             length = path.lengths[k]
             # The segments after the first only as far along them as the reach.
-            top = np.clip((reach[rows] - path.ends[k - 1]) / np.where(length == 0, 1.0, length),
+            top = np.clip((farthest - path.ends[k - 1]) / np.where(length == 0, 1.0, length),
                           0.0, 1.0)
             top[length == 0] = 1.0
             # A line's, an arc's or a helix's points that far along it are no farther from its
             # start than that: the rows it cannot come close enough for are not searched on it.
             table = path.table
-            gap = np.sqrt(_dist2(p[rows], table.start[k])) - top * length
+            gap = np.sqrt(_dist2(ahead, table.start[k])) - top * length
             near = table.curve[k] | (gap <= best.distance[rows] + TIE + SLACK)
             rows, k, top = rows[near], k[near], top[near]
             u, q = path.feet(k, p[rows], top)
