@@ -30,6 +30,7 @@ from typing import overload
 
 import numpy as np
 
+from k37.firmware_model.contour.rowwise import along, arc_param, arc_points, dist2, line_foot
 from k37.firmware_model.motion.program import Arc, Line, Move
 
 __all__ = ["REACH", "Foot", "Path", "Segment", "Tracker"]
@@ -47,91 +48,6 @@ TIE = 1e-6
 _GOLD = (math.sqrt(5) - 1) / 2
 #: A segment's kind: a line and a plane arc have closed forms, the rest are searched along.
 _LINE, _ARC, _SAMPLED = 0, 1, 2
-
-
-def _sum_axes(terms: np.ndarray) -> np.ndarray:
-    """The sums of the rows (last axis) of ``terms``, axis after axis as numpy's
-    ``terms.sum(axis=-1)`` sums two or three, without its reduction's cost on rows this
-    short."""
-    total = terms[..., 0] + terms[..., 1]
-    for axis in range(2, terms.shape[-1]):
-        total += terms[..., axis]
-    return total
-
-
-def _dist2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The squared distances of the rows (last axis) of ``a`` and ``b``: ``((a - b) ** 2)``
-    summed as :func:`_sum_axes` sums. Rows of one shape are taken whole; else axis by axis
-    (numpy broadcasts one row over many at several times the arithmetic's cost)."""
-    if a.shape == b.shape:
-        diff = a - b
-        diff *= diff
-        return _sum_axes(diff)
-    diff = a[..., 0] - b[..., 0]
-    total = diff * diff
-    for axis in range(1, a.shape[-1]):
-        diff = a[..., axis] - b[..., axis]
-        diff *= diff
-        total += diff
-    return total
-
-
-def _along(start: np.ndarray, u: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """The rows ``start`` + u ``d`` at parameters ``u`` (``start`` and ``d`` one row, or one
-    per row), axis after axis: numpy broadcasts ``u[:, None] * d`` over rows this short at
-    several times the arithmetic's cost."""
-    points = np.empty((len(u), start.shape[-1]))
-    for axis in range(points.shape[1]):
-        column = points[:, axis]
-        np.multiply(u, d[..., axis], out=column)
-        column += start[..., axis]
-    return points
-
-
-def _line_foot(p: np.ndarray, start: np.ndarray, d: np.ndarray, length2: np.ndarray | float,
-               end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Parameter and point of each row of ``p``'s nearest point of the line ``start`` +
-    u ``d`` (its squared length ``length2``), u in [0, ``end``]; one line, or one per row."""
-    along = (p[:, 0] - start[..., 0]) * d[..., 0]  # ((p - start) * d) summed axis by axis
-    for axis in range(1, p.shape[1]):
-        along += (p[:, axis] - start[..., axis]) * d[..., axis]
-    u = np.clip(along / np.where(length2 == 0, 1.0, length2), 0.0, end)  # none: its start
-    return u, _along(start, u, d)
-
-
-def _column(a: np.ndarray, axis: np.ndarray | int) -> np.ndarray:
-    """Column ``axis`` of the rows ``a``: one for all rows, or one per row."""
-    return a[:, axis] if isinstance(axis, int) else a[np.arange(len(a)), axis]
-
-
-def _arc_param(p: np.ndarray, first: np.ndarray | int, second: np.ndarray | int,
-               centre: np.ndarray, a0: np.ndarray | float, sweep: np.ndarray | float,
-               cw: np.ndarray | bool, end: np.ndarray) -> np.ndarray:
-    """Parameter of each row of ``p``'s nearest point of a plane arc, in [0, ``end``]; one
-    arc, or one per row (its plane axes ``first`` and ``second``: one pair for all rows, or
-    one per row)."""
-    angle = np.arctan2(_column(p, second) - centre[..., 1], _column(p, first) - centre[..., 0])
-    off = np.where(cw, a0 - angle, angle - a0) % math.tau
-    # Past the sweep: the nearer end (the angle half way round the rest splits them).
-    swept = sweep * end
-    return np.where(off <= swept, off / sweep,
-                    np.where(off - swept < (math.tau - swept) / 2, end, 0.0))
-
-
-def _arc_points(u: np.ndarray, start: np.ndarray, d: np.ndarray, first: np.ndarray | int,
-                second: np.ndarray | int, centre: np.ndarray, radius: np.ndarray | float,
-                a0: np.ndarray | float, turn: np.ndarray | float) -> np.ndarray:
-    """Points of an arc or helix (``turn``: its signed sweep) at parameters ``u``; one arc,
-    or one per row (its plane axes as :func:`_arc_param`'s)."""
-    angle = a0 + turn * u
-    points = _along(start, u, d)  # a helix rises evenly
-    x, y = centre[..., 0] + radius * np.cos(angle), centre[..., 1] + radius * np.sin(angle)
-    if isinstance(first, int):
-        points[:, first], points[:, second] = x, y
-    else:
-        rows = np.arange(len(u))
-        points[rows, first], points[rows, second] = x, y
-    return points
 
 
 @dataclass(frozen=True)
@@ -165,13 +81,13 @@ class Segment:
         m = self.move
         if isinstance(m, Line):
             if m.curve is None:
-                return _along(self.start, u, self.end - self.start)
+                return along(self.start, u, self.end - self.start)
             span = m.curve
             plane = span.curve.at(span.t0 + (span.t1 - span.t0) * u)
             return plane if self.axes == 2 else np.column_stack([plane, np.full(len(u), span.z)])
         if isinstance(m, Arc):
             first, second, centre, radius, a0, sweep, cw = self.circle
-            return _arc_points(u, self.start, self.end - self.start, first, second, centre,
+            return arc_points(u, self.start, self.end - self.start, first, second, centre,
                                radius, a0, -sweep if cw else sweep)
         plane = m.at(u * m.extent)
         return plane if self.axes == 2 else np.column_stack(
@@ -209,9 +125,9 @@ class Segment:
             return u, self.at(u)
         end = np.ones(len(p)) if top is None else top
         if isinstance(self.move, Line):
-            return _line_foot(p, self.start, self.end - self.start, self.length2, end)
+            return line_foot(p, self.start, self.end - self.start, self.length2, end)
         first, second, centre, _, a0, sweep, cw = self.circle
-        u = _arc_param(p, first, second, centre, a0, sweep, cw, end)
+        u = arc_param(p, first, second, centre, a0, sweep, cw, end)
         return u, self.at(u)
 
     @cached_property
@@ -232,26 +148,26 @@ class Segment:
             return u[which], q[which]
         grid = self._grid
         q = self.at(grid)
-        k = np.argmin(_dist2(p[:, None, :], q[None]), axis=1)
+        k = np.argmin(dist2(p[:, None, :], q[None]), axis=1)
         lo, hi = grid[np.maximum(k - 1, 0)], grid[np.minimum(k + 1, len(grid) - 1)]
 
-        def dist2(u: np.ndarray) -> np.ndarray:
-            return _dist2(self.at(u), p)
+        def off2(u: np.ndarray) -> np.ndarray:
+            return dist2(self.at(u), p)
 
         a, b = hi - _GOLD * (hi - lo), lo + _GOLD * (hi - lo)
-        fa, fb = dist2(a), dist2(b)
+        fa, fb = off2(a), off2(b)
         for _ in range(GOLDEN_STEPS):
             left = fa <= fb  # the minimum is in [lo, b]
             hi, lo = np.where(left, b, hi), np.where(left, lo, a)
             b, fb = np.where(left, a, b), np.where(left, fa, fb)
             a = np.where(left, hi - _GOLD * (hi - lo), b)
             b = np.where(left, b, lo + _GOLD * (hi - lo))
-            fresh = dist2(np.where(left, a, b))
+            fresh = off2(np.where(left, a, b))
             fa, fb = np.where(left, fresh, fb), np.where(left, fb, fresh)
         u = np.where(fa <= fb, a, b)
         # The ends and the grid's nearest point stand too (the minimum may sit on an end).
         cands = np.column_stack([u, np.zeros(len(p)), np.ones(len(p)), grid[k]])
-        d2 = np.column_stack([dist2(c) for c in cands.T])
+        d2 = np.column_stack([off2(c) for c in cands.T])
         u = cands[np.arange(len(p)), np.argmin(d2, axis=1)]
         return u, self.at(u)
 
@@ -319,14 +235,14 @@ class Path:
         if (k == k[0]).all():  # one segment: its constants as one row, not one per row
             one = int(k[0])
         if kind == _LINE:
-            return _line_foot(p, t.start[one], t.d[one], t.length2[one], top)
+            return line_foot(p, t.start[one], t.d[one], t.length2[one], top)
         if kind == _ARC:
             first, second = t.plane or (t.first[one], t.second[one])
             if isinstance(one, int):
                 first, second = int(first), int(second)
             centre, a0 = t.centre[one], t.a0[one]
-            u = _arc_param(p, first, second, centre, a0, t.sweep[one], t.cw[one], top)
-            return u, _arc_points(u, t.start[one], t.d[one], first, second, centre,
+            u = arc_param(p, first, second, centre, a0, t.sweep[one], t.cw[one], top)
+            return u, arc_points(u, t.start[one], t.d[one], first, second, centre,
                                   t.radius[one], a0, t.turn[one])
         if isinstance(one, int):
             return self.segments[one].foot(p, top)
@@ -464,8 +380,8 @@ class Tracker:
         if not n:
             return out
         travel = np.empty(n)  # from the row before (the first: from the last sample)
-        travel[0] = _dist2(p[:1], p[:1] if self.last is None else self.last[None])[0]
-        travel[1:] = _dist2(p[1:], p[:-1])
+        travel[0] = dist2(p[:1], p[:1] if self.last is None else self.last[None])[0]
+        travel[1:] = dist2(p[1:], p[:-1])
         np.sqrt(travel, out=travel)
         limit = np.asarray(limit)
         i, size, delayed = 0, 64, False
@@ -548,7 +464,7 @@ class Tracker:
 
     def _here(self, segment: np.ndarray, p: np.ndarray, ones: np.ndarray) -> Foot:
         u, q = self.path.feet(segment, p, ones)
-        return Foot(segment, u, q, np.sqrt(_dist2(q, p)))
+        return Foot(segment, u, q, np.sqrt(dist2(q, p)))
 
     def _window(self, p: np.ndarray, travel: np.ndarray, limit: np.ndarray, here: Foot,
                 error: np.ndarray) -> Foot:
@@ -576,11 +492,11 @@ class Tracker:
             # A line's, an arc's or a helix's points that far along it are no farther from its
             # start than that: the rows it cannot come close enough for are not searched on it.
             table = path.table
-            gap = np.sqrt(_dist2(ahead, table.start[k])) - top * length
+            gap = np.sqrt(dist2(ahead, table.start[k])) - top * length
             near = table.curve[k] | (gap <= best.distance[rows] + TIE + SLACK)
             rows, k, top = rows[near], k[near], top[near]
             u, q = path.feet(k, p[rows], top)
-            d = np.sqrt(_dist2(q, p[rows]))
+            d = np.sqrt(dist2(q, p[rows]))
             take = d <= best.distance[rows] + TIE
             _put(best, rows[take], Foot(k[take], u[take], q[take], d[take]))
         return best
