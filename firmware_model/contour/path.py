@@ -352,8 +352,8 @@ class Tracker:
 
     Each sample's window depends on the previous sample's segment and distance only, so a
     chunk of samples is solved at once by a fixed-point iteration: a guessed segment per row
-    (from the tool's own segment for every row, or, after a chunk that guess settled poorly,
-    from the interpolator's block as many samples before as the tool last entered a segment
+    (from the tool's own segment for every row, or, after a chunk that guess settled half of
+    or less, from the interpolator's block as many samples before as the tool last entered a segment
     after the interpolator entered its block, and back; on to the next segment as long as
     the row's nearest point of it is its end), every row's window from the guess for the row
     before it, then each row's segment and distance handed on as the next row's, only the
@@ -392,7 +392,7 @@ class Tracker:
             else:
                 guess = np.full(rows.stop - rows.start, self.segment)
             found, done = self._chunk(p[rows], travel[rows], limit[rows], guess)
-            if 4 * done < rows.stop - rows.start:  # a poor guess: try the other one next
+            if 2 * done <= rows.stop - rows.start:  # a poor guess: try the other one next
                 delayed = not delayed
             part = slice(i, i + done)
             out.segment[part], out.param[part] = found.segment[:done], found.param[:done]
