@@ -353,10 +353,10 @@ class Tracker:
     Each sample's window depends on the previous sample's segment and distance only, so a
     chunk of samples is solved at once by a fixed-point iteration: a guessed segment per row
     (from the tool's own segment for every row, or, after a chunk that guess settled half of
-    or less, from the interpolator's block as many samples before as the tool last entered a segment
-    after the interpolator entered its block, and back; on to the next segment as long as
-    the row's nearest point of it is its end), every row's window from the guess for the row
-    before it, then each row's segment and distance handed on as the next row's, only the
+    or less, from the interpolator's block as many samples before as the tool last entered a
+    segment after the interpolator entered its block, and back; on to the next segment as
+    long as the row's nearest point of it is its end), every row's window from the guess for
+    the row before it, then each row's segment and distance handed on as the next row's, only the
     rows whose inputs changed computed again; the rows up to the first whose inputs still
     changed are the ones the sample-by-sample rule gives, bit for bit (the first row's inputs
     are the tracker's own), and the next chunk starts after them."""
