@@ -8,8 +8,8 @@ evaluated (the rest skipped in closed form), the process CPU time (steadier than
 a shared machine), and what stepping every axis's plant every cycle would cost against the
 engine's CPU time (one plant's update timed alone, times the cycles and the axes: the floor
 of an engine that keeps the plant's update as it is), and the engine on the same job with its
-first-order plants updated every ``HELD`` cycles (servo ``update_cycles``) with the largest
-contour error of both. The jobs: the demo, the K3701's top
+first-order plants updated every ``HELD`` cycles (servo ``update_cycles``), with both runs'
+largest and RMS contour error. The jobs: the demo, the K3701's top
 feed on a 100 mm line, a dwell-heavy job, the paper's low feed, fourteen programs of the
 G-code corpus in several writers' styles (two and three axes) on the default machine (exact
 stop after every block), and :mod:`bench_cam`'s pocket (three axes, accel/decel after the
@@ -68,9 +68,11 @@ def timed(job: Job, kind: str, rounds: int) -> tuple[dict, float, float]:
 
 
 def contour(report: dict) -> str:
-    """The run's largest contour error (LSB), or a dash where it has none."""
-    error = (report.get("path") or {}).get("max_contour_error")
-    return "-" if error is None else f"{error:.2f}"
+    """The run's largest and RMS contour error (LSB), or a dash where it has none."""
+    path = report.get("path") or {}
+    if path.get("max_contour_error") is None:
+        return "-"
+    return f"{path['max_contour_error']:.2f}, {path['rms_contour_error']:.3f}"
 
 
 def plant_ns() -> float:
@@ -95,7 +97,7 @@ def compare_all() -> list[str]:
     rows = ["| job | machine s | cxxrtl x real time | engine x real time | engine / cxxrtl "
             "| evaluated cycles cxxrtl / engine | CPU s cxxrtl / engine "
             f"| plants stepped every cycle / engine CPU | engine, update_cycles {HELD}: "
-            "x real time | max contour error (LSB), every cycle / held |",
+            "x real time (CPU s) | contour error max, RMS (LSB): every cycle / held |",
             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for name, job in jobs().items():
         runs = {}
@@ -104,7 +106,7 @@ def compare_all() -> list[str]:
             runs[kind] = timed(job, kind, ROUNDS if short else 1)
         runs["held"] = timed(held(job), "engine", ROUNDS if short else 1)
         (rtl, rtl_wall, rtl_cpu), (eng, eng_wall, eng_cpu) = runs["cxxrtl"], runs["engine"]
-        hold, hold_wall = runs["held"][:2]
+        hold, hold_wall, hold_cpu = runs["held"]
         assert ({k: v for k, v in rtl.items() if k not in HOW_FIELDS}
                 == {k: v for k, v in eng.items() if k not in HOW_FIELDS}), name
         machine = rtl["machine_seconds"]
@@ -114,7 +116,7 @@ def compare_all() -> list[str]:
                     f"{eng['cycles'] - eng['skipped_cycles']:,} | "
                     f"{rtl_cpu:.2f} / {eng_cpu:.2f} | "
                     f"{rtl['cycles'] * job.machine.axes * plant * 1e-9 / eng_cpu:.0%} | "
-                    f"{hold['machine_seconds'] / hold_wall:,.0f} | "
+                    f"{hold['machine_seconds'] / hold_wall:,.0f} ({hold_cpu:.2f}) | "
                     f"{contour(eng)} / {contour(hold)} |")
         print(rows[-1], flush=True)
     return rows

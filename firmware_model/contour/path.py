@@ -14,10 +14,13 @@ A :class:`Tracker` follows the tool along the path, sample after sample: each sa
 point is searched from the segment the previous sample was matched on (the tool's progress
 is monotone, so an earlier pass of the path is never a candidate) forward over the path that
 lies within the previous sample's contour error, twice the tool's travel since then and
-:data:`REACH` of that segment's end (the segments after it only that far along them), and
-never past the block after the one the interpolator runs at its cycle (the tool is not ahead
-of the interpolator). Of equal distances the furthest segment wins (a retraced stretch hands
-over to its next segment).
+:data:`REACH` of the sample's nearest point of that segment (so a full circle's end, where it
+started, is not reached from its start); where the sample moved back along that segment (its
+move against the segment's direction, cosine below -:data:`BACK`: a next segment that turns
+back along it), at least as far past the segment's end as the sample is from that end; the
+segments after it only that far along them; and never past the block after the one the
+interpolator runs at its cycle (the tool is not ahead of the interpolator). Of equal
+distances the furthest segment wins (a retraced stretch hands over to its next segment).
 """
 
 from __future__ import annotations
@@ -30,10 +33,17 @@ from typing import overload
 
 import numpy as np
 
-from k37.firmware_model.contour.rowwise import along, arc_param, arc_points, dist2, line_foot
+from k37.firmware_model.contour.rowwise import (
+    along,
+    arc_param,
+    arc_points,
+    dist2,
+    line_foot,
+    sum_axes,
+)
 from k37.firmware_model.motion.program import Arc, Line, Move
 
-__all__ = ["REACH", "Foot", "Path", "Segment", "Tracker"]
+__all__ = ["BACK", "REACH", "Foot", "Path", "Segment", "Tracker"]
 
 #: Arc length (LSB) a tracker's window reaches past the end of the last matched segment, on
 #: top of the tool's distance to it and twice its travel since the previous sample.
@@ -252,6 +262,24 @@ class Path:
             u[on], q[on] = self.segments[segment].foot(p[on], top[on])
         return u, q
 
+    def directions(self, k: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """The direction of travel of segment ``k`` at parameter ``u`` (per row; not of unit
+        length): a line's own, an arc's tangent (a helix's with its rise), a curve's chord
+        across a 1/256 of its parameter."""
+        t = self.table
+        out = t.d[k].copy()
+        arcs = np.flatnonzero(t.kind[k] == _ARC)
+        if len(arcs):  # d/du of _arc_points: the rise d, the plane's turn r (-sin, cos)
+            j = k[arcs]
+            angle = t.a0[j] + t.turn[j] * u[arcs]
+            out[arcs, t.first[j]] = -t.turn[j] * t.radius[j] * np.sin(angle)
+            out[arcs, t.second[j]] = t.turn[j] * t.radius[j] * np.cos(angle)
+        for segment in np.unique(k[t.kind[k] == _SAMPLED]):
+            on = np.flatnonzero(k == segment)
+            ahead = self.segments[segment].at(np.minimum(u[on] + 1 / 256, 1.0))
+            out[on] = ahead - self.segments[segment].at(np.maximum(u[on] - 1 / 256, 0.0))
+        return out
+
     def nearest(self, p: np.ndarray, first: int, last: int) -> Foot:
         """The nearest point of each row of ``p`` on segments ``first`` to ``last``
         (inclusive); of equal distances the furthest segment's."""
@@ -336,6 +364,9 @@ class _Table:
         self.plane = planes.pop() if len(planes) == 1 else None
 
 
+#: A row moves back along its segment where its move's cosine to the segment's direction is
+#: below minus this.
+BACK = 0.5
 #: Margin (LSB) on the bound that rules a segment out of a row's window without searching it.
 SLACK = 1e-3
 #: Rounds of a chunk's fixed-point iteration before its settled rows are taken.
@@ -379,10 +410,9 @@ class Tracker:
         out = Foot(np.empty(n, dtype=int), np.empty(n), np.empty_like(p), np.empty(n))
         if not n:
             return out
-        travel = np.empty(n)  # from the row before (the first: from the last sample)
-        travel[0] = dist2(p[:1], p[:1] if self.last is None else self.last[None])[0]
-        travel[1:] = dist2(p[1:], p[:-1])
-        np.sqrt(travel, out=travel)
+        step = np.empty_like(p)  # the move from the row before (the first: from the last sample)
+        step[0] = p[0] - (p[0] if self.last is None else self.last)
+        step[1:] = p[1:] - p[:-1]
         limit = np.asarray(limit)
         i, size, delayed = 0, 64, False
         while i < n:
@@ -391,7 +421,7 @@ class Tracker:
                 guess = limit[np.clip(np.arange(rows.start, rows.stop) - self.delay, 0, n - 1)] - 1
             else:
                 guess = np.full(rows.stop - rows.start, self.segment)
-            found, done = self._chunk(p[rows], travel[rows], limit[rows], guess)
+            found, done = self._chunk(p[rows], step[rows], limit[rows], guess)
             if 2 * done <= rows.stop - rows.start:  # a poor guess: try the other one next
                 delayed = not delayed
             part = slice(i, i + done)
@@ -406,7 +436,7 @@ class Tracker:
             i += done
         return out
 
-    def _chunk(self, p: np.ndarray, travel: np.ndarray, limit: np.ndarray, guess: np.ndarray
+    def _chunk(self, p: np.ndarray, step: np.ndarray, limit: np.ndarray, guess: np.ndarray
                ) -> tuple[Foot, int]:
         """The nearest points of a chunk of rows, from a ``guess`` of each row's previous
         segment, and how many of them are settled (at least one)."""
@@ -419,7 +449,7 @@ class Tracker:
         if len(rows):
             _put(here, rows, self._here(guess[rows], p[rows], ones[rows]))
         error = np.concatenate([[self.error], here.distance[:-1]])
-        found = self._window(p, travel, limit, here, error)
+        found = self._window(p, step, limit, here, error)
         if n == 1:  # the first row's inputs are the tracker's own
             return found, 1
         everything, rounds = np.arange(n), 0
@@ -437,11 +467,13 @@ class Tracker:
             if moved.any():
                 rows = np.flatnonzero(moved)
                 _put(here, rows, self._here(segment[rows], p[rows], ones[rows]))
-                # The row after one that moved: handed the distance on its new segment.
+                # A row computed again after one that moved: handed the distance on its new
+                # segment (each row's error stays the one its window is computed with).
                 after = rows[rows < n - 1] + 1
+                after = after[changed[after]]
                 error[after] = here.distance[after - 1]
             rows = everything[changed]
-            _put(found, rows, self._window(p[rows], travel[rows], limit[rows],
+            _put(found, rows, self._window(p[rows], step[rows], limit[rows],
                                            _take(here, rows), error[rows]))
 
     def _advance(self, p: np.ndarray, limit: np.ndarray, guess: np.ndarray, ones: np.ndarray
@@ -466,15 +498,25 @@ class Tracker:
         u, q = self.path.feet(segment, p, ones)
         return Foot(segment, u, q, np.sqrt(dist2(q, p)))
 
-    def _window(self, p: np.ndarray, travel: np.ndarray, limit: np.ndarray, here: Foot,
+    def _window(self, p: np.ndarray, step: np.ndarray, limit: np.ndarray, here: Foot,
                 error: np.ndarray) -> Foot:
         """The nearest point of each row ``p`` in its window: from its segment (``here``,
         its nearest point there) forward as far as ``error`` (the previous row's distance),
-        twice its ``travel`` and :data:`REACH` past that segment's end, never past
-        ``limit``."""
+        twice its travel (the length of ``step``, its move since the previous row) and
+        :data:`REACH` past that nearest point; where the row moved back along its segment
+        (a next segment that turns back along it), at least as far past the segment's end
+        as the row is from that end; never past ``limit``."""
         path = self.path
         c = here.segment
-        reach = path.ends[c] + error + 2 * travel + REACH
+        travel = np.sqrt(sum_axes(step * step))
+        reach = path.ends[c] - (1 - here.param) * path.lengths[c] + error + 2 * travel + REACH
+        direction = path.directions(c, here.param)
+        back = sum_axes(step * direction) < -BACK * travel * np.sqrt(
+            sum_axes(direction * direction))
+        if back.any():
+            gone = np.sqrt(dist2(p[back] - path.table.start[c[back]], path.table.d[c[back]]))
+            reach[back] = np.maximum(reach[back], path.ends[c[back]] + gone + 2 * travel[back]
+                                     + REACH)
         last = np.minimum(np.searchsorted(path.ends, reach), len(path.ends) - 1)
         last = np.maximum(np.minimum(last, limit), c)
         best = Foot(c.copy(), here.param.copy(), here.point.copy(), here.distance.copy())

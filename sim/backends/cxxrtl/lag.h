@@ -46,6 +46,7 @@ struct Lag {
 	int64_t vc_next;
 	bool pending = false;  // the summed feedforward is not yet taken by an update
 
+	Lag() = default;
 	Lag(int64_t velocity, int64_t command, int64_t alpha_, uint64_t position_, bool stall_,
 	    unsigned vc_bits_, unsigned alpha_bits_, unsigned frac_bits_)
 	    : v(velocity), vc(command), alpha(alpha_), position(position_),
@@ -87,8 +88,8 @@ struct Lag {
 	void coast(uint64_t k) {
 		position += uint64_t(v) * k;
 		phase += k;
-		if (phase >= period)
-			phase %= period;
+		if (phase >= period)  // most often one period on: no division
+			phase = phase - period < period ? phase - period : phase % period;
 	}
 	// At a steady velocity: how many of `run` cycles keep the count (all, found without a
 	// division where they do).
@@ -267,7 +268,8 @@ inline uint64_t advance(Lag *states, size_t n, int64_t *steps, uint64_t limit, b
 // advance for plants with an update period (Lag::hold): the velocities held between updates,
 // the cycles between them jumped in closed form, up to and including the first cycle that
 // changes a count (then `crossed`); returns the cycles run.
-inline uint64_t advance_held(Lag *states, size_t n, uint64_t limit, bool &crossed) {
+inline __attribute__((always_inline)) uint64_t advance_held(Lag *states, size_t n,
+                                                             uint64_t limit, bool &crossed) {
 	crossed = false;
 	uint64_t k = 0;
 	while (k < limit) {

@@ -48,6 +48,8 @@ struct Bank {
 			value[i] = specs[i].init & low_bits(8 * specs[i].nbytes);
 	}
 	bool stb(int reg) const { return committed == reg; }
+	// No strobe: no register committed or refused at the last edge.
+	bool quiet() const { return committed < 0 && refused < 0; }
 	bool err(int reg) const { return refused == reg; }
 	int64_t get(int reg) const {
 		return regs[reg].is_signed ? sext(value[reg], 8 * regs[reg].nbytes) : int64_t(value[reg]);
@@ -330,6 +332,14 @@ struct Encoder {
 		return done;
 	}
 	void rise(const Lines &in) {
+		// A cycle of steady complementary lines without a bank strobe, that passes no change:
+		// the closed form's one cycle (no count pulse, flag or fault changes).
+		if (started && bank.quiet() && in.a != in.a_n && in.b != in.b_n && steady_cycles(in)) {
+			advance(in, 1);
+			line[0].broken = line[1].broken = 0;
+			fb_pos = fb_neg = false;
+			return;
+		}
 		unsigned k = unsigned(bank.value[ENCODER_FILTER]);
 		bool clear = bank.stb(ENCODER_CMD) && bit(bank.value[ENCODER_CMD], ENCODER_CMD_CLEAR);
 		bool change[2], now[2];

@@ -29,7 +29,7 @@ __all__ = ["SOURCES", "build"]
 SOURCES = ("machine.cc", "machine.h", "blocks.h", "curves.h", "drives.h", "k3701.h", "free.h",
            "../cxxrtl/lag.h")
 #: g++ flags of the engine library (part of the cache key).
-CXX_FLAGS = ("-std=c++17", "-O2", "-fPIC", "-shared", "-fvisibility=hidden")
+CXX_FLAGS = ("-std=c++17", "-O3", "-fPIC", "-shared", "-fvisibility=hidden")
 _LIBRARY = "libk37engine.so"
 
 

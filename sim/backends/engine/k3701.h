@@ -270,40 +270,37 @@ struct K3701 {
 		default: return 0;
 		}
 	}
-	// One cycle (the rising edge that ends it) with this cycle's FP (K3701Model.cycle).
+	// One cycle (the rising edge that ends it) with this cycle's FP (K3701Model.cycle). The
+	// outputs are registers updated in place: each update reads only the chip's state.
 	void rise(bool fp) {
-		K3701Out nxt;
-		nxt.busy = out.busy;
-		nxt.irq = out.irq && !cmd(K3701_CMD_ACK);
-		nxt.error = out.error;
-		nxt.overrun = out.overrun;
-		if (cmd(K3701_CMD_CLEAR))
-			nxt.error = nxt.overrun = false;
-		nxt.xm = out.xm;
-		nxt.ym = out.ym;
-		nxt.zm = out.zm;
+		out.step[0] = out.step[1] = out.step[2] = 0;
+		bool strobe = bank.stb(K3701_CMD);
+		if (strobe) {
+			out.irq = out.irq && !cmd(K3701_CMD_ACK);
+			if (cmd(K3701_CMD_CLEAR))
+				out.error = out.overrun = false;
+		}
 		bool was_idle = phase == Phase::IDLE;
 		if (phase == Phase::SETUP) {
 			if (fp)
-				hold(nxt);
+				hold();
 			if (--setup_left == 0) {
 				if (curve_kind() ? init_curve()
 				                 : arc.init(xe, ye, i, j, cw, quadrant) &&
 				                       (ze == 0 || helix.init(ze, helix_steps)))
 					phase = Phase::RUN;
 				else
-					finish(nxt, true);
+					finish(true);
 			}
 		} else if (phase == Phase::RUN) {
-			run(fp, nxt);
+			run(fp);
 		}
-		if (cmd(K3701_CMD_START)) {
+		if (strobe && cmd(K3701_CMD_START)) {
 			if (!was_idle)
-				nxt.error = true;
+				out.error = true;
 			else
-				start(nxt);
+				start();
 		}
-		out = nxt;
 	}
 	// At the end of a curve's setup: its path, or false for data the chip refuses (and for a
 	// curve with a third coordinate, on three axes).
@@ -313,21 +310,21 @@ struct K3701 {
 		return kind == Kind::PARABOLIC ? curve.init_parabola(xe, ye, i, j, swap)
 		                               : curve.init_exponential(xe, ye, i, cw, j, e, swap);
 	}
-	void hold(K3701Out &nxt) {
+	void hold() {
 		if (held)
-			nxt.overrun = true;
+			out.overrun = true;
 		else
 			held = true;
 	}
-	void finish(K3701Out &nxt, bool error) {
+	void finish(bool error) {
 		phase = Phase::IDLE;
 		held = false;
 		count = 0;
-		nxt.busy = false;
-		nxt.irq = true;
-		nxt.error = nxt.error || error;
+		out.busy = false;
+		out.irq = true;
+		out.error = out.error || error;
 	}
-	void start(K3701Out &nxt) {
+	void start() {
 		uint64_t word = bank.value[K3701_CTRL];
 		uint64_t modes = axes == 3 ? bank.value[K3701_3_MODE] : word;
 		unsigned parabolic = axes == 3 ? K3701_3_MODE_PARABOLIC : K3701_CTRL_PARABOLIC;
@@ -348,9 +345,9 @@ struct K3701 {
 		credit = 0;
 		held = false;
 		count = 0;
-		nxt.xm = xe;
-		nxt.ym = ye;
-		nxt.zm = ze;
+		out.xm = xe;
+		out.ym = ye;
+		out.zm = ze;
 		swap = bit(modes, axes == 3 ? K3701_3_MODE_SWAP : K3701_CTRL_SWAP);
 		e = bank.get(axes == 3 ? int(K3701_3_E) : int(K3701_E));
 		if (kind != Kind::LINEAR) {
@@ -358,37 +355,37 @@ struct K3701 {
 			setup_left = kind == Kind::CIRCULAR   ? CIRCLE_SETUP_CYCLES
 			             : kind == Kind::PARABOLIC ? PARABOLA_SETUP_CYCLES
 			                                       : EXPONENTIAL_SETUP_CYCLES;
-			nxt.busy = true;
+			out.busy = true;
 			return;
 		}
 		if (!ArcPath::coord_ok(xe) || !ArcPath::coord_ok(ye) || !ArcPath::coord_ok(ze)) {
-			nxt.irq = nxt.error = true;
+			out.irq = out.error = true;
 			return;
 		}
 		line.init({xe, ye, ze});
 		if (line.left == 0) {
-			nxt.irq = true;
+			out.irq = true;
 			return;
 		}
 		phase = Phase::RUN;
-		nxt.busy = true;
+		out.busy = true;
 	}
-	void run(bool fp, K3701Out &nxt) {
+	void run(bool fp) {
 		if (count) {
 			if (fp)
-				hold(nxt);
+				hold();
 			if (--count == 0) {
 				bool final = false, error = false;
 				Move m = advance(final, error);
 				const int *to = PLANES[plane < 3 ? plane : 0];  // the machine axis of each
-				nxt.step[to[0]] = m.dx;
-				nxt.step[to[1]] = m.dy;
-				nxt.step[to[2]] = m.dz;
-				nxt.xm -= m.dx;
-				nxt.ym -= m.dy;
-				nxt.zm -= m.dz;
+				out.step[to[0]] = m.dx;
+				out.step[to[1]] = m.dy;
+				out.step[to[2]] = m.dz;
+				out.xm -= m.dx;
+				out.ym -= m.dy;
+				out.zm -= m.dz;
 				if (final)
-					finish(nxt, error);
+					finish(error);
 			}
 			return;
 		}

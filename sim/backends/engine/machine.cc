@@ -80,26 +80,85 @@ void Machine::set(int port, uint64_t v) {
 	}
 }
 
-// Run n cycles; with skip_idle, skip ahead after each cycle where the machine is quiet.
-void run(Machine &m, uint64_t n, bool skip_idle) {
-	for (uint64_t i = 0; i < n;) {
-		m.step();
-		i++;
-		if (skip_idle)
-			i += m.skip(n - i);
+// Run up to n cycles, skipping where the machine is quiet, and stop after the cycle at whose
+// end `port` (-1: none) reads non-zero; the cycles run. Where it is not quiet, the machine
+// steps. Where it is, each stretch runs the plants and the encoder interfaces alone
+// (advance_plants) and the chips' free-running state in closed form (advance_free) up to
+// and including the cycle of the chips' next event (horizon), whose edge the chips then take
+// alone (rise_chips: in it the axes take no command pulse); or up to the cycle in which an
+// encoder interface's filter passes a change, whose count pulse the K3702 takes at the next
+// falling edge, the start of the next stretch; or up to the next sample. Between events only
+// the plants, the encoders' filter streaks and the free-running state move, so the port is
+// read after each event. `skipped` counts the cycles in which none comes and no K3702 falls.
+uint64_t Machine::run(uint64_t n, int port) {
+	uint64_t done = 0, h = 0;
+	bool settled = axes_settled();  // so the axes stay through the run (their inputs held)
+	bool quiet = settled && chips_quiet() && !pulsed(), known = false;  // h: the horizon now
+	// The stretch starts with a falling edge; it is the last (the port reads non-zero already).
+	bool fell = false, last = port >= 0 && get(port);
+	while (done < n) {
+		if (!quiet) {
+			step();
+			done++;
+			if (port >= 0 && get(port))
+				return done;
+			settled = settled || axes_settled();
+			quiet = settled && chips_quiet() && !pulsed();
+			known = false;
+			continue;
+		}
+		if (!known)
+			h = horizon();
+		uint64_t len = last ? 1 : std::min(n - done, next_sample - cycle);
+		bool event = h < len;  // the event's cycle, h + 1, ends the stretch
+		if (event)
+			len = h + 1;
+		uint64_t k = advance_plants(len);
+		bool chips = event && k == len;
+		if (k > uint64_t(chips))
+			advance_free(k - chips);
+		if (chips)
+			rise_chips();
+		skipped += k - std::min<uint64_t>(k, uint64_t(chips) + fell);
+		count_cycles(k);
+		done += k;
+		if (last || (chips && port >= 0 && get(port)))
+			return done;
+		quiet = !chips || chips_quiet();  // the chips change only at an event
+		known = !chips;
+		h -= known ? k : 0;
+		fell = pulsed() && quiet && done < n;
+		if (fell) {
+			fall();
+			for (int i = 0; i < axes; i++)  // taken: the next rise recomputes them
+				axis[i].enc.fb_pos = axis[i].enc.fb_neg = false;
+			last = port >= 0 && get(port);
+		} else {
+			quiet = quiet && !pulsed();
+		}
 	}
+	return done;
 }
 
-// Step until `port` reads non-zero after a cycle, at most `limit` cycles; the cycles run. A
-// skip keeps the port as it is, so one is taken only while it reads zero.
+// Run n cycles; with skip_idle, skipping where the machine is quiet.
+void run(Machine &m, uint64_t n, bool skip_idle) {
+	if (skip_idle) {
+		m.run(n, -1);
+		return;
+	}
+	for (uint64_t i = 0; i < n; i++)
+		m.step();
+}
+
+// Step until `port` reads non-zero after a cycle, at most `limit` cycles; the cycles run.
 uint64_t run_until(Machine &m, int port, uint64_t limit, bool skip_idle) {
+	if (skip_idle)
+		return m.run(limit, port);
 	for (uint64_t i = 0; i < limit;) {
 		m.step();
 		i++;
 		if (m.get(port))
 			return i;
-		if (skip_idle)
-			i += m.skip(limit - i);
 	}
 	return limit;
 }

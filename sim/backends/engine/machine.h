@@ -144,12 +144,16 @@ struct Machine {
 	}
 
 	// A K3702 without a pulse or a strobe is at a fixed point: its falling edge is skipped.
+	// The largest error magnitude is taken as the error changes (only here).
 	void fall() {
 		for (int k = 0; k < axes; k++) {
 			Axis &a = axis[k];
 			int com = command(k), fb = int(a.enc.fb_pos) - int(a.enc.fb_neg);
-			if (com || fb || strobed)
+			if (com || fb || strobed) {
 				a.ctrl.fall(com, fb);
+				uint64_t magnitude = uint64_t(a.ctrl.error < 0 ? -a.ctrl.error : a.ctrl.error);
+				a.max_abs_error = std::max(a.max_abs_error, magnitude);
+			}
 		}
 	}
 
@@ -190,35 +194,31 @@ struct Machine {
 		}
 		strobed = !banks_quiet();
 	}
-	// The chips' and plants' rising edge (the banks' aside).
+	// The chips' and plants' rising edge (the banks' aside). Each block's update reads only
+	// its own state and its inputs of the values before the edge: the axes' blocks rise
+	// before the chips whose outputs they take (the K3701's steps, the circuits' pulses).
 	void edge() {
-		// Everything the edge reads, from the values before it.
-		bool gate = decel_out(), feed_pulse = fp();
-		bool add[1 + MAX_AXES];  // the addition clocks: the shared fa, then each axis's
-		for (int k = -1; k < axes; k++)
-			add[1 + k] = feed.clock(k).stb;
-		int step[MAX_AXES], com[MAX_AXES];
-		for (int k = 0; k < axes; k++) {
-			step[k] = steps(k);
-			com[k] = command(k);
-		}
-		feed.rise();
-		decel.rise(gate);
-		if (accel_pre)
-			accel.rise(gate, add[0]);
-		interp.rise(feed_pulse);
 		for (int k = 0; k < axes; k++) {
 			Axis &a = axis[k];
 			a.enc.rise(a.plant.lines());
-			a.plant.rise(a.in, a.ctrl.dac, com[k]);
-			if (accel_post)
-				a.post.rise(step[k], add[1 + k]);
-			uint64_t magnitude = uint64_t(a.ctrl.error < 0 ? -a.ctrl.error : a.ctrl.error);
-			if (magnitude > a.max_abs_error)
-				a.max_abs_error = magnitude;
-			a.pulses_pos += step[k] > 0;
-			a.pulses_neg += step[k] < 0;
+			a.plant.rise(a.in, a.ctrl.dac, command(k));
+			a.pulses_pos += steps(k) > 0;
+			a.pulses_neg += steps(k) < 0;
 		}
+		rise_chips();
+	}
+	// The rising edge of the chips before the K3702s: the feed, the decel gate, the accel/decel
+	// circuits and the K3701 (the feed's clocks read before it rises).
+	void rise_chips() {
+		bool gate = decel_out(), feed_pulse = fp();
+		if (accel_post)
+			for (int k = 0; k < axes; k++)
+				axis[k].post.rise(steps(k), feed.clock(k).stb);
+		if (accel_pre)
+			accel.rise(gate, feed.fa_clock.stb);
+		interp.rise(feed_pulse);
+		feed.rise();
+		decel.rise(gate);
 		fp_total += feed_pulse;
 	}
 
@@ -242,10 +242,11 @@ struct Machine {
 
 	// Whether the cycles to come change nothing but the free-running state, the plants and
 	// the encoder interfaces' filter streaks until an event of theirs (horizon, or a filter
-	// passing a change): no bus cycle, no bank strobe, no step pulse, FP or accel/decel output
-	// pulse, no count pulse, complementary encoder lines, the K3702s at a fixed point, and
-	// the K3701 idle, counting down, or waiting for an FP it does not hold.
-	bool quiet_now() const {
+	// passing a change): the chips quiet, no count pulse and the axes settled.
+	bool quiet_now() const { return chips_quiet() && !pulsed() && axes_settled(); }
+	// No bus cycle, no bank strobe, no step pulse or accel/decel output pulse, and the K3701
+	// idle, counting down, or waiting for an FP it does not hold.
+	bool chips_quiet() const {
 		if (w_stb || r_stb || strobed)
 			return false;
 		for (int k = 0; k < axes; k++)
@@ -253,15 +254,24 @@ struct Machine {
 				return false;
 		if (interp.phase == K3701::Phase::RUN && interp.count == 0 && interp.held)
 			return false;
-		if (!circuits_quiet())
-			return false;
+		return circuits_quiet();
+	}
+	// A count pulse of an encoder interface, for its K3702's next falling edge.
+	bool pulsed() const {
+		bool any = false;
+		for (int k = 0; k < axes; k++)
+			any |= axis[k].enc.fb_pos || axis[k].enc.fb_neg;
+		return any;
+	}
+	// The encoder interfaces started, their lines complementary with no broken-line streak,
+	// the plants' fault inputs as registered: with the chips quiet, the K3702s at a fixed
+	// point. Once settled, the axes stay so while their inputs are held.
+	bool axes_settled() const {
 		for (int k = 0; k < axes; k++) {
 			const Axis &a = axis[k];
 			const Encoder &e = a.enc;
 			const Drive &p = a.plant;
-			if (e.fb_pos || e.fb_neg || !e.started)
-				return false;
-			if (p.glitch_a != a.in.glitch_a || p.glitch_b != a.in.glitch_b ||
+			if (!e.started || p.glitch_a != a.in.glitch_a || p.glitch_b != a.in.glitch_b ||
 			    p.break_a != a.in.break_a)
 				return false;
 			Lines in = p.lines();
@@ -271,14 +281,11 @@ struct Machine {
 		return true;
 	}
 	bool banks_quiet() const {
-		const Bank *banks[] = {&feed.bank, &decel.bank, &interp.bank};
-		for (const Bank *b : banks)
-			if (b->committed >= 0 || b->refused >= 0)
-				return false;
+		if (!feed.bank.quiet() || !decel.bank.quiet() || !interp.bank.quiet())
+			return false;
 		for (int k = 0; k < axes; k++)
-			for (const Bank *b : {&axis[k].ctrl.bank, &axis[k].enc.bank})
-				if (b->committed >= 0 || b->refused >= 0)
-					return false;
+			if (!axis[k].ctrl.bank.quiet() || !axis[k].enc.bank.quiet())
+				return false;
 		return true;
 	}
 
@@ -297,47 +304,49 @@ struct Machine {
 				h = std::min(h, cycles_within(feed.rm_clock.phase, feed.bank.value[FEED_RM_INC],
 				                              feed.rm_clock.stb, DIVIDER_WIDTH, clocks));
 		}
-		for (int k = -1; k < axes; k++) {
-			const Circuit &c = k < 0 ? accel : axis[k].post;
-			const Divider &clock = feed.clock(k);
-			if ((k < 0 ? accel_pre : accel_post) && c.safe_strobes() != UINT64_MAX)
-				h = std::min(h, cycles_within(clock.phase, feed.increment(k), clock.stb,
-				                              DIVIDER_WIDTH, c.safe_strobes()));
-		}
+		if (accel_pre)
+			h = std::min(h, carry_free(accel, feed.fa_clock, feed.bank.value[FEED_FA_INC]));
+		if (accel_post)
+			for (int k = 0; k < axes; k++)
+				h = std::min(h, carry_free(axis[k].post, feed.clock(k), feed.increment(k)));
 		return h;
+	}
+
+	// The most cycles in which circuit c, on addition clock `clock`, takes no carry.
+	static uint64_t carry_free(const Circuit &c, const Divider &clock, uint64_t increment) {
+		uint64_t safe = c.safe_strobes();
+		return safe == UINT64_MAX ? UINT64_MAX
+		                          : cycles_within(clock.phase, increment, clock.stb, DIVIDER_WIDTH, safe);
 	}
 
 	// Advance the free-running state by k cycles (k >= 1; no event on the way).
 	void advance_free(uint64_t k) {
-		uint64_t rm = strobes_seen(feed.rm_clock.phase, feed.bank.value[FEED_RM_INC],
-		                           feed.rm_clock.stb, DIVIDER_WIDTH, k);
-		uint64_t fa[1 + MAX_AXES];  // strobes of each circuit's addition clock
-		for (int i = -1; i < axes; i++)
-			fa[1 + i] = strobes_seen(feed.clock(i).phase, feed.increment(i), feed.clock(i).stb,
-			                         DIVIDER_WIDTH, k);
-		feed.count = (feed.count + rm) & low_bits(Feed::BITS);
-		std::pair<Divider *, uint64_t> dividers[2 + MAX_AXES] = {
-		    {&feed.rm_clock, feed.bank.value[FEED_RM_INC]},
-		    {&feed.fa_clock, feed.bank.value[FEED_FA_INC]}};
-		int n = 2;
-		for (int i = 0; i < 3; i++)
-			if (feed.own[i] >= 0)
-				dividers[n++] = {&feed.fa_axis[i], feed.bank.value[feed.own[i]]};
-		for (int i = 0; i < n; i++) {
-			auto [d, inc] = dividers[i];
-			u128 before_last = u128(d->phase) + u128(k - 1) * inc, total = before_last + inc;
-			d->stb = (total >> DIVIDER_WIDTH) != (before_last >> DIVIDER_WIDTH);
-			d->phase = uint64_t(total) & low_bits(DIVIDER_WIDTH);
-		}
 		if (accel_pre)
-			accel.advance(fa[0]);
+			accel.advance(strobes_seen(feed.fa_clock, feed.bank.value[FEED_FA_INC], k));
 		if (accel_post)
 			for (int i = 0; i < axes; i++)
-				axis[i].post.advance(fa[1 + i]);
+				axis[i].post.advance(strobes_seen(feed.clock(i), feed.increment(i), k));
+		feed.count = (feed.count + strobes_seen(feed.rm_clock, feed.bank.value[FEED_RM_INC], k)) &
+		             low_bits(Feed::BITS);
+		advance(feed.rm_clock, feed.bank.value[FEED_RM_INC], k);
+		advance(feed.fa_clock, feed.bank.value[FEED_FA_INC], k);
+		for (int i = 0; i < 3; i++)
+			if (feed.own[i] >= 0)
+				advance(feed.fa_axis[i], feed.bank.value[feed.own[i]], k);
 		if (interp.phase == K3701::Phase::SETUP)
 			interp.setup_left -= int64_t(k);
 		else if (interp.phase == K3701::Phase::RUN && interp.count)
 			interp.count -= int64_t(k);
+	}
+
+	// A phase divider's strobes seen in the next k cycles, and its advance by k cycles (k >= 1).
+	static uint64_t strobes_seen(const Divider &d, uint64_t increment, uint64_t k) {
+		return k37e::strobes_seen(d.phase, increment, d.stb, DIVIDER_WIDTH, k);
+	}
+	static void advance(Divider &d, uint64_t increment, uint64_t k) {
+		u128 before_last = u128(d.phase) + u128(k - 1) * increment, total = before_last + increment;
+		d.stb = (total >> DIVIDER_WIDTH) != (before_last >> DIVIDER_WIDTH);
+		d.phase = uint64_t(total) & low_bits(DIVIDER_WIDTH);
 	}
 
 	// Step the plants and the encoder interfaces alone for at most h cycles (the plants' D/A
@@ -419,16 +428,19 @@ struct Machine {
 		return k;
 	}
 	// run_plants of first-order plants with an update period.
+	uint64_t hold_plants(uint64_t n) { return axes == 3 ? hold_plants<3>(n) : hold_plants<2>(n); }
+	template<int N>
 	uint64_t hold_plants(uint64_t n) {
-		k37lag::Lag lags[MAX_AXES] = {lag(axis[0]), lag(axis[1]), lag(axis[2])};
-		for (int i = 0; i < axes; i++) {
+		k37lag::Lag lags[N];
+		for (int i = 0; i < N; i++) {
 			const Axis &a = axis[i];
-			lags[i].hold(a.in.period, a.plant.phase,
-			             Plant::command(a.in, a.ctrl.dac, a.plant.ff));
+			lags[i] = lag(a);
+			int64_t next = a.plant.ff ? Plant::command(a.in, a.ctrl.dac, a.plant.ff) : lags[i].vc;
+			lags[i].hold(a.in.period, a.plant.phase, next);
 		}
 		bool crossed;
-		uint64_t k = k37lag::advance_held(lags, size_t(axes), n, crossed);
-		for (int i = 0; i < axes; i++) {
+		uint64_t k = k37lag::advance_held(lags, size_t(N), n, crossed);
+		for (int i = 0; i < N; i++) {
 			Plant &p = axis[i].plant;
 			p.velocity = lags[i].v;
 			p.before = lags[i].position - uint64_t(lags[i].v);
@@ -457,21 +469,9 @@ struct Machine {
 		                   FRAC_BITS);
 	}
 
-	// After a cycle: skip up to `rest` cycles if the machine is quiet, to just before the
-	// chips' next event, or just after the cycle in which an encoder interface's filter
-	// passes a change, or to the next sample; the cycles skipped.
-	uint64_t skip(uint64_t rest) {
-		if (rest == 0 || !quiet_now())
-			return 0;
-		uint64_t h = std::min({rest, horizon(), next_sample - cycle});
-		if (h == 0)
-			return 0;
-		uint64_t k = advance_plants(h);
-		advance_free(k);
-		skipped += k;
-		count_cycles(k);
-		return k;
-	}
+	// Run up to n cycles, skipping where the machine is quiet, until `port` reads non-zero
+	// (machine.cc).
+	uint64_t run(uint64_t n, int port);
 
 	// Axis k's drive (a DriveKind).
 	void set_drive(int k, int kind) {

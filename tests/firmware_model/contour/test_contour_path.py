@@ -14,7 +14,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from k37.firmware_model.contour.path import REACH, Path, Tracker
+from k37.firmware_model.contour.path import BACK, REACH, Path, Tracker
 from k37.firmware_model.job import ContourConfig, Job, MachineConfig, ServoConfig, parse_for_machine
 from k37.firmware_model.motion.program import Arc, Line
 from k37.hdl.chipset.map import axis_names
@@ -103,11 +103,30 @@ def _length(move) -> float:
     return float(np.sqrt(((q[1:] - q[:-1]) ** 2).sum(axis=1)).sum())
 
 
+def _foot(move, p: np.ndarray) -> tuple[float, np.ndarray]:
+    """The parameter of a point's nearest point of a move, and the move's direction there:
+    closed form on a line, the nearest of dense points (zoomed in on) elsewhere."""
+    if isinstance(move, Line) and move.curve is None:
+        a, b = np.array(move.start, dtype=float), np.array(move.end, dtype=float)
+        d = b - a
+        return (0.0 if not d @ d else float(np.clip((p - a) @ d / (d @ d), 0.0, 1.0))), d
+    grid = np.linspace(0.0, 1.0, DENSE)
+    for _ in range(ZOOMS + 1):
+        k = int(np.argmin(((_curve_at(move, grid) - p) ** 2).sum(axis=1)))
+        grid = np.linspace(grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)], FINE)
+    u = float(grid[FINE // 2])
+    h = 1e-6
+    ahead, behind = _curve_at(move, np.array([min(u + h, 1.0), max(u - h, 0.0)]))
+    return u, ahead - behind
+
+
 def reference_errors(moves, blocks, samples) -> np.ndarray:
     """The documented window rule, sample by sample: the exact distance to the path from the
     previous sample's move forward as far as the previous sample's distance, twice the tool's
-    travel since then and REACH past that move's end, none past the move after the running
-    block's; of equal distances, the furthest move."""
+    travel since then and REACH past the sample's nearest point of that move (where the
+    sample moved back along that move, at least as far past its end as the sample is from
+    that end), none past the move after the running block's; of equal distances, the
+    furthest move."""
     lengths = [_length(m) for m in moves]
     ends = np.cumsum(lengths)
     starts = [start for _, start in blocks]
@@ -123,8 +142,13 @@ def reference_errors(moves, blocks, samples) -> np.ndarray:
         if running < 0:
             out.append(math.dist(p, moves[0].start))
             continue
-        travel = 0.0 if last is None else math.dist(p, last)
-        reach = ends[current] + error + 2 * travel + REACH
+        step = np.zeros(n) if last is None else p - last
+        travel = float(np.sqrt(step @ step))
+        u, direction = _foot(moves[current], p)
+        reach = ends[current] - (1 - u) * lengths[current] + error + 2 * travel + REACH
+        if step @ direction < -BACK * travel * float(np.sqrt(direction @ direction)):
+            gone = math.dist(p, moves[current].end)
+            reach = max(reach, ends[current] + gone + 2 * travel + REACH)
         top = min(running + 1, len(moves) - 1)
         best, k = None, current
         while k == current or (k <= top and ends[k - 1] < reach):
@@ -282,6 +306,23 @@ def test_a_tool_many_chords_behind_is_measured_against_its_own_chord():
     assert run.report["path"]["max_contour_error"] == pytest.approx(exact.max(), abs=1)
     assert run.report["path"]["rms_contour_error"] == pytest.approx(
         math.sqrt(np.mean(exact**2)), abs=0.5)
+
+
+@pytest.mark.parametrize("gcode", [
+    # a long arc (R < 0) that leaves the line before it turning back along it
+    "G21 G90 F600\nG01 X20 Y30\nG01 X10 Y30\nG02 X0 Y20 R-10\nM30\n",
+    # a full circle from the end of a plunge, the retract from its start (a PCB pad)
+    "G21 G90\nG00 Z1\nG01 Z-0.15 F300\nG02 X0 Y0 I1.143 J0 F600\nG00 Z1\nM30\n",
+])
+def test_a_path_that_turns_back_on_itself_is_measured_where_the_tool_is(gcode):
+    machine, program = parse_for_machine(MachineConfig(), gcode, source="<t>")
+    run = run_job(Job("c", machine, dict.fromkeys(machine.axis_names, ServoConfig()), program),
+                  RunOptions(backend="engine"))
+    n = machine.axes
+    actual = np.unique(run.samples[:, 1 + n:1 + 2 * n], axis=0).astype(float)
+    nearest = np.min([_distances(m, actual) for m in program.moves], axis=0)
+    assert run.report["path"]["max_contour_error"] == pytest.approx(nearest.max(), abs=1)
+    assert nearest.max() < 20
 
 
 def test_a_steep_exponential_reports_its_true_error_and_no_warning(recwarn):
