@@ -437,8 +437,10 @@ class Tracker:
             if moved.any():
                 rows = np.flatnonzero(moved)
                 _put(here, rows, self._here(segment[rows], p[rows], ones[rows]))
-                # The row after one that moved: handed the distance on its new segment.
+                # A row computed again after one that moved: handed the distance on its new
+                # segment (each row's error stays the one its window is computed with).
                 after = rows[rows < n - 1] + 1
+                after = after[changed[after]]
                 error[after] = here.distance[after - 1]
             rows = everything[changed]
             _put(found, rows, self._window(p[rows], travel[rows], limit[rows],
