@@ -33,6 +33,14 @@ from typing import overload
 
 import numpy as np
 
+from k37.firmware_model.contour.rowwise import (
+    along,
+    arc_param,
+    arc_points,
+    dist2,
+    line_foot,
+    sum_axes,
+)
 from k37.firmware_model.motion.program import Arc, Line, Move
 
 __all__ = ["BACK", "REACH", "Foot", "Path", "Segment", "Tracker"]
@@ -50,42 +58,6 @@ TIE = 1e-6
 _GOLD = (math.sqrt(5) - 1) / 2
 #: A segment's kind: a line and a plane arc have closed forms, the rest are searched along.
 _LINE, _ARC, _SAMPLED = 0, 1, 2
-
-
-def _line_foot(p: np.ndarray, start: np.ndarray, d: np.ndarray, length2: np.ndarray | float,
-               end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Parameter and point of each row of ``p``'s nearest point of the line ``start`` +
-    u ``d`` (its squared length ``length2``), u in [0, ``end``]; one line, or one per row."""
-    along = ((p - start) * d).sum(axis=1)
-    u = np.clip(along / np.where(length2 == 0, 1.0, length2), 0.0, end)  # none: its start
-    return u, start + u[:, None] * d
-
-
-def _arc_param(p: np.ndarray, first: np.ndarray | int, second: np.ndarray | int,
-               centre: np.ndarray, a0: np.ndarray | float, sweep: np.ndarray | float,
-               cw: np.ndarray | bool, end: np.ndarray) -> np.ndarray:
-    """Parameter of each row of ``p``'s nearest point of a plane arc, in [0, ``end``]; one
-    arc, or one per row."""
-    rows = np.arange(len(p))
-    angle = np.arctan2(p[rows, second] - centre[..., 1], p[rows, first] - centre[..., 0])
-    off = np.where(cw, a0 - angle, angle - a0) % math.tau
-    # Past the sweep: the nearer end (the angle half way round the rest splits them).
-    swept = sweep * end
-    return np.where(off <= swept, off / sweep,
-                    np.where(off - swept < (math.tau - swept) / 2, end, 0.0))
-
-
-def _arc_points(u: np.ndarray, start: np.ndarray, d: np.ndarray, first: np.ndarray | int,
-                second: np.ndarray | int, centre: np.ndarray, radius: np.ndarray | float,
-                a0: np.ndarray | float, turn: np.ndarray | float) -> np.ndarray:
-    """Points of an arc or helix (``turn``: its signed sweep) at parameters ``u``; one arc,
-    or one per row."""
-    angle = a0 + turn * u
-    points = start + u[:, None] * d  # a helix rises evenly
-    rows = np.arange(len(u))
-    points[rows, first] = centre[..., 0] + radius * np.cos(angle)
-    points[rows, second] = centre[..., 1] + radius * np.sin(angle)
-    return points
 
 
 @dataclass(frozen=True)
@@ -119,13 +91,13 @@ class Segment:
         m = self.move
         if isinstance(m, Line):
             if m.curve is None:
-                return self.start + u[:, None] * (self.end - self.start)
+                return along(self.start, u, self.end - self.start)
             span = m.curve
             plane = span.curve.at(span.t0 + (span.t1 - span.t0) * u)
             return plane if self.axes == 2 else np.column_stack([plane, np.full(len(u), span.z)])
         if isinstance(m, Arc):
             first, second, centre, radius, a0, sweep, cw = self.circle
-            return _arc_points(u, self.start, self.end - self.start, first, second, centre,
+            return arc_points(u, self.start, self.end - self.start, first, second, centre,
                                radius, a0, -sweep if cw else sweep)
         plane = m.at(u * m.extent)
         return plane if self.axes == 2 else np.column_stack(
@@ -163,9 +135,9 @@ class Segment:
             return u, self.at(u)
         end = np.ones(len(p)) if top is None else top
         if isinstance(self.move, Line):
-            return _line_foot(p, self.start, self.end - self.start, self.length2, end)
+            return line_foot(p, self.start, self.end - self.start, self.length2, end)
         first, second, centre, _, a0, sweep, cw = self.circle
-        u = _arc_param(p, first, second, centre, a0, sweep, cw, end)
+        u = arc_param(p, first, second, centre, a0, sweep, cw, end)
         return u, self.at(u)
 
     @cached_property
@@ -175,28 +147,37 @@ class Segment:
         return float((d * d).sum())
 
     def _search(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        # A row equal to the one before it (a tool at rest, or slow) is that row's answer.
+        fresh = np.ones(len(p), dtype=bool)
+        for axis in range(p.shape[1]):
+            fresh[1:] &= p[1:, axis] == p[:-1, axis]
+        fresh[1:] = ~fresh[1:]
+        if not fresh.all():
+            u, q = self._search(p[fresh])
+            which = np.cumsum(fresh) - 1
+            return u[which], q[which]
         grid = self._grid
         q = self.at(grid)
-        k = np.argmin(((p[:, None, :] - q[None]) ** 2).sum(axis=2), axis=1)
+        k = np.argmin(dist2(p[:, None, :], q[None]), axis=1)
         lo, hi = grid[np.maximum(k - 1, 0)], grid[np.minimum(k + 1, len(grid) - 1)]
 
-        def dist2(u: np.ndarray) -> np.ndarray:
-            return ((self.at(u) - p) ** 2).sum(axis=1)
+        def off2(u: np.ndarray) -> np.ndarray:
+            return dist2(self.at(u), p)
 
         a, b = hi - _GOLD * (hi - lo), lo + _GOLD * (hi - lo)
-        fa, fb = dist2(a), dist2(b)
+        fa, fb = off2(a), off2(b)
         for _ in range(GOLDEN_STEPS):
             left = fa <= fb  # the minimum is in [lo, b]
             hi, lo = np.where(left, b, hi), np.where(left, lo, a)
             b, fb = np.where(left, a, b), np.where(left, fa, fb)
             a = np.where(left, hi - _GOLD * (hi - lo), b)
             b = np.where(left, b, lo + _GOLD * (hi - lo))
-            fresh = dist2(np.where(left, a, b))
+            fresh = off2(np.where(left, a, b))
             fa, fb = np.where(left, fresh, fb), np.where(left, fb, fresh)
         u = np.where(fa <= fb, a, b)
         # The ends and the grid's nearest point stand too (the minimum may sit on an end).
         cands = np.column_stack([u, np.zeros(len(p)), np.ones(len(p)), grid[k]])
-        d2 = np.column_stack([dist2(c) for c in cands.T])
+        d2 = np.column_stack([off2(c) for c in cands.T])
         u = cands[np.arange(len(p)), np.argmin(d2, axis=1)]
         return u, self.at(u)
 
@@ -260,15 +241,21 @@ class Path:
               ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`feet` on segments of one ``kind``."""
         t = self.table
+        one: np.ndarray | int = k
+        if (k == k[0]).all():  # one segment: its constants as one row, not one per row
+            one = int(k[0])
         if kind == _LINE:
-            return _line_foot(p, t.start[k], t.d[k], t.length2[k], top)
+            return line_foot(p, t.start[one], t.d[one], t.length2[one], top)
         if kind == _ARC:
-            first, second, centre, a0 = t.first[k], t.second[k], t.centre[k], t.a0[k]
-            u = _arc_param(p, first, second, centre, a0, t.sweep[k], t.cw[k], top)
-            return u, _arc_points(u, t.start[k], t.d[k], first, second, centre, t.radius[k],
-                                  a0, t.turn[k])
-        if (k == k[0]).all():
-            return self.segments[k[0]].foot(p, top)
+            first, second = t.plane or (t.first[one], t.second[one])
+            if isinstance(one, int):
+                first, second = int(first), int(second)
+            centre, a0 = t.centre[one], t.a0[one]
+            u = arc_param(p, first, second, centre, a0, t.sweep[one], t.cw[one], top)
+            return u, arc_points(u, t.start[one], t.d[one], first, second, centre,
+                                  t.radius[one], a0, t.turn[one])
+        if isinstance(one, int):
+            return self.segments[one].foot(p, top)
         u, q = np.empty(len(p)), np.empty_like(p)
         for segment in np.unique(k):
             on = np.flatnonzero(k == segment)
@@ -354,6 +341,10 @@ class _Table:
     def __init__(self, moves: Sequence[Move], axes: int):
         n = len(moves)
         self.kind = np.array([_kind(m, axes) for m in moves], dtype=int)
+        #: A curve: its points part of the way along it may lie farther from its start than
+        #: that part of its length (a line's, an arc's and a helix's do not).
+        self.curve = (self.kind == _SAMPLED) & np.array([not isinstance(m, Arc) for m in moves],
+                                                        dtype=bool)
         self.start = np.array([m.start[:axes] for m in moves], dtype=float).reshape(n, axes)
         self.d = np.array([m.end[:axes] for m in moves], dtype=float).reshape(n, axes) - self.start
         self.length2 = (self.d * self.d).sum(axis=1)
@@ -361,12 +352,16 @@ class _Table:
         self.centre = np.zeros((n, 2))
         self.radius, self.a0, self.sweep, self.turn = (np.ones(n) for _ in range(4))
         self.cw = np.zeros(n, dtype=bool)
-        for k in np.flatnonzero(self.kind == _ARC):
+        arcs = np.flatnonzero(self.kind == _ARC)
+        for k in arcs:
             m = moves[k]
             assert isinstance(m, Arc)
             (self.first[k], self.second[k], _), self.centre[k] = m.plane_axes, m.center
             self.radius[k], (self.a0[k], self.sweep[k]), self.cw[k] = m.radius, m.span, m.cw
             self.turn[k] = -self.sweep[k] if m.cw else self.sweep[k]
+        planes = {(int(self.first[k]), int(self.second[k])) for k in arcs}
+        #: The plane axes of every arc when they share one (else each row's own).
+        self.plane = planes.pop() if len(planes) == 1 else None
 
 
 #: A row moves back along its segment where its move's cosine to the segment's direction is
@@ -378,6 +373,8 @@ SLACK = 1e-3
 ROUNDS = 4
 #: The largest chunk of samples a tracker takes at once.
 CHUNK = 8192
+#: Rows apart of the samples whose segments are guessed before the rest's.
+STRIDE = 64
 
 
 class Tracker:
@@ -386,13 +383,14 @@ class Tracker:
 
     Each sample's window depends on the previous sample's segment and distance only, so a
     chunk of samples is solved at once by a fixed-point iteration: a guessed segment per row
-    (the interpolator's block as many samples before as the tool last entered a segment
-    after the interpolator entered its block; after a chunk that guess settled poorly, the
-    tool's own segment for every row, and back), every row's window from it, then each row's
-    segment and distance handed on as the next row's, only the rows whose inputs changed
-    computed again; the rows up to the first whose inputs still changed are the ones the
-    sample-by-sample rule gives, bit for bit (the first row's inputs are the tracker's
-    own), and the next chunk starts after them."""
+    (from the tool's own segment for every row, or, after a chunk that guess settled half of
+    or less, from the interpolator's block as many samples before as the tool last entered a
+    segment after the interpolator entered its block, and back; on to the next segment as
+    long as the row's nearest point of it is its end), every row's window from the guess for
+    the row before it, then each row's segment and distance handed on as the next row's, only the
+    rows whose inputs changed computed again; the rows up to the first whose inputs still
+    changed are the ones the sample-by-sample rule gives, bit for bit (the first row's inputs
+    are the tracker's own), and the next chunk starts after them."""
 
     def __init__(self, path: Path):
         self.path = path
@@ -409,13 +407,14 @@ class Tracker:
         last segment the tool may be on)."""
         p = np.asarray(p, dtype=float)
         n = len(p)
-        out = Foot(np.zeros(n, dtype=int), np.zeros(n), np.zeros_like(p), np.zeros(n))
+        out = Foot(np.empty(n, dtype=int), np.empty(n), np.empty_like(p), np.empty(n))
         if not n:
             return out
-        before = np.vstack([p[:1] if self.last is None else self.last[None], p[:-1]])
-        step = p - before
+        step = np.empty_like(p)  # the move from the row before (the first: from the last sample)
+        step[0] = p[0] - (p[0] if self.last is None else self.last)
+        step[1:] = p[1:] - p[:-1]
         limit = np.asarray(limit)
-        i, size, delayed = 0, 64, True
+        i, size, delayed = 0, 64, False
         while i < n:
             rows = slice(i, min(n, i + size))
             if delayed:
@@ -423,7 +422,7 @@ class Tracker:
             else:
                 guess = np.full(rows.stop - rows.start, self.segment)
             found, done = self._chunk(p[rows], step[rows], limit[rows], guess)
-            if 4 * done < rows.stop - rows.start:  # a poor guess: try the other one next
+            if 2 * done <= rows.stop - rows.start:  # a poor guess: try the other one next
                 delayed = not delayed
             part = slice(i, i + done)
             out.segment[part], out.param[part] = found.segment[:done], found.param[:done]
@@ -442,10 +441,13 @@ class Tracker:
         """The nearest points of a chunk of rows, from a ``guess`` of each row's previous
         segment, and how many of them are settled (at least one)."""
         c, n = self.segment, len(p)
-        guess = np.maximum(guess, c)
-        guess[0] = c
         ones = np.ones(n)
-        here = self._here(guess, p, ones)
+        here = self._advance(p, limit, np.maximum(guess, c), ones)
+        # Each row handed the segment guessed for the row before it.
+        guess = np.concatenate([[c], here.segment[:-1]])
+        rows = np.flatnonzero(guess != here.segment)
+        if len(rows):
+            _put(here, rows, self._here(guess[rows], p[rows], ones[rows]))
         error = np.concatenate([[self.error], here.distance[:-1]])
         found = self._window(p, step, limit, here, error)
         if n == 1:  # the first row's inputs are the tracker's own
@@ -465,13 +467,36 @@ class Tracker:
             if moved.any():
                 rows = np.flatnonzero(moved)
                 _put(here, rows, self._here(segment[rows], p[rows], ones[rows]))
+                # A row computed again after one that moved: handed the distance on its new
+                # segment (each row's error stays the one its window is computed with).
+                after = rows[rows < n - 1] + 1
+                after = after[changed[after]]
+                error[after] = here.distance[after - 1]
             rows = everything[changed]
             _put(found, rows, self._window(p[rows], step[rows], limit[rows],
                                            _take(here, rows), error[rows]))
 
+    def _advance(self, p: np.ndarray, limit: np.ndarray, guess: np.ndarray, ones: np.ndarray
+                 ) -> Foot:
+        """Each row's nearest point on its guessed segment: from ``guess`` (never before the
+        previous row's), the first whose end is not the row's nearest point of it, never past
+        ``limit``."""
+        if len(p) > 4 * STRIDE:  # every STRIDE-th row's first: the rows after it are as far
+            coarse = self._advance(p[::STRIDE], limit[::STRIDE], guess[::STRIDE],
+                                   ones[::STRIDE]).segment
+            guess = np.maximum(guess, np.repeat(coarse, STRIDE)[:len(p)])
+        here = self._here(np.maximum.accumulate(guess), p, ones)
+        while True:
+            past = (here.param == 1.0) & (here.segment < limit)
+            if not past.any():
+                return here
+            segment = np.maximum.accumulate(here.segment + past)
+            rows = np.flatnonzero(segment != here.segment)
+            _put(here, rows, self._here(segment[rows], p[rows], ones[rows]))
+
     def _here(self, segment: np.ndarray, p: np.ndarray, ones: np.ndarray) -> Foot:
         u, q = self.path.feet(segment, p, ones)
-        return Foot(segment, u, q, np.sqrt(((q - p) ** 2).sum(axis=1)))
+        return Foot(segment, u, q, np.sqrt(dist2(q, p)))
 
     def _window(self, p: np.ndarray, step: np.ndarray, limit: np.ndarray, here: Foot,
                 error: np.ndarray) -> Foot:
@@ -483,14 +508,13 @@ class Tracker:
         as the row is from that end; never past ``limit``."""
         path = self.path
         c = here.segment
-        travel = np.sqrt((step * step).sum(axis=1))
+        travel = np.sqrt(sum_axes(step * step))
         reach = path.ends[c] - (1 - here.param) * path.lengths[c] + error + 2 * travel + REACH
         direction = path.directions(c, here.param)
-        back = (step * direction).sum(axis=1) < -BACK * travel * np.sqrt(
-            (direction * direction).sum(axis=1))
+        back = sum_axes(step * direction) < -BACK * travel * np.sqrt(
+            sum_axes(direction * direction))
         if back.any():
-            gone = np.sqrt(((p[back] - path.table.start[c[back]] - path.table.d[c[back]]) ** 2
-                            ).sum(axis=1))
+            gone = np.sqrt(dist2(p[back] - path.table.start[c[back]], path.table.d[c[back]]))
             reach[back] = np.maximum(reach[back], path.ends[c[back]] + gone + 2 * travel[back]
                                      + REACH)
         last = np.minimum(np.searchsorted(path.ends, reach), len(path.ends) - 1)
@@ -498,20 +522,23 @@ class Tracker:
         best = Foot(c.copy(), here.param.copy(), here.point.copy(), here.distance.copy())
         for step in range(1, int((last - c).max(initial=0)) + 1):
             rows = np.flatnonzero(c + step <= last)
-            k = c[rows] + step
+            if len(rows) == len(p):  # every row (the first step, mostly): no copies
+                k, ahead, farthest = c + step, p, reach
+            else:
+                k, ahead, farthest = c[rows] + step, p[rows], reach[rows]
             length = path.lengths[k]
             # The segments after the first only as far along them as the reach.
-            top = np.clip((reach[rows] - path.ends[k - 1]) / np.where(length == 0, 1.0, length),
+            top = np.clip((farthest - path.ends[k - 1]) / np.where(length == 0, 1.0, length),
                           0.0, 1.0)
             top[length == 0] = 1.0
-            # A closed form's points that far along it are no farther from its start than
-            # that: the rows it cannot come close enough for are not searched on it.
+            # A line's, an arc's or a helix's points that far along it are no farther from its
+            # start than that: the rows it cannot come close enough for are not searched on it.
             table = path.table
-            gap = np.sqrt(((p[rows] - table.start[k]) ** 2).sum(axis=1)) - top * length
-            near = (table.kind[k] == _SAMPLED) | (gap <= best.distance[rows] + TIE + SLACK)
+            gap = np.sqrt(dist2(ahead, table.start[k])) - top * length
+            near = table.curve[k] | (gap <= best.distance[rows] + TIE + SLACK)
             rows, k, top = rows[near], k[near], top[near]
             u, q = path.feet(k, p[rows], top)
-            d = np.sqrt(((q - p[rows]) ** 2).sum(axis=1))
+            d = np.sqrt(dist2(q, p[rows]))
             take = d <= best.distance[rows] + TIE
             _put(best, rows[take], Foot(k[take], u[take], q[take], d[take]))
         return best

@@ -43,7 +43,7 @@ class ContourMeter:
         if not len(samples) or self.tracker is None:
             return np.zeros(0)
         n = self.axes
-        pts = samples[:, 1 + n:1 + 2 * n].astype(float)  # the actual positions
+        pts = np.asarray(samples[:, 1 + n:1 + 2 * n], dtype=float)  # the actual positions
         running = np.searchsorted(self.block_start, samples[:, 0], side="right") - 1
         before = running < 0
         errors = np.empty(len(pts))
