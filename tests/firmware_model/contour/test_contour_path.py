@@ -115,8 +115,16 @@ def _foot(move, p: np.ndarray) -> tuple[float, np.ndarray]:
         k = int(np.argmin(((_curve_at(move, grid) - p) ** 2).sum(axis=1)))
         grid = np.linspace(grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)], FINE)
     u = float(grid[FINE // 2])
-    h = 1e-6
-    ahead, behind = _curve_at(move, np.array([min(u + h, 1.0), max(u - h, 0.0)]))
+    if isinstance(move, Arc):  # the tangent: the rise, the plane's turn
+        first, second, _ = move.plane_axes
+        a0, sweep = move.span
+        turn = -sweep if move.cw else sweep
+        direction = np.array(move.end, dtype=float) - np.array(move.start, dtype=float)
+        direction[first] = -turn * move.radius * math.sin(a0 + turn * u)
+        direction[second] = turn * move.radius * math.cos(a0 + turn * u)
+        return u, direction
+    # a curve's chord across 1/256 of its parameter either side, as the tracker takes it
+    ahead, behind = _curve_at(move, np.array([min(u + 1 / 256, 1.0), max(u - 1 / 256, 0.0)]))
     return u, ahead - behind
 
 
