@@ -75,7 +75,7 @@ def contour_summary(job: Job, blocks: Sequence[BlockStart], store: SampleStore,
     def total(start: int, stop: int) -> float:
         nonlocal peak
         if stop - start <= leaf:
-            errors = meter.errors(store.read(start, stop))
+            errors = meter.errors(store.raw(start, stop))  # the cycles and positions
             if not errors.size:  # no block ran: no contour
                 return 0.0
             peak = max(peak, float(errors.max()))

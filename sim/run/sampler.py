@@ -75,12 +75,17 @@ class SampleStore:
             self._file.write(np.ascontiguousarray(raw, dtype=np.int64).tobytes())
             self.rows += len(raw)
 
-    def read(self, start: int, stop: int) -> np.ndarray:
-        """Samples ``start`` to ``stop`` (exclusive), a row of :attr:`columns` each."""
+    def raw(self, start: int, stop: int) -> np.ndarray:
+        """Samples ``start`` to ``stop`` (exclusive) as stored: integer rows of the cycle and
+        :attr:`ports` (read-only; the D/A words as codes)."""
         start, stop = max(0, start), min(stop, self.rows)
         self._file.seek(start * 8 * self._width)
         data = self._file.read(max(0, stop - start) * 8 * self._width)
-        samples = np.frombuffer(data, dtype=np.int64).reshape(-1, self._width).astype(float)
+        return np.frombuffer(data, dtype=np.int64).reshape(-1, self._width)
+
+    def read(self, start: int, stop: int) -> np.ndarray:
+        """Samples ``start`` to ``stop`` (exclusive), a row of :attr:`columns` each."""
+        samples = self.raw(start, stop).astype(float)
         volts = self._volts
         samples[:, volts] = DAC_VOLTS * (samples[:, volts] - self._half) / self._half
         return samples
