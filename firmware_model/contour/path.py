@@ -520,12 +520,12 @@ class Tracker:
         last = np.minimum(np.searchsorted(path.ends, reach), len(path.ends) - 1)
         last = np.maximum(np.minimum(last, limit), c)
         best = Foot(c.copy(), here.param.copy(), here.point.copy(), here.distance.copy())
-        for step in range(1, int((last - c).max(initial=0)) + 1):
-            rows = np.flatnonzero(c + step <= last)
-            if len(rows) == len(p):  # every row (the first step, mostly): no copies
-                k, ahead, farthest = c + step, p, reach
+        for onward in range(1, int((last - c).max(initial=0)) + 1):
+            rows = np.flatnonzero(c + onward <= last)
+            if len(rows) == len(p):  # every row (the first segment on, mostly): no copies
+                k, ahead, farthest = c + onward, p, reach
             else:
-                k, ahead, farthest = c[rows] + step, p[rows], reach[rows]
+                k, ahead, farthest = c[rows] + onward, p[rows], reach[rows]
             length = path.lengths[k]
             # The segments after the first only as far along them as the reach.
             top = np.clip((farthest - path.ends[k - 1]) / np.where(length == 0, 1.0, length),

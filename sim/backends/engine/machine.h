@@ -422,11 +422,17 @@ struct Machine {
 		int64_t steps[MAX_AXES];
 		bool crossed;
 		uint64_t k = k37lag::advance(lags, size_t(axes), steps, n, crossed);
-		for (int i = 0; i < axes; i++) {
-			axis[i].plant.velocity = lags[i].v;
-			axis[i].plant.before = lags[i].position - uint64_t(lags[i].v);
-		}
+		for (int i = 0; i < axes; i++)
+			take(axis[i].plant, lags[i]);
 		return k;
+	}
+	// A plant's registers from the state lag.h advanced it to.
+	static void take(Plant &p, const k37lag::Lag &lag) {
+		p.velocity = lag.v;
+		p.before = lag.position - uint64_t(lag.v);
+		p.phase = lag.phase;
+		if (!lag.pending)
+			p.ff = 0;
 	}
 	// run_plants of first-order plants with an update period.
 	uint64_t hold_plants(uint64_t n) { return axes == 3 ? hold_plants<3>(n) : hold_plants<2>(n); }
@@ -441,14 +447,8 @@ struct Machine {
 		}
 		bool crossed;
 		uint64_t k = k37lag::advance_held(lags, size_t(N), n, crossed);
-		for (int i = 0; i < N; i++) {
-			Plant &p = axis[i].plant;
-			p.velocity = lags[i].v;
-			p.before = lags[i].position - uint64_t(lags[i].v);
-			p.phase = lags[i].phase;
-			if (!lags[i].pending)
-				p.ff = 0;
-		}
+		for (int i = 0; i < N; i++)
+			take(axis[i].plant, lags[i]);
 		return k;
 	}
 	// run_plants with a torque or two-mass drive (drives.h).
