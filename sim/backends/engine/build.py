@@ -27,7 +27,7 @@ __all__ = ["SOURCES", "build"]
 #: The engine's sources: its one translation unit (first) and the headers it includes, and
 #: the plant's update that it shares with the compiled RTL harness (a path from here).
 SOURCES = ("machine.cc", "machine.h", "blocks.h", "plant.h", "curves.h", "drives.h", "k3701.h",
-           "free.h", "../cxxrtl/lag.h")
+           "free.h", "axes.h", "../cxxrtl/lag.h")
 #: g++ flags of the engine library (part of the cache key).
 CXX_FLAGS = ("-std=c++17", "-O3", "-fPIC", "-shared", "-fvisibility=hidden")
 _LIBRARY = "libk37engine.so"

@@ -53,8 +53,9 @@ uint64_t Machine::get(int port) const {
 
 void Machine::set(int port, uint64_t v) {
 	if (port >= DRIVE_PORT_BASE) {
-		axis[(port - DRIVE_PORT_BASE) / DRIVE_PORT_COUNT]
-		    .plant.port[(port - DRIVE_PORT_BASE) % DRIVE_PORT_COUNT] = v;
+		int k = (port - DRIVE_PORT_BASE) / DRIVE_PORT_COUNT;
+		forget(k, axis[k].ctrl.dac);
+		axis[k].plant.port[(port - DRIVE_PORT_BASE) % DRIVE_PORT_COUNT] = v;
 		return;
 	}
 	switch (port) {
@@ -65,7 +66,9 @@ void Machine::set(int port, uint64_t v) {
 	}
 	if (port < TOP_COUNT)
 		return;
-	PlantInputs &in = axis[(port - TOP_COUNT) / AXIS_COUNT].in;
+	int k = (port - TOP_COUNT) / AXIS_COUNT;
+	forget(k, axis[k].ctrl.dac);  // the plant's inputs change
+	PlantInputs &in = axis[k].in;
 	switch ((port - TOP_COUNT) % AXIS_COUNT) {
 	case GAIN: in.gain = v; return;
 	case ALPHA: in.alpha = v; return;

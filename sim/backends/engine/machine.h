@@ -17,15 +17,11 @@
 #include <utility>
 #include <vector>
 
-#include "blocks.h"
-#include "drives.h"
+#include "axes.h"
 #include "free.h"
 #include "k3701.h"
-#include "lag.h"
 
 namespace k37e {
-
-constexpr int MAX_AXES = 3;
 
 // Every port, by the System's name (a bus member, a top output or an axis's member).
 const char *const TOP_PORTS[] = {"bus__addr", "bus__w_stb", "bus__w_data", "bus__r_stb",
@@ -42,29 +38,17 @@ enum AxisPort { GAIN, ALPHA, VMAX, KF, PERIOD, DAC_ZERO, STALL, GLITCH_A, GLITCH
 constexpr int DRIVE_PORT_BASE = TOP_COUNT + MAX_AXES * AXIS_COUNT;
 constexpr int PORT_COUNT = DRIVE_PORT_BASE + MAX_AXES * DRIVE_PORT_COUNT;
 
-struct Axis {
-	Circuit post;  // the accel/decel circuit after the K3701 (post placement)
-	K3702 ctrl;
-	Encoder enc;
-	Drive plant;
-	PlantInputs in;
-	uint64_t max_abs_error = 0;
-	uint32_t pulses_pos = 0, pulses_neg = 0;
-};
-
 // Where the accel/decel circuit is (k37.hdl.chipset.map.Accel): before the K3701, one per
 // axis after it, or none.
 enum class Placement { NONE, PRE, POST };
 
-struct Machine {
-	const int axes;
+struct Machine : Axes {
 	const Placement placement;
 	const bool accel_pre, accel_post;
 	Feed feed;
 	Decel decel;
 	Circuit accel;  // before the K3701 (pre placement)
 	K3701 interp;
-	Axis axis[MAX_AXES];
 	uint64_t addr = 0, w_data = 0;
 	bool w_stb = false, r_stb = false;
 	unsigned read_cs = 0;
@@ -72,7 +56,6 @@ struct Machine {
 	bool strobed = false;  // a bank holds a strobe (committed or refused) of the last edge
 	uint32_t fp_total = 0;
 	uint64_t cycle = 0, skipped = 0;
-	bool drives = false;  // an axis has a torque or two-mass drive (set_drive)
 	// Samples of some ports at every multiple of `every` cycles (k37e_record): each row the
 	// cycle and the ports' values; a skip's stretch ends at the next sample.
 	std::vector<int> record_ports;
@@ -83,7 +66,7 @@ struct Machine {
 	// `fa_axes`: bit k set if axis k's circuit has an addition clock of its own.
 	Machine(int chip_axes, Placement where, const int (&shapes)[1 + MAX_AXES],
 	        const unsigned (&bits)[1 + MAX_AXES], unsigned fa_axes)
-	    : axes(chip_axes), placement(where), accel_pre(where == Placement::PRE),
+	    : Axes(chip_axes), placement(where), accel_pre(where == Placement::PRE),
 	      accel_post(where == Placement::POST) {
 		accel.init(shapes[0], bits[0], false);
 		for (int k = 0; k < MAX_AXES; k++)
@@ -151,7 +134,10 @@ struct Machine {
 			Axis &a = axis[k];
 			int com = command(k), fb = int(a.enc.fb_pos) - int(a.enc.fb_neg);
 			if (com || fb || strobed) {
+				uint64_t dac = a.ctrl.dac;
 				a.ctrl.fall(com, fb);
+				if (a.ctrl.dac != dac)  // the plant's input changes
+					forget(k, dac);
 				uint64_t magnitude = uint64_t(a.ctrl.error < 0 ? -a.ctrl.error : a.ctrl.error);
 				a.max_abs_error = std::max(a.max_abs_error, magnitude);
 			}
@@ -202,7 +188,8 @@ struct Machine {
 		for (int k = 0; k < axes; k++) {
 			Axis &a = axis[k];
 			a.enc.rise(a.plant.lines());
-			a.plant.rise(a.in, a.ctrl.dac, command(k));
+			if (!coast(k, command(k)))
+				a.plant.rise(a.in, a.ctrl.dac, command(k));
 			a.pulses_pos += steps(k) > 0;
 			a.pulses_neg += steps(k) < 0;
 		}
@@ -350,135 +337,9 @@ struct Machine {
 		d.phase = uint64_t(total) & low_bits(DIVIDER_WIDTH);
 	}
 
-	// Step the plants and the encoder interfaces alone for at most h cycles (the plants' D/A
-	// words and inputs held, no command pulse), up to and including the first cycle in which
-	// an encoder interface's filter passes a change; the cycles run. The plants in pieces,
-	// exactly (lag.h, as the compiled RTL backend's skips step them), each ending at a count
-	// change; over each piece the encoders see the lines it started with, their filter
-	// streaks advanced in closed form (Encoder::advance); the cycle in which a filter passes a
-	// change runs the encoders' whole edge (its count pulse ends the stretch).
-	uint64_t advance_plants(uint64_t h) {
-		uint64_t done = 0;
-		while (done < h) {
-			uint64_t piece = h - done;
-			Lines in[MAX_AXES];
-			for (int i = 0; i < axes; i++) {
-				in[i] = axis[i].plant.lines();
-				piece = std::min(piece, axis[i].enc.steady_cycles(in[i]));
-			}
-			if (piece == 0) {
-				for (int i = 0; i < axes; i++)
-					axis[i].enc.rise(in[i]);
-				return done + run_plants(1);
-			}
-			uint64_t k = run_plants(piece);
-			for (int i = 0; i < axes; i++)
-				axis[i].enc.advance(in[i], k);
-			done += k;
-		}
-		return done;
-	}
-	// Run the plants alone for at most n cycles, up to and including the first cycle that
-	// changes a count; the cycles run. The torque and two-mass drives stepped; first-order
-	// plants with an update period held between updates (lag.h, advance_held); else stepped
-	// cycle by cycle, or in pieces in closed form (lag.h, advance).
-	uint64_t run_plants(uint64_t n) {
-		if (drives)
-			return advance_drives(n);
-		for (int i = 0; i < axes; i++)
-			if (!axis[i].plant.every_cycle(axis[i].in))
-				return hold_plants(n);
-		return n <= STEPPED_PIECE ? step_plants(n) : lag_plants(n);
-	}
-	// Pieces of at most this many cycles are stepped cycle by cycle (Plant::rise): cheaper
-	// than the closed forms' set-up over a few cycles, and the same update.
-	static constexpr uint64_t STEPPED_PIECE = 16;
-	// run_plants of plants updated every cycle, cycle by cycle.
-	uint64_t step_plants(uint64_t n) { return axes == 3 ? step_plants<3>(n) : step_plants<2>(n); }
-	template<int N>
-	uint64_t step_plants(uint64_t n) {
-		Plant p[N];
-		int64_t vc[N];
-		for (int i = 0; i < N; i++) {
-			p[i] = axis[i].plant;
-			vc[i] = Plant::command(axis[i].in, axis[i].ctrl.dac, 0);
-		}
-		uint64_t j = 0;
-		for (bool crossed = false; j < n && !crossed;) {
-			j++;
-			for (int i = 0; i < N; i++) {
-				uint64_t before = p[i].before + uint64_t(p[i].velocity);
-				p[i].before = before;
-				p[i].velocity = p[i].next_velocity(axis[i].in, vc[i]);
-				crossed |= (before ^ (before + uint64_t(p[i].velocity))) >> FRAC_BITS != 0;
-			}
-		}
-		for (int i = 0; i < N; i++)
-			static_cast<Plant &>(axis[i].plant) = p[i];
-		return j;
-	}
-	uint64_t lag_plants(uint64_t n) {
-		k37lag::Lag lags[MAX_AXES] = {lag(axis[0]), lag(axis[1]), lag(axis[2])};
-		int64_t steps[MAX_AXES];
-		bool crossed;
-		uint64_t k = k37lag::advance(lags, size_t(axes), steps, n, crossed);
-		for (int i = 0; i < axes; i++)
-			take(axis[i].plant, lags[i]);
-		return k;
-	}
-	// A plant's registers from the state lag.h advanced it to.
-	static void take(Plant &p, const k37lag::Lag &lag) {
-		p.velocity = lag.v;
-		p.before = lag.position - uint64_t(lag.v);
-		p.phase = lag.phase;
-		if (!lag.pending)
-			p.ff = 0;
-	}
-	// run_plants of first-order plants with an update period.
-	uint64_t hold_plants(uint64_t n) { return axes == 3 ? hold_plants<3>(n) : hold_plants<2>(n); }
-	template<int N>
-	uint64_t hold_plants(uint64_t n) {
-		k37lag::Lag lags[N];
-		for (int i = 0; i < N; i++) {
-			const Axis &a = axis[i];
-			lags[i] = lag(a);
-			int64_t next = a.plant.ff ? Plant::command(a.in, a.ctrl.dac, a.plant.ff) : lags[i].vc;
-			lags[i].hold(a.in.period, a.plant.phase, next);
-		}
-		bool crossed;
-		uint64_t k = k37lag::advance_held(lags, size_t(N), n, crossed);
-		for (int i = 0; i < N; i++)
-			take(axis[i].plant, lags[i]);
-		return k;
-	}
-	// run_plants with a torque or two-mass drive (drives.h).
-	uint64_t advance_drives(uint64_t h) {
-		Drive *plants[MAX_AXES];
-		const PlantInputs *ins[MAX_AXES];
-		uint64_t dacs[MAX_AXES];
-		for (int i = 0; i < axes; i++) {
-			plants[i] = &axis[i].plant;
-			ins[i] = &axis[i].in;
-			dacs[i] = axis[i].ctrl.dac;
-		}
-		return k37e::advance_drives(plants, ins, dacs, axes, h);
-	}
-	static k37lag::Lag lag(const Axis &a) {
-		const Plant &p = a.plant;
-		return k37lag::Lag(p.velocity, Plant::command(a.in, a.ctrl.dac, 0), int64_t(a.in.alpha),
-		                   p.before + uint64_t(p.velocity), a.in.stall, VC_BITS, ALPHA_BITS,
-		                   FRAC_BITS);
-	}
-
 	// Run up to n cycles, skipping where the machine is quiet, until `port` reads non-zero
 	// (machine.cc).
 	uint64_t run(uint64_t n, int port);
-
-	// Axis k's drive (a DriveKind).
-	void set_drive(int k, int kind) {
-		axis[k].plant.kind = DriveKind(kind);
-		drives |= kind != int(DriveKind::FIRST_ORDER);
-	}
 
 	// A port's value, and a port written (the port numbers of constants.h, the drives' after
 	// every axis's); defined in machine.cc.

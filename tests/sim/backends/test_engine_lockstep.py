@@ -157,8 +157,8 @@ def test_lockstep_finds_no_difference_with_every_circuit_and_addition_clock(
     run_in_lockstep(job, lockstep, faults)
 
 
-@pytest.mark.parametrize(("update_cycles", "kf", "seed"), [(2, 0.0, 11), (37, 0.8, 12),
-                                                           (256, 0.0, 13)])
+@pytest.mark.parametrize(("update_cycles", "kf", "seed"), [(1, 0.8, 14), (2, 0.0, 11),
+                                                           (37, 0.8, 12), (256, 0.0, 13)])
 def test_lockstep_finds_no_difference_with_a_plant_update_period(update_cycles, kf, seed,
                                                                  random_moves, lockstep):
     """The velocity held between updates, the feedforward summed over them."""

@@ -1,0 +1,265 @@
+// The engine's axes (each an accel/decel circuit after the K3701, a K3702, an encoder interface
+// and a servo drive, as k37.sim.machine.system.System wires them) and how they run alone
+// between the chips' events: the drives and the encoder interfaces' filter streaks, up to the
+// cycle in which a filter passes a change.
+//
+// First-order plants updated every cycle (the papers' plant) run lazily: each keeps its
+// registers as they were some cycles `behind` the present, and the cycle of its next count
+// change, looked ahead once from them (lag.h) while its inputs hold. A stretch that ends
+// before that cycle costs the plant nothing; the registers are brought to the present
+// (sync) only where the plant's inputs change (its K3702's D/A word, a feedforward pulse, a
+// port written), or at the count change itself (the state looked ahead is taken).
+// Plants with an update period and the torque and two-mass drives are run at every stretch.
+
+#pragma once
+
+#include <algorithm>
+
+#include "blocks.h"
+#include "drives.h"
+#include "lag.h"
+
+namespace k37e {
+
+constexpr int MAX_AXES = 3;
+
+struct Axis {
+	Circuit post;  // the accel/decel circuit after the K3701 (post placement)
+	K3702 ctrl;
+	Encoder enc;
+	Drive plant;
+	PlantInputs in;
+	uint64_t max_abs_error = 0;
+	uint32_t pulses_pos = 0, pulses_neg = 0;
+};
+
+struct Axes {
+	const int axes;
+	Axis axis[MAX_AXES];
+	bool drives = false;  // an axis has a torque or two-mass drive (set_drive)
+
+	// A lazily run plant's next count change: `known` while its inputs hold since it was
+	// looked ahead; its registers are `behind` cycles before the present; `in` cycles from
+	// the present up to and including the cycle of the change, after which it is `at`. Before
+	// it is looked ahead, a bound: `clear` cycles from the present keep the count (`bounded`).
+	struct Ahead {
+		bool known = false, bounded = false;
+		uint64_t behind = 0, in = 0, clear = 0;
+		k37lag::Lag at;
+	};
+	Ahead ahead[MAX_AXES];
+	// How far a plant is looked ahead for its next count change (one that does not come
+	// within it ends the look at its end).
+	static constexpr uint64_t LOOK = uint64_t(1) << 40;
+
+	explicit Axes(int n) : axes(n) {}
+
+	// Axis k's drive (a DriveKind).
+	void set_drive(int k, int kind) {
+		sync_all();
+		axis[k].plant.kind = DriveKind(kind);
+		drives |= kind != int(DriveKind::FIRST_ORDER);
+	}
+
+	// Step the plants and the encoder interfaces alone for at most h cycles (the plants' D/A
+	// words and inputs held, no command pulse), up to and including the first cycle in which
+	// an encoder interface's filter passes a change; the cycles run. The plants in pieces,
+	// exactly (lag.h, as the compiled RTL backend's skips step them), each ending at a count
+	// change; over each piece the encoders see the lines it started with, their filter
+	// streaks advanced in closed form (Encoder::advance); the cycle in which a filter passes a
+	// change runs the encoders' whole edge (its count pulse ends the stretch).
+	uint64_t advance_plants(uint64_t h) {
+		uint64_t done = 0;
+		while (done < h) {
+			uint64_t piece = h - done;
+			Lines in[MAX_AXES];
+			for (int i = 0; i < axes; i++) {
+				in[i] = axis[i].plant.lines();
+				piece = std::min(piece, axis[i].enc.steady_cycles(in[i]));
+			}
+			if (piece == 0) {
+				for (int i = 0; i < axes; i++)
+					axis[i].enc.rise(in[i]);
+				return done + run_plants(1);
+			}
+			uint64_t k = run_plants(piece);
+			for (int i = 0; i < axes; i++)
+				axis[i].enc.advance(in[i], k);
+			done += k;
+		}
+		return done;
+	}
+	// Run the plants alone for at most n cycles, up to and including the first cycle that
+	// changes a count; the cycles run. The torque and two-mass drives stepped; first-order
+	// plants with an update period held between updates (lag.h, advance_held); else lazily.
+	uint64_t run_plants(uint64_t n) {
+		if (drives)
+			return advance_drives(n);
+		for (int i = 0; i < axes; i++)
+			if (!axis[i].plant.every_cycle(axis[i].in))
+				return hold_plants(n);
+		return lazy_plants(n);
+	}
+	// run_plants of plants updated every cycle: each bounded, or looked ahead to its next
+	// count change where the bound is short of the cycles, then left behind, or brought to
+	// the change if it comes first.
+	uint64_t lazy_plants(uint64_t n) {
+		for (int i = 0; i < axes; i++) {
+			Ahead &a = ahead[i];
+			if (!a.known) {
+				if (!a.bounded) {
+					a.clear = clear_cycles(i);
+					a.bounded = true;
+				}
+				if (a.clear >= n)
+					continue;
+				look(i);
+			}
+			n = std::min(n, a.in);
+		}
+		for (int i = 0; i < axes; i++) {
+			Ahead &a = ahead[i];
+			a.behind += n;
+			if (!a.known) {
+				a.clear -= n;
+			} else if ((a.in -= n) == 0) {
+				take(axis[i].plant, a.at);
+				a.behind = 0;
+				a.known = a.bounded = false;
+			}
+		}
+		return n;
+	}
+	// The cycles from plant i's registers (not behind) that surely keep its count: its
+	// velocity moves from where it is towards its command and lands there (no overshoot,
+	// alpha < 2^ALPHA_BITS), so the position moves no faster than the larger of the two.
+	uint64_t clear_cycles(int i) const {
+		const Axis &x = axis[i];
+		int64_t v = x.plant.velocity, target = x.in.stall ? 0 : Plant::command(x.in, x.ctrl.dac, 0);
+		int64_t up = std::max(v, target), down = std::min(v, target);
+		uint64_t offset = (x.plant.before + uint64_t(v)) & low_bits(FRAC_BITS), clear = UINT64_MAX;
+		if (up > 0)
+			clear = (low_bits(FRAC_BITS) - offset) / uint64_t(up);
+		if (down < 0)
+			clear = std::min(clear, offset / uint64_t(-down));
+		return clear;
+	}
+	// Look plant i ahead from its registers to its next count change.
+	void look(int i) {
+		Ahead &a = ahead[i];
+		k37lag::Lag l = lag(axis[i], axis[i].ctrl.dac);
+		int64_t scratch;
+		bool crossed;
+		uint64_t k = k37lag::advance(&l, 1, &scratch, LOOK, crossed);
+		a.at = l;
+		a.in = k - a.behind;  // the change comes after the cycles it is behind
+		a.known = true;
+	}
+	// Bring plant i's registers to the present, `dac` its D/A word over the cycles behind.
+	void sync(int i, uint64_t dac) {
+		Ahead &a = ahead[i];
+		if (!a.behind)
+			return;
+		Plant &p = axis[i].plant;
+		if (a.behind <= STEPPED_PIECE) {
+			int64_t vc = Plant::command(axis[i].in, dac, 0);
+			for (uint64_t j = 0; j < a.behind; j++) {
+				p.before += uint64_t(p.velocity);
+				p.velocity = p.next_velocity(axis[i].in, vc);
+			}
+		} else {
+			k37lag::Lag l = lag(axis[i], dac);
+			int64_t scratch;
+			bool crossed;
+			k37lag::advance(&l, 1, &scratch, a.behind, crossed);
+			take(p, l);
+		}
+		a.behind = 0;
+	}
+	void sync_all() {
+		for (int i = 0; i < axes; i++)
+			sync(i, axis[i].ctrl.dac);
+	}
+	// Plant i's inputs change: its registers are brought to the present (`dac` its D/A word
+	// over the cycles behind) and its next count change is looked ahead again.
+	void forget(int i, uint64_t dac) {
+		sync(i, dac);
+		ahead[i].known = ahead[i].bounded = false;
+	}
+	// Plant i's edge as the whole machine steps, with command pulse `com`, where it is
+	// looked ahead and the pulse changes nothing of its update (no feedforward): it stays
+	// behind one cycle more, or takes the count change that comes in it; true if so.
+	bool coast(int i, int com) {
+		Ahead &a = ahead[i];
+		if (!a.known && !(a.bounded && a.clear)) {  // stepped: brought to the present first
+			sync(i, axis[i].ctrl.dac);
+			a.bounded = false;
+			return false;
+		}
+		if (com && axis[i].in.kf) {
+			forget(i, axis[i].ctrl.dac);
+			return false;
+		}
+		if (!a.known) {
+			a.clear--;
+			a.behind++;
+		} else if (--a.in == 0) {
+			take(axis[i].plant, a.at);
+			a.behind = 0;
+			a.known = a.bounded = false;
+		} else {
+			a.behind++;
+		}
+		return true;
+	}
+
+	// Pieces of at most this many cycles are stepped cycle by cycle (Plant::rise): cheaper
+	// than the closed forms' set-up over a few cycles, and the same update.
+	static constexpr uint64_t STEPPED_PIECE = 16;
+	// A plant's registers from the state lag.h advanced it to.
+	static void take(Plant &p, const k37lag::Lag &lag) {
+		p.velocity = lag.v;
+		p.before = lag.position - uint64_t(lag.v);
+		p.phase = lag.phase;
+		if (!lag.pending)
+			p.ff = 0;
+	}
+	// run_plants of first-order plants with an update period.
+	uint64_t hold_plants(uint64_t n) { return axes == 3 ? hold_plants<3>(n) : hold_plants<2>(n); }
+	template<int N>
+	uint64_t hold_plants(uint64_t n) {
+		k37lag::Lag lags[N];
+		for (int i = 0; i < N; i++) {
+			const Axis &a = axis[i];
+			lags[i] = lag(a, a.ctrl.dac);
+			int64_t next = a.plant.ff ? Plant::command(a.in, a.ctrl.dac, a.plant.ff) : lags[i].vc;
+			lags[i].hold(a.in.period, a.plant.phase, next);
+		}
+		bool crossed;
+		uint64_t k = k37lag::advance_held(lags, size_t(N), n, crossed);
+		for (int i = 0; i < N; i++)
+			take(axis[i].plant, lags[i]);
+		return k;
+	}
+	// run_plants with a torque or two-mass drive (drives.h).
+	uint64_t advance_drives(uint64_t h) {
+		Drive *plants[MAX_AXES];
+		const PlantInputs *ins[MAX_AXES];
+		uint64_t dacs[MAX_AXES];
+		for (int i = 0; i < axes; i++) {
+			plants[i] = &axis[i].plant;
+			ins[i] = &axis[i].in;
+			dacs[i] = axis[i].ctrl.dac;
+		}
+		return k37e::advance_drives(plants, ins, dacs, axes, h);
+	}
+	// Axis a's first-order plant as lag.h advances it, at D/A word `dac`.
+	static k37lag::Lag lag(const Axis &a, uint64_t dac) {
+		const Plant &p = a.plant;
+		return k37lag::Lag(p.velocity, Plant::command(a.in, dac, 0), int64_t(a.in.alpha),
+		                   p.before + uint64_t(p.velocity), a.in.stall, VC_BITS, ALPHA_BITS,
+		                   FRAC_BITS);
+	}
+};
+
+}  // namespace k37e
