@@ -200,6 +200,24 @@ struct Lag {
 		position = low + uint64_t(offset_after(s, j));
 		v += s * int64_t(j);
 	}
+	// k cycles known to keep the count (advance's pieces, without looking for a change).
+	void run(uint64_t k) {
+		while (k) {
+			if (steady()) {
+				position += uint64_t(v) * k;
+				return;
+			}
+			int64_t s = ramp_step();
+			if (s == 0) {  // the update lands the velocity
+				take(next_v());
+				k--;
+				continue;
+			}
+			uint64_t j = std::min(k, ramp_cycles(s));
+			take_ramp(s, j);
+			k -= j;
+		}
+	}
 };
 
 // Step `n` plants for up to `limit` cycles, up to and including the first cycle that changes

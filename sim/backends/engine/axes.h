@@ -48,6 +48,20 @@ struct Axes {
 		k37lag::Lag at;
 	};
 	Ahead ahead[MAX_AXES];
+	// Cycles from the present in which nothing of the axes changes (no plant's count, every
+	// encoder interface at rest): advance_plants only counts them, `owed` to each plant's
+	// Ahead until it is next used (pay).
+	uint64_t calm = 0, owed = 0;
+	void pay() {
+		if (!owed)
+			return;
+		for (int i = 0; i < axes; i++) {
+			Ahead &a = ahead[i];
+			a.behind += owed;
+			(a.known ? a.in : a.clear) -= owed;
+		}
+		owed = 0;
+	}
 	// How far a plant is looked ahead for its next count change (one that does not come
 	// within it ends the look at its end).
 	static constexpr uint64_t LOOK = uint64_t(1) << 40;
@@ -69,6 +83,11 @@ struct Axes {
 	// streaks advanced in closed form (Encoder::advance); the cycle in which a filter passes a
 	// change runs the encoders' whole edge (its count pulse ends the stretch).
 	uint64_t advance_plants(uint64_t h) {
+		if (h <= calm) {  // nothing of the axes changes: only counted
+			calm -= h;
+			owed += h;
+			return h;
+		}
 		uint64_t done = 0;
 		while (done < h) {
 			uint64_t piece = h - done;
@@ -80,19 +99,24 @@ struct Axes {
 			if (piece == 0) {
 				for (int i = 0; i < axes; i++)
 					axis[i].enc.rise(in[i]);
-				return done + run_plants(1);
+				done += run_plants(1);
+				break;
 			}
 			uint64_t k = run_plants(piece);
 			for (int i = 0; i < axes; i++)
 				axis[i].enc.advance(in[i], k);
 			done += k;
 		}
+		for (int i = 0; i < axes && calm; i++)
+			if (!axis[i].enc.rests(axis[i].plant.lines()))
+				calm = 0;
 		return done;
 	}
 	// Run the plants alone for at most n cycles, up to and including the first cycle that
 	// changes a count; the cycles run. The torque and two-mass drives stepped; first-order
 	// plants with an update period held between updates (lag.h, advance_held); else lazily.
 	uint64_t run_plants(uint64_t n) {
+		calm = 0;
 		if (drives)
 			return advance_drives(n);
 		for (int i = 0; i < axes; i++)
@@ -104,6 +128,7 @@ struct Axes {
 	// count change where the bound is short of the cycles, then left behind, or brought to
 	// the change if it comes first.
 	uint64_t lazy_plants(uint64_t n) {
+		pay();
 		for (int i = 0; i < axes; i++) {
 			Ahead &a = ahead[i];
 			if (!a.known) {
@@ -128,6 +153,11 @@ struct Axes {
 				a.known = a.bounded = false;
 			}
 		}
+		calm = UINT64_MAX;  // the cycles before any plant's count can change
+		for (int i = 0; i < axes; i++) {
+			const Ahead &a = ahead[i];
+			calm = std::min(calm, a.known ? a.in - 1 : a.bounded ? a.clear : 0);
+		}
 		return n;
 	}
 	// The cycles from plant i's registers (not behind) that surely keep its count: its
@@ -144,19 +174,31 @@ struct Axes {
 			clear = std::min(clear, offset / uint64_t(-down));
 		return clear;
 	}
-	// Look plant i ahead from its registers to its next count change.
+	// Look plant i ahead to its next count change, from the present (its registers brought
+	// there first): stepped over the first cycles (the bound ends near the change), then in
+	// closed form.
 	void look(int i) {
 		Ahead &a = ahead[i];
+		sync(i, axis[i].ctrl.dac);
 		k37lag::Lag l = lag(axis[i], axis[i].ctrl.dac);
-		int64_t scratch;
-		bool crossed;
-		uint64_t k = k37lag::advance(&l, 1, &scratch, LOOK, crossed);
+		uint64_t k = 0;
+		bool crossed = false;
+		while (k < STEPPED_LOOK && !crossed) {
+			l.take(l.next_v());
+			crossed = l.left_count();
+			k++;
+		}
+		if (!crossed) {
+			int64_t scratch;
+			k += k37lag::advance(&l, 1, &scratch, LOOK, crossed);
+		}
 		a.at = l;
-		a.in = k - a.behind;  // the change comes after the cycles it is behind
+		a.in = k;
 		a.known = true;
 	}
 	// Bring plant i's registers to the present, `dac` its D/A word over the cycles behind.
 	void sync(int i, uint64_t dac) {
+		pay();
 		Ahead &a = ahead[i];
 		if (!a.behind)
 			return;
@@ -169,9 +211,7 @@ struct Axes {
 			}
 		} else {
 			k37lag::Lag l = lag(axis[i], dac);
-			int64_t scratch;
-			bool crossed;
-			k37lag::advance(&l, 1, &scratch, a.behind, crossed);
+			l.run(a.behind);
 			take(p, l);
 		}
 		a.behind = 0;
@@ -184,12 +224,15 @@ struct Axes {
 	// over the cycles behind) and its next count change is looked ahead again.
 	void forget(int i, uint64_t dac) {
 		sync(i, dac);
+		calm = 0;
 		ahead[i].known = ahead[i].bounded = false;
 	}
 	// Plant i's edge as the whole machine steps, with command pulse `com`, where it is
 	// looked ahead and the pulse changes nothing of its update (no feedforward): it stays
 	// behind one cycle more, or takes the count change that comes in it; true if so.
 	bool coast(int i, int com) {
+		pay();
+		calm = 0;
 		Ahead &a = ahead[i];
 		if (!a.known && !(a.bounded && a.clear)) {  // stepped: brought to the present first
 			sync(i, axis[i].ctrl.dac);
@@ -216,6 +259,8 @@ struct Axes {
 	// Pieces of at most this many cycles are stepped cycle by cycle (Plant::rise): cheaper
 	// than the closed forms' set-up over a few cycles, and the same update.
 	static constexpr uint64_t STEPPED_PIECE = 16;
+	// A look ahead steps this many cycles before it goes on in closed form.
+	static constexpr uint64_t STEPPED_LOOK = 32;
 	// A plant's registers from the state lag.h advanced it to.
 	static void take(Plant &p, const k37lag::Lag &lag) {
 		p.velocity = lag.v;

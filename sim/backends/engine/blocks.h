@@ -378,6 +378,12 @@ struct Encoder {
 		}
 		return cycles;
 	}
+	// Whether the lines `in` (complementary, no bank strobe, started) leave the interface as
+	// it is: each at its filtered level, as received last, with no streak.
+	bool rests(const Lines &in) const {
+		return in.a == line[0].level && in.b == line[1].level && line[0].held == in.a &&
+		       line[1].held == in.b && !line[0].run && !line[1].run;
+	}
 	void advance(const Lines &in, uint64_t j) {
 		for (int i = 0; i < 2; i++) {
 			EncoderLine &l = line[i];

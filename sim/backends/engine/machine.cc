@@ -97,7 +97,7 @@ uint64_t Machine::run(uint64_t n, int port) {
 	uint64_t done = 0, h = 0;
 	bool known = false;             // h is the horizon of the machine as it is
 	bool settled = axes_settled();  // and so the axes stay through the run (inputs held)
-	bool quiet = settled && chips_quiet() && !pulsed();
+	bool quiet = settled && chips_alone() && !pulsed();
 	// The stretch starts with a falling edge; it is the last (the port reads non-zero already).
 	bool fell = false, last = port >= 0 && get(port);
 	while (done < n) {
@@ -107,7 +107,7 @@ uint64_t Machine::run(uint64_t n, int port) {
 			if (port >= 0 && get(port))
 				return done;
 			settled = settled || axes_settled();
-			quiet = settled && chips_quiet() && !pulsed();
+			quiet = settled && chips_alone() && !pulsed();
 			known = false;
 			continue;
 		}
@@ -128,7 +128,7 @@ uint64_t Machine::run(uint64_t n, int port) {
 		done += k;
 		if (last || (chips && port >= 0 && get(port)))
 			return done;
-		quiet = !chips || chips_quiet();  // the chips change only at an event
+		quiet = !chips || chips_alone();  // the chips change only at an event
 		known = !chips;
 		h -= known ? k : 0;
 		fell = pulsed() && quiet && done < n;

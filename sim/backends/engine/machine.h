@@ -6,9 +6,10 @@
 // Amaranth's simulator clocks it); and its idle skipping: while nothing but the free-running
 // state (the dividers, the rate multiplier's counter, the accel/decel accumulator, the K3701's
 // latency or setup count), the plants and the encoder filters' streaks change, cycles are
-// advanced in closed form up to the next event, the plants stepped alone, exactly as
+// advanced in closed form up to the next event, the plants run alone (axes.h), exactly as
 // stepping the whole machine would; the chips' events that give the axes no command pulse
-// and the K3702s' counts of encoder pulses are taken there alone (Machine::run).
+// (an accel/decel output pulse before the K3701 among them) and the K3702s' counts of
+// encoder pulses are taken there alone (Machine::run).
 
 #pragma once
 
@@ -228,21 +229,18 @@ struct Machine : Axes {
 		}
 	}
 
-	// Whether the cycles to come change nothing but the free-running state, the plants and
-	// the encoder interfaces' filter streaks until an event of theirs (horizon, or a filter
-	// passing a change): the chips quiet, no count pulse and the axes settled.
-	bool quiet_now() const { return chips_quiet() && !pulsed() && axes_settled(); }
-	// No bus cycle, no bank strobe, no step pulse or accel/decel output pulse, and the K3701
-	// idle, counting down, or waiting for an FP it does not hold.
-	bool chips_quiet() const {
+	// Whether the chips' next edge is theirs alone (the axes see no change of theirs): no bus
+	// cycle, no bank strobe, no step pulse and the accel/decel circuits after the K3701 quiet.
+	// With no count pulse and the axes settled, the cycles to come change nothing but the
+	// free-running state, the plants and the encoder interfaces' filter streaks until an
+	// event of theirs (horizon, or a filter passing a change).
+	bool chips_alone() const {
 		if (w_stb || r_stb || strobed)
 			return false;
 		for (int k = 0; k < axes; k++)
-			if (steps(k))
+			if (steps(k) || (accel_post && !axis[k].post.quiet()))
 				return false;
-		if (interp.phase == K3701::Phase::RUN && interp.count == 0 && interp.held)
-			return false;
-		return circuits_quiet();
+		return true;
 	}
 	// A count pulse of an encoder interface, for its K3702's next falling edge.
 	bool pulsed() const {
@@ -279,8 +277,13 @@ struct Machine : Axes {
 
 	// The most cycles that can run before an event of the free-running state: a feed pulse
 	// through the open decel gate, an accel/decel carry, the K3701's step or the end of its
-	// setup (UINT64_MAX: none comes).
+	// setup (UINT64_MAX: none comes); 0 where the chips' next edge is itself an event.
 	uint64_t horizon() const {
+		// The chips' next edge is an event: the circuit before the K3701 not quiet (an
+		// output pulse pending, a linear stage draining), or the K3701 holding an FP.
+		if ((accel_pre && !accel.quiet()) ||
+		    (interp.phase == K3701::Phase::RUN && interp.count == 0 && interp.held))
+			return 0;
 		uint64_t h = UINT64_MAX;
 		if (interp.phase == K3701::Phase::SETUP)
 			h = uint64_t(interp.setup_left - 1);
