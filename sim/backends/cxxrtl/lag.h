@@ -200,6 +200,18 @@ struct Lag {
 		position = low + uint64_t(offset_after(s, j));
 		v += s * int64_t(j);
 	}
+	// How many cycles surely keep the count: the velocity moves from v towards its target
+	// and lands there without overshoot (alpha < 2^alpha_bits), so the position moves no
+	// faster than the larger of the two (UINT64_MAX: both are 0).
+	uint64_t clear() const {
+		int64_t target = stall ? 0 : vc, up = std::max(v, target), down = std::min(v, target);
+		uint64_t offset = position - low, top = (uint64_t(1) << frac_bits) - 1, c = UINT64_MAX;
+		if (up > 0)
+			c = (top - offset) / uint64_t(up);
+		if (down < 0)
+			c = std::min(c, offset / uint64_t(-down));
+		return c;
+	}
 	// k cycles known to keep the count (advance's pieces, without looking for a change).
 	void run(uint64_t k) {
 		while (k) {

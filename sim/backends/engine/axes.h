@@ -160,30 +160,22 @@ struct Axes {
 		}
 		return n;
 	}
-	// The cycles from plant i's registers (not behind) that surely keep its count: its
-	// velocity moves from where it is towards its command and lands there (no overshoot,
-	// alpha < 2^ALPHA_BITS), so the position moves no faster than the larger of the two.
-	uint64_t clear_cycles(int i) const {
-		const Axis &x = axis[i];
-		int64_t v = x.plant.velocity, target = x.in.stall ? 0 : Plant::command(x.in, x.ctrl.dac, 0);
-		int64_t up = std::max(v, target), down = std::min(v, target);
-		uint64_t offset = (x.plant.before + uint64_t(v)) & low_bits(FRAC_BITS), clear = UINT64_MAX;
-		if (up > 0)
-			clear = (low_bits(FRAC_BITS) - offset) / uint64_t(up);
-		if (down < 0)
-			clear = std::min(clear, offset / uint64_t(-down));
-		return clear;
-	}
+	// The cycles from plant i's registers (not behind) that surely keep its count (Lag::clear).
+	uint64_t clear_cycles(int i) const { return lag(axis[i], axis[i].ctrl.dac).clear(); }
 	// Look plant i ahead to its next count change, from the present (its registers brought
-	// there first): stepped over the first cycles (the bound ends near the change), then in
-	// closed form.
+	// there first): jumped by its bound (the change comes after it, often just after), stepped
+	// over the next cycles, then in closed form.
 	void look(int i) {
 		Ahead &a = ahead[i];
 		sync(i, axis[i].ctrl.dac);
 		k37lag::Lag l = lag(axis[i], axis[i].ctrl.dac);
-		uint64_t k = 0;
+		uint64_t k = l.clear();
+		if (k < LOOK)
+			l.run(k);
+		else
+			k = 0;
 		bool crossed = false;
-		while (k < STEPPED_LOOK && !crossed) {
+		for (uint64_t j = 0; j < STEPPED_LOOK && !crossed; j++) {
 			l.take(l.next_v());
 			crossed = l.left_count();
 			k++;
@@ -259,8 +251,8 @@ struct Axes {
 	// Pieces of at most this many cycles are stepped cycle by cycle (Plant::rise): cheaper
 	// than the closed forms' set-up over a few cycles, and the same update.
 	static constexpr uint64_t STEPPED_PIECE = 16;
-	// A look ahead steps this many cycles before it goes on in closed form.
-	static constexpr uint64_t STEPPED_LOOK = 32;
+	// A look ahead steps this many cycles past its bound before it goes on in closed form.
+	static constexpr uint64_t STEPPED_LOOK = 16;
 	// A plant's registers from the state lag.h advanced it to.
 	static void take(Plant &p, const k37lag::Lag &lag) {
 		p.velocity = lag.v;
