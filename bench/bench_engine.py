@@ -1,7 +1,8 @@
 """The event-level engine against the compiled RTL backend, in one run.
 
 Run with ``pytest bench/bench_engine.py --benchmark-only -s``. Each job runs on both backends
-(built or loaded before the timing; the faster of ``ROUNDS`` runs for the short jobs), and
+(built or loaded before the timing; the fastest of ``ROUNDS`` runs, or of fewer where one
+takes more than a third of ``BUDGET``), and
 the reports must be equal (the fields of how a run was computed aside). Printed per job:
 machine seconds per wall second on each backend, the engine's speed-up, the cycles each
 evaluated (the rest skipped in closed form), the process CPU time (steadier than wall time on
@@ -18,6 +19,7 @@ K3701).
 
 from __future__ import annotations
 
+import statistics
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -39,6 +41,8 @@ PROGRAMS = ("square_mm.ngc", "grbl_style_2d.nc", "inch_r_arcs.ngc", "ngc_subrout
             "jscut_style.gcode", "pcbgcode_style_etch.tap", "partkam_style.ngc",
             "ngc_polar_bolt_circle.ngc")
 ROUNDS = 3
+#: Seconds of runs a job may take on one backend before it is timed by fewer runs.
+BUDGET = 30.0
 #: The plants' update period of the engine's held runs (servo ``update_cycles``).
 HELD = 64
 
@@ -51,11 +55,15 @@ def jobs() -> dict[str, Job]:
             "bench_cam pocket": cam_job()}
 
 
-def timed(job: Job, kind: str, rounds: int) -> tuple[dict, float, float]:
-    """The report of the fastest of ``rounds`` runs, its wall and CPU seconds."""
+def timed(job: Job, kind: str) -> tuple[dict, float, float]:
+    """The report of the fastest of ``ROUNDS`` runs (fewer where they would take more than
+    ``BUDGET`` seconds), its wall and CPU seconds."""
     backend = build_backend(job, kind)  # built (or loaded) outside the timing
     best = None
-    for _ in range(rounds):
+    start = time.perf_counter()
+    for _ in range(ROUNDS):
+        if best is not None and time.perf_counter() - start > BUDGET / ROUNDS:
+            break
         backend.reset()
         cpu = time.process_time()
         report = run_job(job, RunOptions(backend=kind), backend).report
@@ -99,12 +107,11 @@ def compare_all() -> list[str]:
             f"| plants stepped every cycle / engine CPU | engine, update_cycles {HELD}: "
             "x real time (CPU s) | contour error max, RMS (LSB): every cycle / held |",
             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    corpus: list[tuple[float, float]] = []  # (engine x real time, engine / cxxrtl)
+    demo_rate = 0.0
     for name, job in jobs().items():
-        runs = {}
-        short = job.program.moves and len(job.program.moves) < 20
-        for kind in ("cxxrtl", "engine"):
-            runs[kind] = timed(job, kind, ROUNDS if short else 1)
-        runs["held"] = timed(held(job), "engine", ROUNDS if short else 1)
+        runs = {kind: timed(job, kind) for kind in ("cxxrtl", "engine")}
+        runs["held"] = timed(held(job), "engine")
         (rtl, rtl_wall, rtl_cpu), (eng, eng_wall, eng_cpu) = runs["cxxrtl"], runs["engine"]
         hold, hold_wall, hold_cpu = runs["held"]
         assert ({k: v for k, v in rtl.items() if k not in HOW_FIELDS}
@@ -119,6 +126,15 @@ def compare_all() -> list[str]:
                     f"{hold['machine_seconds'] / hold_wall:,.0f} ({hold_cpu:.2f}) | "
                     f"{contour(eng)} / {contour(hold)} |")
         print(rows[-1], flush=True)
+        if name in PROGRAMS:
+            corpus.append((machine / eng_wall, rtl_wall / eng_wall))
+        if name == "demo":
+            demo_rate = eng["cycles"] / eng_wall
+    speeds, ratios = (sorted(column) for column in zip(*corpus, strict=True))
+    rows.append(f"\nthe corpus's {len(speeds)} programs on the engine: {speeds[0]:,.0f}x to "
+                f"{speeds[-1]:,.0f}x real time, median {statistics.median(speeds):,.0f}x; "
+                f"{ratios[0]:.1f} to {ratios[-1]:.1f} times the compiled RTL backend, median "
+                f"{statistics.median(ratios):.1f}; the demo at {demo_rate:.2e} cycles/s")
     return rows
 
 

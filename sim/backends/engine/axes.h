@@ -89,25 +89,33 @@ struct Axes {
 			return h;
 		}
 		uint64_t done = 0;
+		bool rest = true;  // every encoder interface rests on the lines of the last piece
 		while (done < h) {
 			uint64_t piece = h - done;
 			Lines in[MAX_AXES];
+			rest = true;
 			for (int i = 0; i < axes; i++) {
 				in[i] = axis[i].plant.lines();
-				piece = std::min(piece, axis[i].enc.steady_cycles(in[i]));
+				if (!axis[i].enc.rests(in[i])) {
+					rest = false;
+					piece = std::min(piece, axis[i].enc.steady_cycles(in[i]));
+				}
 			}
 			if (piece == 0) {
 				for (int i = 0; i < axes; i++)
 					axis[i].enc.rise(in[i]);
 				done += run_plants(1);
+				rest = false;
 				break;
 			}
 			uint64_t k = run_plants(piece);
-			for (int i = 0; i < axes; i++)
-				axis[i].enc.advance(in[i], k);
+			if (!rest)
+				for (int i = 0; i < axes; i++)
+					axis[i].enc.advance(in[i], k);
 			done += k;
 		}
-		for (int i = 0; i < axes && calm; i++)
+		// calm: no count changed in the last piece, so the lines are the piece's
+		for (int i = 0; i < axes && calm && !rest; i++)
 			if (!axis[i].enc.rests(axis[i].plant.lines()))
 				calm = 0;
 		return done;
