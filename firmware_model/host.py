@@ -191,21 +191,24 @@ class Host8085:
             self._routine_cache = (key, [])
         routines = self._routine_cache[1]
         owed = routines[-1][2] if routines else self._owed
-        while len(routines) < count:
-            idles, entry = [], 0
-            for k, t_states in enumerate((self.timing.isr_entry,
-                                          *[self.timing.in_byte] * reads, self.timing.isr_exit)):
-                owed += t_states * self.cycles_per_t
+        entry_t, in_t, exit_t = (t_states * self.cycles_per_t for t_states in (
+            self.timing.isr_entry, self.timing.in_byte, self.timing.isr_exit))
+        for _ in range(count - len(routines)):
+            owed += entry_t
+            entry = int(owed)
+            owed -= entry
+            idles = []
+            for _ in range(reads):  # an IN: its bus cycle is its last system cycle
+                owed += in_t
                 whole = int(owed)
                 owed -= whole
-                if k == 0:
-                    entry = whole
-                elif k <= reads:  # an IN: its bus cycle is its last system cycle
-                    idles.append(entry + max(whole - 1, 0))
-                    entry = 0
-                    after_reads = owed
-                else:
-                    idles.append(whole)
+                idles.append(entry + whole - 1 if whole else entry)
+                entry = 0
+            after_reads = owed
+            owed += exit_t
+            whole = int(owed)
+            owed -= whole
+            idles.append(whole)
             routines.append((tuple(idles), after_reads, owed))
         return routines[:count]
 

@@ -26,7 +26,7 @@ distances the furthest segment wins (a retraced stretch hands over to its next s
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from typing import overload
@@ -157,29 +157,67 @@ class Segment:
             which = np.cumsum(fresh) - 1
             return u[which], q[which]
         grid = self._grid
-        q = self.at(grid)
-        k = np.argmin(dist2(p[:, None, :], q[None]), axis=1)
+        grid_off2 = dist2(p[:, None, :], self._grid_points[None])
+        k = np.argmin(grid_off2, axis=1)
+        rows = np.arange(len(p))
         lo, hi = grid[np.maximum(k - 1, 0)], grid[np.minimum(k + 1, len(grid) - 1)]
-
-        def off2(u: np.ndarray) -> np.ndarray:
-            return dist2(self.at(u), p)
-
-        a, b = hi - _GOLD * (hi - lo), lo + _GOLD * (hi - lo)
+        off2 = self._off2(p)
+        gap = _GOLD * (hi - lo)
+        a, b = hi - gap, lo + gap
         fa, fb = off2(a), off2(b)
         for _ in range(GOLDEN_STEPS):
-            left = fa <= fb  # the minimum is in [lo, b]
+            left = fa <= fb  # the minimum is in [lo, b]: a is the new b, else b the new a
             hi, lo = np.where(left, b, hi), np.where(left, lo, a)
-            b, fb = np.where(left, a, b), np.where(left, fa, fb)
-            a = np.where(left, hi - _GOLD * (hi - lo), b)
-            b = np.where(left, b, lo + _GOLD * (hi - lo))
-            fresh = off2(np.where(left, a, b))
-            fa, fb = np.where(left, fresh, fb), np.where(left, fb, fresh)
-        u = np.where(fa <= fb, a, b)
+            gap = _GOLD * (hi - lo)
+            new = np.where(left, hi - gap, lo + gap)
+            a, b = np.where(left, new, b), np.where(left, a, new)
+            fresh = off2(new)
+            fa, fb = np.where(left, fresh, fb), np.where(left, fa, fresh)
+        nearer = fa <= fb
         # The ends and the grid's nearest point stand too (the minimum may sit on an end).
-        cands = np.column_stack([u, np.zeros(len(p)), np.ones(len(p)), grid[k]])
-        d2 = np.column_stack([off2(c) for c in cands.T])
-        u = cands[np.arange(len(p)), np.argmin(d2, axis=1)]
+        cands = np.column_stack([np.where(nearer, a, b), np.zeros(len(p)), np.ones(len(p)),
+                                 grid[k]])
+        d2 = np.column_stack([np.where(nearer, fa, fb), off2(cands[:, 1]), off2(cands[:, 2]),
+                              grid_off2[rows, k]])
+        u = cands[rows, np.argmin(d2, axis=1)]
         return u, self.at(u)
+
+    def _off2(self, p: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+        """The squared distance of :meth:`at` of parameters ``u`` to the rows ``p``, per row:
+        ``dist2(self.at(u), p)``, bit for bit (on a helix, each coordinate computed once)."""
+        if not isinstance(self.move, Arc):
+            return lambda u: dist2(self.at(u), p)
+        first, second, centre, radius, a0, sweep, cw = self.circle
+        turn, start, d = -sweep if cw else sweep, self.start, self.end - self.start
+        columns = [p[:, axis].copy() for axis in range(p.shape[1])]
+
+        def off2(u: np.ndarray) -> np.ndarray:
+            u = np.clip(u, 0.0, 1.0)
+            angle = a0 + turn * u
+            total = None
+            for axis, column in enumerate(columns):  # as arc_points, then dist2
+                if axis == first:
+                    diff = centre[..., 0] + radius * np.cos(angle)
+                elif axis == second:
+                    diff = centre[..., 1] + radius * np.sin(angle)
+                else:  # a helix rises evenly
+                    diff = u * d[axis]
+                    diff += start[axis]
+                diff -= column
+                diff *= diff
+                if total is None:
+                    total = diff
+                else:
+                    total += diff
+            assert total is not None
+            return total
+
+        return off2
+
+    @cached_property
+    def _grid_points(self) -> np.ndarray:
+        """:meth:`at` of :attr:`_grid`."""
+        return self.at(self._grid)
 
     @cached_property
     def _grid(self) -> np.ndarray:

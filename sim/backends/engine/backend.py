@@ -63,7 +63,7 @@ def load(path: str) -> ctypes.CDLL:
         "k37e_wait_polling": (c_int, [handle, c_int, u64, u64, u64, words, words,
                                       ctypes.c_size_t, words, u64, c_int, c_int, words, words]),
         "k37e_record": (None, [handle, ctypes.POINTER(c_int), ctypes.c_size_t, u64]),
-        "k37e_recorded": (ctypes.c_size_t, [handle, words, ctypes.c_size_t]),
+        "k37e_recorded": (ctypes.c_size_t, [handle, ctypes.c_void_p, ctypes.c_size_t]),
         "k37e_bus_write": (None, [handle, u64, u64]),
         "k37e_bus_read": (u64, [handle, u64]),
         "k37e_plant_ns": (ctypes.c_double, [u64]),
@@ -127,7 +127,9 @@ class EngineBackend(Backend):
         if missing:
             raise RuntimeError(f"the engine has no port {', '.join(missing)}")
         self._batches: dict[tuple[str, ...], tuple[list[Port], ctypes.Array, ctypes.Array]] = {}
-        self._recording: list[Port] | None = None  # the ports k37e_record samples
+        #: The ports k37e_record samples, and per column of its rows (the cycle, each port):
+        #: a signed port's width, its sign bit and 1 (0, 0 and 0 for an unsigned column).
+        self._recording: tuple[list[Port], np.ndarray, np.ndarray, np.ndarray] | None = None
         self._create()
 
     def _create(self) -> None:
@@ -213,20 +215,18 @@ class EngineBackend(Backend):
         indices = [self._index[port.name] for port in ports]
         self._lib.k37e_record(self._handle, (ctypes.c_int * len(ports))(*indices), len(ports),
                               every)
-        self._recording = ports
+        width = np.array([0, *(port.width if port.signed else 0 for port in ports)])
+        self._recording = (ports, width, np.maximum(width - 1, 0), np.sign(width))
         return True
 
     def recorded(self) -> np.ndarray:
         if self._recording is None:
             return super().recorded()
-        ports = self._recording
-        raw = np.zeros(self._lib.k37e_recorded(self._handle, None, 0), dtype=np.uint64)
-        self._lib.k37e_recorded(self._handle,
-                                raw.ctypes.data_as(ctypes.POINTER(ctypes.c_uint64)), len(raw))
-        rows = raw.astype(np.int64).reshape(-1, 1 + len(ports))
-        for column, port in enumerate(ports, start=1):
-            if port.signed:
-                rows[:, column] -= (rows[:, column] >> (port.width - 1) & 1) << port.width
+        ports, width, sign, signed = self._recording
+        rows = np.empty(self._lib.k37e_recorded(self._handle, None, 0), dtype=np.int64)
+        self._lib.k37e_recorded(self._handle, rows.ctypes.data, len(rows))
+        rows = rows.reshape(-1, 1 + len(ports))
+        rows -= (rows >> sign & signed) << width  # two's complement, signed columns
         return rows
 
     @property
