@@ -305,14 +305,14 @@ class Path:
         length): a line's own, an arc's tangent (a helix's with its rise), a curve's chord
         across a 1/256 of its parameter."""
         t = self.table
-        out = t.d[k].copy()
-        arcs = np.flatnonzero(t.kind[k] == _ARC)
+        out = t.d[k]
+        arcs = np.flatnonzero(t.arc[k]) if t.arcs else ()
         if len(arcs):  # d/du of _arc_points: the rise d, the plane's turn r (-sin, cos)
             j = k[arcs]
             angle = t.a0[j] + t.turn[j] * u[arcs]
             out[arcs, t.first[j]] = -t.turn[j] * t.radius[j] * np.sin(angle)
             out[arcs, t.second[j]] = t.turn[j] * t.radius[j] * np.cos(angle)
-        for segment in np.unique(k[t.kind[k] == _SAMPLED]):
+        for segment in np.unique(k[t.sampled[k]]) if t.sampleds else ():
             on = np.flatnonzero(k == segment)
             ahead = self.segments[segment].at(np.minimum(u[on] + 1 / 256, 1.0))
             out[on] = ahead - self.segments[segment].at(np.maximum(u[on] - 1 / 256, 0.0))
@@ -397,6 +397,9 @@ class _Table:
             (self.first[k], self.second[k], _), self.centre[k] = m.plane_axes, m.center
             self.radius[k], (self.a0[k], self.sweep[k]), self.cw[k] = m.radius, m.span, m.cw
             self.turn[k] = -self.sweep[k] if m.cw else self.sweep[k]
+        #: Each segment a plane arc, or one searched along; whether any is.
+        self.arc, self.sampled = self.kind == _ARC, self.kind == _SAMPLED
+        self.arcs, self.sampleds = bool(self.arc.any()), bool(self.sampled.any())
         planes = {(int(self.first[k]), int(self.second[k])) for k in arcs}
         #: The plane axes of every arc when they share one (else each row's own).
         self.plane = planes.pop() if len(planes) == 1 else None
@@ -451,6 +454,7 @@ class Tracker:
         step = np.empty_like(p)  # the move from the row before (the first: from the last sample)
         step[0] = p[0] - (p[0] if self.last is None else self.last)
         step[1:] = p[1:] - p[:-1]
+        travel = np.sqrt(sum_axes(step * step))  # the length of each row's move
         limit = np.asarray(limit)
         i, size, delayed = 0, 64, False
         while i < n:
@@ -459,7 +463,7 @@ class Tracker:
                 guess = limit[np.clip(np.arange(rows.start, rows.stop) - self.delay, 0, n - 1)] - 1
             else:
                 guess = np.full(rows.stop - rows.start, self.segment)
-            found, done = self._chunk(p[rows], step[rows], limit[rows], guess)
+            found, done = self._chunk(p[rows], step[rows], travel[rows], limit[rows], guess)
             if 2 * done <= rows.stop - rows.start:  # a poor guess: try the other one next
                 delayed = not delayed
             part = slice(i, i + done)
@@ -474,8 +478,8 @@ class Tracker:
             i += done
         return out
 
-    def _chunk(self, p: np.ndarray, step: np.ndarray, limit: np.ndarray, guess: np.ndarray
-               ) -> tuple[Foot, int]:
+    def _chunk(self, p: np.ndarray, step: np.ndarray, travel: np.ndarray, limit: np.ndarray,
+               guess: np.ndarray) -> tuple[Foot, int]:
         """The nearest points of a chunk of rows, from a ``guess`` of each row's previous
         segment, and how many of them are settled (at least one)."""
         c, n = self.segment, len(p)
@@ -487,7 +491,7 @@ class Tracker:
         if len(rows):
             _put(here, rows, self._here(guess[rows], p[rows], ones[rows]))
         error = np.concatenate([[self.error], here.distance[:-1]])
-        found = self._window(p, step, limit, here, error)
+        found = self._window(p, step, travel, limit, here, error)
         if n == 1:  # the first row's inputs are the tracker's own
             return found, 1
         everything, rounds = np.arange(n), 0
@@ -511,7 +515,7 @@ class Tracker:
                 after = after[changed[after]]
                 error[after] = here.distance[after - 1]
             rows = everything[changed]
-            _put(found, rows, self._window(p[rows], step[rows], limit[rows],
+            _put(found, rows, self._window(p[rows], step[rows], travel[rows], limit[rows],
                                            _take(here, rows), error[rows]))
 
     def _advance(self, p: np.ndarray, limit: np.ndarray, guess: np.ndarray, ones: np.ndarray
@@ -536,17 +540,16 @@ class Tracker:
         u, q = self.path.feet(segment, p, ones)
         return Foot(segment, u, q, np.sqrt(dist2(q, p)))
 
-    def _window(self, p: np.ndarray, step: np.ndarray, limit: np.ndarray, here: Foot,
-                error: np.ndarray) -> Foot:
+    def _window(self, p: np.ndarray, step: np.ndarray, travel: np.ndarray, limit: np.ndarray,
+                here: Foot, error: np.ndarray) -> Foot:
         """The nearest point of each row ``p`` in its window: from its segment (``here``,
         its nearest point there) forward as far as ``error`` (the previous row's distance),
-        twice its travel (the length of ``step``, its move since the previous row) and
+        twice its ``travel`` (the length of ``step``, its move since the previous row) and
         :data:`REACH` past that nearest point; where the row moved back along its segment
         (a next segment that turns back along it), at least as far past the segment's end
         as the row is from that end; never past ``limit``."""
         path = self.path
         c = here.segment
-        travel = np.sqrt(sum_axes(step * step))
         reach = path.ends[c] - (1 - here.param) * path.lengths[c] + error + 2 * travel + REACH
         direction = path.directions(c, here.param)
         back = sum_axes(step * direction) < -BACK * travel * np.sqrt(

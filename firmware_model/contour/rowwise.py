@@ -59,11 +59,14 @@ def line_foot(p: np.ndarray, start: np.ndarray, d: np.ndarray, length2: np.ndarr
               end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Parameter and point of each row of ``p``'s nearest point of the line ``start`` +
     u ``d`` (its squared length ``length2``), u in [0, ``end``]; one line, or one per row."""
-    dot = (p[:, 0] - start[..., 0]) * d[..., 0]  # ((p - start) * d) summed axis by axis
+    dot = p[:, 0] - start[..., 0]  # ((p - start) * d) summed axis by axis
+    dot *= d[..., 0]
     for axis in range(1, p.shape[1]):
-        dot += (p[:, axis] - start[..., axis]) * d[..., axis]
-    u = np.clip(dot / np.where(length2 == 0, 1.0, length2), 0.0, end)  # none: its start
-    return u, along(start, u, d)
+        term = p[:, axis] - start[..., axis]
+        term *= d[..., axis]
+        dot += term
+    dot /= np.where(length2 == 0, 1.0, length2)  # none: its start
+    return np.clip(dot, 0.0, end, out=dot), along(start, dot, d)
 
 
 def column(a: np.ndarray, axis: np.ndarray | int) -> np.ndarray:

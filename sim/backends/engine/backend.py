@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import ctypes
 import weakref
+from array import array
 from collections.abc import Sequence
 
 import numpy as np
@@ -127,6 +128,9 @@ class EngineBackend(Backend):
         if missing:
             raise RuntimeError(f"the engine has no port {', '.join(missing)}")
         self._batches: dict[tuple[str, ...], tuple[list[Port], ctypes.Array, ctypes.Array]] = {}
+        #: The addresses and stop masks of the polling routines' reads, by ports and masks.
+        self._routine_ports: dict[tuple[tuple[int, ...], tuple[int, ...]],
+                                  tuple[ctypes.Array, ctypes.Array]] = {}
         #: The ports k37e_record samples, and per column of its rows (the cycle, each port):
         #: a signed port's width, its sign bit and 1 (0, 0 and 0 for an unsigned column).
         self._recording: tuple[list[Port], np.ndarray, np.ndarray, np.ndarray] | None = None
@@ -196,13 +200,16 @@ class EngineBackend(Backend):
         if not n or len(stops) != n or len(idles) % (n + 1) or period < 1:
             raise ValueError("wait_polling: one stop mask per port, n + 1 idles per routine")
         u64 = ctypes.c_uint64
-        addr = self.port("bus__addr")
+        key = (tuple(ports), tuple(stops))
+        if key not in self._routine_ports:
+            addr = self.port("bus__addr")
+            self._routine_ports[key] = ((u64 * n)(*(addr.encode(a) for a in ports)),
+                                        (u64 * n)(*stops))
         done, read = u64(), (u64 * n)()
         end = self._lib.k37e_wait_polling(
             self._handle, self._output(port_name), max_cycles, pause, period,
-            (u64 * n)(*(addr.encode(a) for a in ports)), (u64 * n)(*stops), n,
-            (u64 * len(idles))(*idles), len(idles) // (n + 1), due, skip_idle,
-            ctypes.byref(done), read)
+            *self._routine_ports[key], n, (u64 * len(idles)).from_buffer(array("Q", idles)),
+            len(idles) // (n + 1), due, skip_idle, ctypes.byref(done), read)
         # The ends of the compiled RTL backend's wait (WaitEnd): 1 stopped, 2 and 3 go on.
         return done.value, list(read) if end == 1 else None, {2: 1, 3: 2}.get(end, 0)
 
