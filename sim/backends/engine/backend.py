@@ -131,9 +131,9 @@ class EngineBackend(Backend):
         #: The addresses and stop masks of the polling routines' reads, by ports and masks.
         self._routine_ports: dict[tuple[tuple[int, ...], tuple[int, ...]],
                                   tuple[ctypes.Array, ctypes.Array]] = {}
-        #: The ports k37e_record samples, and per column of its rows (the cycle, each port):
-        #: a signed port's width, its sign bit and 1 (0, 0 and 0 for an unsigned column).
-        self._recording: tuple[list[Port], np.ndarray, np.ndarray, np.ndarray] | None = None
+        #: The ports k37e_record samples, and per column of its rows (the cycle, each port)
+        #: a signed port's sign bit (0 for an unsigned column).
+        self._recording: tuple[list[Port], np.ndarray] | None = None
         self._create()
 
     def _create(self) -> None:
@@ -222,18 +222,19 @@ class EngineBackend(Backend):
         indices = [self._index[port.name] for port in ports]
         self._lib.k37e_record(self._handle, (ctypes.c_int * len(ports))(*indices), len(ports),
                               every)
-        width = np.array([0, *(port.width if port.signed else 0 for port in ports)])
-        self._recording = (ports, width, np.maximum(width - 1, 0), np.sign(width))
+        self._recording = (ports, np.array(
+            [0, *(1 << (port.width - 1) if port.signed else 0 for port in ports)], dtype=np.int64))
         return True
 
     def recorded(self) -> np.ndarray:
         if self._recording is None:
             return super().recorded()
-        ports, width, sign, signed = self._recording
+        ports, sign = self._recording
         rows = np.empty(self._lib.k37e_recorded(self._handle, None, 0), dtype=np.int64)
         self._lib.k37e_recorded(self._handle, rows.ctypes.data, len(rows))
         rows = rows.reshape(-1, 1 + len(ports))
-        rows -= (rows >> sign & signed) << width  # two's complement, signed columns
+        rows ^= sign  # a signed port's two's complement: its sign bit's weight negative
+        rows -= sign
         return rows
 
     @property
