@@ -255,6 +255,8 @@ class Path:
         sampled = np.flatnonzero(t.kind == _SAMPLED)
         self.lengths[sampled] = [self.segments[k].length for k in sampled]
         self.ends = np.cumsum(self.lengths)
+        #: Each segment's length, or 1 where it has none (what a length is divided by).
+        self.divisors = np.where(self.lengths == 0, 1.0, self.lengths)
 
     def foot(self, k: int, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Parameter and nearest point on segment ``k`` of each row of ``p``."""
@@ -265,6 +267,8 @@ class Path:
         """Parameter and nearest point of each row of ``p`` on its segment ``k`` (per row),
         up to parameter ``top`` (per row): :meth:`Segment.foot` of each row, lines and arcs
         all at once."""
+        if len(k) and self.table.only is not None:  # one kind: no split
+            return self._feet(self.table.only, k, p, top)
         kind = self.table.kind[k]
         if len(k) and (kind == kind[0]).all():  # one kind (one row): no split
             return self._feet(int(kind[0]), k, p, top)
@@ -400,6 +404,9 @@ class _Table:
         #: Each segment a plane arc, or one searched along; whether any is.
         self.arc, self.sampled = self.kind == _ARC, self.kind == _SAMPLED
         self.arcs, self.sampleds = bool(self.arc.any()), bool(self.sampled.any())
+        self.curves = bool(self.curve.any())
+        #: The one kind of every segment, if they have one.
+        self.only = int(self.kind[0]) if n and (self.kind == self.kind[0]).all() else None
         planes = {(int(self.first[k]), int(self.second[k])) for k in arcs}
         #: The plane axes of every arc when they share one (else each row's own).
         self.plane = planes.pop() if len(planes) == 1 else None
@@ -561,6 +568,7 @@ class Tracker:
         last = np.minimum(np.searchsorted(path.ends, reach), len(path.ends) - 1)
         last = np.maximum(np.minimum(last, limit), c)
         best = Foot(c.copy(), here.param.copy(), here.point.copy(), here.distance.copy())
+        table = path.table
         for onward in range(1, int((last - c).max(initial=0)) + 1):
             rows = np.flatnonzero(c + onward <= last)
             if len(rows) == len(p):  # every row (the first segment on, mostly): no copies
@@ -569,21 +577,23 @@ class Tracker:
                 k, ahead, farthest = c[rows] + onward, p[rows], reach[rows]
             length = path.lengths[k]
             # The segments after the first only as far along them as the reach.
-            top = np.clip((farthest - path.ends[k - 1]) / np.where(length == 0, 1.0, length),
-                          0.0, 1.0)
+            top = farthest - path.ends[k - 1]
+            top /= path.divisors[k]
+            np.clip(top, 0.0, 1.0, out=top)
             top[length == 0] = 1.0
             # A line's, an arc's or a helix's points that far along it are no farther from its
             # start than that: the rows it cannot come close enough for are not searched on it.
-            table = path.table
             gap = np.sqrt(dist2(ahead, table.start[k])) - top * length
-            near = table.curve[k] | (gap <= best.distance[rows] + TIE + SLACK)
-            rows, k, top = rows[near], k[near], top[near]
-            u, q = path.feet(k, p[rows], top)
-            d = np.sqrt(dist2(q, p[rows]))
-            take = d <= best.distance[rows] + TIE
+            held = best.distance[rows]
+            near = gap <= held + TIE + SLACK
+            if table.curves:
+                near |= table.curve[k]
+            rows, k, top, ahead, held = rows[near], k[near], top[near], ahead[near], held[near]
+            u, q = path.feet(k, ahead, top)
+            d = np.sqrt(dist2(q, ahead))
+            take = d <= held + TIE
             _put(best, rows[take], Foot(k[take], u[take], q[take], d[take]))
         return best
-
 
 def _take(foot: Foot, rows: np.ndarray) -> Foot:
     return Foot(foot.segment[rows], foot.param[rows], foot.point[rows], foot.distance[rows])
