@@ -390,6 +390,9 @@ class _Table:
         self.start = np.array([m.start[:axes] for m in moves], dtype=float).reshape(n, axes)
         self.d = np.array([m.end[:axes] for m in moves], dtype=float).reshape(n, axes) - self.start
         self.length2 = (self.d * self.d).sum(axis=1)
+        #: Each segment's length as :meth:`Path.directions` gives a line's direction, summed
+        #: axis by axis (a line's is its length).
+        self.norm = np.sqrt(sum_axes(self.d * self.d))
         self.first, self.second = np.zeros(n, dtype=int), np.ones(n, dtype=int)
         self.centre = np.zeros((n, 2))
         self.radius, self.a0, self.sweep, self.turn = (np.ones(n) for _ in range(4))
@@ -461,7 +464,7 @@ class Tracker:
         step = np.empty_like(p)  # the move from the row before (the first: from the last sample)
         step[0] = p[0] - (p[0] if self.last is None else self.last)
         step[1:] = p[1:] - p[:-1]
-        travel = np.sqrt(sum_axes(step * step))  # the length of each row's move
+        twice = 2 * np.sqrt(sum_axes(step * step))  # twice the length of each row's move
         limit = np.asarray(limit)
         i, size, delayed = 0, 64, False
         while i < n:
@@ -470,7 +473,7 @@ class Tracker:
                 guess = limit[np.clip(np.arange(rows.start, rows.stop) - self.delay, 0, n - 1)] - 1
             else:
                 guess = np.full(rows.stop - rows.start, self.segment)
-            found, done = self._chunk(p[rows], step[rows], travel[rows], limit[rows], guess)
+            found, done = self._chunk(p[rows], step[rows], twice[rows], limit[rows], guess)
             if 2 * done <= rows.stop - rows.start:  # a poor guess: try the other one next
                 delayed = not delayed
             part = slice(i, i + done)
@@ -485,7 +488,7 @@ class Tracker:
             i += done
         return out
 
-    def _chunk(self, p: np.ndarray, step: np.ndarray, travel: np.ndarray, limit: np.ndarray,
+    def _chunk(self, p: np.ndarray, step: np.ndarray, twice: np.ndarray, limit: np.ndarray,
                guess: np.ndarray) -> tuple[Foot, int]:
         """The nearest points of a chunk of rows, from a ``guess`` of each row's previous
         segment, and how many of them are settled (at least one)."""
@@ -498,7 +501,7 @@ class Tracker:
         if len(rows):
             _put(here, rows, self._here(guess[rows], p[rows], ones[rows]))
         error = np.concatenate([[self.error], here.distance[:-1]])
-        found = self._window(p, step, travel, limit, here, error)
+        found = self._window(p, step, twice, limit, here, error)
         if n == 1:  # the first row's inputs are the tracker's own
             return found, 1
         everything, rounds = np.arange(n), 0
@@ -522,7 +525,7 @@ class Tracker:
                 after = after[changed[after]]
                 error[after] = here.distance[after - 1]
             rows = everything[changed]
-            _put(found, rows, self._window(p[rows], step[rows], travel[rows], limit[rows],
+            _put(found, rows, self._window(p[rows], step[rows], twice[rows], limit[rows],
                                            _take(here, rows), error[rows]))
 
     def _advance(self, p: np.ndarray, limit: np.ndarray, guess: np.ndarray, ones: np.ndarray
@@ -547,28 +550,28 @@ class Tracker:
         u, q = self.path.feet(segment, p, ones)
         return Foot(segment, u, q, np.sqrt(dist2(q, p)))
 
-    def _window(self, p: np.ndarray, step: np.ndarray, travel: np.ndarray, limit: np.ndarray,
+    def _window(self, p: np.ndarray, step: np.ndarray, twice: np.ndarray, limit: np.ndarray,
                 here: Foot, error: np.ndarray) -> Foot:
         """The nearest point of each row ``p`` in its window: from its segment (``here``,
         its nearest point there) forward as far as ``error`` (the previous row's distance),
-        twice its ``travel`` (the length of ``step``, its move since the previous row) and
+        ``twice`` its travel (the length of ``step``, its move since the previous row) and
         :data:`REACH` past that nearest point; where the row moved back along its segment
         (a next segment that turns back along it), at least as far past the segment's end
         as the row is from that end; never past ``limit``."""
         path = self.path
         c = here.segment
-        reach = path.ends[c] - (1 - here.param) * path.lengths[c] + error + 2 * travel + REACH
+        table = path.table
+        reach = path.ends[c] - (1 - here.param) * path.lengths[c] + error + twice + REACH
         direction = path.directions(c, here.param)
-        back = sum_axes(step * direction) < -BACK * travel * np.sqrt(
-            sum_axes(direction * direction))
+        # (Halving twice the travel is exact: -BACK / 2 times it is -BACK times the travel.)
+        norm = table.norm[c] if table.only == _LINE else np.sqrt(sum_axes(direction * direction))
+        back = sum_axes(step * direction) < -BACK / 2 * twice * norm
         if back.any():
             gone = np.sqrt(dist2(p[back] - path.table.start[c[back]], path.table.d[c[back]]))
-            reach[back] = np.maximum(reach[back], path.ends[c[back]] + gone + 2 * travel[back]
-                                     + REACH)
+            reach[back] = np.maximum(reach[back], path.ends[c[back]] + gone + twice[back] + REACH)
         last = np.minimum(np.searchsorted(path.ends, reach), len(path.ends) - 1)
         last = np.maximum(np.minimum(last, limit), c)
         best = Foot(c.copy(), here.param.copy(), here.point.copy(), here.distance.copy())
-        table = path.table
         for onward in range(1, int((last - c).max(initial=0)) + 1):
             rows = np.flatnonzero(c + onward <= last)
             if len(rows) == len(p):  # every row (the first segment on, mostly): no copies
