@@ -564,7 +564,10 @@ class Tracker:
         reach = path.ends[c] - (1 - here.param) * path.lengths[c] + error + twice + REACH
         direction = path.directions(c, here.param)
         # (Halving twice the travel is exact: -BACK / 2 times it is -BACK times the travel.)
-        norm = table.norm[c] if table.only == _LINE else np.sqrt(sum_axes(direction * direction))
+        norm = table.norm[c]  # a line's; the rest's computed
+        if table.only != _LINE:
+            turning = np.flatnonzero(table.kind[c] != _LINE)
+            norm[turning] = np.sqrt(sum_axes(direction[turning] * direction[turning]))
         back = sum_axes(step * direction) < -BACK / 2 * twice * norm
         if back.any():
             gone = np.sqrt(dist2(p[back] - path.table.start[c[back]], path.table.d[c[back]]))
