@@ -35,6 +35,7 @@ import numpy as np
 
 from k37.firmware_model.contour.rowwise import (
     along,
+    arc_dist2,
     arc_param,
     arc_points,
     dist2,
@@ -190,29 +191,8 @@ class Segment:
         first, second, centre, radius, a0, sweep, cw = self.circle
         turn, start, d = -sweep if cw else sweep, self.start, self.end - self.start
         columns = [p[:, axis].copy() for axis in range(p.shape[1])]
-
-        def off2(u: np.ndarray) -> np.ndarray:
-            u = np.clip(u, 0.0, 1.0)
-            angle = a0 + turn * u
-            total = None
-            for axis, column in enumerate(columns):  # as arc_points, then dist2
-                if axis == first:
-                    diff = centre[..., 0] + radius * np.cos(angle)
-                elif axis == second:
-                    diff = centre[..., 1] + radius * np.sin(angle)
-                else:  # a helix rises evenly
-                    diff = u * d[axis]
-                    diff += start[axis]
-                diff -= column
-                diff *= diff
-                if total is None:
-                    total = diff
-                else:
-                    total += diff
-            assert total is not None
-            return total
-
-        return off2
+        return lambda u: arc_dist2(np.clip(u, 0.0, 1.0), columns, first, second, centre,
+                                   radius, a0, turn, start, d)
 
     @cached_property
     def _grid_points(self) -> np.ndarray:
@@ -600,6 +580,7 @@ class Tracker:
             take = d <= held + TIE
             _put(best, rows[take], Foot(k[take], u[take], q[take], d[take]))
         return best
+
 
 def _take(foot: Foot, rows: np.ndarray) -> Foot:
     return Foot(foot.segment[rows], foot.param[rows], foot.point[rows], foot.distance[rows])

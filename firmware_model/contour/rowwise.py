@@ -13,7 +13,8 @@ import math
 
 import numpy as np
 
-__all__ = ["along", "arc_param", "arc_points", "column", "dist2", "line_foot", "sum_axes"]
+__all__ = ["along", "arc_dist2", "arc_param", "arc_points", "column", "dist2", "line_foot",
+           "sum_axes"]
 
 
 def sum_axes(terms: np.ndarray) -> np.ndarray:
@@ -102,3 +103,30 @@ def arc_points(u: np.ndarray, start: np.ndarray, d: np.ndarray, first: np.ndarra
         rows = np.arange(len(u))
         points[rows, first], points[rows, second] = x, y
     return points
+
+
+def arc_dist2(u: np.ndarray, columns: list[np.ndarray], first: int, second: int,
+              centre: np.ndarray, radius: float, a0: float, turn: float, start: np.ndarray,
+              d: np.ndarray) -> np.ndarray:
+    """The squared distances of one arc's or helix's points at parameters ``u`` (as
+    :func:`arc_points`, its plane axes ``first`` and ``second``) to rows given by their
+    ``columns``: :func:`dist2` of those points and rows, bit for bit, each coordinate
+    computed once."""
+    angle = a0 + turn * u
+    total = None
+    for axis, column in enumerate(columns):
+        if axis == first:
+            diff = centre[..., 0] + radius * np.cos(angle)
+        elif axis == second:
+            diff = centre[..., 1] + radius * np.sin(angle)
+        else:  # a helix rises evenly
+            diff = u * d[axis]
+            diff += start[axis]
+        diff -= column
+        diff *= diff
+        if total is None:
+            total = diff
+        else:
+            total += diff
+    assert total is not None
+    return total
