@@ -52,6 +52,8 @@ REACH = 16.0
 
 #: Points spaced evenly along a curve or helix that bracket its nearest point.
 GRID = 64
+#: Rows whose distances to the grid are computed at a time.
+GRID_BLOCK = 1024
 #: Golden-section steps on the bracket: it shrinks to 0.618^40 (1e-8) of two grid spacings.
 GOLDEN_STEPS = 40
 #: Distances this close (LSB) count as equal: the furthest segment is taken.
@@ -158,8 +160,14 @@ class Segment:
             which = np.cumsum(fresh) - 1
             return u[which], q[which]
         grid = self._grid
-        grid_off2 = dist2(p[:, None, :], self._grid_points[None])
-        k = np.argmin(grid_off2, axis=1)
+        # The grid's nearest point of each row, and its squared distance (a block of rows at
+        # a time: the blocks' distances stay in the processor's cache).
+        k, near2 = np.empty(len(p), dtype=np.intp), np.empty(len(p))
+        for block in range(0, len(p), GRID_BLOCK):
+            rows = np.arange(block, min(len(p), block + GRID_BLOCK))
+            grid_off2 = dist2(p[rows, None, :], self._grid_points[None])
+            k[rows] = np.argmin(grid_off2, axis=1)
+            near2[rows] = grid_off2[rows - block, k[rows]]
         rows = np.arange(len(p))
         lo, hi = grid[np.maximum(k - 1, 0)], grid[np.minimum(k + 1, len(grid) - 1)]
         off2 = self._off2(p)
@@ -179,7 +187,7 @@ class Segment:
         cands = np.column_stack([np.where(nearer, a, b), np.zeros(len(p)), np.ones(len(p)),
                                  grid[k]])
         d2 = np.column_stack([np.where(nearer, fa, fb), off2(cands[:, 1]), off2(cands[:, 2]),
-                              grid_off2[rows, k]])
+                              near2])
         u = cands[rows, np.argmin(d2, axis=1)]
         return u, self.at(u)
 
