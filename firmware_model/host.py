@@ -59,7 +59,8 @@ class Host8085:
         self.cycles_per_t = clock_hz / host_hz
         self._owed = 0.0
         #: The read-only timer routines computed ahead (:meth:`_routines`), by where they start.
-        self._routine_cache: tuple[tuple[int, float] | None, list] = (None, [])
+        self._routine_cache: tuple[tuple[int, float] | None, list[int],
+                                   list[tuple[float, float]]] = (None, [], [])
         self.t_states = 0
 
     def _advance(self, t_states: int) -> int:
@@ -149,8 +150,7 @@ class Host8085:
         due = False  # a routine is due at once (the link paused at its tick)
         while native is not None:
             ticks = (end - self.cycle) // period + 1  # at most, before the end
-            routines = self._routines(len(ports), min(POLL_BATCH, ticks))
-            idles = [cycles for routine in routines for cycles in routine[0]]
+            idles, phases = self._routines(len(ports), min(POLL_BATCH, ticks))
             result = native(end - self.cycle, period, ports, stops, idles, due)
             if result is None:
                 break  # the link cannot: the host's own loop serves the rest
@@ -159,11 +159,13 @@ class Host8085:
             self.t_states += done * (t_routine + self.timing.isr_exit)
             if read is not None:
                 self.t_states += t_routine
-                self._owed = routines[done][1]
+                self._owed = phases[done][0]
                 return read
             if done:
-                self._owed = routines[done - 1][2]
-                self._routine_cache = ((len(ports), self._owed), self._routine_cache[1][done:])
+                self._owed = phases[done - 1][1]
+                _, ahead, ahead_phases = self._routine_cache
+                self._routine_cache = ((len(ports), self._owed),
+                                       ahead[done * (len(ports) + 1):], ahead_phases[done:])
             if not more:
                 return None
             due = more == 2
@@ -180,34 +182,38 @@ class Host8085:
                 self.work(self.timing.isr_exit)
         return None
 
-    def _routines(self, reads: int, count: int) -> list[tuple[tuple[int, ...], float, float]]:
+    def _routines(self, reads: int, count: int) -> tuple[list[int], list[tuple[float, float]]]:
         """The next ``count`` read-only timer routines (``reads`` INs each) from the host's
-        T-state phase now, as :meth:`work` and :meth:`inp` would spend them: each as its idle
-        cycles (before each read's bus cycle, then after the last), the phase after its reads
-        and after its exit. The host's state is unchanged; the routines are remembered while
-        its phase is where they start (the next wait goes on with them)."""
+        T-state phase now, as :meth:`work` and :meth:`inp` would spend them: their idle
+        cycles, ``reads`` + 1 a routine (before each read's bus cycle, then after the last),
+        and each one's phase after its reads and after its exit. The host's state is
+        unchanged; the routines are remembered while its phase is where they start (the next
+        wait goes on with them)."""
         key = (reads, self._owed)
         if self._routine_cache[0] != key:
-            self._routine_cache = (key, [])
-        routines = self._routine_cache[1]
-        owed = routines[-1][2] if routines else self._owed
-        while len(routines) < count:
-            idles, entry = [], 0
-            for k, t_states in enumerate((self.timing.isr_entry,
-                                          *[self.timing.in_byte] * reads, self.timing.isr_exit)):
-                owed += t_states * self.cycles_per_t
+            self._routine_cache = (key, [], [])
+        _, idles, phases = self._routine_cache
+        owed = phases[-1][1] if phases else self._owed
+        entry_t, in_t, exit_t = (t_states * self.cycles_per_t for t_states in (
+            self.timing.isr_entry, self.timing.in_byte, self.timing.isr_exit))
+        idle = idles.append
+        for _ in range(count - len(phases)):
+            owed += entry_t
+            entry = int(owed)
+            owed -= entry
+            for _ in range(reads):  # an IN: its bus cycle is its last system cycle
+                owed += in_t
                 whole = int(owed)
                 owed -= whole
-                if k == 0:
-                    entry = whole
-                elif k <= reads:  # an IN: its bus cycle is its last system cycle
-                    idles.append(entry + max(whole - 1, 0))
-                    entry = 0
-                    after_reads = owed
-                else:
-                    idles.append(whole)
-            routines.append((tuple(idles), after_reads, owed))
-        return routines[:count]
+                idle(entry + whole - 1 if whole else entry)
+                entry = 0
+            after_reads = owed
+            owed += exit_t
+            whole = int(owed)
+            owed -= whole
+            idle(whole)
+            phases.append((after_reads, owed))
+        return idles[:count * (reads + 1)], phases[:count]
 
     def wait_interrupt(self, max_cycles: int) -> int:
         """Wait (interrupts enabled, the CPU halted) until an interrupt input goes high, at

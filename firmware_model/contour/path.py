@@ -26,7 +26,7 @@ distances the furthest segment wins (a retraced stretch hands over to its next s
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from typing import overload
@@ -35,6 +35,7 @@ import numpy as np
 
 from k37.firmware_model.contour.rowwise import (
     along,
+    arc_dist2,
     arc_param,
     arc_points,
     dist2,
@@ -51,6 +52,8 @@ REACH = 16.0
 
 #: Points spaced evenly along a curve or helix that bracket its nearest point.
 GRID = 64
+#: Rows whose distances to the grid are computed at a time.
+GRID_BLOCK = 1024
 #: Golden-section steps on the bracket: it shrinks to 0.618^40 (1e-8) of two grid spacings.
 GOLDEN_STEPS = 40
 #: Distances this close (LSB) count as equal: the furthest segment is taken.
@@ -157,29 +160,52 @@ class Segment:
             which = np.cumsum(fresh) - 1
             return u[which], q[which]
         grid = self._grid
-        q = self.at(grid)
-        k = np.argmin(dist2(p[:, None, :], q[None]), axis=1)
+        # The grid's nearest point of each row, and its squared distance (a block of rows at
+        # a time: the blocks' distances stay in the processor's cache).
+        k, near2 = np.empty(len(p), dtype=np.intp), np.empty(len(p))
+        for block in range(0, len(p), GRID_BLOCK):
+            rows = np.arange(block, min(len(p), block + GRID_BLOCK))
+            grid_off2 = dist2(p[rows, None, :], self._grid_points[None])
+            k[rows] = np.argmin(grid_off2, axis=1)
+            near2[rows] = grid_off2[rows - block, k[rows]]
+        rows = np.arange(len(p))
         lo, hi = grid[np.maximum(k - 1, 0)], grid[np.minimum(k + 1, len(grid) - 1)]
-
-        def off2(u: np.ndarray) -> np.ndarray:
-            return dist2(self.at(u), p)
-
-        a, b = hi - _GOLD * (hi - lo), lo + _GOLD * (hi - lo)
+        off2 = self._off2(p)
+        gap = _GOLD * (hi - lo)
+        a, b = hi - gap, lo + gap
         fa, fb = off2(a), off2(b)
         for _ in range(GOLDEN_STEPS):
-            left = fa <= fb  # the minimum is in [lo, b]
+            left = fa <= fb  # the minimum is in [lo, b]: a is the new b, else b the new a
             hi, lo = np.where(left, b, hi), np.where(left, lo, a)
-            b, fb = np.where(left, a, b), np.where(left, fa, fb)
-            a = np.where(left, hi - _GOLD * (hi - lo), b)
-            b = np.where(left, b, lo + _GOLD * (hi - lo))
-            fresh = off2(np.where(left, a, b))
-            fa, fb = np.where(left, fresh, fb), np.where(left, fb, fresh)
-        u = np.where(fa <= fb, a, b)
+            gap = _GOLD * (hi - lo)
+            new = np.where(left, hi - gap, lo + gap)
+            a, b = np.where(left, new, b), np.where(left, a, new)
+            fresh = off2(new)
+            fa, fb = np.where(left, fresh, fb), np.where(left, fa, fresh)
+        nearer = fa <= fb
         # The ends and the grid's nearest point stand too (the minimum may sit on an end).
-        cands = np.column_stack([u, np.zeros(len(p)), np.ones(len(p)), grid[k]])
-        d2 = np.column_stack([off2(c) for c in cands.T])
-        u = cands[np.arange(len(p)), np.argmin(d2, axis=1)]
+        cands = np.column_stack([np.where(nearer, a, b), np.zeros(len(p)), np.ones(len(p)),
+                                 grid[k]])
+        d2 = np.column_stack([np.where(nearer, fa, fb), off2(cands[:, 1]), off2(cands[:, 2]),
+                              near2])
+        u = cands[rows, np.argmin(d2, axis=1)]
         return u, self.at(u)
+
+    def _off2(self, p: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+        """The squared distance of :meth:`at` of parameters ``u`` to the rows ``p``, per row:
+        ``dist2(self.at(u), p)``, bit for bit (on a helix, each coordinate computed once)."""
+        if not isinstance(self.move, Arc):
+            return lambda u: dist2(self.at(u), p)
+        first, second, centre, radius, a0, sweep, cw = self.circle
+        turn, start, d = -sweep if cw else sweep, self.start, self.end - self.start
+        columns = [p[:, axis].copy() for axis in range(p.shape[1])]
+        return lambda u: arc_dist2(np.clip(u, 0.0, 1.0), columns, first, second, centre,
+                                   radius, a0, turn, start, d)
+
+    @cached_property
+    def _grid_points(self) -> np.ndarray:
+        """:meth:`at` of :attr:`_grid`."""
+        return self.at(self._grid)
 
     @cached_property
     def _grid(self) -> np.ndarray:
@@ -217,6 +243,8 @@ class Path:
         sampled = np.flatnonzero(t.kind == _SAMPLED)
         self.lengths[sampled] = [self.segments[k].length for k in sampled]
         self.ends = np.cumsum(self.lengths)
+        #: Each segment's length, or 1 where it has none (what a length is divided by).
+        self.divisors = np.where(self.lengths == 0, 1.0, self.lengths)
 
     def foot(self, k: int, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Parameter and nearest point on segment ``k`` of each row of ``p``."""
@@ -227,6 +255,8 @@ class Path:
         """Parameter and nearest point of each row of ``p`` on its segment ``k`` (per row),
         up to parameter ``top`` (per row): :meth:`Segment.foot` of each row, lines and arcs
         all at once."""
+        if len(k) and self.table.only is not None:  # one kind: no split
+            return self._feet(self.table.only, k, p, top)
         kind = self.table.kind[k]
         if len(k) and (kind == kind[0]).all():  # one kind (one row): no split
             return self._feet(int(kind[0]), k, p, top)
@@ -267,14 +297,14 @@ class Path:
         length): a line's own, an arc's tangent (a helix's with its rise), a curve's chord
         across a 1/256 of its parameter."""
         t = self.table
-        out = t.d[k].copy()
-        arcs = np.flatnonzero(t.kind[k] == _ARC)
+        out = t.d[k]
+        arcs = np.flatnonzero(t.arc[k]) if t.arcs else ()
         if len(arcs):  # d/du of _arc_points: the rise d, the plane's turn r (-sin, cos)
             j = k[arcs]
             angle = t.a0[j] + t.turn[j] * u[arcs]
             out[arcs, t.first[j]] = -t.turn[j] * t.radius[j] * np.sin(angle)
             out[arcs, t.second[j]] = t.turn[j] * t.radius[j] * np.cos(angle)
-        for segment in np.unique(k[t.kind[k] == _SAMPLED]):
+        for segment in np.unique(k[t.sampled[k]]) if t.sampleds else ():
             on = np.flatnonzero(k == segment)
             ahead = self.segments[segment].at(np.minimum(u[on] + 1 / 256, 1.0))
             out[on] = ahead - self.segments[segment].at(np.maximum(u[on] - 1 / 256, 0.0))
@@ -348,6 +378,9 @@ class _Table:
         self.start = np.array([m.start[:axes] for m in moves], dtype=float).reshape(n, axes)
         self.d = np.array([m.end[:axes] for m in moves], dtype=float).reshape(n, axes) - self.start
         self.length2 = (self.d * self.d).sum(axis=1)
+        #: Each segment's length as :meth:`Path.directions` gives a line's direction, summed
+        #: axis by axis (a line's is its length).
+        self.norm = np.sqrt(sum_axes(self.d * self.d))
         self.first, self.second = np.zeros(n, dtype=int), np.ones(n, dtype=int)
         self.centre = np.zeros((n, 2))
         self.radius, self.a0, self.sweep, self.turn = (np.ones(n) for _ in range(4))
@@ -359,6 +392,12 @@ class _Table:
             (self.first[k], self.second[k], _), self.centre[k] = m.plane_axes, m.center
             self.radius[k], (self.a0[k], self.sweep[k]), self.cw[k] = m.radius, m.span, m.cw
             self.turn[k] = -self.sweep[k] if m.cw else self.sweep[k]
+        #: Each segment a plane arc, or one searched along; whether any is.
+        self.arc, self.sampled = self.kind == _ARC, self.kind == _SAMPLED
+        self.arcs, self.sampleds = bool(self.arc.any()), bool(self.sampled.any())
+        self.curves = bool(self.curve.any())
+        #: The one kind of every segment, if they have one.
+        self.only = int(self.kind[0]) if n and (self.kind == self.kind[0]).all() else None
         planes = {(int(self.first[k]), int(self.second[k])) for k in arcs}
         #: The plane axes of every arc when they share one (else each row's own).
         self.plane = planes.pop() if len(planes) == 1 else None
@@ -413,6 +452,7 @@ class Tracker:
         step = np.empty_like(p)  # the move from the row before (the first: from the last sample)
         step[0] = p[0] - (p[0] if self.last is None else self.last)
         step[1:] = p[1:] - p[:-1]
+        twice = 2 * np.sqrt(sum_axes(step * step))  # twice the length of each row's move
         limit = np.asarray(limit)
         i, size, delayed = 0, 64, False
         while i < n:
@@ -421,7 +461,7 @@ class Tracker:
                 guess = limit[np.clip(np.arange(rows.start, rows.stop) - self.delay, 0, n - 1)] - 1
             else:
                 guess = np.full(rows.stop - rows.start, self.segment)
-            found, done = self._chunk(p[rows], step[rows], limit[rows], guess)
+            found, done = self._chunk(p[rows], step[rows], twice[rows], limit[rows], guess)
             if 2 * done <= rows.stop - rows.start:  # a poor guess: try the other one next
                 delayed = not delayed
             part = slice(i, i + done)
@@ -436,8 +476,8 @@ class Tracker:
             i += done
         return out
 
-    def _chunk(self, p: np.ndarray, step: np.ndarray, limit: np.ndarray, guess: np.ndarray
-               ) -> tuple[Foot, int]:
+    def _chunk(self, p: np.ndarray, step: np.ndarray, twice: np.ndarray, limit: np.ndarray,
+               guess: np.ndarray) -> tuple[Foot, int]:
         """The nearest points of a chunk of rows, from a ``guess`` of each row's previous
         segment, and how many of them are settled (at least one)."""
         c, n = self.segment, len(p)
@@ -449,7 +489,7 @@ class Tracker:
         if len(rows):
             _put(here, rows, self._here(guess[rows], p[rows], ones[rows]))
         error = np.concatenate([[self.error], here.distance[:-1]])
-        found = self._window(p, step, limit, here, error)
+        found = self._window(p, step, twice, limit, here, error)
         if n == 1:  # the first row's inputs are the tracker's own
             return found, 1
         everything, rounds = np.arange(n), 0
@@ -473,7 +513,7 @@ class Tracker:
                 after = after[changed[after]]
                 error[after] = here.distance[after - 1]
             rows = everything[changed]
-            _put(found, rows, self._window(p[rows], step[rows], limit[rows],
+            _put(found, rows, self._window(p[rows], step[rows], twice[rows], limit[rows],
                                            _take(here, rows), error[rows]))
 
     def _advance(self, p: np.ndarray, limit: np.ndarray, guess: np.ndarray, ones: np.ndarray
@@ -498,25 +538,28 @@ class Tracker:
         u, q = self.path.feet(segment, p, ones)
         return Foot(segment, u, q, np.sqrt(dist2(q, p)))
 
-    def _window(self, p: np.ndarray, step: np.ndarray, limit: np.ndarray, here: Foot,
-                error: np.ndarray) -> Foot:
+    def _window(self, p: np.ndarray, step: np.ndarray, twice: np.ndarray, limit: np.ndarray,
+                here: Foot, error: np.ndarray) -> Foot:
         """The nearest point of each row ``p`` in its window: from its segment (``here``,
         its nearest point there) forward as far as ``error`` (the previous row's distance),
-        twice its travel (the length of ``step``, its move since the previous row) and
+        ``twice`` its travel (the length of ``step``, its move since the previous row) and
         :data:`REACH` past that nearest point; where the row moved back along its segment
         (a next segment that turns back along it), at least as far past the segment's end
         as the row is from that end; never past ``limit``."""
         path = self.path
         c = here.segment
-        travel = np.sqrt(sum_axes(step * step))
-        reach = path.ends[c] - (1 - here.param) * path.lengths[c] + error + 2 * travel + REACH
+        table = path.table
+        reach = path.ends[c] - (1 - here.param) * path.lengths[c] + error + twice + REACH
         direction = path.directions(c, here.param)
-        back = sum_axes(step * direction) < -BACK * travel * np.sqrt(
-            sum_axes(direction * direction))
+        # (Halving twice the travel is exact: -BACK / 2 times it is -BACK times the travel.)
+        norm = table.norm[c]  # a line's; the rest's computed
+        if table.only != _LINE:
+            turning = np.flatnonzero(table.kind[c] != _LINE)
+            norm[turning] = np.sqrt(sum_axes(direction[turning] * direction[turning]))
+        back = sum_axes(step * direction) < -BACK / 2 * twice * norm
         if back.any():
             gone = np.sqrt(dist2(p[back] - path.table.start[c[back]], path.table.d[c[back]]))
-            reach[back] = np.maximum(reach[back], path.ends[c[back]] + gone + 2 * travel[back]
-                                     + REACH)
+            reach[back] = np.maximum(reach[back], path.ends[c[back]] + gone + twice[back] + REACH)
         last = np.minimum(np.searchsorted(path.ends, reach), len(path.ends) - 1)
         last = np.maximum(np.minimum(last, limit), c)
         best = Foot(c.copy(), here.param.copy(), here.point.copy(), here.distance.copy())
@@ -528,18 +571,21 @@ class Tracker:
                 k, ahead, farthest = c[rows] + onward, p[rows], reach[rows]
             length = path.lengths[k]
             # The segments after the first only as far along them as the reach.
-            top = np.clip((farthest - path.ends[k - 1]) / np.where(length == 0, 1.0, length),
-                          0.0, 1.0)
+            top = farthest - path.ends[k - 1]
+            top /= path.divisors[k]
+            np.clip(top, 0.0, 1.0, out=top)
             top[length == 0] = 1.0
             # A line's, an arc's or a helix's points that far along it are no farther from its
             # start than that: the rows it cannot come close enough for are not searched on it.
-            table = path.table
             gap = np.sqrt(dist2(ahead, table.start[k])) - top * length
-            near = table.curve[k] | (gap <= best.distance[rows] + TIE + SLACK)
-            rows, k, top = rows[near], k[near], top[near]
-            u, q = path.feet(k, p[rows], top)
-            d = np.sqrt(dist2(q, p[rows]))
-            take = d <= best.distance[rows] + TIE
+            held = best.distance[rows]
+            near = gap <= held + TIE + SLACK
+            if table.curves:
+                near |= table.curve[k]
+            rows, k, top, ahead, held = rows[near], k[near], top[near], ahead[near], held[near]
+            u, q = path.feet(k, ahead, top)
+            d = np.sqrt(dist2(q, ahead))
+            take = d <= held + TIE
             _put(best, rows[take], Foot(k[take], u[take], q[take], d[take]))
         return best
 

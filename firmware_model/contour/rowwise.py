@@ -13,7 +13,8 @@ import math
 
 import numpy as np
 
-__all__ = ["along", "arc_param", "arc_points", "column", "dist2", "line_foot", "sum_axes"]
+__all__ = ["along", "arc_dist2", "arc_param", "arc_points", "column", "dist2", "line_foot",
+           "sum_axes"]
 
 
 def sum_axes(terms: np.ndarray) -> np.ndarray:
@@ -59,11 +60,14 @@ def line_foot(p: np.ndarray, start: np.ndarray, d: np.ndarray, length2: np.ndarr
               end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Parameter and point of each row of ``p``'s nearest point of the line ``start`` +
     u ``d`` (its squared length ``length2``), u in [0, ``end``]; one line, or one per row."""
-    dot = (p[:, 0] - start[..., 0]) * d[..., 0]  # ((p - start) * d) summed axis by axis
+    dot = p[:, 0] - start[..., 0]  # ((p - start) * d) summed axis by axis
+    dot *= d[..., 0]
     for axis in range(1, p.shape[1]):
-        dot += (p[:, axis] - start[..., axis]) * d[..., axis]
-    u = np.clip(dot / np.where(length2 == 0, 1.0, length2), 0.0, end)  # none: its start
-    return u, along(start, u, d)
+        term = p[:, axis] - start[..., axis]
+        term *= d[..., axis]
+        dot += term
+    dot /= np.where(length2 == 0, 1.0, length2)  # none: its start
+    return np.clip(dot, 0.0, end, out=dot), along(start, dot, d)
 
 
 def column(a: np.ndarray, axis: np.ndarray | int) -> np.ndarray:
@@ -99,3 +103,30 @@ def arc_points(u: np.ndarray, start: np.ndarray, d: np.ndarray, first: np.ndarra
         rows = np.arange(len(u))
         points[rows, first], points[rows, second] = x, y
     return points
+
+
+def arc_dist2(u: np.ndarray, columns: list[np.ndarray], first: int, second: int,
+              centre: np.ndarray, radius: float, a0: float, turn: float, start: np.ndarray,
+              d: np.ndarray) -> np.ndarray:
+    """The squared distances of one arc's or helix's points at parameters ``u`` (as
+    :func:`arc_points`, its plane axes ``first`` and ``second``) to rows given by their
+    ``columns``: :func:`dist2` of those points and rows, bit for bit, each coordinate
+    computed once."""
+    angle = a0 + turn * u
+    total = None
+    for axis, column in enumerate(columns):
+        if axis == first:
+            diff = centre[..., 0] + radius * np.cos(angle)
+        elif axis == second:
+            diff = centre[..., 1] + radius * np.sin(angle)
+        else:  # a helix rises evenly
+            diff = u * d[axis]
+            diff += start[axis]
+        diff -= column
+        diff *= diff
+        if total is None:
+            total = diff
+        else:
+            total += diff
+    assert total is not None
+    return total

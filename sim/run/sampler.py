@@ -72,7 +72,7 @@ class SampleStore:
         """Store ``raw``: integer rows of the cycle and :attr:`ports`."""
         if len(raw):
             self._file.seek(0, os.SEEK_END)
-            self._file.write(np.ascontiguousarray(raw, dtype=np.int64).tobytes())
+            self._file.write(np.ascontiguousarray(raw, dtype=np.int64).data)
             self.rows += len(raw)
 
     def raw(self, start: int, stop: int) -> np.ndarray:

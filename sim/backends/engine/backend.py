@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import ctypes
 import weakref
+from array import array
 from collections.abc import Sequence
 
 import numpy as np
@@ -63,7 +64,7 @@ def load(path: str) -> ctypes.CDLL:
         "k37e_wait_polling": (c_int, [handle, c_int, u64, u64, u64, words, words,
                                       ctypes.c_size_t, words, u64, c_int, c_int, words, words]),
         "k37e_record": (None, [handle, ctypes.POINTER(c_int), ctypes.c_size_t, u64]),
-        "k37e_recorded": (ctypes.c_size_t, [handle, words, ctypes.c_size_t]),
+        "k37e_recorded": (ctypes.c_size_t, [handle, ctypes.c_void_p, ctypes.c_size_t]),
         "k37e_bus_write": (None, [handle, u64, u64]),
         "k37e_bus_read": (u64, [handle, u64]),
         "k37e_plant_ns": (ctypes.c_double, [u64]),
@@ -127,7 +128,12 @@ class EngineBackend(Backend):
         if missing:
             raise RuntimeError(f"the engine has no port {', '.join(missing)}")
         self._batches: dict[tuple[str, ...], tuple[list[Port], ctypes.Array, ctypes.Array]] = {}
-        self._recording: list[Port] | None = None  # the ports k37e_record samples
+        #: The addresses and stop masks of the polling routines' reads, by ports and masks.
+        self._routine_ports: dict[tuple[tuple[int, ...], tuple[int, ...]],
+                                  tuple[ctypes.Array, ctypes.Array]] = {}
+        #: The ports k37e_record samples, and per column of its rows (the cycle, each port)
+        #: a signed port's sign bit (0 for an unsigned column).
+        self._recording: tuple[list[Port], np.ndarray] | None = None
         self._create()
 
     def _create(self) -> None:
@@ -194,13 +200,16 @@ class EngineBackend(Backend):
         if not n or len(stops) != n or len(idles) % (n + 1) or period < 1:
             raise ValueError("wait_polling: one stop mask per port, n + 1 idles per routine")
         u64 = ctypes.c_uint64
-        addr = self.port("bus__addr")
+        key = (tuple(ports), tuple(stops))
+        if key not in self._routine_ports:
+            addr = self.port("bus__addr")
+            self._routine_ports[key] = ((u64 * n)(*(addr.encode(a) for a in ports)),
+                                        (u64 * n)(*stops))
         done, read = u64(), (u64 * n)()
         end = self._lib.k37e_wait_polling(
             self._handle, self._output(port_name), max_cycles, pause, period,
-            (u64 * n)(*(addr.encode(a) for a in ports)), (u64 * n)(*stops), n,
-            (u64 * len(idles))(*idles), len(idles) // (n + 1), due, skip_idle,
-            ctypes.byref(done), read)
+            *self._routine_ports[key], n, (u64 * len(idles)).from_buffer(array("Q", idles)),
+            len(idles) // (n + 1), due, skip_idle, ctypes.byref(done), read)
         # The ends of the compiled RTL backend's wait (WaitEnd): 1 stopped, 2 and 3 go on.
         return done.value, list(read) if end == 1 else None, {2: 1, 3: 2}.get(end, 0)
 
@@ -213,20 +222,19 @@ class EngineBackend(Backend):
         indices = [self._index[port.name] for port in ports]
         self._lib.k37e_record(self._handle, (ctypes.c_int * len(ports))(*indices), len(ports),
                               every)
-        self._recording = ports
+        self._recording = (ports, np.array(
+            [0, *(1 << (port.width - 1) if port.signed else 0 for port in ports)], dtype=np.int64))
         return True
 
     def recorded(self) -> np.ndarray:
         if self._recording is None:
             return super().recorded()
-        ports = self._recording
-        raw = np.zeros(self._lib.k37e_recorded(self._handle, None, 0), dtype=np.uint64)
-        self._lib.k37e_recorded(self._handle,
-                                raw.ctypes.data_as(ctypes.POINTER(ctypes.c_uint64)), len(raw))
-        rows = raw.astype(np.int64).reshape(-1, 1 + len(ports))
-        for column, port in enumerate(ports, start=1):
-            if port.signed:
-                rows[:, column] -= (rows[:, column] >> (port.width - 1) & 1) << port.width
+        ports, sign = self._recording
+        rows = np.empty(self._lib.k37e_recorded(self._handle, None, 0), dtype=np.int64)
+        self._lib.k37e_recorded(self._handle, rows.ctypes.data, len(rows))
+        rows = rows.reshape(-1, 1 + len(ports))
+        rows ^= sign  # a signed port's two's complement: its sign bit's weight negative
+        rows -= sign
         return rows
 
     @property
