@@ -12,7 +12,7 @@ contour-error paper's point: its controller is better because its error model is
   on a straight piece, the CCC's;
 * ``cec``, the contour-error paper's contour error controller: the nearest point of the
   programmed path itself, on the stretch the tool is on
-  (:class:`k37.firmware_model.contour.path.Tracker`, the report's contour error's).
+  (:class:`k37.firmware_model.contour.tracker.Tracker`, the report's contour error's).
 
 The vector then goes through a PID (gains ``kcp``, ``kci``, ``kcd``) taken component by
 component, which is the PID of the contour error distributed along the error vector while its
@@ -30,7 +30,8 @@ from itertools import pairwise
 
 import numpy as np
 
-from k37.firmware_model.contour.path import Path, Segment, Tracker
+from k37.firmware_model.contour.path import Path, Segment
+from k37.firmware_model.contour.tracker import Tracker
 from k37.firmware_model.job import ContourConfig
 from k37.firmware_model.motion.program import Move
 

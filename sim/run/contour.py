@@ -9,7 +9,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from k37.firmware_model.contour.path import Path, Tracker
+from k37.firmware_model.contour.path import Path
+from k37.firmware_model.contour.tracker import Tracker
 from k37.firmware_model.job import Job
 from k37.sim.run.sampler import CHUNK_ROWS, SampleStore
 
@@ -24,7 +25,7 @@ class ContourMeter:
 
     ``blocks`` are the blocks that ran, in order (the firmware's records, or the report's).
     Each sample is measured against the stretch of path the tool is on
-    (:class:`k37.firmware_model.contour.path.Tracker`), never past the block after the one
+    (:class:`k37.firmware_model.contour.tracker.Tracker`), never past the block after the one
     running at its cycle; a sample before the first block, against the start point.
     """
 

@@ -14,7 +14,8 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from k37.firmware_model.contour.path import BACK, REACH, Path, Tracker
+from k37.firmware_model.contour.path import REACH, Path
+from k37.firmware_model.contour.tracker import BACK, Tracker
 from k37.firmware_model.job import ContourConfig, Job, MachineConfig, ServoConfig, parse_for_machine
 from k37.firmware_model.motion.program import Arc, Line
 from k37.hdl.chipset.map import axis_names
