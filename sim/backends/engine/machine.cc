@@ -125,6 +125,8 @@ uint64_t Machine::run(uint64_t n, int port) {
 			rise_chips();
 		skipped += k - std::min<uint64_t>(k, uint64_t(chips) + fell);
 		count_cycles(k);
+		if (chips)
+			renew(cycle);
 		done += k;
 		if (last || (chips && port >= 0 && get(port)))
 			return done;

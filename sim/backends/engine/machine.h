@@ -212,6 +212,7 @@ struct Machine : Axes {
 	}
 
 	void step() {
+		pulse.known = carry.known = false;
 		if (cycle)
 			fall();
 		rise();
@@ -278,29 +279,65 @@ struct Machine : Axes {
 	// The most cycles that can run before an event of the free-running state: a feed pulse
 	// through the open decel gate, an accel/decel carry, the K3701's step or the end of its
 	// setup (UINT64_MAX: none comes); 0 where the chips' next edge is itself an event.
-	uint64_t horizon() const {
+	uint64_t horizon() {
 		// The chips' next edge is an event: the circuit before the K3701 not quiet (an
 		// output pulse pending, a linear stage draining), or the K3701 holding an FP.
-		if ((accel_pre && !accel.quiet()) ||
-		    (interp.phase == K3701::Phase::RUN && interp.count == 0 && interp.held))
+		if (accel_pre && !accel.quiet()) {
+			carry.known = false;
+			return 0;
+		}
+		if (interp.phase == K3701::Phase::RUN && interp.count == 0 && interp.held)
 			return 0;
 		uint64_t h = UINT64_MAX;
 		if (interp.phase == K3701::Phase::SETUP)
 			h = uint64_t(interp.setup_left - 1);
 		else if (interp.phase == K3701::Phase::RUN && interp.count)
 			h = uint64_t(interp.count - 1);
-		if (decel.gate_open()) {
-			uint64_t clocks = clocks_before_pulse(feed.count, feed.bank.value[FEED_FEED], Feed::BITS);
-			if (clocks != UINT64_MAX)
-				h = std::min(h, cycles_within(feed.rm_clock.phase, feed.bank.value[FEED_RM_INC],
-				                              feed.rm_clock.stb, DIVIDER_WIDTH, clocks));
+		if (!pulse.known)
+			pulse.set(cycle, pulse_free());
+		h = std::min(h, pulse.left(cycle));
+		if (accel_pre) {
+			if (!carry.known)
+				carry.set(cycle, carry_free(accel, feed.fa_clock, feed.bank.value[FEED_FA_INC]));
+			h = std::min(h, carry.left(cycle));
 		}
-		if (accel_pre)
-			h = std::min(h, carry_free(accel, feed.fa_clock, feed.bank.value[FEED_FA_INC]));
 		if (accel_post)
 			for (int k = 0; k < axes; k++)
 				h = std::min(h, carry_free(axis[k].post, feed.clock(k), feed.increment(k)));
 		return h;
+	}
+	// The cycles before a feed pulse passes the open decel gate.
+	uint64_t pulse_free() const {
+		if (!decel.gate_open())
+			return UINT64_MAX;
+		uint64_t clocks = clocks_before_pulse(feed.count, feed.bank.value[FEED_FEED], Feed::BITS);
+		return clocks == UINT64_MAX ? UINT64_MAX
+		                            : cycles_within(feed.rm_clock.phase, feed.bank.value[FEED_RM_INC],
+		                                            feed.rm_clock.stb, DIVIDER_WIDTH, clocks);
+	}
+	// An event of the free-running state, kept as the cycle count at which its free cycles
+	// end while what it depends on holds (the free-running state jumps exactly).
+	struct Due {
+		bool known = false;
+		uint64_t at = 0;  // UINT64_MAX: none comes
+		void set(uint64_t now, uint64_t free) {
+			known = true;
+			at = free >= UINT64_MAX - now ? UINT64_MAX : now + free;
+		}
+		uint64_t left(uint64_t now) const { return at == UINT64_MAX ? UINT64_MAX : at - now; }
+		// After an event's cycle, which ended at cycle count `now`: whether this one came.
+		bool came(uint64_t now) const { return at < now; }
+	};
+	// The feed pulse through the gate (kept until it comes or a whole-machine cycle) and the
+	// carry of the circuit before the K3701 (until a feed pulse, its carry or a whole-machine
+	// cycle).
+	Due pulse, carry;
+	// After the chips' event that ended at cycle count `now`: the events it changes forgotten.
+	void renew(uint64_t now) {
+		if (pulse.came(now))
+			pulse.known = carry.known = false;
+		if (carry.came(now))
+			carry.known = false;
 	}
 
 	// The most cycles in which circuit c, on addition clock `clock`, takes no carry.
