@@ -40,7 +40,7 @@ PROGRAMS = ("square_mm.ngc", "grbl_style_2d.nc", "inch_r_arcs.ngc", "ngc_subrout
             "linuxcnc_style_helix.ngc", "fusion_style_contour.nc", "cambam_circle_passes.nc",
             "jscut_style.gcode", "pcbgcode_style_etch.tap", "partkam_style.ngc",
             "ngc_polar_bolt_circle.ngc")
-ROUNDS = 3
+ROUNDS = 5
 #: Seconds of runs a job may take on one backend before it is timed by fewer runs.
 BUDGET = 30.0
 #: The plants' update period of the engine's held runs (servo ``update_cycles``).
