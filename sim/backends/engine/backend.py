@@ -71,6 +71,9 @@ def load(path: str) -> ctypes.CDLL:
         "k37e_clocks_before_pulse": (u64, [u64, u64, ctypes.c_uint]),
         "k37e_cycles_within": (u64, [u64, u64, c_int, ctypes.c_uint, u64]),
         "k37e_strobes_seen": (u64, [u64, u64, c_int, ctypes.c_uint, u64]),
+        "k37e_lag_clear": (u64, [ctypes.c_int64, ctypes.c_int64, ctypes.c_int64, u64, c_int]),
+        "k37e_lag_run": (None, [ctypes.POINTER(ctypes.c_int64), ctypes.c_int64,
+                                ctypes.c_int64, words, c_int, u64]),
     }
     for name, (restype, argtypes) in signatures.items():
         function = getattr(lib, name)

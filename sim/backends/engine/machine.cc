@@ -354,6 +354,23 @@ uint64_t k37e_strobes_seen(uint64_t phase, uint64_t increment, int stb, unsigned
 	return k37e::strobes_seen(phase, increment, stb, width, k);
 }
 
+// The lazy plant's bound (Lag::clear: the cycles that surely keep the count) and its run of
+// k cycles known to keep the count (Lag::run, into *v and *position), for tests that pin them
+// to the plant's model; v, vc and position as lag.h keeps them.
+uint64_t k37e_lag_clear(int64_t v, int64_t vc, int64_t alpha, uint64_t position, int stall) {
+	return k37lag::Lag(v, vc, alpha, position, stall, k37e::VC_BITS, k37e::ALPHA_BITS,
+	                   k37e::FRAC_BITS)
+	    .clear();
+}
+void k37e_lag_run(int64_t *v, int64_t vc, int64_t alpha, uint64_t *position, int stall,
+                  uint64_t k) {
+	k37lag::Lag lag(*v, vc, alpha, *position, stall, k37e::VC_BITS, k37e::ALPHA_BITS,
+	                k37e::FRAC_BITS);
+	lag.run(k);
+	*v = lag.v;
+	*position = lag.position;
+}
+
 // CPU nanoseconds per cycle of one plant stepped `cycles` times at a changing D/A word (the
 // cost of stepping a plant per axis and cycle, for the performance page).
 double k37e_plant_ns(uint64_t cycles) {

@@ -1,7 +1,10 @@
-"""The engine's closed forms for its idle skipping (``free.h``) equal the reference models of
-the blocks they advance: the phase divider's strobes and the rate multiplier's next pulse."""
+"""The engine's closed forms for its idle skipping (``free.h``, ``lag.h``) equal the reference
+models of the blocks they advance: the phase divider's strobes, the rate multiplier's next
+pulse, and the lazy plant's bound on the cycles that keep its count and its run over them."""
 
 from __future__ import annotations
+
+import ctypes
 
 import pytest
 from hypothesis import given, settings
@@ -11,6 +14,7 @@ from k37.hdl.feed.model.divider import PhaseDividerModel
 from k37.hdl.feed.model.rate_multiplier import RateMultiplierModel, gate
 from k37.sim.backends.engine.backend import load
 from k37.sim.backends.engine.build import build
+from k37.sim.machine.plant_model import ALPHA_BITS, FRAC_BITS, VC_MAX, ServoPlantModel, dac_zero
 
 
 @pytest.fixture(scope="module")
@@ -46,3 +50,30 @@ def test_clocks_before_pulse_follow_the_rate_multiplier(lib, count, word):
     pulses = [rate.step(word, True)[0] for _ in range(1 << 12)]
     assert pulses.index(True) == clocks
     assert gate((count + 1 + clocks) % (1 << 12), word, stages)
+
+
+#: Cycles of the plant's model stepped at most per case.
+STEPPED = 3000
+
+
+@settings(max_examples=80, deadline=None)
+@given(err=st.integers(-32767, 32767), gain=st.integers(0, 1 << 22),
+       alpha=st.integers(1, (1 << ALPHA_BITS) - 1),
+       velocity=st.one_of(st.integers(-(1 << 24), 1 << 24), st.integers(-VC_MAX, VC_MAX)),
+       offset=st.integers(0, (1 << FRAC_BITS) - 1), count=st.integers(-1000, 1000),
+       stall=st.booleans())
+def test_the_lazy_plants_bound_keeps_the_count_and_its_run_follows_the_model(
+        lib, err, gain, alpha, velocity, offset, count, stall):
+    plant = ServoPlantModel(gain, alpha, dac_bits=16, velocity=velocity,
+                            position=(count << FRAC_BITS) + offset)
+    dac = dac_zero(16) + err
+    vc = plant.command(dac, 0)
+    position = plant.position % (1 << 64)
+    clear = lib.k37e_lag_clear(velocity, vc, alpha, position, stall)
+    cycles = min(clear, STEPPED)
+    for _ in range(cycles):  # the bound: no count change within it
+        plant.cycle(dac, stall)
+        assert plant.count == count
+    v, at = ctypes.c_int64(velocity), ctypes.c_uint64(position)
+    lib.k37e_lag_run(ctypes.byref(v), vc, alpha, ctypes.byref(at), stall, cycles)
+    assert (v.value, at.value) == (plant.velocity, plant.position % (1 << 64))
