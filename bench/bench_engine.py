@@ -1,20 +1,20 @@
 """The event-level engine against the compiled RTL backend, in one run.
 
 Run with ``pytest bench/bench_engine.py --benchmark-only -s``. Each job runs on both backends
-(built or loaded before the timing; the fastest of ``ROUNDS`` runs, or of fewer where one
-takes more than a third of ``BUDGET``), and
-the reports must be equal (the fields of how a run was computed aside). Printed per job:
-machine seconds per wall second on each backend, the engine's speed-up, the cycles each
-evaluated (the rest skipped in closed form), the process CPU time (steadier than wall time on
-a shared machine), and what stepping every axis's plant every cycle would cost against the
-engine's CPU time (one plant's update timed alone, times the cycles and the axes: the floor
-of an engine that keeps the plant's update as it is), and the engine on the same job with its
-first-order plants updated every ``HELD`` cycles (servo ``update_cycles``), with both runs'
-largest and RMS contour error. The jobs: the demo, the K3701's top
-feed on a 100 mm line, a dwell-heavy job, the paper's low feed, fourteen programs of the
-G-code corpus in several writers' styles (two and three axes) on the default machine (exact
-stop after every block), and :mod:`bench_cam`'s pocket (three axes, accel/decel after the
-K3701).
+(built or loaded before the timing; the fastest of ``ROUNDS`` runs, or of fewer once they
+have taken ``BUDGET / ROUNDS`` seconds), and the reports must be equal (the fields of how a
+run was computed aside). Printed per job: machine seconds per wall second on each backend,
+the engine's speed-up, the cycles each evaluated (the rest skipped in closed form), the
+process CPU time (steadier than wall time on a shared machine), what stepping every axis's
+plant every cycle would cost against the engine's CPU time (one plant's update timed alone,
+times the cycles and the axes), and the engine on the same job with its first-order plants
+updated every ``HELD`` cycles (servo ``update_cycles``), with both runs' largest and RMS
+contour error. The jobs: the demo, the K3701's top feed on a 100 mm line, a dwell-heavy job,
+the paper's low feed, fourteen programs of the G-code corpus in several writers' styles (two
+and three axes) on the default machine (exact stop after every block), and
+:mod:`bench_cam`'s pocket (three axes, accel/decel after the K3701). It ends with the
+corpus's range and median of the engine's real-time factor and of its ratio to the compiled
+RTL backend, and the demo's cycles per second.
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ PROGRAMS = ("square_mm.ngc", "grbl_style_2d.nc", "inch_r_arcs.ngc", "ngc_subrout
             "jscut_style.gcode", "pcbgcode_style_etch.tap", "partkam_style.ngc",
             "ngc_polar_bolt_circle.ngc")
 ROUNDS = 5
-#: Seconds of runs a job may take on one backend before it is timed by fewer runs.
+#: A job's runs on one backend stop once they have taken ``BUDGET / ROUNDS`` seconds.
 BUDGET = 30.0
 #: The plants' update period of the engine's held runs (servo ``update_cycles``).
 HELD = 64
@@ -56,8 +56,8 @@ def jobs() -> dict[str, Job]:
 
 
 def timed(job: Job, kind: str) -> tuple[dict, float, float]:
-    """The report of the fastest of ``ROUNDS`` runs (fewer where they would take more than
-    ``BUDGET`` seconds), its wall and CPU seconds."""
+    """The report of the fastest of ``ROUNDS`` runs (fewer once they have taken
+    ``BUDGET / ROUNDS`` seconds), its wall and CPU seconds."""
     backend = build_backend(job, kind)  # built (or loaded) outside the timing
     best = None
     start = time.perf_counter()
