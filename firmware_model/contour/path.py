@@ -6,9 +6,12 @@ machine coordinates (LSB): a line (a correction move is one), an arc or helix, t
 parabola or exponential in its own frame, or the exact curve of a G5 spline's chord. For a
 batch of positions, :meth:`Path.foot` gives each one's nearest point of a segment and its
 parameter: in closed form on a line and a plane arc (a helix that does not rise is one); on a
-rising helix and the curves, the nearest of points spaced evenly along the segment's length
-brackets the minimum, which a golden-section search then closes in on (never a step outside
-the bracket). No numerical warning comes out: the curves are only evaluated between their ends.
+rising helix and the curves, a golden-section search closes in on the minimum beside the
+nearest of points spaced evenly along the segment's length (on a curve, on each of the two
+spacings beside it and on the nearest other valley of those points' distances: a tight turn
+or a loop of a curve has two minima near each other), never a step outside its bracket; the
+nearest of what it finds, the ends and the nearest point is the foot. No numerical warning
+comes out: the curves are only evaluated between their ends.
 
 :class:`k37.firmware_model.contour.tracker.Tracker` follows the tool along a path.
 """
@@ -44,7 +47,7 @@ REACH = 16.0
 GRID = 64
 #: Rows whose distances to the grid are computed at a time.
 GRID_BLOCK = 1024
-#: Golden-section steps on the bracket: it shrinks to 0.618^40 (1e-8) of two grid spacings.
+#: Golden-section steps on a bracket: it shrinks to 0.618^40 (1e-8) of its width.
 GOLDEN_STEPS = 40
 #: Distances this close (LSB) count as equal: the furthest segment is taken.
 TIE = 1e-6
@@ -150,17 +153,51 @@ class Segment:
             which = np.cumsum(fresh) - 1
             return u[which], q[which]
         grid = self._grid
-        # The grid's nearest point of each row, and its squared distance (a block of rows at
-        # a time: the blocks' distances stay in the processor's cache).
+        # The grid's nearest point of each row and its squared distance, and the nearest of
+        # its other valleys (a grid point nearer than its neighbours, two or more points away;
+        # -1: none): a block of rows at a time, so that the distances stay in the cache.
+        curve = not isinstance(self.move, Arc)
         k, near2 = np.empty(len(p), dtype=np.intp), np.empty(len(p))
+        other = np.full(len(p), -1, dtype=np.intp)
         for block in range(0, len(p), GRID_BLOCK):
             rows = np.arange(block, min(len(p), block + GRID_BLOCK))
             grid_off2 = dist2(p[rows, None, :], self._grid_points[None])
             k[rows] = np.argmin(grid_off2, axis=1)
             near2[rows] = grid_off2[rows - block, k[rows]]
+            if not curve:
+                continue
+            valley = np.ones(grid_off2.shape, dtype=bool)
+            valley[:, 1:] &= grid_off2[:, 1:] <= grid_off2[:, :-1]
+            valley[:, :-1] &= grid_off2[:, :-1] <= grid_off2[:, 1:]
+            valley &= np.abs(np.arange(len(grid))[None] - k[rows, None]) >= 2
+            masked = np.where(valley, grid_off2, np.inf)
+            best = np.argmin(masked, axis=1)
+            other[rows] = np.where(np.isfinite(masked[rows - block, best]), best, -1)
         rows = np.arange(len(p))
-        lo, hi = grid[np.maximum(k - 1, 0)], grid[np.minimum(k + 1, len(grid) - 1)]
         off2 = self._off2(p)
+        below, above = grid[np.maximum(k - 1, 0)], grid[np.minimum(k + 1, len(grid) - 1)]
+        # Each row's minimum is the nearest of its grid valley's, the ends', the grid point's
+        # (the minimum may sit on an end) and, on a curve, the other valley's; a curve's valley
+        # is searched on each side of its grid point (a tight turn can hold two minima), a
+        # helix's whole (its turns are many grid spacings long).
+        u1, f1 = self._golden(off2, below, grid[k] if curve else above)
+        u3, f3 = self._golden(off2, grid[k], above) if curve else (u1, f1)
+        u2, f2 = np.zeros(len(p)), np.full(len(p), np.inf)
+        two = np.flatnonzero(other >= 0)
+        if len(two):
+            j = other[two]
+            u2[two], f2[two] = self._golden(self._off2(p[two]), grid[np.maximum(j - 1, 0)],
+                                            grid[np.minimum(j + 1, len(grid) - 1)])
+        cands = np.column_stack([u1, np.zeros(len(p)), np.ones(len(p)), grid[k], u2, u3])
+        d2 = np.column_stack([f1, off2(cands[:, 1]), off2(cands[:, 2]), near2, f2, f3])
+        u = cands[rows, np.argmin(d2, axis=1)]
+        return u, self.at(u)
+
+    @staticmethod
+    def _golden(off2: Callable[[np.ndarray], np.ndarray], lo: np.ndarray, hi: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """The golden-section search of each row's squared distance ``off2`` on [lo, hi]: the
+        parameter it closes in on and its squared distance."""
         gap = _GOLD * (hi - lo)
         a, b = hi - gap, lo + gap
         fa, fb = off2(a), off2(b)
@@ -173,13 +210,7 @@ class Segment:
             fresh = off2(new)
             fa, fb = np.where(left, fresh, fb), np.where(left, fa, fresh)
         nearer = fa <= fb
-        # The ends and the grid's nearest point stand too (the minimum may sit on an end).
-        cands = np.column_stack([np.where(nearer, a, b), np.zeros(len(p)), np.ones(len(p)),
-                                 grid[k]])
-        d2 = np.column_stack([np.where(nearer, fa, fb), off2(cands[:, 1]), off2(cands[:, 2]),
-                              near2])
-        u = cands[rows, np.argmin(d2, axis=1)]
-        return u, self.at(u)
+        return np.where(nearer, a, b), np.where(nearer, fa, fb)
 
     def _off2(self, p: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
         """The squared distance of :meth:`at` of parameters ``u`` to the rows ``p``, per row:
