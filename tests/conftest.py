@@ -7,6 +7,7 @@ accesses) are in ``testbench.py`` beside this file.
 
 from __future__ import annotations
 
+import os
 import random
 import subprocess
 import sys
@@ -15,9 +16,17 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 from k37.firmware_model.gcode.parser import parse
 from k37.firmware_model.job import AxisAccelConfig, Job, MachineConfig, ServoConfig
+
+# Hypothesis draws the same examples on every run (they follow from each test's name), so that
+# a run's result is the code's; K37_HYPOTHESIS=explore draws new ones on every run, to look for
+# cases the repeatable draws do not reach.
+settings.register_profile("repeatable", derandomize=True)
+settings.register_profile("explore", derandomize=False)
+settings.load_profile(os.environ.get("K37_HYPOTHESIS", "repeatable"))
 
 
 def _make_job(gcode: str, machine: MachineConfig | None = None,

@@ -8,7 +8,7 @@ from itertools import pairwise
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from k37.firmware_model.gcode.parser import GcodeError, parse
@@ -101,6 +101,11 @@ def test_a_quadratic_spline_runs_within_the_tolerance():
                        max_size=7),
        weights=st.lists(st.sampled_from([0.5, 1, 2, 3]), min_size=8, max_size=8),
        order=st.integers(2, 4))
+# A known miss: a chord is checked at seven points only, and here the curve leaves it between
+# two of them, 28.015 LSB from the lines.
+@example(points=[(-12, 2), (4, 0), (4, -19), (0, 0), (0, 0)],
+         weights=[0.5, 0.5, 0.5, 1, 0.5, 0.5, 0.5, 0.5], order=4).xfail(
+    raises=AssertionError, reason="chords are checked at seven points each")
 def test_a_nurbs_runs_within_the_tolerance_of_its_basis_function_definition(points, weights,
                                                                               order):
     order = min(order, len(points) + 1)
