@@ -46,15 +46,11 @@ class ContourMeter:
         n = self.axes
         pts = np.asarray(samples[:, 1 + n:1 + 2 * n], dtype=float)  # the actual positions
         running = np.searchsorted(self.block_start, samples[:, 0], side="right") - 1
-        last = len(self.tracker.path.moves) - 1
-        if running[0] >= 0:  # every sample after the first block's start
-            return self.tracker.track(pts, np.minimum(self.block_move[running] + 1, last)).distance
-        before = running < 0
+        first = int(np.searchsorted(running, 0))  # the samples before the first block: in order
         errors = np.empty(len(pts))
-        errors[before] = np.sqrt(((pts[before] - self.start) ** 2).sum(axis=1))
-        on = ~before
-        limit = np.minimum(self.block_move[running[on]] + 1, last)
-        errors[on] = self.tracker.track(pts[on], limit).distance
+        errors[:first] = np.sqrt(((pts[:first] - self.start) ** 2).sum(axis=1))
+        limit = np.minimum(self.block_move[running[first:]] + 1, len(self.tracker.path.moves) - 1)
+        errors[first:] = self.tracker.track(pts[first:], limit).distance
         return errors
 
 
